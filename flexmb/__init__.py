@@ -1,0 +1,43 @@
+"""flexmb: fast kinetostatics of flexure-based (compliant) mechanisms."""
+
+from . import models
+from .errors import (
+    ConvergenceError,
+    FlexmbError,
+    ModelError,
+    ParameterError,
+    TopologyError,
+    UnknownJointError,
+    UnsupportedStrategyError,
+)
+from .joints import CrossFlexure, Joint, JointMesh
+from .mechanism import Link, Mechanism
+from .registry import available_joints, joint, register_joint
+from .results import Solution
+from .sections import Section, rectangle
+from .solvers import solve
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "ConvergenceError",
+    "CrossFlexure",
+    "FlexmbError",
+    "Joint",
+    "JointMesh",
+    "Link",
+    "Mechanism",
+    "ModelError",
+    "ParameterError",
+    "Section",
+    "Solution",
+    "TopologyError",
+    "UnknownJointError",
+    "UnsupportedStrategyError",
+    "available_joints",
+    "joint",
+    "models",
+    "rectangle",
+    "register_joint",
+    "solve",
+]

@@ -1,0 +1,55 @@
+"""Small validators that raise `ParameterError` naming the parameter and its valid range."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import ParameterError
+
+
+def positive(owner: str, name: str, value) -> float:
+    """Return ``value`` as float if finite and > 0, else raise naming ``owner.name``."""
+    v = finite(owner, name, value)
+    if not v > 0.0:
+        raise ParameterError(f"{owner}: {name}={value!r} must be > 0 (valid range: (0, inf))")
+    return v
+
+
+def finite(owner: str, name: str, value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{owner}: {name}={value!r} is not a real number") from None
+    if not math.isfinite(v):
+        raise ParameterError(f"{owner}: {name}={value!r} must be finite")
+    return v
+
+
+def in_open_range(owner: str, name: str, value, lo: float, hi: float, unit: str = "") -> float:
+    v = finite(owner, name, value)
+    if not lo < v < hi:
+        raise ParameterError(f"{owner}: {name}={value!r}{unit} outside the valid range ({lo:g}, {hi:g}){unit}")
+    return v
+
+
+def integer(owner: str, name: str, value, lo: int, hi: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ParameterError(f"{owner}: {name}={value!r} must be an integer")
+    if value < lo or (hi is not None and value > hi):
+        rng = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
+        raise ParameterError(f"{owner}: {name}={value!r} outside the valid range {rng}")
+    return int(value)
+
+
+def vector(owner: str, name: str, value, size: int) -> np.ndarray:
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{owner}: {name}={value!r} is not a vector of {size} real numbers") from None
+    if a.shape != (size,):
+        raise ParameterError(f"{owner}: {name} must have shape ({size},), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(f"{owner}: {name}={a.tolist()} must be finite (no NaN/inf)")
+    return a

@@ -1,0 +1,48 @@
+"""The exception hierarchy: every error flexmb raises on purpose is a `FlexmbError`."""
+
+from __future__ import annotations
+
+__all__ = [
+    "FlexmbError",
+    "ModelError",
+    "ParameterError",
+    "TopologyError",
+    "UnknownJointError",
+    "UnsupportedStrategyError",
+    "ConvergenceError",
+]
+
+
+class FlexmbError(Exception):
+    """Root of every error flexmb raises on purpose."""
+
+
+class ModelError(FlexmbError, ValueError):
+    """A mechanism, link, joint or load is defined inconsistently."""
+
+
+class ParameterError(ModelError):
+    """A parameter is outside its valid range (the message names it and the range)."""
+
+
+class TopologyError(ModelError):
+    """The mechanism graph is not solvable as connected (no ground, loose links, loops on a link)."""
+
+
+class UnknownJointError(ModelError, KeyError):
+    """A joint name that no installed plugin provides."""
+
+    def __str__(self) -> str:  # KeyError would repr() the message
+        return str(self.args[0]) if self.args else ""
+
+
+class UnsupportedStrategyError(FlexmbError):
+    """A solver strategy was asked for something the model (or a joint) does not offer."""
+
+
+class ConvergenceError(FlexmbError):
+    """Raised only on request (``raise_on_failure=True``); otherwise ``Solution.converged`` is False."""
+
+    def __init__(self, message: str, solution=None):
+        super().__init__(message)
+        self.solution = solution

@@ -1,0 +1,1 @@
+"""Finite-element core: co-rotational beam elements, the model they form, sparse assembly."""

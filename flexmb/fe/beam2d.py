@@ -1,0 +1,77 @@
+"""Co-rotational planar Timoshenko beam: the in-plane restriction of Appendix A (batched).
+
+Nodal displacements ``q = [dx_p, dy_p, dtheta_p, dx_q, dy_q, dtheta_q]``. Deformations::
+
+    e1 = |L| - L0                 elongation
+    e2 =  L0 psi_p                bending (Eq. A.4's e5: L0 asin(ny_p . nl) = L0 psi_p)
+    e3 = -L0 psi_q                bending (Eq. A.4's e6)
+
+where ``psi_k = beta - alpha0 - theta_k`` (wrapped to (-pi, pi]) is the angle from node k's
+rotated axis to the chord at angle ``beta``. In the plane ``asin(ny . nl) = psi`` exactly while
+``|psi| < 90 deg``; the angle form keeps the same element valid beyond that.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["local_stiffness", "internal_force_and_tangent"]
+
+
+def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
+    """Local stiffness ``S`` (E, 3, 3): ``EA/L0`` and the in-plane bending block of Eq. (A.15) with ``Iz``."""
+    L0 = np.asarray(L0, dtype=float)
+    get = lambda name: np.array([getattr(s, name) for s in sections], dtype=float)  # noqa: E731
+    E, G, A, Iz, ky = (get(n) for n in ("E", "G", "A", "Iz", "ky"))
+    phi = 12.0 * E * Iz / (ky * G * A * L0**2)
+    c = E * Iz / ((1.0 + phi) * L0**3)
+    S = np.zeros((len(L0), 3, 3))
+    S[:, 0, 0] = E * A / L0
+    S[:, 1, 1] = S[:, 2, 2] = c * (4.0 + phi)
+    S[:, 1, 2] = S[:, 2, 1] = c * (-2.0 + phi)
+    return S
+
+
+def _wrap(a):
+    return np.arctan2(np.sin(a), np.cos(a))
+
+
+def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool = True):
+    """Internal forces ``F`` (E, 6) and tangent ``K`` (E, 6, 6) of planar co-rotational beams.
+
+    ``xp, xq`` node positions [m] (E, 2); ``thp, thq`` node rotations since the undeformed state
+    [rad] (E,); ``alpha0`` undeformed element angle [rad] (E,); ``L0`` [m]; ``S`` (E, 3, 3).
+    Returns ``F, K, e, sigma`` (``K`` None when ``tangent`` is False).
+    """
+    L = xq - xp
+    l = np.hypot(L[:, 0], L[:, 1])
+    n = L / l[:, None]
+    m = np.stack([-n[:, 1], n[:, 0]], axis=-1)  # n rotated by +90 degrees
+    beta = np.arctan2(L[:, 1], L[:, 0])
+    psi_p = _wrap(beta - alpha0 - thp)
+    psi_q = _wrap(beta - alpha0 - thq)
+    e = np.stack([l - L0, L0 * psi_p, -L0 * psi_q], axis=-1)
+
+    nE = len(L0)
+    gb = np.zeros((nE, 6))  # gradient of the chord angle beta
+    gb[:, 0:2], gb[:, 3:5] = -m / l[:, None], m / l[:, None]
+    D = np.zeros((nE, 3, 6))
+    D[:, 0, 0:2], D[:, 0, 3:5] = -n, n
+    D[:, 1] = L0[:, None] * gb
+    D[:, 1, 2] -= L0
+    D[:, 2] = -L0[:, None] * gb
+    D[:, 2, 5] += L0
+
+    sigma = np.einsum("eij,ej->ei", S, e)
+    F = np.einsum("eij,ei->ej", D, sigma)
+    if not tangent:
+        return F, None, e, sigma
+    K = np.einsum("eki,ekl,elj->eij", D, S, D)
+    Hl = np.einsum("ei,ej->eij", m, m) / l[:, None, None]  # d2|L|/dL2
+    Hb = -(np.einsum("ei,ej->eij", n, m) + np.einsum("ei,ej->eij", m, n)) / (l * l)[:, None, None]  # d2beta/dL2
+    Hr = sigma[:, 0, None, None] * Hl + ((sigma[:, 1] - sigma[:, 2]) * L0)[:, None, None] * Hb
+    K[:, 0:2, 0:2] += Hr
+    K[:, 3:5, 3:5] += Hr
+    K[:, 0:2, 3:5] -= Hr
+    K[:, 3:5, 0:2] -= Hr
+    return F, K, e, sigma

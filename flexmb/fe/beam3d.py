@@ -1,0 +1,189 @@
+"""Co-rotational 3D Timoshenko beam element of Dwarshuis et al. (2020), Appendix A (batched).
+
+Nodal displacement vector per element (Eq. A.6): ``q = [dr_p, dphi_p, dr_q, dphi_q]`` (12,),
+with spatial spins ``dphi`` (``dR = skew(dphi) R``, Eq. A.8). Deformations (Eq. A.4)::
+
+    e1 = |L| - L0                                              elongation
+    e2 = L0/2 (asin(nz_p . ny_q) - asin(ny_p . nz_q))          torsion
+    e3 = -L0 asin(nz_p . nl),   e4 = L0 asin(nz_q . nl)        bending about local y
+    e5 =  L0 asin(ny_p . nl),   e6 = -L0 asin(ny_q . nl)       bending about local z
+
+``F = D^T sigma`` with ``sigma = S e`` (Eqs. A.13-A.18). The tangent is the exact derivative of
+``F`` along the spin update: ``K = D^T S D + sum_i sigma_i dD_i/dq`` (material + geometric
+part); ``D`` is derived from Eq. (A.4) with (A.9)-(A.10) since the paper's A.11c is damaged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..rotations import skew
+
+__all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent"]
+
+_RP, _PP, _RQ, _PQ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
+_EYE = np.eye(3)
+
+
+def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
+    """Local stiffness matrices ``S`` (Eqs. A.14-A.16), shape (E, 6, 6).
+
+    ``sections`` is a sequence of `flexmb.sections.Section`, one per element; ``L0`` [m] (E,).
+    """
+    L0 = np.asarray(L0, dtype=float)
+    get = lambda name: np.array([getattr(s, name) for s in sections], dtype=float)  # noqa: E731
+    E, G, A, Iy, Iz, It, ky, kz = (get(n) for n in ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
+    S = np.zeros((len(L0), 6, 6))
+    S[:, 0, 0] = E * A / L0
+    S[:, 1, 1] = G * It / L0**3
+    for (i, j), EI, k in (((2, 3), E * Iy, kz), ((4, 5), E * Iz, ky)):
+        phi = 12.0 * EI / (k * G * A * L0**2)  # shear factor, Eq. (A.16); k = inf -> Euler-Bernoulli
+        c = EI / ((1.0 + phi) * L0**3)
+        S[:, i, i] = S[:, j, j] = c * (4.0 + phi)
+        S[:, i, j] = S[:, j, i] = c * (-2.0 + phi)
+    return S
+
+
+def _vectors(xp, xq, Rp, Rq, ny0, nz0):
+    L = xq - xp
+    l = np.linalg.norm(L, axis=-1)
+    nl = L / l[:, None]
+    return (
+        l,
+        nl,
+        np.einsum("eij,ej->ei", Rp, ny0),
+        np.einsum("eij,ej->ei", Rp, nz0),
+        np.einsum("eij,ej->ei", Rq, ny0),
+        np.einsum("eij,ej->ei", Rq, nz0),
+    )
+
+
+def _dot(a, b):
+    return np.einsum("ei,ei->e", a, b)
+
+
+def deformations(xp, xq, Rp, Rq, ny0, nz0, L0) -> np.ndarray:
+    """Deformations ``e`` of Eq. (A.4) [m], shape (E, 6); NaN where an arcsine leaves its domain."""
+    l, nl, pyv, pzv, qyv, qzv = _vectors(xp, xq, Rp, Rq, ny0, nz0)
+    with np.errstate(invalid="ignore"):
+        return np.stack(
+            [
+                l - L0,
+                0.5 * L0 * (np.arcsin(_dot(pzv, qyv)) - np.arcsin(_dot(pyv, qzv))),
+                -L0 * np.arcsin(_dot(pzv, nl)),
+                L0 * np.arcsin(_dot(qzv, nl)),
+                L0 * np.arcsin(_dot(pyv, nl)),
+                -L0 * np.arcsin(_dot(qyv, nl)),
+            ],
+            axis=-1,
+        )
+
+
+def _outer(a, b):
+    return a[:, :, None] * b[:, None, :]
+
+
+def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool = True):
+    """Internal nodal forces ``F`` (E, 12) and tangent ``K`` (E, 12, 12) of a batch of elements.
+
+    Parameters
+    ----------
+    xp, xq
+        Node positions [m], shape (E, 3).
+    Rp, Rq
+        Node rotation matrices (rotation since the undeformed state), shape (E, 3, 3).
+    ny0, nz0
+        Undeformed local y and z unit vectors of each element (global axes), shape (E, 3).
+    L0
+        Undeformed length [m], shape (E,).
+    S
+        Local stiffness from `local_stiffness`, shape (E, 6, 6).
+
+    Returns
+    -------
+    F, K, e, sigma
+        ``K`` is None when ``tangent`` is False. ``e`` (E, 6) deformations, ``sigma = S e``.
+        Rows of elements whose arcsines left their domain (a node rotated 90 degrees or more
+        relative to the chord) are NaN.
+    """
+    nE = len(L0)
+    l, nl, pyv, pzv, qyv, qzv = _vectors(xp, xq, Rp, Rq, ny0, nz0)
+    P = _EYE - _outer(nl, nl)
+    Dm = np.zeros((nE, 6, 12))
+    H = [None] * 6  # per-mode second-derivative matrices, (E, 12, 12) each, built lazily
+    e = np.empty((nE, 6))
+
+    # -- mode 1: elongation
+    e[:, 0] = l - L0
+    Dm[:, 0, _RP], Dm[:, 0, _RQ] = -nl, nl
+    Pl = P / l[:, None, None]
+    if tangent:
+        H1 = np.zeros((nE, 12, 12))
+        H1[:, _RP, _RP] = H1[:, _RQ, _RQ] = Pl
+        H1[:, _RP, _RQ] = H1[:, _RQ, _RP] = -Pl
+        H[0] = H1
+
+    def asin_rot_rot(row, coef, a, ia, b, ib):
+        """Add coef * L0 * asin(a . b), a rotating with node block ia, b with block ib."""
+        c = _dot(a, b)
+        with np.errstate(invalid="ignore"):
+            B = np.sqrt(1.0 - c * c)
+            e[:, row] += coef * L0 * np.arcsin(c)
+        g = np.zeros((nE, 12))
+        g[:, ia], g[:, ib] = np.cross(a, b), np.cross(b, a)
+        s = coef * L0 / B
+        Dm[:, row] += s[:, None] * g
+        if tangent:
+            Hc = np.zeros((nE, 12, 12))
+            cI = c[:, None, None] * _EYE
+            Hc[:, ia, ia] = _outer(a, b) - cI
+            Hc[:, ib, ib] = _outer(b, a) - cI
+            Hc[:, ia, ib] = cI - _outer(b, a)
+            Hc[:, ib, ia] = cI - _outer(a, b)
+            Hr = s[:, None, None] * Hc + (s * c / B**2)[:, None, None] * _outer(g, g)
+            H[row] = Hr if H[row] is None else H[row] + Hr
+
+    def asin_rot_chord(row, coef, a, ia):
+        """Add coef * L0 * asin(a . nl), a rotating with node block ia."""
+        c = _dot(a, nl)
+        with np.errstate(invalid="ignore"):
+            B = np.sqrt(1.0 - c * c)
+            e[:, row] = coef * L0 * np.arcsin(c)
+        Pa = np.einsum("eij,ej->ei", P, a) / l[:, None]
+        g = np.zeros((nE, 12))
+        g[:, ia], g[:, _RP], g[:, _RQ] = np.cross(a, nl), -Pa, Pa
+        s = coef * L0 / B
+        Dm[:, row] = s[:, None] * g
+        if tangent:
+            Hc = np.zeros((nE, 12, 12))
+            Hc[:, ia, ia] = _outer(a, nl) - c[:, None, None] * _EYE
+            aP = skew(a) @ P / l[:, None, None]  # d(a x nl)/d r_q
+            Hc[:, ia, _RQ], Hc[:, ia, _RP] = aP, -aP
+            Pa_phi = np.swapaxes(aP, 1, 2)  # d(P a / l)/d phi = -P skew(a) / l = aP^T
+            Hc[:, _RQ, ia], Hc[:, _RP, ia] = Pa_phi, -Pa_phi
+            Hn = -(c[:, None, None] * Pl + _outer(nl, Pa) + _outer(Pa, nl)) / l[:, None, None]
+            Hc[:, _RP, _RP] = Hc[:, _RQ, _RQ] = Hn
+            Hc[:, _RP, _RQ] = Hc[:, _RQ, _RP] = -Hn
+            H[row] = s[:, None, None] * Hc + (s * c / B**2)[:, None, None] * _outer(g, g)
+
+    e[:, 1] = 0.0
+    asin_rot_rot(1, 0.5, pzv, _PP, qyv, _PQ)
+    asin_rot_rot(1, -0.5, pyv, _PP, qzv, _PQ)
+    asin_rot_chord(2, -1.0, pzv, _PP)
+    asin_rot_chord(3, 1.0, qzv, _PQ)
+    asin_rot_chord(4, 1.0, pyv, _PP)
+    asin_rot_chord(5, -1.0, qyv, _PQ)
+
+    sigma = np.einsum("eij,ej->ei", S, e)
+    F = np.einsum("eij,ei->ej", Dm, sigma)
+    if not tangent:
+        return F, None, e, sigma
+    K = np.einsum("eki,ekl,elj->eij", Dm, S, Dm)
+    for i in range(6):
+        K += sigma[:, i, None, None] * H[i]
+    return F, K, e, sigma
+
+
+def internal_force(xp, xq, Rp, Rq, ny0, nz0, L0, S):
+    """Internal nodal forces only, shape (E, 12); see `internal_force_and_tangent`."""
+    return internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent=False)[0]

@@ -1,0 +1,166 @@
+"""The finite-element model of a whole mechanism: nodes, rigidly attached points, beam elements.
+
+Independent nodes carry the unknowns (``dim`` positions and one (2D) or three (3D) rotations
+each). Every element end sits on a *point*; a point is rigidly attached to a master node with
+a fixed offset (zero for the node itself), which makes rigid links and connector blocks exact
+constraints (master-slave), never stiff springs::
+
+    x_point = x_master + R_master s,      R_point = R_master.
+"""
+
+from __future__ import annotations
+
+import attrs
+import numpy as np
+
+from ..rotations import expm_so3, rot2, skew
+from . import beam2d, beam3d
+from .assembly import SparsePattern, scatter_add
+
+__all__ = ["State", "BeamElements", "FEModel"]
+
+
+@attrs.frozen(eq=False)
+class State:
+    """Configuration of the independent nodes.
+
+    ``positions`` [m] (N, dim); ``rotations``: (N,) angles [rad] in 2D, (N, 3, 3) matrices in 3D,
+    both measured from the undeformed configuration.
+    """
+
+    positions: np.ndarray
+    rotations: np.ndarray
+
+    def copy(self) -> State:
+        return State(self.positions.copy(), self.rotations.copy())
+
+
+@attrs.frozen(eq=False)
+class BeamElements:
+    """A batch of beam elements between points.
+
+    ``ends`` (E, 2) point indices; ``L0`` [m] (E,); ``S`` local stiffness (E, 6, 6) or (E, 3, 3);
+    ``ny0`` (E, 3) undeformed local y axis (3D only); ``alpha0`` [rad] undeformed angle (2D only);
+    ``sections`` one `Section` per element; ``owner`` the joint index of each element.
+    """
+
+    ends: np.ndarray
+    L0: np.ndarray
+    S: np.ndarray
+    sections: tuple
+    owner: np.ndarray
+    ny0: np.ndarray | None = None
+    nz0: np.ndarray | None = None
+    alpha0: np.ndarray | None = None
+
+
+class FEModel:
+    """Nodes, points and beam elements; evaluates internal forces and the consistent tangent."""
+
+    def __init__(self, dim: int, x0: np.ndarray, point_master: np.ndarray, point_x0: np.ndarray,
+                 elements: BeamElements):
+        self.dim = dim
+        self.ndof = 3 if dim == 2 else 6
+        self.nrot = 1 if dim == 2 else 3
+        self.x0 = np.asarray(x0, dtype=float)
+        self.n_nodes = len(self.x0)
+        self.n_dofs = self.n_nodes * self.ndof
+        self.point_master = np.asarray(point_master, dtype=np.int64)
+        self.point_x0 = np.asarray(point_x0, dtype=float)
+        self.point_offset = self.point_x0 - self.x0[self.point_master]
+        self.elements = elements
+        ends_master = self.point_master[elements.ends]  # (E, 2)
+        k = np.arange(self.ndof)
+        self.element_dofs = (ends_master[:, :, None] * self.ndof + k).reshape(len(elements.L0), 2 * self.ndof)
+        self.node_dofs = np.arange(self.n_dofs).reshape(self.n_nodes, self.ndof)
+
+    # -- configuration -------------------------------------------------------------------
+    def initial_state(self) -> State:
+        rot = np.zeros(self.n_nodes) if self.dim == 2 else np.tile(np.eye(3), (self.n_nodes, 1, 1))
+        return State(self.x0.copy(), rot)
+
+    def rotation_matrices(self, state: State) -> np.ndarray:
+        return rot2(state.rotations) if self.dim == 2 else state.rotations
+
+    def offsets(self, state: State, master: np.ndarray, offset0: np.ndarray) -> np.ndarray:
+        """Current offsets ``R_master s`` [m] of points attached to ``master`` with undeformed offset ``s``."""
+        return np.einsum("kij,kj->ki", self.rotation_matrices(state)[master], offset0)
+
+    def point_positions(self, state: State) -> np.ndarray:
+        """Current positions of all points [m], shape (P, dim)."""
+        return state.positions[self.point_master] + self.offsets(state, self.point_master, self.point_offset)
+
+    def apply_increment(self, state: State, du: np.ndarray) -> State:
+        """New state after nodal increments ``du`` (N, ndof): positions add, rotations compose (Eq. A.8)."""
+        du = du.reshape(self.n_nodes, self.ndof)
+        pos = state.positions + du[:, : self.dim]
+        if self.dim == 2:
+            return State(pos, state.rotations + du[:, 2])
+        return State(pos, expm_so3(du[:, 3:6]) @ state.rotations)
+
+    # -- forces ----------------------------------------------------------------------------
+    def transfer(self, wrench: np.ndarray, d: np.ndarray):
+        """Move point wrenches (K, ndof) to their masters through current offsets ``d`` (K, dim).
+
+        Returns the master wrench ``[f, m + d x f]`` and the offset's geometric stiffness block
+        ``d(d x f)/dphi`` on the master rotation: ``d f^T - (d.f) I`` in 3D, ``-(d.f)`` in 2D.
+        """
+        f = wrench[:, : self.dim]
+        out = wrench.copy()
+        dot = np.einsum("ki,ki->k", d, f)
+        if self.dim == 2:
+            out[:, 2] += d[:, 0] * f[:, 1] - d[:, 1] * f[:, 0]
+            return out, -dot[:, None, None]
+        out[:, 3:6] += np.cross(d, f)
+        return out, d[:, :, None] * f[:, None, :] - dot[:, None, None] * np.eye(3)
+
+    def _lever(self, d: np.ndarray) -> np.ndarray:
+        """Blocks T (K, ndof, ndof) with ``dq_point = T dq_master`` for rigid offsets ``d``."""
+        T = np.tile(np.eye(self.ndof), (len(d), 1, 1))
+        if self.dim == 2:
+            T[:, 0, 2], T[:, 1, 2] = -d[:, 1], d[:, 0]
+        else:
+            T[:, 0:3, 3:6] = -skew(d)
+        return T
+
+    def element_response(self, state: State, tangent: bool = True):
+        """Element forces and tangents in master-node DOFs.
+
+        Returns ``F`` (E, 2 ndof), ``K`` (E, 2 ndof, 2 ndof) or None, deformations ``e`` and
+        generalised stresses ``sigma`` of every element.
+        """
+        el = self.elements
+        m = self.point_master[el.ends]  # (E, 2)
+        d = self.offsets(state, m.ravel(), self.point_offset[el.ends].ravel().reshape(-1, self.dim))
+        x = state.positions[m.ravel()] + d
+        x = x.reshape(-1, 2, self.dim)
+        if self.dim == 2:
+            th = state.rotations[m]
+            F, K, e, sig = beam2d.internal_force_and_tangent(
+                x[:, 0], x[:, 1], th[:, 0], th[:, 1], el.alpha0, el.L0, el.S, tangent=tangent)
+        else:
+            R = state.rotations[m]
+            F, K, e, sig = beam3d.internal_force_and_tangent(
+                x[:, 0], x[:, 1], R[:, 0], R[:, 1], el.ny0, el.nz0, el.L0, el.S, tangent=tangent)
+        nE, nd, nr = len(el.L0), self.ndof, self.nrot
+        Fm, G = self.transfer(F.reshape(2 * nE, nd), d)
+        Fm = Fm.reshape(nE, 2 * nd)
+        if not tangent:
+            return Fm, None, e, sig
+        T = self._lever(d).reshape(nE, 2, nd, nd)
+        K = K.reshape(nE, 2, nd, 2, nd)
+        K = np.einsum("eaki,eakbl,eblj->eaibj", T, K, T)
+        G = G.reshape(nE, 2, nr, nr)
+        K[:, 0, self.dim:, 0, self.dim:] += G[:, 0]
+        K[:, 1, self.dim:, 1, self.dim:] += G[:, 1]
+        return Fm, K.reshape(nE, 2 * nd, 2 * nd), e, sig
+
+    def internal_force(self, state: State) -> np.ndarray:
+        """Assembled internal force vector (N * ndof,)."""
+        F = self.element_response(state, tangent=False)[0]
+        return scatter_add(self.element_dofs, F, self.n_dofs)
+
+    def strain_energy(self, state: State) -> float:
+        """Total strain energy [J], ``sum 1/2 e^T S e``."""
+        _, _, e, sig = self.element_response(state, tangent=False)
+        return 0.5 * float(np.sum(e * sig))

@@ -1,0 +1,80 @@
+"""The `Joint` base class every joint plugin subclasses, and the mesh a joint hands to the model."""
+
+from __future__ import annotations
+
+import abc
+from typing import ClassVar
+
+import attrs
+import numpy as np
+
+from ..errors import UnsupportedStrategyError
+
+__all__ = ["Joint", "JointMesh", "INTERNAL", "SIDE_A", "SIDE_B"]
+
+INTERNAL, SIDE_A, SIDE_B = 0, 1, 2
+
+
+@attrs.frozen(eq=False)
+class JointMesh:
+    """A joint's finite-element model in its own frame (interface node A at the origin).
+
+    Attributes
+    ----------
+    points
+        Point coordinates [m], shape (n, dim), in the joint frame.
+    side
+        (n,) ints: `INTERNAL` (a free FE node), `SIDE_A` / `SIDE_B` (rigidly attached to the
+        link on the joint's A / B side: connector blocks are exact rigid constraints).
+    elements
+        (E, 2) point indices of the beam elements.
+    sections
+        One `flexmb.sections.Section` per element.
+    ny0
+        (E, 3) local y axis of each element's cross-section in the joint frame (3D only; ``None`` in 2D).
+    """
+
+    points: np.ndarray
+    side: np.ndarray
+    elements: np.ndarray
+    sections: tuple
+    ny0: np.ndarray | None = None
+
+
+class Joint(abc.ABC):
+    """Base class of flexure joints, the edges of a `flexmb.Mechanism`.
+
+    A subclass sets ``kind`` (its entry-point name in the ``flexmb.joints`` group) and
+    ``dims`` (the mechanism dimensions it supports), and implements the models it offers;
+    ``capabilities`` lists them so a strategy that needs one the joint lacks fails with a clear
+    `UnsupportedStrategyError`. Joints are immutable values (use ``attrs.evolve`` to vary one).
+
+    Capabilities used by the shipped strategies:
+
+    ``"fe_model"``
+        `mesh` returns the joint's beam-element model (conventional method).
+    """
+
+    kind: ClassVar[str] = ""
+    dims: ClassVar[tuple[int, ...]] = (2, 3)
+
+    @property
+    def capabilities(self) -> frozenset[str]:
+        caps = set()
+        if type(self).mesh is not Joint.mesh:
+            caps.add("fe_model")
+        return frozenset(caps)
+
+    @abc.abstractmethod
+    def interface_b(self, dim: int) -> np.ndarray:
+        """Position of interface node B in the joint frame [m], shape (dim,); node A is the origin."""
+
+    def mesh(self, dim: int) -> JointMesh:
+        """The joint's finite-element model in its own frame (see `JointMesh`)."""
+        raise UnsupportedStrategyError(
+            f"joint kind {self.kind!r} has no finite-element model; it offers {sorted(self.capabilities)}"
+        )
+
+    def describe(self) -> dict:
+        """Parameters as a plain dict (for tables, JSON and error messages)."""
+        return attrs.asdict(self) if attrs.has(type(self)) else {}

@@ -1,0 +1,129 @@
+"""Cross-flexure pivot [``cross_flexure``] (Dwarshuis et al. 2020, Figs. 3 and 6, Table 1)."""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import attrs
+import numpy as np
+
+from .. import _validate as v
+from ..errors import ParameterError
+from ..sections import rectangle
+from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
+
+__all__ = ["CrossFlexure"]
+
+
+@attrs.frozen(kw_only=True)
+class CrossFlexure(Joint):
+    """Cross-flexure pivot [``cross_flexure``].
+
+    Leaf springs of length ``length`` crossing at their midpoints, clamped in two rigid connector
+    blocks; interface node A (origin of the joint frame) and B at the block centres, B at
+    ``(0, length sin(angle))``. The intended motion is the rotation of B about z.
+
+    * ``dim=3``: the three-leaf cross flexure of Fig. 6 / Table 1: an inner leaf of width
+      ``width_inner`` along ``(cos a, sin a, 0)`` at z = 0 and two outer leaves of width
+      ``width_outer`` along ``(-cos a, sin a, 0)`` at ``z = +-(width_inner/2 + gap + width_outer/2)``
+      (Fig. 6 does not give this spacing; ``gap`` [m] is the clearance between the leaves).
+    * ``dim=2``: the planar cross flexure of Fig. 3: the inner leaf and one leaf of width
+      ``2 width_outer`` standing for the outer pair, so the in-plane model matches the 3D one.
+
+    Parameters (defaults: Table 1)
+    ------------------------------
+    length
+        Leaf length L [m] (0.1).
+    angle
+        Leaf angle alpha to the joint's x axis [rad], in (0, pi/2) (pi/4).
+    thickness
+        Leaf thickness t [m], less than ``length / 10`` (1e-3).
+    width_inner, width_outer
+        Leaf widths w1, w2 [m] (0.04, 0.02).
+    E, G
+        Young's and shear modulus [Pa] (200e9, 76.9e9).
+    elements_per_leaf
+        Beam elements per leaf, 1 or more (3).
+    gap
+        Clearance between inner and outer leaves along z [m] (0).
+    """
+
+    kind: ClassVar[str] = "cross_flexure"
+
+    length: float = 0.1
+    angle: float = math.pi / 4
+    thickness: float = 1e-3
+    width_inner: float = 0.04
+    width_outer: float = 0.02
+    E: float = 200e9
+    G: float = 76.9e9
+    elements_per_leaf: int = 3
+    gap: float = 0.0
+
+    def __attrs_post_init__(self):
+        owner = "cross_flexure"
+        for name in ("length", "thickness", "width_inner", "width_outer", "E", "G"):
+            v.positive(owner, name, getattr(self, name))
+        v.in_open_range(owner, "angle", self.angle, 0.0, math.pi / 2, " rad")
+        v.integer(owner, "elements_per_leaf", self.elements_per_leaf, 1)
+        if v.finite(owner, "gap", self.gap) < 0:
+            raise ParameterError(f"{owner}: gap={self.gap!r} m must be >= 0")
+        if self.thickness >= 0.1 * self.length:
+            raise ParameterError(
+                f"{owner}: thickness={self.thickness!r} m is not slender for length={self.length!r} m "
+                f"(valid range: thickness < length/10 = {0.1 * self.length:g} m)"
+            )
+
+    def interface_b(self, dim: int) -> np.ndarray:
+        b = np.zeros(dim)
+        b[1] = self.length * math.sin(self.angle)
+        return b
+
+    def leaves(self, dim: int) -> list[tuple[np.ndarray, np.ndarray, float]]:
+        """(start, end, width) of every leaf in the joint frame; start on block A."""
+        L, a = self.length, self.angle
+        c, s = 0.5 * L * math.cos(a), 0.5 * L * math.sin(a)
+
+        def leaf(x0: float, z: float):
+            start, end = np.zeros(dim), np.zeros(dim)
+            start[0], end[0], end[1] = x0, -x0, 2 * s
+            if dim == 3:
+                start[2] = end[2] = z
+            return start, end
+
+        if dim == 2:
+            return [(*leaf(-c, 0.0), self.width_inner), (*leaf(c, 0.0), 2 * self.width_outer)]
+        zo = 0.5 * self.width_inner + self.gap + 0.5 * self.width_outer
+        return [
+            (*leaf(-c, 0.0), self.width_inner),
+            (*leaf(c, zo), self.width_outer),
+            (*leaf(c, -zo), self.width_outer),
+        ]
+
+    def mesh(self, dim: int) -> JointMesh:
+        n = self.elements_per_leaf
+        pts, side, elems, secs, ny = [], [], [], [], []
+        for start, end, width in self.leaves(dim):
+            base = len(pts)
+            for k in range(n + 1):
+                pts.append(start + (end - start) * k / n)
+                side.append(SIDE_A if k == 0 else SIDE_B if k == n else INTERNAL)
+            elems += [(base + k, base + k + 1) for k in range(n)]
+            sec = rectangle(width, self.thickness, self.E, self.G)
+            secs += [sec] * n
+            if dim == 3:
+                ex = (end - start) / np.linalg.norm(end - start)
+                ny += [np.cross([0.0, 0.0, 1.0], ex)] * n  # width along z, thickness in-plane
+        return JointMesh(
+            points=np.array(pts),
+            side=np.array(side),
+            elements=np.array(elems),
+            sections=tuple(secs),
+            ny0=np.array(ny) if dim == 3 else None,
+        )
+
+    @property
+    def second_moment(self) -> float:
+        """I = (w1 + 2 w2) t^3 / 12 [m^4], Eq. (4.4)."""
+        return (self.width_inner + 2 * self.width_outer) * self.thickness**3 / 12.0

@@ -1,0 +1,304 @@
+"""`Mechanism`: rigid `Link` s (graph nodes) joined by flexure `Joint` s (graph edges)."""
+
+from __future__ import annotations
+
+import attrs
+import networkx as nx
+import numpy as np
+
+from . import _validate as v
+from .errors import ModelError, ParameterError, TopologyError, UnsupportedStrategyError
+from .fe.beam2d import local_stiffness as local_stiffness_2d
+from .fe.beam3d import local_stiffness as local_stiffness_3d
+from .fe.model import BeamElements, FEModel
+from .joints._base import INTERNAL, SIDE_A, Joint
+from .problem import PointLoads, StaticProblem
+from .registry import joint as make_joint
+from .rotations import expm_so3, rot2
+
+__all__ = ["Link", "Mechanism", "Placement", "Compiled"]
+
+
+@attrs.frozen(eq=False)
+class Link:
+    """A rigid link: a graph node. ``position`` [m] is its reference point in the undeformed state."""
+
+    name: str
+    position: np.ndarray
+    fixed: bool = False
+
+
+@attrs.frozen(eq=False)
+class Placement:
+    """Where a joint sits: its frame's origin [m] and rotation (matrix (dim, dim)) in global axes."""
+
+    origin: np.ndarray
+    rotation: np.ndarray
+
+    def to_global(self, local: np.ndarray) -> np.ndarray:
+        return self.origin + local @ self.rotation.T
+
+
+@attrs.frozen(eq=False)
+class Compiled:
+    """A mechanism turned into a `StaticProblem`, with the maps back to links and points."""
+
+    problem: StaticProblem
+    link_node: dict
+    points: dict  # named points: name -> (link, offset)
+    joint_elements: dict  # joint name -> element indices
+
+
+class Mechanism:
+    """A planar (``dim=2``: x, y, theta per link) or spatial (``dim=3``: 6 DOF per link) mechanism.
+
+    The topology lives in one ``networkx.MultiGraph`` (`graph`): nodes are link names with a
+    ``link`` attribute, edges carry the ``joint`` instance and its `Placement`, keyed by the
+    joint name. Solving never modifies the mechanism.
+
+    Examples
+    --------
+    >>> import flexmb
+    >>> m = flexmb.Mechanism(dim=2)
+    >>> _ = m.add_link("A", fixed=True)
+    >>> _ = m.add_link("B", position=(0.0, 0.1 * 2**-0.5))
+    >>> _ = m.add_joint("A", "B", "cross_flexure", elements_per_leaf=2)
+    >>> m.prescribe("B", rotation=0.1)
+    """
+
+    def __init__(self, dim: int = 3):
+        if dim not in (2, 3):
+            raise ParameterError(f"Mechanism: dim={dim!r} must be 2 (planar) or 3 (spatial)")
+        self.dim = dim
+        self.graph = nx.MultiGraph()
+        self._loads: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = []
+        self._prescribed: dict[str, dict[str, float | np.ndarray]] = {}
+        self._points: dict[str, tuple[str, np.ndarray]] = {}
+
+    # -- building ----------------------------------------------------------------------------
+    @property
+    def links(self) -> dict[str, Link]:
+        return {n: d["link"] for n, d in self.graph.nodes(data=True)}
+
+    @property
+    def joints(self) -> dict[str, Joint]:
+        return {k: d["joint"] for _, _, k, d in self.graph.edges(keys=True, data=True)}
+
+    def link(self, name: str) -> Link:
+        try:
+            return self.graph.nodes[name]["link"]
+        except KeyError:
+            raise ModelError(f"no link named {name!r}; links: {', '.join(map(repr, self.graph.nodes)) or 'none'}") from None
+
+    def add_link(self, name: str, position=None, *, fixed: bool = False) -> Link:
+        """Add a rigid link with reference point ``position`` [m] (default: the origin)."""
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"link name must be a non-empty string, got {name!r}")
+        if name in self.graph:
+            raise ModelError(f"a link named {name!r} exists already")
+        pos = np.zeros(self.dim) if position is None else v.vector(f"link {name!r}", "position", position, self.dim)
+        lk = Link(name, pos, bool(fixed))
+        self.graph.add_node(name, link=lk)
+        return lk
+
+    def fix(self, name: str) -> None:
+        """Fix a link to the ground (all its DOFs held at zero displacement)."""
+        lk = self.link(name)
+        if name in self._prescribed:
+            raise ModelError(f"link {name!r} has a prescribed motion; a fixed link cannot have one")
+        self.graph.nodes[name]["link"] = attrs.evolve(lk, fixed=True)
+
+    def add_joint(self, a: str, b: str, joint: Joint | str, *, name: str | None = None, origin=None,
+                  rotation=None, **params) -> Joint:
+        """Join links ``a`` (the joint's side A) and ``b`` (side B) with a flexure joint.
+
+        ``joint`` is a `Joint` instance or a registered name (then ``params`` go to its constructor).
+        The joint frame is placed at ``origin`` [m] (default: link ``a``'s reference point) with
+        ``rotation`` (2D: angle [rad]; 3D: rotation vector [rad] or a 3x3 matrix; default none).
+        """
+        self.link(a), self.link(b)
+        if a == b:
+            raise TopologyError(f"joint between link {a!r} and itself: a joint must connect two different links")
+        if isinstance(joint, str):
+            joint = make_joint(joint, **params)
+        elif params:
+            raise ModelError("joint parameters are given with a joint name, not with a Joint instance")
+        if not isinstance(joint, Joint):
+            raise ModelError(f"{joint!r} is not a flexmb.Joint")
+        if self.dim not in type(joint).dims:
+            raise UnsupportedStrategyError(
+                f"joint kind {joint.kind!r} supports dim in {type(joint).dims}, not a dim={self.dim} mechanism")
+        name = name or f"{joint.kind}_{self.graph.number_of_edges()}"
+        if name in self.joints:
+            raise ModelError(f"a joint named {name!r} exists already")
+        where = f"joint {name!r}"
+        org = self.link(a).position if origin is None else v.vector(where, "origin", origin, self.dim)
+        self.graph.add_edge(a, b, key=name, joint=joint, placement=Placement(org, self._rotation(where, rotation)),
+                            sides=(a, b))
+        return joint
+
+    def _rotation(self, where: str, rotation) -> np.ndarray:
+        if rotation is None:
+            return np.eye(self.dim)
+        if self.dim == 2:
+            return rot2(v.finite(where, "rotation", rotation))
+        r = np.asarray(rotation, dtype=float)
+        if r.shape == (3, 3):
+            if not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:
+                raise ParameterError(f"{where}: rotation matrix is not a proper rotation")
+            return r
+        return expm_so3(v.vector(where, "rotation", rotation, 3))
+
+    def prescribe(self, name: str, **motion) -> None:
+        """Prescribe displacements/rotations of a link (displacement control).
+
+        Keywords: ``x``, ``y`` (and ``z`` in 3D) displacements [m]; ``rotation`` [rad]: an angle in
+        2D, a rotation vector (3,) in 3D (all three rotation components are then prescribed).
+        Unprescribed components are free. Repeated calls update the given components.
+        """
+        lk = self.link(name)
+        if lk.fixed:
+            raise ModelError(f"link {name!r} is fixed; a prescribed motion on a fixed link is contradictory")
+        allowed = ("x", "y", "rotation") if self.dim == 2 else ("x", "y", "z", "rotation")
+        where = f"link {name!r}"
+        current = dict(self._prescribed.get(name, {}))
+        for key, val in motion.items():
+            if key not in allowed:
+                raise ModelError(f"{where}: cannot prescribe {key!r}; valid components: {', '.join(allowed)}")
+            if val is None:
+                current.pop(key, None)
+            elif key == "rotation" and self.dim == 3:
+                current[key] = v.vector(where, "rotation", val, 3)
+            else:
+                current[key] = v.finite(where, key, val)
+        self._prescribed[name] = current
+
+    def prescribed(self, name: str) -> dict:
+        return dict(self._prescribed.get(name, {}))
+
+    def apply_force(self, name: str, force, point=None) -> None:
+        """Dead force [N] (global axes) at ``point`` [m] (undeformed global position; default the link's reference)."""
+        lk = self.link(name)
+        where = f"link {name!r}"
+        f = v.vector(where, "force", force, self.dim)
+        p = lk.position if point is None else v.vector(where, "point", point, self.dim)
+        self._loads.append((name, p - lk.position, f, np.zeros(1 if self.dim == 2 else 3)))
+
+    def apply_moment(self, name: str, moment) -> None:
+        """Dead moment [N m]: a scalar (about z) in 2D, a vector (3,) in global axes in 3D."""
+        self.link(name)
+        where = f"link {name!r}"
+        m = np.array([v.finite(where, "moment", moment)]) if self.dim == 2 else v.vector(where, "moment", moment, 3)
+        self._loads.append((name, np.zeros(self.dim), np.zeros(self.dim), m))
+
+    def clear_loads(self) -> None:
+        self._loads.clear()
+
+    def add_point(self, link: str, name: str, position) -> None:
+        """Name a point of a link (undeformed global position [m]), e.g. an end-effector."""
+        lk = self.link(link)
+        self._points[name] = (link, v.vector(f"point {name!r}", "position", position, self.dim) - lk.position)
+
+    # -- checks and compilation ---------------------------------------------------------------
+    def check(self) -> None:
+        """Raise a `TopologyError` unless the mechanism is grounded and connected."""
+        if self.graph.number_of_nodes() == 0:
+            raise TopologyError("the mechanism has no links")
+        fixed = [n for n, lk in self.links.items() if lk.fixed]
+        if not fixed:
+            raise TopologyError("the mechanism has no fixed link; fix one with add_link(..., fixed=True) or fix()")
+        grounded = set()
+        for f in fixed:
+            grounded |= nx.node_connected_component(self.graph, f)
+        loose = [n for n in self.graph.nodes if n not in grounded]
+        if loose:
+            raise TopologyError(f"links {loose} are not connected to a fixed link through joints")
+        for n in self.graph.nodes:
+            if self.graph.degree(n) == 0 and not self.links[n].fixed:
+                raise TopologyError(f"link {n!r} has no joint")
+
+    def compile(self, capability: str = "fe_model") -> Compiled:
+        """Build the full finite-element `StaticProblem` of the mechanism."""
+        self.check()
+        dim = self.dim
+        ndof = 3 if dim == 2 else 6
+        names = list(self.graph.nodes)
+        link_node = {n: i for i, n in enumerate(names)}
+        node_x0 = [self.links[n].position for n in names]
+        pt_master = list(range(len(names)))
+        pt_x0 = list(node_x0)
+        ends, sections, ny, owner, joint_elements = [], [], [], [], {}
+        for j, (a, b, key, data) in enumerate(self.graph.edges(keys=True, data=True)):
+            jt: Joint = data["joint"]
+            side_a, side_b = data["sides"]
+            if capability not in jt.capabilities:
+                raise UnsupportedStrategyError(
+                    f"joint {key!r} ({jt.kind}) does not offer {capability!r}; it offers {sorted(jt.capabilities)}")
+            mesh = jt.mesh(dim)
+            pl: Placement = data["placement"]
+            gx = pl.to_global(np.asarray(mesh.points, dtype=float))
+            idx = np.empty(len(gx), dtype=np.int64)
+            for k, (x, s) in enumerate(zip(gx, mesh.side)):
+                if s == INTERNAL:
+                    master = len(node_x0)
+                    node_x0.append(x)
+                else:
+                    master = link_node[side_a if s == SIDE_A else side_b]
+                idx[k] = len(pt_x0)
+                pt_master.append(master)
+                pt_x0.append(x)
+            first = len(ends)
+            ends.extend(idx[np.asarray(mesh.elements)])
+            sections.extend(mesh.sections)
+            owner.extend([j] * len(mesh.elements))
+            if dim == 3:
+                ny.extend(np.asarray(mesh.ny0) @ pl.rotation.T)
+            joint_elements[key] = np.arange(first, len(ends))
+        if not ends:
+            raise TopologyError("the mechanism has no joints with beam elements")
+        ends = np.array(ends)
+        pt_x0 = np.array(pt_x0)
+        chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
+        L0 = np.linalg.norm(chord, axis=1)
+        if np.any(L0 <= 0):
+            raise ModelError("a beam element has zero length")
+        ex = chord / L0[:, None]
+        if dim == 3:
+            ny = np.array(ny)
+            elements = BeamElements(ends, L0, local_stiffness_3d(sections, L0), tuple(sections), np.array(owner),
+                                    ny0=ny, nz0=np.cross(ex, ny))
+        else:
+            elements = BeamElements(ends, L0, local_stiffness_2d(sections, L0), tuple(sections), np.array(owner),
+                                    alpha0=np.arctan2(ex[:, 1], ex[:, 0]))
+        model = FEModel(dim, np.array(node_x0), np.array(pt_master), pt_x0, elements)
+
+        pres, vals = [], []
+        comp = {"x": 0, "y": 1, "z": 2}
+        for n, lk in self.links.items():
+            base = link_node[n] * ndof
+            if lk.fixed:
+                pres.extend(range(base, base + ndof))
+                vals.extend([0.0] * ndof)
+                continue
+            for key, val in self._prescribed.get(n, {}).items():
+                if key == "rotation":
+                    pres.extend(range(base + dim, base + ndof))
+                    vals.extend(np.atleast_1d(val))
+                else:
+                    pres.append(base + comp[key])
+                    vals.append(val)
+        order = np.argsort(pres)
+        nrot = ndof - dim
+        loads = PointLoads(
+            node=np.array([link_node[n] for n, *_ in self._loads], dtype=np.int64),
+            offset=np.array([o for _, o, _, _ in self._loads]).reshape(-1, dim),
+            force=np.array([f for *_, f, _ in self._loads]).reshape(-1, dim),
+            moment=np.array([m for *_, m in self._loads]).reshape(-1, nrot),
+        )
+        problem = StaticProblem(model, np.array(pres, dtype=np.int64)[order], np.array(vals, dtype=float)[order],
+                                loads)
+        return Compiled(problem, link_node, dict(self._points), joint_elements)
+
+    def __repr__(self) -> str:
+        return (f"Mechanism(dim={self.dim}, links={list(self.graph.nodes)}, "
+                f"joints={[f'{k}: {a}-{b}' for a, b, k in self.graph.edges(keys=True)]})")

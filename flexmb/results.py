@@ -1,0 +1,103 @@
+"""`Solution`: what every solver strategy returns."""
+
+from __future__ import annotations
+
+import attrs
+import numpy as np
+
+from .errors import ModelError
+from .fe.model import State
+from .rotations import logm_so3
+
+__all__ = ["Solution"]
+
+
+@attrs.frozen(eq=False)
+class Solution:
+    """The result of `flexmb.solve`.
+
+    Attributes
+    ----------
+    converged
+        True when the residual norm fell below the tolerance at load factor 1.
+    iterations
+        Total Newton iterations (all steps).
+    residual_history
+        Residual norm [N, N m mixed, as in the paper] after every iteration, shape (iterations,).
+    load_factor
+        The load factor reached (1.0 when converged); prescribed motions and loads scale with it.
+    steps
+        Accepted load steps; ``rejected_steps`` were halved away.
+    wall_time
+        Seconds per phase, e.g. ``{"assemble": ..., "solve": ..., "total": ...}``.
+    message
+        Why the solver stopped.
+    state
+        Nodal configuration (internal use; see `pose`, `node_positions`).
+    """
+
+    method: str
+    converged: bool
+    iterations: int
+    residual_history: np.ndarray
+    load_factor: float
+    steps: int
+    rejected_steps: int
+    wall_time: dict
+    message: str
+    state: State = attrs.field(repr=False)
+    residual: np.ndarray = attrs.field(repr=False)
+    compiled: object = attrs.field(repr=False)
+    tolerance: float = 5e-7
+
+    @property
+    def dim(self) -> int:
+        return self.compiled.problem.model.dim
+
+    def _node(self, link: str) -> int:
+        try:
+            return self.compiled.link_node[link]
+        except KeyError:
+            raise ModelError(f"no link named {link!r}; links: {', '.join(self.compiled.link_node)}") from None
+
+    def pose(self, link: str):
+        """``(position [m], rotation)`` of a link's reference point; rotation is an angle [rad] in 2D,
+        a rotation matrix (3, 3) in 3D, both relative to the undeformed configuration."""
+        n = self._node(link)
+        return self.state.positions[n].copy(), (float(self.state.rotations[n]) if self.dim == 2
+                                                else self.state.rotations[n].copy())
+
+    def rotation_vector(self, link: str) -> np.ndarray:
+        """Rotation of a link as a rotation vector [rad] (3D) or angle array (1,) (2D)."""
+        n = self._node(link)
+        if self.dim == 2:
+            return np.array([self.state.rotations[n]])
+        return logm_so3(self.state.rotations[n])
+
+    def displacement(self, link: str) -> np.ndarray:
+        """Displacement of a link's reference point [m]."""
+        n = self._node(link)
+        return self.state.positions[n] - self.compiled.problem.model.x0[n]
+
+    def reaction(self, link: str) -> np.ndarray:
+        """Wrench that holds a fixed or prescribed link: forces [N] then moments [N m], global axes,
+        moments about the link's reference point. Components that are free are ~0 (the residual)."""
+        model = self.compiled.problem.model
+        return self.residual[model.node_dofs[self._node(link)]].copy()
+
+    def point(self, link: str, name: str) -> np.ndarray:
+        """Current position [m] of a named point of a link (see `Mechanism.add_point`)."""
+        owner, offset = self.compiled.points[name]
+        if owner != link:
+            raise ModelError(f"point {name!r} belongs to link {owner!r}, not {link!r}")
+        n = self._node(link)
+        return self.state.positions[n] + self.compiled.problem.model.offsets(self.state, np.array([n]), offset[None])[0]
+
+    def node_positions(self) -> np.ndarray:
+        """Positions [m] of all finite-element nodes, (n, dim): link reference points first (in
+        the order links were added), then each joint's points in the order joints were added."""
+        return self.compiled.problem.model.point_positions(self.state)
+
+    def strain_energy(self) -> float:
+        """Elastic energy stored in all beam elements [J]."""
+        return self.compiled.problem.model.strain_energy(self.state)

@@ -1,0 +1,74 @@
+"""Rotations in 2D and 3D: skew matrices, exponential and logarithmic maps (batched).
+
+3D rotations are updated multiplicatively with a spatial spin, ``R <- exp(skew(dphi)) R``,
+the convention of Dwarshuis et al. (2020), Eq. (A.8): ``dR = skew(dphi) R``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["skew", "unskew", "expm_so3", "logm_so3", "rot2"]
+
+# Below this angle the Rodrigues coefficients are evaluated by their Taylor series:
+# sin(t)/t and (1 - cos t)/t^2 lose all digits to cancellation near t = 0.
+_SMALL = 1e-4
+
+
+def skew(w: np.ndarray) -> np.ndarray:
+    """Skew-symmetric matrix of vectors, shape (..., 3) -> (..., 3, 3): ``skew(a) @ b = a x b``."""
+    w = np.asarray(w, dtype=float)
+    S = np.zeros(w.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2] = -w[..., 2], w[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = w[..., 2], -w[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -w[..., 1], w[..., 0]
+    return S
+
+
+def unskew(S: np.ndarray) -> np.ndarray:
+    """Axial vector of the skew part of ``S``, shape (..., 3, 3) -> (..., 3)."""
+    return 0.5 * np.stack(
+        [S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]], axis=-1
+    )
+
+
+def expm_so3(w: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``exp(skew(w))`` (Rodrigues), rotation vectors [rad] shape (..., 3)."""
+    w = np.asarray(w, dtype=float)
+    t2 = np.einsum("...i,...i->...", w, w)
+    t = np.sqrt(t2)
+    small = t < _SMALL
+    ts = np.where(small, 1.0, t)
+    a = np.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, np.sin(ts) / ts)
+    b = np.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, (1.0 - np.cos(ts)) / ts**2)
+    K = skew(w)
+    return np.eye(3) + a[..., None, None] * K + b[..., None, None] * (K @ K)
+
+
+def logm_so3(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors [rad] of rotation matrices, shape (..., 3, 3) -> (..., 3), angle in [0, pi]."""
+    R = np.asarray(R, dtype=float)
+    c = np.clip(0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0), -1.0, 1.0)
+    t = np.arccos(c)
+    v = unskew(R)  # = sin(t) * axis
+    s = np.sin(t)
+    small = t < _SMALL
+    near_pi = t > np.pi - 1e-3
+    factor = np.where(small, 1.0 + t * t / 6.0, t / np.where(small | (s == 0), 1.0, s))
+    w = factor[..., None] * v
+    if np.any(near_pi):
+        # sin(t) -> 0 at pi: take the axis from the symmetric part, R + I = 2 n n^T (1 - cos t) + ...
+        B = 0.5 * (R + np.swapaxes(R, -1, -2)) - c[..., None, None] * np.eye(3)
+        k = np.argmax(np.diagonal(B, axis1=-2, axis2=-1), axis=-1)
+        col = np.take_along_axis(B, k[..., None, None], axis=-1)[..., 0]
+        n = col / np.linalg.norm(col, axis=-1, keepdims=True)
+        n = np.where((np.einsum("...i,...i->...", n, v) < 0)[..., None], -n, n)
+        w = np.where(near_pi[..., None], t[..., None] * n, w)
+    return w
+
+
+def rot2(theta: np.ndarray) -> np.ndarray:
+    """Planar rotation matrices, angles [rad] shape (...) -> (..., 2, 2)."""
+    theta = np.asarray(theta, dtype=float)
+    c, s = np.cos(theta), np.sin(theta)
+    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)

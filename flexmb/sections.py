@@ -1,0 +1,97 @@
+"""Beam cross-sections: the stiffness data a beam element needs (SI units)."""
+
+from __future__ import annotations
+
+import math
+
+import attrs
+import numpy as np
+
+from . import _validate as v
+from .errors import ParameterError
+
+__all__ = ["Section", "rectangle", "torsion_constant_rectangle", "shear_coefficient_rectangle"]
+
+
+def torsion_constant_rectangle(width: float, thickness: float, terms: int = 50) -> float:
+    """Saint-Venant torsion constant I_t [m^4] of a solid rectangle.
+
+    Exact series (Timoshenko & Goodier, *Theory of Elasticity*, 3rd ed., Sec. 109), the form
+    SPACAR uses: ``I_t = (1/3)(2a)^3(2b)[1 - (192/pi^5)(a/b) sum_{n odd} tanh(n pi b / 2a)/n^5]``
+    with ``a = min/2``, ``b = max/2``.
+    """
+    a, b = 0.5 * min(width, thickness), 0.5 * max(width, thickness)
+    n = np.arange(1, 2 * terms, 2, dtype=float)
+    series = np.sum(np.tanh(n * math.pi * b / (2.0 * a)) / n**5)
+    return (2 * a) ** 3 * (2 * b) / 3.0 * (1.0 - 192.0 / math.pi**5 * (a / b) * series)
+
+
+def shear_coefficient_rectangle(poisson: float) -> float:
+    """Timoshenko shear coefficient of a rectangle, ``k = 10(1+nu)/(12+11 nu)`` (Cowper 1966)."""
+    return 10.0 * (1.0 + poisson) / (12.0 + 11.0 * poisson)
+
+
+@attrs.frozen(kw_only=True)
+class Section:
+    """Stiffness data of a beam cross-section in its principal axes (local y, z).
+
+    Parameters
+    ----------
+    E, G
+        Young's and shear modulus [Pa].
+    A
+        Area [m^2].
+    Iy, Iz
+        Second moments of area about the local y and z axes [m^4].
+    It
+        Torsion constant [m^4].
+    ky, kz
+        Shear coefficients for shear along local y and z [-] (``inf`` = no shear deformation).
+    """
+
+    E: float
+    G: float
+    A: float
+    Iy: float
+    Iz: float
+    It: float
+    ky: float = 5.0 / 6.0
+    kz: float = 5.0 / 6.0
+
+    def __attrs_post_init__(self):
+        for name in ("E", "G", "A", "Iy", "Iz", "It"):
+            v.positive("Section", name, getattr(self, name))
+        for name in ("ky", "kz"):  # inf is allowed: no shear deformation
+            val = getattr(self, name)
+            if not (isinstance(val, (int, float, np.floating)) and val > 0):
+                raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
+
+
+def rectangle(width: float, thickness: float, E: float, G: float) -> Section:
+    """Rectangular section ``width x thickness`` [m]; local z along the width, local y along the thickness.
+
+    So ``Iz = width thickness^3 / 12`` is the compliant (leaf-spring) bending stiffness and
+    ``Iy = thickness width^3 / 12`` the stiff one, as in SPACAR's leaf-spring data.
+    Poisson's ratio for the shear coefficient is ``E / (2G) - 1``.
+    """
+    width = v.positive("rectangle", "width", width)
+    thickness = v.positive("rectangle", "thickness", thickness)
+    E = v.positive("rectangle", "E", E)
+    G = v.positive("rectangle", "G", G)
+    nu = E / (2.0 * G) - 1.0
+    if not -1.0 < nu < 0.5:
+        raise ParameterError(
+            f"rectangle: E={E:g} Pa and G={G:g} Pa imply Poisson's ratio {nu:.3g}, outside (-1, 0.5); "
+            "check the units of the moduli"
+        )
+    k = shear_coefficient_rectangle(nu)
+    return Section(
+        E=E,
+        G=G,
+        A=width * thickness,
+        Iy=thickness * width**3 / 12.0,
+        Iz=width * thickness**3 / 12.0,
+        It=torsion_constant_rectangle(width, thickness),
+        ky=k,
+        kz=k,
+    )

@@ -1,0 +1,35 @@
+"""Solver strategies and the `solve` front door."""
+
+from __future__ import annotations
+
+from ..errors import ParameterError, UnsupportedStrategyError
+from .conventional import Conventional
+
+__all__ = ["solve", "STRATEGIES", "Conventional"]
+
+STRATEGIES = {Conventional.name: Conventional}
+
+
+def solve(mechanism, method: str | object = "conventional", **options):
+    """Static equilibrium of ``mechanism`` with strategy ``method`` (a name or a strategy instance).
+
+    Options go to the strategy's constructor (e.g. ``tol``, ``max_iter``, ``raise_on_failure``).
+    The mechanism is not modified. Returns a `flexmb.Solution`.
+    """
+    if isinstance(method, str):
+        try:
+            cls = STRATEGIES[method]
+        except KeyError:
+            raise UnsupportedStrategyError(
+                f"unknown method {method!r}; available: {', '.join(sorted(STRATEGIES))}") from None
+        try:
+            strategy = cls(**options)
+        except TypeError as exc:
+            raise UnsupportedStrategyError(f"method {method!r}: {exc}") from None
+        except ValueError as exc:  # attrs validators of the options
+            raise ParameterError(f"method {method!r}: invalid option: {exc}") from None
+    else:
+        if options:
+            raise UnsupportedStrategyError("options are given with a method name, not with a strategy instance")
+        strategy = method
+    return strategy.solve(mechanism.compile())

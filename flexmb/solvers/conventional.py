@@ -1,0 +1,140 @@
+"""Conventional method: Newton-Raphson on the full model with automatic step control.
+
+Dwarshuis et al. (2020), Appendix B and Fig. 18 (SPACAR's scheme): try the whole load/motion
+step; after each iteration judge the residual: above the divergence threshold, halve the step
+and start it again from its beginning; between the thresholds, re-linearise and iterate; below
+the accuracy threshold, accept the step and take the next (growing it again after easy steps).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import ClassVar
+
+import attrs
+import numpy as np
+
+from ..errors import ConvergenceError
+from ..fe.model import State
+from ..problem import StaticProblem
+from ..results import Solution
+
+__all__ = ["Conventional", "newton_steps"]
+
+
+@attrs.frozen(kw_only=True)
+class Conventional:
+    """Full-model Newton-Raphson with step halving [``conventional``].
+
+    Parameters
+    ----------
+    tol
+        Convergence threshold on the 2-norm of the free residual [N, N m] (5e-7, the paper's).
+    max_iter
+        Iterations allowed per step before the step is halved.
+    divergence
+        A step is halved when the residual grows by more than this factor between two
+        iterations after the first (the paper's eps_max test), or becomes non-finite.
+    min_step
+        Smallest load-factor step before giving up (converged=False, the step reached reported).
+    initial_step
+        First load-factor step (1.0: try the whole motion at once, as Fig. 18).
+    raise_on_failure
+        Raise `ConvergenceError` instead of returning ``converged=False``.
+    """
+
+    name: ClassVar[str] = "conventional"
+    tol: float = attrs.field(default=5e-7, validator=attrs.validators.gt(0.0))
+    max_iter: int = attrs.field(default=12, validator=attrs.validators.ge(1))
+    divergence: float = attrs.field(default=2.0, validator=attrs.validators.gt(0.0))
+    min_step: float = attrs.field(default=1e-5, validator=attrs.validators.gt(0.0))
+    initial_step: float = attrs.field(default=1.0, validator=[attrs.validators.gt(0.0), attrs.validators.le(1.0)])
+    raise_on_failure: bool = False
+
+    def solve(self, compiled, *, state: State | None = None) -> Solution:
+        t0 = time.perf_counter()
+        problem: StaticProblem = compiled.problem
+        state = problem.model.initial_state() if state is None else state
+        out = newton_steps(problem, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
+                           min_step=self.min_step, initial_step=self.initial_step)
+        out["wall_time"]["total"] = time.perf_counter() - t0
+        sol = Solution(method=self.name, compiled=compiled, tolerance=self.tol, **out)
+        if self.raise_on_failure and not sol.converged:
+            raise ConvergenceError(sol.message, sol)
+        return sol
+
+
+def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: int, divergence: float,
+                 min_step: float, initial_step: float, lam0: float = 0.0) -> dict:
+    """Drive ``problem`` from ``state`` at load factor ``lam0`` to 1 (Fig. 18); returns Solution fields."""
+    history: list[float] = []
+    times = {"assemble": 0.0, "solve": 0.0}
+    lam, dlam = lam0, min(initial_step, 1.0 - lam0)
+    steps = rejected = 0
+    free = problem.free
+    message = ""
+    r = None
+    if dlam <= 0.0:  # nothing to do but check equilibrium
+        r = problem.evaluate(state, 1.0, tangent=False)[0]
+        res = float(np.linalg.norm(r[free]))
+        history.append(res)
+        ok = res < tol
+        return dict(converged=ok, iterations=0, residual_history=np.array(history), load_factor=1.0, steps=0,
+                    rejected_steps=0, wall_time=times, state=state, residual=r,
+                    message="already in equilibrium" if ok else f"residual {res:.3g} above tol {tol:.3g}")
+    while True:
+        target = lam + dlam
+        trial = state
+        du_p = problem.prescribed_increment(dlam)
+        prev = np.inf
+        accepted = False
+        for it in range(max_iter + 1):
+            t = time.perf_counter()
+            r, Kff, Kfp, _ = problem.evaluate(trial, target, tangent=True)
+            times["assemble"] += time.perf_counter() - t
+            rf = r[free]
+            if it == 0:
+                rhs = -(rf + Kfp @ du_p)
+            else:
+                res = float(np.linalg.norm(rf))
+                history.append(res)
+                if not np.isfinite(res) or (it > 1 and res > divergence * prev):
+                    break
+                if res < tol:
+                    accepted = True
+                    break
+                prev = res
+                rhs = -rf
+                if it == max_iter:
+                    break
+            t = time.perf_counter()
+            try:
+                du_f = problem.solve_linear(Kff, rhs)
+            except np.linalg.LinAlgError:
+                break
+            finally:
+                times["solve"] += time.perf_counter() - t
+            if not np.all(np.isfinite(du_f)):
+                break
+            du = problem.full_increment(du_f, du_p if it == 0 else np.zeros_like(du_p))
+            trial = problem.model.apply_increment(trial, du)
+        if accepted:
+            state, lam = trial, target
+            steps += 1
+            if lam >= 1.0 - 1e-14:
+                message = f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps"
+                return dict(converged=True, iterations=len(history), residual_history=np.array(history),
+                            load_factor=1.0, steps=steps, rejected_steps=rejected, wall_time=times, state=state,
+                            residual=r, message=message)
+            easy = it <= 4
+            dlam = min(2.0 * dlam if easy else dlam, 1.0 - lam)
+        else:
+            rejected += 1
+            dlam *= 0.5
+            if dlam < min_step:
+                r = problem.evaluate(state, lam, tangent=False)[0]
+                message = (f"not converged: step halved below min_step={min_step:g} at load factor {lam:.6g} "
+                           f"(the last converged step); the residual history shows the failed iterations")
+                return dict(converged=False, iterations=len(history), residual_history=np.array(history),
+                            load_factor=lam, steps=steps, rejected_steps=rejected, wall_time=times, state=state,
+                            residual=r, message=message)

@@ -10,7 +10,7 @@ from .errors import (
     UnknownJointError,
     UnsupportedStrategyError,
 )
-from .joints import CrossFlexure, Joint, JointMesh
+from .joints import CrossFlexure, Joint, JointMesh, LeafSpring
 from .mechanism import Link, Mechanism
 from .registry import available_joints, joint, register_joint
 from .results import Solution
@@ -25,6 +25,7 @@ __all__ = [
     "FlexmbError",
     "Joint",
     "JointMesh",
+    "LeafSpring",
     "Link",
     "Mechanism",
     "ModelError",

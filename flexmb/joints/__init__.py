@@ -2,5 +2,6 @@
 
 from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
 from .cross_flexure import CrossFlexure
+from .leaf_spring import LeafSpring
 
-__all__ = ["Joint", "JointMesh", "CrossFlexure", "INTERNAL", "SIDE_A", "SIDE_B"]
+__all__ = ["Joint", "JointMesh", "CrossFlexure", "LeafSpring", "INTERNAL", "SIDE_A", "SIDE_B"]

@@ -45,8 +45,8 @@ class Conventional:
 
     name: ClassVar[str] = "conventional"
     tol: float = attrs.field(default=5e-7, validator=attrs.validators.gt(0.0))
-    max_iter: int = attrs.field(default=12, validator=attrs.validators.ge(1))
-    divergence: float = attrs.field(default=2.0, validator=attrs.validators.gt(0.0))
+    max_iter: int = attrs.field(default=20, validator=attrs.validators.ge(1))
+    divergence: float = attrs.field(default=1e3, validator=attrs.validators.gt(0.0))
     min_step: float = attrs.field(default=1e-5, validator=attrs.validators.gt(0.0))
     initial_step: float = attrs.field(default=1.0, validator=[attrs.validators.gt(0.0), attrs.validators.le(1.0)])
     raise_on_failure: bool = False

@@ -1,0 +1,74 @@
+"""Straight leaf spring [``leaf_spring``]: the simplest flexure, and the cantilever of the beam benchmarks."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import attrs
+import numpy as np
+
+from .. import _validate as v
+from ..errors import ParameterError
+from ..sections import Section, rectangle
+from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
+
+__all__ = ["LeafSpring"]
+
+
+@attrs.frozen(kw_only=True)
+class LeafSpring(Joint):
+    """Straight leaf spring [``leaf_spring``] from node A (origin) to node B at ``(length, 0[, 0])``.
+
+    Clamped in the links at both ends; the width lies along the joint frame's z axis, so its
+    compliant bending is in the xy-plane (about z).
+
+    Parameters
+    ----------
+    length
+        Length [m] (0.1).
+    width, thickness
+        Cross-section [m] (0.02, 1e-3); ``thickness < length``.
+    E, G
+        Young's and shear modulus [Pa] (200e9, 76.9e9).
+    elements
+        Number of beam elements, 1 or more (4).
+    section
+        Optional `Section` that replaces the rectangle (e.g. to switch off shear with ``ky = kz = inf``).
+    """
+
+    kind: ClassVar[str] = "leaf_spring"
+
+    length: float = 0.1
+    width: float = 0.02
+    thickness: float = 1e-3
+    E: float = 200e9
+    G: float = 76.9e9
+    elements: int = 4
+    section: Section | None = None
+
+    def __attrs_post_init__(self):
+        owner = "leaf_spring"
+        for name in ("length", "width", "thickness", "E", "G"):
+            v.positive(owner, name, getattr(self, name))
+        v.integer(owner, "elements", self.elements, 1)
+        if self.thickness >= self.length:
+            raise ParameterError(f"{owner}: thickness={self.thickness!r} m must be < length={self.length!r} m")
+        if self.section is not None and not isinstance(self.section, Section):
+            raise ParameterError(f"{owner}: section must be a flexmb.Section, got {type(self.section).__name__}")
+
+    def interface_b(self, dim: int) -> np.ndarray:
+        b = np.zeros(dim)
+        b[0] = self.length
+        return b
+
+    def cross_section(self) -> Section:
+        return self.section or rectangle(self.width, self.thickness, self.E, self.G)
+
+    def mesh(self, dim: int) -> JointMesh:
+        n = self.elements
+        pts = np.outer(np.linspace(0.0, 1.0, n + 1), self.interface_b(dim))
+        side = np.full(n + 1, INTERNAL)
+        side[0], side[-1] = SIDE_A, SIDE_B
+        ny = np.tile([0.0, 1.0, 0.0], (n, 1)) if dim == 3 else None
+        return JointMesh(points=pts, side=side, elements=np.stack([np.arange(n), np.arange(1, n + 1)], 1),
+                         sections=(self.cross_section(),) * n, ny0=ny)

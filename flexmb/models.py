@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from . import _validate as v
 from .joints.cross_flexure import CrossFlexure
+from .joints.leaf_spring import LeafSpring
 from .mechanism import Mechanism
 
-__all__ = ["cross_flexure_pivot"]
+__all__ = ["cantilever", "cross_flexure_pivot"]
 
 
 def cross_flexure_pivot(elements_per_leaf: int = 3, dim: int = 3, rotation: float = 0.0, **joint_params) -> Mechanism:
@@ -27,4 +28,18 @@ def cross_flexure_pivot(elements_per_leaf: int = 3, dim: int = 3, rotation: floa
         m.prescribe("B", rotation=rotation)
     else:
         m.prescribe("B", z=0.0, rotation=(0.0, 0.0, rotation))
+    return m
+
+
+def cantilever(elements: int = 8, dim: int = 2, **leaf_params) -> Mechanism:
+    """A straight leaf spring clamped in link ``"ground"`` (fixed) with a free link ``"tip"``.
+
+    The beam runs along +x from the origin; load the tip with `Mechanism.apply_force` /
+    `apply_moment`. ``leaf_params`` go to `LeafSpring` (defaults: 0.1 x 0.02 x 0.001 m steel).
+    """
+    leaf = LeafSpring(elements=elements, **leaf_params)
+    m = Mechanism(dim=dim)
+    m.add_link("ground", fixed=True)
+    m.add_link("tip", position=leaf.interface_b(dim))
+    m.add_joint("ground", "tip", leaf, name="leaf")
     return m

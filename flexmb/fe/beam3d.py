@@ -103,8 +103,8 @@ def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool
     -------
     F, K, e, sigma
         ``K`` is None when ``tangent`` is False. ``e`` (E, 6) deformations, ``sigma = S e``.
-        Rows of elements whose arcsines left their domain (a node rotated 90 degrees or more
-        relative to the chord) are NaN.
+        Rows of elements outside the formulation's validity (a node's axis 90 degrees or more
+        from the chord, or the end sections twisted 90 degrees or more apart) are NaN.
     """
     nE = len(L0)
     l, nl, pyv, pzv, qyv, qzv = _vectors(xp, xq, Rp, Rq, ny0, nz0)
@@ -174,6 +174,16 @@ def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool
     asin_rot_chord(4, 1.0, pyv, _PP)
     asin_rot_chord(5, -1.0, qyv, _PQ)
 
+    # asin(c) cannot tell a rotation x from pi - x: beyond 90 degrees between a node's axis and
+    # the chord (or between the two nodes' cross-sections) Eq. (A.4) has spurious equilibria, so
+    # such states are marked invalid (NaN) and the solver cuts its step instead of landing there.
+    nx0 = np.cross(ny0, nz0)
+    valid = (
+        (_dot(np.einsum("eij,ej->ei", Rp, nx0), nl) > 0.0)
+        & (_dot(np.einsum("eij,ej->ei", Rq, nx0), nl) > 0.0)
+        & (_dot(pyv, qyv) + _dot(pzv, qzv) > 0.0)
+    )
+    e[~valid] = np.nan
     sigma = np.einsum("eij,ej->ei", S, e)
     F = np.einsum("eij,ei->ej", Dm, sigma)
     if not tangent:

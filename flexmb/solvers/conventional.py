@@ -86,8 +86,9 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
         target = lam + dlam
         trial = state
         du_p = problem.prescribed_increment(dlam)
-        prev = np.inf
+        prev = first = np.inf
         accepted = False
+        stalled = None
         for it in range(max_iter + 1):
             t = time.perf_counter()
             r, Kff, Kfp, _ = problem.evaluate(trial, target, tangent=True)
@@ -103,6 +104,11 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
                 if res < tol:
                     accepted = True
                     break
+                if it > 2 and res > 0.5 * prev and res < 1e-10 * first:
+                    stalled = res  # Newton stopped gaining: roundoff floor of this model
+                    break
+                if it == 1:
+                    first = res
                 prev = res
                 rhs = -rf
                 if it == max_iter:
@@ -128,6 +134,13 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
                             residual=r, message=message)
             easy = it <= 4
             dlam = min(2.0 * dlam if easy else dlam, 1.0 - lam)
+        elif stalled is not None:
+            r = problem.evaluate(state, lam, tangent=False)[0]
+            message = (f"not converged: the residual stalls at {stalled:.3g}, the roundoff floor of this model, "
+                       f"above tol={tol:.3g}; raise tol (load factor reached {lam:.6g})")
+            return dict(converged=False, iterations=len(history), residual_history=np.array(history),
+                        load_factor=lam, steps=steps, rejected_steps=rejected, wall_time=times, state=state,
+                        residual=r, message=message)
         else:
             rejected += 1
             dlam *= 0.5

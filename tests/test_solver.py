@@ -1,0 +1,92 @@
+"""Conventional solver behaviour (Appendix B): convergence rate, step control, honest failure."""
+
+import numpy as np
+import pytest
+
+import flexmb
+
+
+def test_linear_problem_takes_one_newton_iteration():
+    """A tiny load on a straight cantilever is linear: one iteration converges. (The chords
+    lengthen by ~v^2/L; at P = 1e-5 N that axial force, EA v^2 / L^2 ~ 1e-13 N, is below tol.)"""
+    m = flexmb.models.cantilever(elements=4, dim=3)
+    m.apply_force("tip", (0.0, 1e-5, 0.0))
+    sol = flexmb.solve(m)
+    assert sol.converged and sol.iterations == 1
+
+
+def _error(model, a, b):
+    """Distance between two states: positions [m] and rotations [rad] (log of the relative rotation)."""
+    from flexmb.rotations import logm_so3
+
+    rot = (a.rotations - b.rotations if model.dim == 2
+           else logm_so3(a.rotations @ np.swapaxes(b.rotations, 1, 2)))
+    return np.sqrt(np.sum((a.positions - b.positions) ** 2) + np.sum(rot**2))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_newton_converges_quadratically_on_a_large_rotation(dim):
+    """Consistent tangent => e_{k+1} ~ C e_k^2: from a perturbed ~60-degree equilibrium the observed
+    order log(e2/e1)/log(e1/e0) of the state error is 2 (1 would mean an inconsistent tangent)."""
+    m = flexmb.models.cantilever(elements=8, dim=dim)
+    leaf = m.joints["leaf"]
+    EI = leaf.E * leaf.cross_section().Iz
+    m.apply_force("tip", np.r_[0.0, 3.0 * EI / leaf.length**2, 0.0][:dim])  # k = 3: ~60 degrees at the tip
+    sol = flexmb.solve(m)
+    assert sol.converged
+    problem, model = sol.compiled.problem, sol.compiled.problem.model
+    from flexmb.testing import perturbed_state
+
+    # positions perturbed by 1e-5 m already strain the 12.5 mm elements axially by ~1e-3 (thousands
+    # of N against a tip load of 100 N): the quadratic region is narrow along the stiff axial modes
+    state = perturbed_state(problem, sol.state, np.random.default_rng(0), displacement=1e-5, rotation=1e-2)
+    errors = [_error(model, state, sol.state)]
+    for _ in range(2):
+        r, K, _, _ = problem.evaluate(state, 1.0)
+        du = problem.full_increment(problem.solve_linear(K, -r[problem.free]), np.zeros(len(problem.prescribed)))
+        state = model.apply_increment(state, du)
+        errors.append(_error(model, state, sol.state))
+    e0, e1, e2 = errors
+    assert e2 > 1e-12, "perturbation too small to measure the rate above roundoff"
+    order = np.log(e2 / e1) / np.log(e1 / e0)
+    assert order > 1.8, (errors, order)
+
+
+def test_cross_flexure_75_degrees_in_bounded_iterations():
+    """Fig. 18 step control from the undeformed state: 75 deg at once, halving when needed."""
+    for n in (1, 3, 5):
+        sol = flexmb.solve(flexmb.models.cross_flexure_pivot(elements_per_leaf=n, rotation=np.radians(75)))
+        assert sol.converged
+        assert sol.iterations <= 60
+        assert sol.residual_history[-1] < 5e-7
+
+
+def test_non_convergence_is_reported_with_the_load_factor_reached():
+    m = flexmb.models.cross_flexure_pivot(elements_per_leaf=3, rotation=np.radians(75))
+    sol = flexmb.solve(m, max_iter=1, min_step=0.3)
+    assert not sol.converged
+    assert "not converged" in sol.message and "load factor" in sol.message
+    assert 0.0 <= sol.load_factor < 1.0
+    assert len(sol.residual_history) > 0
+    with pytest.raises(flexmb.ConvergenceError, match="not converged"):
+        flexmb.solve(m, max_iter=1, min_step=0.3, raise_on_failure=True)
+
+
+def test_solve_does_not_modify_the_mechanism():
+    m = flexmb.models.cross_flexure_pivot(elements_per_leaf=2, rotation=0.5)
+    before = flexmb.solve(m).node_positions()
+    flexmb.solve(m, max_iter=1, min_step=0.5)  # a failing solve in between
+    after = flexmb.solve(m).node_positions()
+    np.testing.assert_array_equal(before, after)
+
+
+def test_reactions_balance_the_applied_loads():
+    """Global equilibrium: support reaction + applied loads = 0 (forces and moments about the origin)."""
+    m = flexmb.models.cantilever(elements=6, dim=3)
+    f = np.array([3.0, -20.0, 1.5])
+    m.apply_force("tip", f)
+    sol = flexmb.solve(m)
+    R = sol.reaction("ground")
+    tip = sol.pose("tip")[0]
+    np.testing.assert_allclose(R[:3] + f, 0.0, atol=1e-6)
+    np.testing.assert_allclose(R[3:] + np.cross(tip, f), 0.0, atol=1e-6)

@@ -18,6 +18,8 @@ def positive(owner: str, name: str, value) -> float:
 
 
 def finite(owner: str, name: str, value) -> float:
+    if isinstance(value, (str, bytes, bool)):
+        raise ParameterError(f"{owner}: {name}={value!r} is not a real number")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -53,3 +55,11 @@ def vector(owner: str, name: str, value, size: int) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise ParameterError(f"{owner}: {name}={a.tolist()} must be finite (no NaN/inf)")
     return a
+
+
+def finite_model(owner: str, values: dict) -> None:
+    """Raise naming the parameters when derived model quantities overflow or vanish."""
+    bad = [k for k, x in values.items() if not (np.all(np.isfinite(x)) and np.all(np.abs(x) > 0))]
+    if bad:
+        raise ParameterError(f"{owner}: the parameters give non-finite or zero {', '.join(bad)}; "
+                             "check their magnitudes and units (SI: m, Pa)")

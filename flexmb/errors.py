@@ -8,6 +8,7 @@ __all__ = [
     "ParameterError",
     "TopologyError",
     "UnknownJointError",
+    "InvalidJointClassError",
     "UnsupportedStrategyError",
     "ConvergenceError",
 ]
@@ -34,6 +35,10 @@ class UnknownJointError(ModelError, KeyError):
 
     def __str__(self) -> str:  # KeyError would repr() the message
         return str(self.args[0]) if self.args else ""
+
+
+class InvalidJointClassError(ModelError, TypeError):
+    """Something registered as a joint plugin is not a `flexmb.Joint` subclass."""
 
 
 class UnsupportedStrategyError(FlexmbError):

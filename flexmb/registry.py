@@ -6,7 +6,9 @@ import functools
 import warnings
 from importlib.metadata import entry_points
 
-from .errors import UnknownJointError
+import attrs
+
+from .errors import InvalidJointClassError, ModelError, ParameterError, UnknownJointError
 from .joints._base import Joint
 
 __all__ = ["available_joints", "register_joint", "joint", "refresh"]
@@ -45,9 +47,9 @@ def refresh() -> None:
 def register_joint(name: str, cls: type, *, clobber: bool = False) -> None:
     """Register a `Joint` subclass under ``name`` for this session (tests, notebooks)."""
     if not (isinstance(cls, type) and issubclass(cls, Joint)):
-        raise TypeError(f"{cls!r} is not a flexmb.Joint subclass")
+        raise InvalidJointClassError(f"{cls!r} is not a flexmb.Joint subclass; cannot register it as {name!r}")
     if not clobber and name in available_joints():
-        raise ValueError(f"a joint named {name!r} is already registered; pass clobber=True to replace it")
+        raise ModelError(f"a joint named {name!r} is already registered; pass clobber=True to replace it")
     _session[name] = cls
 
 
@@ -61,4 +63,13 @@ def joint(name: str, **params) -> Joint:
     known = available_joints()
     if name not in known:
         raise UnknownJointError(f"unknown joint {name!r}; known joints: {', '.join(sorted(known)) or 'none'}")
-    return known[name](**params)
+    cls = known[name]
+    if attrs.has(cls):
+        valid = {a.alias for a in attrs.fields(cls) if a.init}
+        unknown = sorted(set(params) - valid)
+        if unknown:
+            raise ParameterError(f"joint {name!r}: unknown parameter(s) {unknown}; valid: {sorted(valid)}")
+    try:
+        return cls(**params)
+    except TypeError as exc:
+        raise ParameterError(f"joint {name!r}: {exc}") from None

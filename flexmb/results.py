@@ -87,7 +87,10 @@ class Solution:
 
     def point(self, link: str, name: str) -> np.ndarray:
         """Current position [m] of a named point of a link (see `Mechanism.add_point`)."""
-        owner, offset = self.compiled.points[name]
+        try:
+            owner, offset = self.compiled.points[name]
+        except KeyError:
+            raise ModelError(f"no point named {name!r}; points: {', '.join(self.compiled.points) or 'none'}") from None
         if owner != link:
             raise ModelError(f"point {name!r} belongs to link {owner!r}, not {link!r}")
         n = self._node(link)

@@ -78,6 +78,10 @@ def rectangle(width: float, thickness: float, E: float, G: float) -> Section:
     thickness = v.positive("rectangle", "thickness", thickness)
     E = v.positive("rectangle", "E", E)
     G = v.positive("rectangle", "G", G)
+    with np.errstate(over="ignore", under="ignore"):
+        props = dict(A=width * thickness, Iy=thickness * float(width) ** 3 / 12.0 if width < 1e100 else np.inf,
+                     Iz=width * float(thickness) ** 3 / 12.0 if thickness < 1e100 else np.inf)
+    v.finite_model(f"rectangle {width:g} x {thickness:g} m", props)
     nu = E / (2.0 * G) - 1.0
     if not -1.0 < nu < 0.5:
         raise ParameterError(
@@ -85,13 +89,4 @@ def rectangle(width: float, thickness: float, E: float, G: float) -> Section:
             "check the units of the moduli"
         )
     k = shear_coefficient_rectangle(nu)
-    return Section(
-        E=E,
-        G=G,
-        A=width * thickness,
-        Iy=thickness * width**3 / 12.0,
-        Iz=width * thickness**3 / 12.0,
-        It=torsion_constant_rectangle(width, thickness),
-        ky=k,
-        kz=k,
-    )
+    return Section(E=E, G=G, It=torsion_constant_rectangle(width, thickness), ky=k, kz=k, **props)

@@ -66,7 +66,7 @@ def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool
     F = np.einsum("eij,ei->ej", D, sigma)
     if not tangent:
         return F, None, e, sigma
-    K = np.einsum("eki,ekl,elj->eij", D, S, D)
+    K = np.swapaxes(D, 1, 2) @ (S @ D)
     Hl = np.einsum("ei,ej->eij", m, m) / l[:, None, None]  # d2|L|/dL2
     Hb = -(np.einsum("ei,ej->eij", n, m) + np.einsum("ei,ej->eij", m, n)) / (l * l)[:, None, None]  # d2beta/dL2
     Hr = sigma[:, 0, None, None] * Hl + ((sigma[:, 1] - sigma[:, 2]) * L0)[:, None, None] * Hb

@@ -188,7 +188,7 @@ def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool
     F = np.einsum("eij,ei->ej", Dm, sigma)
     if not tangent:
         return F, None, e, sigma
-    K = np.einsum("eki,ekl,elj->eij", Dm, S, Dm)
+    K = np.swapaxes(Dm, 1, 2) @ (S @ Dm)
     for i in range(6):
         K += sigma[:, i, None, None] * H[i]
     return F, K, e, sigma

@@ -147,13 +147,14 @@ class FEModel:
         Fm = Fm.reshape(nE, 2 * nd)
         if not tangent:
             return Fm, None, e, sig
-        T = self._lever(d).reshape(nE, 2, nd, nd)
-        K = K.reshape(nE, 2, nd, 2, nd)
-        K = np.einsum("eaki,eakbl,eblj->eaibj", T, K, T)
+        Tb = self._lever(d).reshape(nE, 2, nd, nd)
+        T = np.zeros((nE, 2 * nd, 2 * nd))
+        T[:, :nd, :nd], T[:, nd:, nd:] = Tb[:, 0], Tb[:, 1]
+        K = np.swapaxes(T, 1, 2) @ K @ T
         G = G.reshape(nE, 2, nr, nr)
-        K[:, 0, self.dim:, 0, self.dim:] += G[:, 0]
-        K[:, 1, self.dim:, 1, self.dim:] += G[:, 1]
-        return Fm, K.reshape(nE, 2 * nd, 2 * nd), e, sig
+        K[:, self.dim:nd, self.dim:nd] += G[:, 0]
+        K[:, nd + self.dim:, nd + self.dim:] += G[:, 1]
+        return Fm, K, e, sig
 
     def internal_force(self, state: State) -> np.ndarray:
         """Assembled internal force vector (N * ndof,)."""

@@ -42,7 +42,7 @@ class CrossFlexure(Joint):
     width_inner, width_outer
         Leaf widths w1, w2 [m] (0.04, 0.02).
     E, G
-        Young's and shear modulus [Pa] (200e9, 76.9e9).
+        Young's and shear modulus [Pa] (200e9, 76.9e9); Poisson's ratio ``E/(2G) - 1`` in (-1, 0.5).
     elements_per_leaf
         Beam elements per leaf, 1 or more (3).
     gap
@@ -69,11 +69,22 @@ class CrossFlexure(Joint):
         v.integer(owner, "elements_per_leaf", self.elements_per_leaf, 1)
         if v.finite(owner, "gap", self.gap) < 0:
             raise ParameterError(f"{owner}: gap={self.gap!r} m must be >= 0")
-        if self.thickness >= 0.1 * self.length:
+        if not self.thickness < self.length / 10:
             raise ParameterError(
                 f"{owner}: thickness={self.thickness!r} m is not slender for length={self.length!r} m "
-                f"(valid range: thickness < length/10 = {0.1 * self.length:g} m)"
+                f"(valid range: thickness < length/10 = {self.length / 10:g} m)"
             )
+        # derived quantities must be representable (extreme magnitudes overflow to inf or 0)
+        for wname in ("width_inner", "width_outer"):
+            try:
+                rectangle(getattr(self, wname), self.thickness, self.E, self.G)
+            except ParameterError as exc:
+                raise ParameterError(f"{owner}: {wname}={getattr(self, wname)!r} m, thickness={self.thickness!r} m, "
+                                     f"E={self.E!r} Pa, G={self.G!r} Pa: {exc}") from None
+        with np.errstate(over="ignore", invalid="ignore"):
+            pts = self.mesh(3).points
+        if not np.all(np.isfinite(pts)):
+            raise ParameterError(f"{owner}: length={self.length!r} m gives non-finite node coordinates")
 
     def interface_b(self, dim: int) -> np.ndarray:
         b = np.zeros(dim)

@@ -29,7 +29,7 @@ class LeafSpring(Joint):
     width, thickness
         Cross-section [m] (0.02, 1e-3); ``thickness < length``.
     E, G
-        Young's and shear modulus [Pa] (200e9, 76.9e9).
+        Young's and shear modulus [Pa] (200e9, 76.9e9); Poisson's ratio ``E/(2G) - 1`` in (-1, 0.5).
     elements
         Number of beam elements, 1 or more (4).
     section
@@ -55,6 +55,11 @@ class LeafSpring(Joint):
             raise ParameterError(f"{owner}: thickness={self.thickness!r} m must be < length={self.length!r} m")
         if self.section is not None and not isinstance(self.section, Section):
             raise ParameterError(f"{owner}: section must be a flexmb.Section, got {type(self.section).__name__}")
+        try:
+            self.cross_section()  # overflow/underflow or inconsistent moduli raise here
+        except ParameterError as exc:
+            raise ParameterError(f"{owner}: width={self.width!r} m, thickness={self.thickness!r} m, E={self.E!r} Pa, "
+                                 f"G={self.G!r} Pa: {exc}") from None
 
     def interface_b(self, dim: int) -> np.ndarray:
         b = np.zeros(dim)

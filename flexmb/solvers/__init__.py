@@ -28,6 +28,9 @@ def solve(mechanism, method: str | object = "conventional", **options):
             raise UnsupportedStrategyError(f"method {method!r}: {exc}") from None
         except ValueError as exc:  # attrs validators of the options
             raise ParameterError(f"method {method!r}: invalid option: {exc}") from None
+    elif not callable(getattr(method, "solve", None)):
+        raise UnsupportedStrategyError(
+            f"method must be a name ({', '.join(sorted(STRATEGIES))}) or a strategy object, got {method!r}")
     else:
         if options:
             raise UnsupportedStrategyError("options are given with a method name, not with a strategy instance")

@@ -14,12 +14,26 @@ from typing import ClassVar
 import attrs
 import numpy as np
 
-from ..errors import ConvergenceError
+from .. import _validate as v
+from ..errors import ConvergenceError, ParameterError
 from ..fe.model import State
 from ..problem import StaticProblem
 from ..results import Solution
 
 __all__ = ["Conventional", "newton_steps"]
+
+
+def positive_float(instance, attribute, value):
+    v.positive(type(instance).name, attribute.name, value)
+
+
+def positive_int(instance, attribute, value):
+    v.integer(type(instance).name, attribute.name, value, 1)
+
+
+def unit_interval(instance, attribute, value):
+    if not 0.0 < v.finite(type(instance).name, attribute.name, value) <= 1.0:
+        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} outside the valid range (0, 1]")
 
 
 @attrs.frozen(kw_only=True)
@@ -44,11 +58,11 @@ class Conventional:
     """
 
     name: ClassVar[str] = "conventional"
-    tol: float = attrs.field(default=5e-7, validator=attrs.validators.gt(0.0))
-    max_iter: int = attrs.field(default=20, validator=attrs.validators.ge(1))
-    divergence: float = attrs.field(default=1e3, validator=attrs.validators.gt(0.0))
-    min_step: float = attrs.field(default=1e-5, validator=attrs.validators.gt(0.0))
-    initial_step: float = attrs.field(default=1.0, validator=[attrs.validators.gt(0.0), attrs.validators.le(1.0)])
+    tol: float = attrs.field(default=5e-7, validator=positive_float)
+    max_iter: int = attrs.field(default=20, validator=positive_int)
+    divergence: float = attrs.field(default=1e3, validator=positive_float)
+    min_step: float = attrs.field(default=1e-5, validator=positive_float)
+    initial_step: float = attrs.field(default=1.0, validator=unit_interval)
     raise_on_failure: bool = False
 
     def solve(self, compiled, *, state: State | None = None) -> Solution:

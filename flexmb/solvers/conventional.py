@@ -86,16 +86,19 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
     lam, dlam = lam0, min(initial_step, 1.0 - lam0)
     steps = rejected = 0
     free = problem.free
-    message = ""
-    r = None
+
+    def finish(converged: bool, message: str, r=None) -> dict:
+        if r is None:  # reactions at the last converged state
+            r = problem.evaluate(state, lam, tangent=False)[0]
+        return dict(converged=converged, iterations=len(history), residual_history=np.array(history),
+                    load_factor=lam, steps=steps, rejected_steps=rejected, wall_time=times, state=state,
+                    residual=r, message=message)
+
     if dlam <= 0.0:  # nothing to do but check equilibrium
         r = problem.evaluate(state, 1.0, tangent=False)[0]
         res = float(np.linalg.norm(r[free]))
         history.append(res)
-        ok = res < tol
-        return dict(converged=ok, iterations=0, residual_history=np.array(history), load_factor=1.0, steps=0,
-                    rejected_steps=0, wall_time=times, state=state, residual=r,
-                    message="already in equilibrium" if ok else f"residual {res:.3g} above tol {tol:.3g}")
+        return finish(res < tol, "already in equilibrium" if res < tol else f"residual {res:.3g} above tol {tol:.3g}", r)
     while True:
         target = lam + dlam
         trial = state
@@ -142,26 +145,17 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
             state, lam = trial, target
             steps += 1
             if lam >= 1.0 - 1e-14:
-                message = f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps"
-                return dict(converged=True, iterations=len(history), residual_history=np.array(history),
-                            load_factor=1.0, steps=steps, rejected_steps=rejected, wall_time=times, state=state,
-                            residual=r, message=message)
+                lam = 1.0
+                return finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
             easy = it <= 4
             dlam = min(2.0 * dlam if easy else dlam, 1.0 - lam)
         elif stalled is not None:
-            r = problem.evaluate(state, lam, tangent=False)[0]
-            message = (f"not converged: the residual stalls at {stalled:.3g}, the roundoff floor of this model, "
-                       f"above tol={tol:.3g}; raise tol (load factor reached {lam:.6g})")
-            return dict(converged=False, iterations=len(history), residual_history=np.array(history),
-                        load_factor=lam, steps=steps, rejected_steps=rejected, wall_time=times, state=state,
-                        residual=r, message=message)
+            return finish(False, f"not converged: the residual stalls at {stalled:.3g}, the roundoff floor of this "
+                                 f"model, above tol={tol:.3g}; raise tol (load factor reached {lam:.6g})")
         else:
             rejected += 1
             dlam *= 0.5
             if dlam < min_step:
-                r = problem.evaluate(state, lam, tangent=False)[0]
-                message = (f"not converged: step halved below min_step={min_step:g} at load factor {lam:.6g} "
-                           f"(the last converged step); the residual history shows the failed iterations")
-                return dict(converged=False, iterations=len(history), residual_history=np.array(history),
-                            load_factor=lam, steps=steps, rejected_steps=rejected, wall_time=times, state=state,
-                            residual=r, message=message)
+                return finish(False, f"not converged: step halved below min_step={min_step:g} at load factor "
+                                     f"{lam:.6g} (the last converged step); the residual history shows the failed "
+                                     "iterations")

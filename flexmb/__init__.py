@@ -10,7 +10,7 @@ from .errors import (
     UnknownJointError,
     UnsupportedStrategyError,
 )
-from .joints import CrossFlexure, Joint, JointMesh, LeafSpring
+from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring
 from .mechanism import Link, Mechanism
 from .registry import available_joints, joint, register_joint
 from .results import Solution
@@ -22,6 +22,7 @@ __version__ = "0.1.0"
 __all__ = [
     "ConvergenceError",
     "CrossFlexure",
+    "CurvedBeam",
     "FlexmbError",
     "Joint",
     "JointMesh",

@@ -1,0 +1,119 @@
+"""Circular curved-beam flexure [``curved_beam``] (Cammarata et al. 2022, Sec. 2, Eq. 2; planar)."""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import attrs
+import numpy as np
+
+from .. import _validate as v
+from ..errors import ParameterError
+from ..sections import rectangle
+from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
+
+__all__ = ["CurvedBeam"]
+
+
+@attrs.frozen(kw_only=True)
+class CurvedBeam(Joint):
+    """Circular curved-beam flexure [``curved_beam``], planar mechanisms only.
+
+    An arc of radius ``radius`` and characteristic (arc) angle ``angle`` from node A (origin of
+    the joint frame, tangent along +x) turning counter-clockwise about its centre ``(0, radius)``
+    to node B. Units are whatever the user keeps consistent (SI by default; the gripper of the
+    paper uses mm and uN, so ``E`` in uN/mm^2).
+
+    Parameters
+    ----------
+    radius
+        Arc radius r_f (> 0).
+    angle
+        Arc angle theta_f [rad], in (0, 2 pi).
+    E
+        Young's modulus.
+    width, height
+        Cross-section: ``width`` (b, out of plane) x ``height`` (h, in-plane), so EI = E b h^3 / 12.
+    G
+        Shear modulus for the finite-element model (default ``E / 2.6``, Poisson 0.3).
+    elements
+        Straight co-rotational beam elements along the arc in the finite-element model (16).
+
+    Notes
+    -----
+    `compliance` is the closed form of Eq. (2) (bending only: no axial or shear compliance), in
+    the paper's end-section frame; `mesh` is flexmb's own fully non-linear model of the same arc.
+    """
+
+    kind: ClassVar[str] = "curved_beam"
+    dims: ClassVar[tuple[int, ...]] = (2,)
+
+    radius: float
+    angle: float
+    E: float
+    width: float
+    height: float
+    G: float | None = None
+    elements: int = 16
+
+    def __attrs_post_init__(self):
+        owner = "curved_beam"
+        for name in ("radius", "E", "width", "height"):
+            v.positive(owner, name, getattr(self, name))
+        v.in_open_range(owner, "angle", self.angle, 0.0, 2 * math.pi, " rad")
+        if self.G is not None:
+            v.positive(owner, "G", self.G)
+        v.integer(owner, "elements", self.elements, 1)
+        if not self.height < self.radius:
+            raise ParameterError(f"{owner}: height={self.height!r} must be < radius={self.radius!r} (a slender arc)")
+        try:
+            rectangle(self.width, self.height, self.E, self.shear_modulus)
+        except ParameterError as exc:
+            raise ParameterError(f"{owner}: width={self.width!r}, height={self.height!r}, E={self.E!r}: {exc}") from None
+
+    @property
+    def shear_modulus(self) -> float:
+        return self.G if self.G is not None else self.E / 2.6
+
+    @property
+    def bending_stiffness(self) -> float:
+        """EI = E b h^3 / 12."""
+        return self.E * self.width * self.height**3 / 12.0
+
+    def arc_points(self, n: int) -> np.ndarray:
+        """``n + 1`` points along the arc from A to B in the joint frame, shape (n + 1, 2)."""
+        phi = np.linspace(0.0, self.angle, n + 1)
+        return self.radius * np.stack([np.sin(phi), 1.0 - np.cos(phi)], axis=1)
+
+    def interface_b(self, dim: int) -> np.ndarray:
+        return self.arc_points(1)[1]
+
+    def mesh(self, dim: int) -> JointMesh:
+        n = self.elements
+        side = np.full(n + 1, INTERNAL)
+        side[0], side[-1] = SIDE_A, SIDE_B
+        sec = rectangle(self.width, self.height, self.E, self.shear_modulus)
+        return JointMesh(points=self.arc_points(n), side=side,
+                         elements=np.stack([np.arange(n), np.arange(1, n + 1)], axis=1), sections=(sec,) * n)
+
+    def compliance(self) -> np.ndarray:
+        """C_f of Eq. (2): end displacement/rotation per end wrench, other end clamped (3, 3).
+
+        In the paper's end-section frame: x along the end tangent, y along the radius, so that for
+        r_f -> inf at r_f theta_f = L it tends to the straight cantilever
+        ``diag(0, L^3/3, L) / EI`` with the ``L^2/2`` coupling.
+        """
+        r, t = self.radius, self.angle
+        s, c, s2 = math.sin(t), math.cos(t), math.sin(2 * t)
+        C = np.array([
+            [r**3 / 4 * (6 * t + s2 - 8 * s), r**3 / 2 * (c * c - 2 * c + 1), r**2 * (t - s)],
+            [0.0, r**3 / 4 * (2 * t - s2), r**2 * (1 - c)],
+            [0.0, 0.0, r * t],
+        ])
+        C = np.triu(C) + np.triu(C, 1).T
+        return C / self.bending_stiffness
+
+    def stiffness(self) -> np.ndarray:
+        """K_f = C_f^-1 (3, 3), in the frame of `compliance`."""
+        return np.linalg.inv(self.compliance())

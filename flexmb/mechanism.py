@@ -11,7 +11,7 @@ from .errors import ModelError, ParameterError, TopologyError, UnsupportedStrate
 from .fe.beam2d import local_stiffness as local_stiffness_2d
 from .fe.beam3d import local_stiffness as local_stiffness_3d
 from .fe.model import BeamElements, FEModel
-from .joints._base import INTERNAL, SIDE_A, Joint
+from .joints._base import INTERNAL, SIDE_A, SIDE_B, Joint
 from .problem import PointLoads, StaticProblem
 from .registry import joint as make_joint
 from .rotations import expm_so3, rot2
@@ -67,7 +67,7 @@ class Mechanism:
     """
 
     def __init__(self, dim: int = 3):
-        if dim not in (2, 3):
+        if isinstance(dim, bool) or dim not in (2, 3) or not isinstance(dim, (int, np.integer)):
             raise ParameterError(f"Mechanism: dim={dim!r} must be 2 (planar) or 3 (spatial)")
         self.dim = dim
         self.graph = nx.MultiGraph()
@@ -87,7 +87,7 @@ class Mechanism:
     def link(self, name: str) -> Link:
         try:
             return self.graph.nodes[name]["link"]
-        except KeyError:
+        except (KeyError, TypeError):
             raise ModelError(f"no link named {name!r}; links: {', '.join(map(repr, self.graph.nodes)) or 'none'}") from None
 
     def add_link(self, name: str, position=None, *, fixed: bool = False) -> Link:
@@ -104,7 +104,7 @@ class Mechanism:
     def fix(self, name: str) -> None:
         """Fix a link to the ground (all its DOFs held at zero displacement)."""
         lk = self.link(name)
-        if name in self._prescribed:
+        if self._prescribed.get(name):
             raise ModelError(f"link {name!r} has a prescribed motion; a fixed link cannot have one")
         self.graph.nodes[name]["link"] = attrs.evolve(lk, fixed=True)
 
@@ -142,7 +142,10 @@ class Mechanism:
             return np.eye(self.dim)
         if self.dim == 2:
             return rot2(v.finite(where, "rotation", rotation))
-        r = np.asarray(rotation, dtype=float)
+        try:
+            r = np.asarray(rotation, dtype=float)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{where}: rotation={rotation!r} is not a rotation vector (3,) or matrix (3, 3)") from None
         if r.shape == (3, 3):
             if not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:
                 raise ParameterError(f"{where}: rotation matrix is not a proper rotation")
@@ -234,7 +237,7 @@ class Mechanism:
             if capability not in jt.capabilities:
                 raise UnsupportedStrategyError(
                     f"joint {key!r} ({jt.kind}) does not offer {capability!r}; it offers {sorted(jt.capabilities)}")
-            mesh = jt.mesh(dim)
+            mesh = _checked_mesh(key, jt, dim)
             pl: Placement = data["placement"]
             gx = pl.to_global(np.asarray(mesh.points, dtype=float))
             idx = np.empty(len(gx), dtype=np.int64)
@@ -265,6 +268,14 @@ class Mechanism:
         ex = chord / L0[:, None]
         if dim == 3:
             ny = np.array(ny)
+            # the cross-section axis must be perpendicular to the element: project, normalise
+            ny = ny - np.einsum("ei,ei->e", ny, ex)[:, None] * ex
+            norm = np.linalg.norm(ny, axis=1)
+            if np.any(~(norm > 1e-6)):
+                bad = int(np.flatnonzero(~(norm > 1e-6))[0])
+                raise ModelError(f"joint {list(joint_elements)[owner[bad]]!r}: element {bad}'s "
+                                 "ny0 is (nearly) parallel to its axis or zero; give the cross-section's local y axis")
+            ny = ny / norm[:, None]
             elements = BeamElements(ends, L0, local_stiffness_3d(sections, L0), tuple(sections), np.array(owner),
                                     ny0=ny, nz0=np.cross(ex, ny))
         else:
@@ -302,3 +313,21 @@ class Mechanism:
     def __repr__(self) -> str:
         return (f"Mechanism(dim={self.dim}, links={list(self.graph.nodes)}, "
                 f"joints={[f'{k}: {a}-{b}' for a, b, k in self.graph.edges(keys=True)]})")
+
+
+def _checked_mesh(key: str, joint: Joint, dim: int):
+    """The joint's `JointMesh`, checked for shapes and indices (a plugin's mistakes named here)."""
+    mesh = joint.mesh(dim)
+    where = f"joint {key!r} ({joint.kind})"
+    pts, side, el = np.asarray(mesh.points, dtype=float), np.asarray(mesh.side), np.asarray(mesh.elements)
+    if pts.ndim != 2 or pts.shape[1] != dim or not np.all(np.isfinite(pts)):
+        raise ModelError(f"{where}: mesh points must be a finite (n, {dim}) array, got shape {pts.shape}")
+    if side.shape != (len(pts),) or not np.isin(side, (INTERNAL, SIDE_A, SIDE_B)).all():
+        raise ModelError(f"{where}: mesh side must be ({len(pts)},) codes in (INTERNAL, SIDE_A, SIDE_B)")
+    if el.ndim != 2 or el.shape[1] != 2 or el.min(initial=0) < 0 or el.max(initial=0) >= len(pts):
+        raise ModelError(f"{where}: mesh elements must be (E, 2) indices into its {len(pts)} points")
+    if len(mesh.sections) != len(el):
+        raise ModelError(f"{where}: {len(mesh.sections)} sections for {len(el)} elements")
+    if dim == 3 and (mesh.ny0 is None or np.shape(mesh.ny0) != (len(el), 3)):
+        raise ModelError(f"{where}: a 3D mesh needs ny0 of shape ({len(el)}, 3)")
+    return mesh

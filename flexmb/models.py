@@ -6,6 +6,7 @@ from . import _validate as v
 from .joints.cross_flexure import CrossFlexure
 from .joints.leaf_spring import LeafSpring
 from .mechanism import Mechanism
+from .registry import joint_from_params
 
 __all__ = ["cantilever", "cross_flexure_pivot"]
 
@@ -19,7 +20,7 @@ def cross_flexure_pivot(elements_per_leaf: int = 3, dim: int = 3, rotation: floa
     about z is the moment of Fig. 7. ``joint_params`` go to `CrossFlexure`.
     """
     v.finite("cross_flexure_pivot", "rotation", rotation)
-    joint = CrossFlexure(elements_per_leaf=elements_per_leaf, **joint_params)
+    joint = joint_from_params(CrossFlexure, elements_per_leaf=elements_per_leaf, **joint_params)
     m = Mechanism(dim=dim)
     m.add_link("A", fixed=True)
     m.add_link("B", position=joint.interface_b(dim))
@@ -37,7 +38,7 @@ def cantilever(elements: int = 8, dim: int = 2, **leaf_params) -> Mechanism:
     The beam runs along +x from the origin; load the tip with `Mechanism.apply_force` /
     `apply_moment`. ``leaf_params`` go to `LeafSpring` (defaults: 0.1 x 0.02 x 0.001 m steel).
     """
-    leaf = LeafSpring(elements=elements, **leaf_params)
+    leaf = joint_from_params(LeafSpring, elements=elements, **leaf_params)
     m = Mechanism(dim=dim)
     m.add_link("ground", fixed=True)
     m.add_link("tip", position=leaf.interface_b(dim))

@@ -63,7 +63,12 @@ def joint(name: str, **params) -> Joint:
     known = available_joints()
     if name not in known:
         raise UnknownJointError(f"unknown joint {name!r}; known joints: {', '.join(sorted(known)) or 'none'}")
-    cls = known[name]
+    return joint_from_params(known[name], **params)
+
+
+def joint_from_params(cls: type, **params) -> Joint:
+    """``cls(**params)``, with unknown or missing parameters reported as `ParameterError`."""
+    name = getattr(cls, "kind", cls.__name__)
     if attrs.has(cls):
         valid = {a.alias for a in attrs.fields(cls) if a.init}
         unknown = sorted(set(params) - valid)

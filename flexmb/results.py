@@ -32,6 +32,9 @@ class Solution:
         Seconds per phase, e.g. ``{"assemble": ..., "solve": ..., "total": ...}``.
     message
         Why the solver stopped.
+    stable
+        True when the converged equilibrium is stable (free tangent positive definite), False when
+        not, None when not checked (not converged, or more than 3000 free DOFs).
     state
         Nodal configuration (internal use; see `pose`, `node_positions`).
     """
@@ -49,6 +52,7 @@ class Solution:
     residual: np.ndarray = attrs.field(repr=False)
     compiled: object = attrs.field(repr=False)
     tolerance: float = 5e-7
+    stable: bool | None = None
 
     @property
     def dim(self) -> int:
@@ -57,7 +61,7 @@ class Solution:
     def _node(self, link: str) -> int:
         try:
             return self.compiled.link_node[link]
-        except KeyError:
+        except (KeyError, TypeError):
             raise ModelError(f"no link named {link!r}; links: {', '.join(self.compiled.link_node)}") from None
 
     def pose(self, link: str):

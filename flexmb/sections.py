@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 
 import attrs
 import numpy as np
@@ -63,7 +64,7 @@ class Section:
             v.positive("Section", name, getattr(self, name))
         for name in ("ky", "kz"):  # inf is allowed: no shear deformation
             val = getattr(self, name)
-            if not (isinstance(val, (int, float, np.floating)) and val > 0):
+            if not (isinstance(val, numbers.Real) and not isinstance(val, bool) and val > 0):
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
 
 

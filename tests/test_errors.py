@@ -579,3 +579,41 @@ def test_failed_solve_leaves_the_mechanism_unchanged_and_usable():
     np.testing.assert_allclose(again.node_positions(), fresh.node_positions(), rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(again.reaction("B"), fresh.reaction("B"), rtol=1e-12, atol=1e-9)
     np.testing.assert_allclose(again.pose("B")[1], fresh.pose("B")[1], rtol=1e-12, atol=1e-15)
+
+
+# -- found in review: bare exceptions from public calls -------------------------------------------
+
+@pytest.mark.parametrize("call", [
+    lambda m: m.add_joint("A", "B", flexmb.LeafSpring(), rotation="abc"),
+    lambda m: m.add_joint("A", "B", flexmb.LeafSpring(), rotation=[[1, 0], [0]]),
+    lambda m: m.link(["A"]),
+    lambda m: flexmb.solve(None),
+    lambda m: flexmb.models.cross_flexure_pivot(lenght=0.1),
+    lambda m: flexmb.models.cantilever(lenght=0.1),
+    lambda m: flexmb.Mechanism(dim=2.0),
+    lambda m: flexmb.solve(m, min_step=2.0),
+    lambda m: flexmb.solve(m, divergence=0.5),
+    lambda m: flexmb.solve(m, raise_on_failure="no"),
+])
+def test_review_findings_raise_flexmb_errors(call):
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=(0.1, 0, 0))
+    with pytest.raises(flexmb.FlexmbError):
+        call(m)
+
+
+def test_plugin_mesh_with_cross_section_axis_along_the_element_is_refused():
+    import attrs
+
+    class Bad(flexmb.LeafSpring):
+        def mesh(self, dim):
+            mesh = super().mesh(dim)
+            return attrs.evolve(mesh, ny0=np.tile([1.0, 0.0, 0.0], (len(mesh.elements), 1)))
+
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=(0.1, 0, 0))
+    m.add_joint("A", "B", Bad(), name="bad")
+    with pytest.raises(flexmb.ModelError, match="'bad'.*ny0"):
+        flexmb.solve(m)

@@ -90,3 +90,46 @@ def test_reactions_balance_the_applied_loads():
     tip = sol.pose("tip")[0]
     np.testing.assert_allclose(R[:3] + f, 0.0, atol=1e-6)
     np.testing.assert_allclose(R[3:] + np.cross(tip, f), 0.0, atol=1e-6)
+
+
+def test_an_unstable_equilibrium_is_flagged_not_hidden():
+    """2D cross flexure at 270 deg in one step lands on an unstable branch (found in review: the
+    strain energy 512 J vs 428 J on the stable branch reached in small steps). Both are equilibria;
+    the solution must say which one is stable (Cholesky of the free tangent)."""
+    m = flexmb.models.cross_flexure_pivot(elements_per_leaf=3, dim=2, rotation=np.radians(270))
+    jump = flexmb.solve(m, initial_step=1.0)
+    walk = flexmb.solve(m, initial_step=0.02)
+    assert jump.converged and walk.converged
+    assert jump.stable is False and "UNSTABLE" in jump.message
+    assert walk.stable is True
+    assert walk.strain_energy() < jump.strain_energy()
+
+
+def test_global_equilibrium_of_a_loop_with_offsets_and_prescribed_links():
+    """Sum of all support/actuator reactions + applied loads = 0, moments about the origin included,
+    on a closed loop with rigid offsets, an offset load, a moment and a prescribed link."""
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("ground", fixed=True)
+    cf = flexmb.CrossFlexure(elements_per_leaf=2)
+    b = cf.interface_b(3)
+    m.add_link("arm", position=b)
+    m.add_joint("ground", "arm", cf, name="hinge")
+    m.add_link("hand", position=b + [0.15, 0, 0])
+    m.add_joint("arm", "hand", flexmb.LeafSpring(length=0.15, elements=3), origin=b, name="leaf")
+    m.add_joint("ground", "hand", flexmb.LeafSpring(length=b[1], elements=3), origin=(0.15, 0, 0),
+                rotation=(0, 0, np.pi / 2), name="post")
+    f, p = np.array([5.0, -8.0, 2.0]), b + [0.17, 0.02, 0.01]
+    mz = np.array([0.1, -0.2, 0.3])
+    m.apply_force("hand", f, point=p)
+    m.apply_moment("arm", mz)
+    m.prescribe("arm", x=2e-3, z=1e-3)
+    sol = flexmb.solve(m)
+    assert sol.converged
+    F = sol.reaction("ground")[:3] + sol.reaction("arm")[:3] + f
+    arm = sol.pose("arm")[0]
+    hand, R_hand = sol.pose("hand")
+    p_now = hand + R_hand @ (p - (b + [0.15, 0, 0]))
+    M = (sol.reaction("ground")[3:] + sol.reaction("arm")[3:] + np.cross(arm, sol.reaction("arm")[:3])
+         + np.cross(p_now, f) + mz)
+    np.testing.assert_allclose(F, 0.0, atol=2e-6)
+    np.testing.assert_allclose(M, 0.0, atol=2e-6)

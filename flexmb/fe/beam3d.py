@@ -106,6 +106,11 @@ def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool
         Rows of elements outside the formulation's validity (a node's axis 90 degrees or more
         from the chord, or the end sections twisted 90 degrees or more apart) are NaN.
     """
+    with np.errstate(divide="ignore", invalid="ignore"):  # invalid states come out as NaN rows
+        return _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent)
+
+
+def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent):
     nE = len(L0)
     l, nl, pyv, pzv, qyv, qzv = _vectors(xp, xq, Rp, Rq, ny0, nz0)
     P = _EYE - _outer(nl, nl)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..errors import ParameterError, UnsupportedStrategyError
+from ..errors import ModelError, ParameterError, UnsupportedStrategyError
 from .conventional import Conventional
 
 __all__ = ["solve", "STRATEGIES", "Conventional"]
@@ -35,4 +35,6 @@ def solve(mechanism, method: str | object = "conventional", **options):
         if options:
             raise UnsupportedStrategyError("options are given with a method name, not with a strategy instance")
         strategy = method
+    if not hasattr(mechanism, "compile"):
+        raise ModelError(f"solve() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
     return strategy.solve(mechanism.compile())

@@ -20,7 +20,26 @@ from ..fe.model import State
 from ..problem import StaticProblem
 from ..results import Solution
 
-__all__ = ["Conventional", "newton_steps"]
+__all__ = ["Conventional", "newton_steps", "is_stable"]
+
+
+def is_stable(K) -> bool | None:
+    """Positive definiteness of the symmetric part of ``K_ff`` (Cholesky); None above 3000 DOFs.
+
+    At an equilibrium under dead loads K_ff is the Hessian of the potential energy restricted to
+    the free DOFs: positive definite means a stable equilibrium under the prescribed motion.
+    """
+    n = K.shape[0]
+    if n == 0:
+        return True
+    if n > 3000:
+        return None
+    A = K.toarray()
+    try:
+        np.linalg.cholesky(0.5 * (A + A.T))
+    except np.linalg.LinAlgError:
+        return False
+    return True
 
 
 def positive_float(instance, attribute, value):
@@ -29,6 +48,16 @@ def positive_float(instance, attribute, value):
 
 def positive_int(instance, attribute, value):
     v.integer(type(instance).name, attribute.name, value, 1)
+
+
+def above_one(instance, attribute, value):
+    if not v.finite(type(instance).name, attribute.name, value) > 1.0:
+        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} outside the valid range (1, inf)")
+
+
+def boolean(instance, attribute, value):
+    if not isinstance(value, (bool, np.bool_)):
+        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} must be True or False")
 
 
 def unit_interval(instance, attribute, value):
@@ -60,10 +89,10 @@ class Conventional:
     name: ClassVar[str] = "conventional"
     tol: float = attrs.field(default=5e-7, validator=positive_float)
     max_iter: int = attrs.field(default=20, validator=positive_int)
-    divergence: float = attrs.field(default=1e3, validator=positive_float)
-    min_step: float = attrs.field(default=1e-5, validator=positive_float)
+    divergence: float = attrs.field(default=1e3, validator=above_one)
+    min_step: float = attrs.field(default=1e-5, validator=unit_interval)
     initial_step: float = attrs.field(default=1.0, validator=unit_interval)
-    raise_on_failure: bool = False
+    raise_on_failure: bool = attrs.field(default=False, validator=boolean)
 
     def solve(self, compiled, *, state: State | None = None) -> Solution:
         t0 = time.perf_counter()
@@ -146,7 +175,12 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
             steps += 1
             if lam >= 1.0 - 1e-14:
                 lam = 1.0
-                return finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
+                out = finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
+                out["stable"] = is_stable(Kff)
+                if out["stable"] is False:
+                    out["message"] += ("; the equilibrium is UNSTABLE (tangent not positive definite): another "
+                                       "branch may be the physical one, try initial_step < 1")
+                return out
             easy = it <= 4
             dlam = min(2.0 * dlam if easy else dlam, 1.0 - lam)
         elif stalled is not None:

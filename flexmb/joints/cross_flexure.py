@@ -124,7 +124,7 @@ class CrossFlexure(Joint):
             sec = rectangle(width, self.thickness, self.E, self.G)
             secs += [sec] * n
             if dim == 3:
-                ex = (end - start) / np.linalg.norm(end - start)
+                ex = (end - start) / self.length  # every leaf has length L by construction
                 ny += [np.cross([0.0, 0.0, 1.0], ex)] * n  # width along z, thickness in-plane
         return JointMesh(
             points=np.array(pts),

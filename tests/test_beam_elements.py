@@ -6,7 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from flexmb.fe import beam2d, beam3d
-from flexmb.rotations import expm_so3, rot2
+from flexmb.rotations import expm_so3
 from flexmb.sections import rectangle
 from tolerances import FD_TANGENT
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..rotations import expm_so3, rot2, skew
 from . import beam2d, beam3d
-from .assembly import SparsePattern, scatter_add
+from .assembly import scatter_add
 
 __all__ = ["State", "BeamElements", "FEModel"]
 

@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 from . import _validate as v
+import numpy as np
+
+from .errors import ParameterError
 from .joints.cross_flexure import CrossFlexure
+from .joints.curved_beam import CurvedBeam
 from .joints.leaf_spring import LeafSpring
 from .mechanism import Mechanism
 from .registry import joint_from_params
 
-__all__ = ["cantilever", "cross_flexure_pivot"]
+__all__ = ["cantilever", "cross_flexure_pivot", "gripper"]
 
 
 def cross_flexure_pivot(elements_per_leaf: int = 3, dim: int = 3, rotation: float = 0.0, **joint_params) -> Mechanism:
@@ -43,4 +47,50 @@ def cantilever(elements: int = 8, dim: int = 2, **leaf_params) -> Mechanism:
     m.add_link("ground", fixed=True)
     m.add_link("tip", position=leaf.interface_b(dim))
     m.add_joint("ground", "tip", leaf, name="leaf")
+    return m
+
+
+#: Cammarata et al. (2022), Table 1 [mm]: centres of mass, hinge centres, local base vectors.
+GRIPPER_TABLE_1 = {
+    "G2": (1.5, 0.2), "G3": (1.8, 1.5), "G4": (1.0, 1.5),
+    "O_a": (0.5, 0.0), "O_b": (1.8478, 0.7654), "O_c": (1.1928, 1.9), "O_d": (0.5, 1.5),
+    "s_1a": (0.6848, 0.0765), "s_2a": (-0.8413, -0.3218), "s_2b": (0.2139, 0.7140),
+    "s_3b": (0.0408, -0.5348), "s_3c": (-0.4140, 0.3482), "s_3EE": (-1.3571, 1.6991),
+    "s_4c": (0.3342, 0.2586), "s_4d": (-0.6000, -0.1732), "s_1d": (0.3714, 1.6532),
+    "radius": 0.2, "angles_deg": (300.0, 320.0, 330.0, 250.0), "b": 0.025, "h": 0.005,
+}
+#: Young's moduli [uN/mm^2] (1 GPa = 1e9 uN/mm^2): silicon 100 GPa, nylon 3.84 GPa (Sec. 5.1).
+GRIPPER_MATERIALS = {"silicon": 100e9, "nylon": 3.84e9}
+
+
+def gripper(material: str = "silicon", force: float = 0.0, elements: int = 16) -> Mechanism:
+    """The MEMS gripper of Cammarata et al. (2022), Sec. 5, Table 1, in mm and uN.
+
+    Rigid bodies ``"body1"`` (fixed, frame at the origin) ... ``"body4"`` (reference points at the
+    centres of mass G2, G3, G4), joined by four circular curved beams a (1-2), b (2-3), c (3-4),
+    d (4-1), each running counter-clockwise from the first body's attachment point to the
+    second's. The actuation force ``force`` [uN] acts on body 2 at G2 along +y; the named point
+    ``"end_effector"`` on body 3 is G3 + s_3EE. The curved beams are flexmb's finite-element arcs
+    (``elements`` each), solved by ``method="conventional"``.
+    """
+    if material not in GRIPPER_MATERIALS:
+        raise ParameterError(f"gripper: material={material!r}; valid: {sorted(GRIPPER_MATERIALS)}")
+    t = {k: np.asarray(x, dtype=float) if not isinstance(x, (float, int)) else x for k, x in GRIPPER_TABLE_1.items()}
+    origin = {"body1": np.zeros(2), "body2": t["G2"], "body3": t["G3"], "body4": t["G4"]}
+    m = Mechanism(dim=2)
+    m.add_link("body1", fixed=True)
+    for name in ("body2", "body3", "body4"):
+        m.add_link(name, position=origin[name])
+    hinges = (("a", "body1", "body2", "s_1a", "s_2a"), ("b", "body2", "body3", "s_2b", "s_3b"),
+              ("c", "body3", "body4", "s_3c", "s_4c"), ("d", "body4", "body1", "s_4d", "s_1d"))
+    for (h, bi, bj, si, sj), deg in zip(hinges, t["angles_deg"]):
+        beam, placement = CurvedBeam.through(t[f"O_{h}"], origin[bi] + t[si], origin[bj] + t[sj],
+                                             E=GRIPPER_MATERIALS[material], width=t["b"], height=t["h"],
+                                             elements=elements)
+        if abs(np.degrees(beam.angle) - deg) > 0.5:  # Table 1 lists the angles: the geometry must agree
+            raise ParameterError(f"gripper: hinge {h} spans {np.degrees(beam.angle):.2f} deg, Table 1 says {deg}")
+        m.add_joint(bi, bj, beam, name=h, **placement)
+    m.add_point("body3", "end_effector", t["G3"] + t["s_3EE"])
+    if force:
+        m.apply_force("body2", (0.0, force))
     return m

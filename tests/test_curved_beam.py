@@ -90,3 +90,50 @@ def test_large_rotation_of_the_fe_arc_converges():
     n, t = 24, beam.angle
     expected = np.radians(30) * 2 * n * np.sin(t / (2 * n)) / t
     assert abs(sol.pose("A")[1] - expected) < 1e-6
+
+
+def test_through_places_the_arc_on_its_hinge_centre_and_attachment_points():
+    """Table 1 hinge a: centre (0.5, 0), attachments on body 1 (0.6848, 0.0765) and body 2
+    (G2 + s_2a = (0.6587, -0.1218)): radius 0.2 mm, 300 degrees counter-clockwise."""
+    beam, placement = flexmb.CurvedBeam.through((0.5, 0.0), (0.6848, 0.0765), (0.6587, -0.1218),
+                                                E=1e11, width=0.025, height=0.005)
+    assert abs(beam.radius - 0.2) < 1e-4 and abs(np.degrees(beam.angle) - 300.0) < 0.1
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("one", fixed=True)
+    m.add_link("two", position=(1.5, 0.2))
+    m.add_joint("one", "two", beam, **placement)
+    x = m.compile().problem.model.point_x0
+    np.testing.assert_allclose(np.linalg.norm(x[2:] - [0.5, 0.0], axis=1), beam.radius, rtol=1e-12)
+    np.testing.assert_allclose(x[-1], [0.6587, -0.1218], atol=2e-4)  # ends where Table 1 says
+
+
+def test_through_reports_inconsistent_attachment_points_and_by_how_much():
+    with pytest.raises(flexmb.ParameterError, match=r"inconsistent with one radius by \+0.05"):
+        flexmb.CurvedBeam.through((0.0, 0.0), (0.2, 0.0), (0.0, 0.25), E=1e11, width=0.025, height=0.005)
+
+
+def test_gripper_geometry_matches_table_1_and_rests_in_equilibrium():
+    m = flexmb.models.gripper()
+    assert sorted(m.joints) == ["a", "b", "c", "d"]
+    angles = [np.degrees(m.joints[h].angle) for h in "abcd"]
+    np.testing.assert_allclose(angles, [300, 320, 330, 250], atol=0.5)  # Table 1
+    sol = flexmb.solve(m)
+    assert sol.converged and sol.iterations <= 1
+    np.testing.assert_allclose(sol.point("body3", "end_effector"), [1.8 - 1.3571, 1.5 + 1.6991], atol=1e-12)
+
+
+def test_gripper_fe_closing_force_scales_with_youngs_modulus():
+    """Rigid bodies + elastic beams of one material: the equilibrium depends on F / E only, so the
+    closing force (end-effector x = 0) of nylon is exactly 3.84/100 of silicon's (Sec. 5.1 moduli)."""
+    from scipy.optimize import brentq
+
+    def closing(material, hi):
+        def x(F):
+            return flexmb.solve(flexmb.models.gripper(material, force=F, elements=8),
+                                raise_on_failure=True).point("body3", "end_effector")[0]
+        return brentq(x, 0.0, hi, xtol=1e-9 * hi)
+
+    si = closing("silicon", 200.0)
+    ny = closing("nylon", 200.0 * 0.0384)
+    assert 60.0 < si < 80.0  # measured: 71.96 uN at 8 elements/beam, 69.85 uN extrapolated
+    assert abs(ny / si - 0.0384) < 1e-6

@@ -97,6 +97,30 @@ class CurvedBeam(Joint):
         return JointMesh(points=self.arc_points(n), side=side,
                          elements=np.stack([np.arange(n), np.arange(1, n + 1)], axis=1), sections=(sec,) * n)
 
+    @classmethod
+    def through(cls, center, start, end, *, rtol: float = 2e-3, **params) -> tuple[CurvedBeam, dict]:
+        """The arc about ``center`` running counter-clockwise from ``start`` (on the A-side link) to
+        ``end`` (B side), and the placement for `Mechanism.add_joint` (Table 1 style input).
+
+        Returns ``(joint, placement)``; use ``m.add_joint(a, b, joint, **placement)``. The radius is
+        ``|start - center|``; ``|end - center|`` must agree within ``rtol`` (relative), else a
+        `ParameterError` says by how much. ``params`` go to the constructor (E, width, height, ...).
+        """
+        c, p0, p1 = (v.vector("curved_beam", n, x, 2) for n, x in (("center", center), ("start", start), ("end", end)))
+        r0, r1 = np.linalg.norm(p0 - c), np.linalg.norm(p1 - c)
+        if not r0 > 0:
+            raise ParameterError("curved_beam: start coincides with the hinge centre")
+        if abs(r1 - r0) > rtol * r0:
+            raise ParameterError(
+                f"curved_beam: end is {r1:.6g} from the hinge centre but start is {r0:.6g}: the attachment "
+                f"points are inconsistent with one radius by {r1 - r0:+.3g} ({(r1 - r0) / r0:+.2%}; tolerance {rtol:.1%})")
+        a0 = math.atan2(*(p0 - c)[::-1])
+        a1 = math.atan2(*(p1 - c)[::-1])
+        angle = (a1 - a0) % (2 * math.pi)
+        joint = cls(radius=float(r0), angle=angle, **params)
+        # joint frame: node A at start, +x along the counter-clockwise tangent there
+        return joint, {"origin": p0, "rotation": a0 + math.pi / 2}
+
     def compliance(self) -> np.ndarray:
         """C_f of Eq. (2): end displacement/rotation per end wrench, other end clamped (3, 3).
 

@@ -79,9 +79,9 @@ def rectangle(width: float, thickness: float, E: float, G: float) -> Section:
     thickness = v.positive("rectangle", "thickness", thickness)
     E = v.positive("rectangle", "E", E)
     G = v.positive("rectangle", "G", G)
+    w, t = np.float64(width), np.float64(thickness)  # numpy floats overflow to inf, checked below
     with np.errstate(over="ignore", under="ignore"):
-        props = dict(A=width * thickness, Iy=thickness * float(width) ** 3 / 12.0 if width < 1e100 else np.inf,
-                     Iz=width * float(thickness) ** 3 / 12.0 if thickness < 1e100 else np.inf)
+        props = dict(A=float(w * t), Iy=float(t * w**3 / 12.0), Iz=float(w * t**3 / 12.0))
     v.finite_model(f"rectangle {width:g} x {thickness:g} m", props)
     nu = E / (2.0 * G) - 1.0
     if not -1.0 < nu < 0.5:

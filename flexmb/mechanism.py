@@ -10,8 +10,10 @@ from . import _validate as v
 from .errors import ModelError, ParameterError, TopologyError, UnsupportedStrategyError
 from .fe.beam2d import local_stiffness as local_stiffness_2d
 from .fe.beam3d import local_stiffness as local_stiffness_3d
+from .closed_form.flexures import FlexureSet
+from .closed_form.problem import LinkageModel, LinkageProblem
 from .fe.model import BeamElements, FEModel
-from .joints._base import INTERNAL, SIDE_A, SIDE_B, Joint
+from .joints._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint
 from .problem import PointLoads, StaticProblem
 from .registry import joint as make_joint
 from .rotations import expm_so3, rot2
@@ -47,6 +49,7 @@ class Compiled:
     link_node: dict
     points: dict  # named points: name -> (link, offset)
     joint_elements: dict  # joint name -> element indices
+    actuation: tuple | None = None  # (row of the actuation in problem.loads, unit direction)
 
 
 class Mechanism:
@@ -74,6 +77,7 @@ class Mechanism:
         self._loads: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = []
         self._prescribed: dict[str, dict[str, float | np.ndarray]] = {}
         self._points: dict[str, tuple[str, np.ndarray]] = {}
+        self._actuation: tuple[str, np.ndarray, np.ndarray, float] | None = None
 
     # -- building ----------------------------------------------------------------------------
     @property
@@ -195,7 +199,31 @@ class Mechanism:
         self._loads.append((name, np.zeros(self.dim), np.zeros(self.dim), m))
 
     def clear_loads(self) -> None:
+        """Remove the applied forces and moments (the actuation stays; set its value to 0 to remove it)."""
         self._loads.clear()
+
+    def set_actuation(self, link: str, direction, value: float = 0.0, point=None) -> None:
+        """Declare the actuation force: ``value`` [N] along the unit vector ``direction`` (global,
+        dead load) at ``point`` [m] of ``link`` (undeformed position; default its reference point).
+
+        It acts with the other loads; `flexmb.sweep` varies ``value``. Replaces an earlier actuation.
+        """
+        lk = self.link(link)
+        where = f"actuation on link {link!r}"
+        d = v.vector(where, "direction", direction, self.dim)
+        norm = float(np.linalg.norm(d))
+        if not norm > 0.0:
+            raise ParameterError(f"{where}: direction={direction!r} must be a non-zero vector")
+        p = lk.position if point is None else v.vector(where, "point", point, self.dim)
+        self._actuation = (link, p - lk.position, d / norm, v.finite(where, "value", value))
+
+    @property
+    def actuation(self) -> dict | None:
+        """The declared actuation (link, point offset [m], unit direction, value [N]) or None."""
+        if self._actuation is None:
+            return None
+        link, offset, d, val = self._actuation
+        return {"link": link, "offset": offset.copy(), "direction": d.copy(), "value": val}
 
     def add_point(self, link: str, name: str, position) -> None:
         """Name a point of a link (undeformed global position [m]), e.g. an end-effector."""
@@ -221,8 +249,11 @@ class Mechanism:
                 raise TopologyError(f"link {n!r} has no joint")
 
     def compile(self, capability: str = "fe_model") -> Compiled:
-        """Build the full finite-element `StaticProblem` of the mechanism."""
+        """Build the full finite-element `StaticProblem` of the mechanism (``"fe_model"``) or the
+        links-only closed-form `LinkageProblem` (``"closed_form"``, planar)."""
         self.check()
+        if capability == "closed_form":
+            return self._compile_closed_form()
         dim = self.dim
         ndof = 3 if dim == 2 else 6
         names = list(self.graph.nodes)
@@ -283,6 +314,17 @@ class Mechanism:
                                     alpha0=np.arctan2(ex[:, 1], ex[:, 0]))
         model = FEModel(dim, np.array(node_x0), np.array(pt_master), pt_x0, elements)
 
+        pres, vals, loads = self._boundary(link_node)
+        return Compiled(StaticProblem(model, pres, vals, loads), link_node, dict(self._points), joint_elements,
+                        self._actuation_row(loads))
+
+    def _actuation_row(self, loads: PointLoads) -> tuple | None:
+        return None if self._actuation is None else (len(loads.node) - 1, self._actuation[2].copy())
+
+    def _boundary(self, link_node: dict):
+        """Prescribed DOFs (sorted), their values and the `PointLoads`, for links numbered by ``link_node``."""
+        dim = self.dim
+        ndof = 3 if dim == 2 else 6
         pres, vals = [], []
         comp = {"x": 0, "y": 1, "z": 2}
         for n, lk in self.links.items():
@@ -300,15 +342,48 @@ class Mechanism:
                     vals.append(val)
         order = np.argsort(pres)
         nrot = ndof - dim
+        rows = list(self._loads)
+        if self._actuation is not None:  # the last row, so that sweeps can replace it
+            link, offset, d, val = self._actuation
+            rows.append((link, offset, val * d, np.zeros(nrot)))
         loads = PointLoads(
-            node=np.array([link_node[n] for n, *_ in self._loads], dtype=np.int64),
-            offset=np.array([o for _, o, _, _ in self._loads]).reshape(-1, dim),
-            force=np.array([f for *_, f, _ in self._loads]).reshape(-1, dim),
-            moment=np.array([m for *_, m in self._loads]).reshape(-1, nrot),
+            node=np.array([link_node[n] for n, *_ in rows], dtype=np.int64),
+            offset=np.array([o for _, o, _, _ in rows]).reshape(-1, dim),
+            force=np.array([f for *_, f, _ in rows]).reshape(-1, dim),
+            moment=np.array([m for *_, m in rows]).reshape(-1, nrot),
         )
-        problem = StaticProblem(model, np.array(pres, dtype=np.int64)[order], np.array(vals, dtype=float)[order],
-                                loads)
-        return Compiled(problem, link_node, dict(self._points), joint_elements)
+        return np.array(pres, dtype=np.int64)[order], np.array(vals, dtype=float)[order], loads
+
+    def _compile_closed_form(self) -> Compiled:
+        """The links-only model of Cammarata et al. (2022): every joint a constant-stiffness flexure."""
+        if self.dim != 2:
+            raise UnsupportedStrategyError("the closed-form (method='newton') model is planar: use a dim=2 mechanism")
+        names = list(self.graph.nodes)
+        link_node = {n: i for i, n in enumerate(names)}
+        x0 = np.array([self.links[n].position for n in names]).reshape(-1, 2)
+        rows = []
+        for a, b, key, data in self.graph.edges(keys=True, data=True):
+            jt: Joint = data["joint"]
+            if "closed_form" not in jt.capabilities:
+                raise UnsupportedStrategyError(
+                    f"joint {key!r} ({jt.kind}) has no closed-form model (method='newton'); it offers "
+                    f"{sorted(jt.capabilities)}: use method='conventional'")
+            cf = _checked_closed_form(key, jt)
+            side_a, side_b = data["sides"]
+            pl: Placement = data["placement"]
+            ia, ib = link_node[side_a], link_node[side_b]
+            end = pl.to_global(cf.end)
+            B_j = pl.rotation @ rot2(cf.end_angle)
+            rows.append((ia, ib, pl.origin - x0[ia], end - x0[ib], pl.rotation, B_j, rot2(cf.end_angle),
+                         rot2(cf.end_angle).T @ cf.end, pl.rotation @ cf.end, cf.stiffness,
+                         cf.model == "partial-nonlinear"))
+        if not rows:
+            raise TopologyError("the mechanism has no joints")
+        cols = [np.array(c) for c in zip(*rows)]
+        flex = FlexureSet(*[c.astype(np.int64) if k < 2 else c for k, c in enumerate(cols)])
+        pres, vals, loads = self._boundary(link_node)
+        problem = LinkageProblem(LinkageModel(x0, flex), pres, vals, loads)
+        return Compiled(problem, link_node, dict(self._points), {}, self._actuation_row(loads))
 
     def __repr__(self) -> str:
         return (f"Mechanism(dim={self.dim}, links={list(self.graph.nodes)}, "
@@ -331,3 +406,17 @@ def _checked_mesh(key: str, joint: Joint, dim: int):
     if dim == 3 and (mesh.ny0 is None or np.shape(mesh.ny0) != (len(el), 3)):
         raise ModelError(f"{where}: a 3D mesh needs ny0 of shape ({len(el)}, 3)")
     return mesh
+
+
+def _checked_closed_form(key: str, joint: Joint) -> ClosedForm:
+    """The joint's `ClosedForm`, checked (a plugin's mistakes named here)."""
+    cf = joint.closed_form(2)
+    where = f"joint {key!r} ({joint.kind})"
+    K = np.asarray(cf.stiffness, dtype=float)
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)):
+        raise ModelError(f"{where}: closed-form stiffness must be a finite (3, 3) array, got shape {K.shape}")
+    if np.shape(cf.end) != (2,) or not np.all(np.isfinite(cf.end)) or not np.isfinite(cf.end_angle):
+        raise ModelError(f"{where}: closed-form end must be a finite (2,) position and a finite angle")
+    if cf.model not in FLEXURE_MODELS:
+        raise ModelError(f"{where}: closed-form model {cf.model!r}; valid: {', '.join(FLEXURE_MODELS)}")
+    return ClosedForm(K, np.asarray(cf.end, dtype=float), float(cf.end_angle), cf.model)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-from . import _validate as v
+import attrs
 import numpy as np
+
+from . import _validate as v
 
 from .errors import ParameterError
 from .joints.cross_flexure import CrossFlexure
@@ -63,15 +65,22 @@ GRIPPER_TABLE_1 = {
 GRIPPER_MATERIALS = {"silicon": 100e9, "nylon": 3.84e9}
 
 
-def gripper(material: str = "silicon", force: float = 0.0, elements: int = 16) -> Mechanism:
+def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: float = 0.0,
+            elements: int = 16) -> Mechanism:
     """The MEMS gripper of Cammarata et al. (2022), Sec. 5, Table 1, in mm and uN.
 
     Rigid bodies ``"body1"`` (fixed, frame at the origin) ... ``"body4"`` (reference points at the
     centres of mass G2, G3, G4), joined by four circular curved beams a (1-2), b (2-3), c (3-4),
-    d (4-1), each running counter-clockwise from the first body's attachment point to the
-    second's. The actuation force ``force`` [uN] acts on body 2 at G2 along +y; the named point
-    ``"end_effector"`` on body 3 is G3 + s_3EE. The curved beams are flexmb's finite-element arcs
-    (``elements`` each), solved by ``method="conventional"``.
+    d (4-1). Each beam is an arc of Table 1's radius (0.2 mm) and angle about its hinge centre,
+    running counter-clockwise from the first body's attachment point (s_1a, s_2b, s_3c, s_4d);
+    its end lands on the second body's attachment point within 2e-4 mm (checked). This is the
+    construction of the paper: its Table 2 is reproduced to all printed digits.
+
+    The actuation (`Mechanism.actuation`, swept by `flexmb.sweep`) is the force ``force`` [uN] on
+    body 2 at G2 along +y; the named point ``"end_effector"`` on body 3 is G3 + s_3EE.
+    ``model`` ("linear" | "partial-nonlinear") selects the wrench model of the closed form
+    (``method="newton"``); ``elements`` is the number of beam elements per arc in flexmb's fully
+    non-linear finite-element model (``method="conventional"``).
     """
     if material not in GRIPPER_MATERIALS:
         raise ParameterError(f"gripper: material={material!r}; valid: {sorted(GRIPPER_MATERIALS)}")
@@ -84,13 +93,18 @@ def gripper(material: str = "silicon", force: float = 0.0, elements: int = 16) -
     hinges = (("a", "body1", "body2", "s_1a", "s_2a"), ("b", "body2", "body3", "s_2b", "s_3b"),
               ("c", "body3", "body4", "s_3c", "s_4c"), ("d", "body4", "body1", "s_4d", "s_1d"))
     for (h, bi, bj, si, sj), deg in zip(hinges, t["angles_deg"]):
-        beam, placement = CurvedBeam.through(t[f"O_{h}"], origin[bi] + t[si], origin[bj] + t[sj],
+        center = t[f"O_{h}"]
+        # through() checks that both attachment points lie on one circle about the hinge centre
+        beam, placement = CurvedBeam.through(center, origin[bi] + t[si], origin[bj] + t[sj],
                                              E=GRIPPER_MATERIALS[material], width=t["b"], height=t["h"],
-                                             elements=elements)
+                                             elements=elements, model=model)
         if abs(np.degrees(beam.angle) - deg) > 0.5:  # Table 1 lists the angles: the geometry must agree
             raise ParameterError(f"gripper: hinge {h} spans {np.degrees(beam.angle):.2f} deg, Table 1 says {deg}")
+        start_dir = placement["rotation"] - np.pi / 2  # direction of the first attachment from the centre
+        beam = attrs.evolve(beam, radius=t["radius"], angle=np.radians(deg))
+        placement = {"origin": center + t["radius"] * np.array([np.cos(start_dir), np.sin(start_dir)]),
+                     "rotation": placement["rotation"]}
         m.add_joint(bi, bj, beam, name=h, **placement)
     m.add_point("body3", "end_effector", t["G3"] + t["s_3EE"])
-    if force:
-        m.apply_force("body2", (0.0, force))
+    m.set_actuation("body2", (0.0, 1.0), value=force)
     return m

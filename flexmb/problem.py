@@ -7,6 +7,8 @@ give a load stiffness (their moment arm turns with the node), included in the ta
 
 from __future__ import annotations
 
+import copy
+
 import attrs
 import numpy as np
 import scipy.sparse as sp
@@ -15,7 +17,7 @@ from scipy.sparse.linalg import spsolve
 from .fe.assembly import SparsePattern, scatter_add
 from .fe.model import FEModel, State
 
-__all__ = ["PointLoads", "StaticProblem"]
+__all__ = ["PointLoads", "BoundaryConditions", "StaticProblem"]
 
 
 @attrs.frozen(eq=False)
@@ -32,7 +34,22 @@ class PointLoads:
     moment: np.ndarray
 
 
-class StaticProblem:
+class BoundaryConditions:
+    """Prescribed DOFs (sorted indices), their values at load factor 1 and the free DOFs."""
+
+    def __init__(self, n_dofs: int, prescribed: np.ndarray, values: np.ndarray):
+        self.prescribed = np.asarray(prescribed, dtype=np.int64)
+        self.values = np.asarray(values, dtype=float)
+        is_free = np.ones(n_dofs, dtype=bool)
+        is_free[self.prescribed] = False
+        self.free = np.flatnonzero(is_free)
+
+    @property
+    def n_free(self) -> int:
+        return len(self.free)
+
+
+class StaticProblem(BoundaryConditions):
     """Residual and tangent, partitioned into free and prescribed DOFs with fixed sparsity patterns.
 
     Parameters
@@ -51,13 +68,8 @@ class StaticProblem:
 
     def __init__(self, model: FEModel, prescribed: np.ndarray, values: np.ndarray, loads: PointLoads):
         self.model = model
-        self.prescribed = np.asarray(prescribed, dtype=np.int64)
-        self.values = np.asarray(values, dtype=float)
-        self.loads = loads
+        super().__init__(model.n_dofs, prescribed, values)
         n = model.n_dofs
-        is_free = np.ones(n, dtype=bool)
-        is_free[self.prescribed] = False
-        self.free = np.flatnonzero(is_free)
         nf, npres = len(self.free), len(self.prescribed)
         slot_f = np.full(n, -1)
         slot_f[self.free] = np.arange(nf)
@@ -74,23 +86,32 @@ class StaticProblem:
         rows, cols = np.concatenate(rows), np.concatenate(cols)
         self._pattern_ff = SparsePattern(slot_f[rows], slot_f[cols], (nf, nf))
         self._pattern_fp = SparsePattern(slot_f[rows], slot_p[cols], (nf, npres))
+        self.loads = loads
         self._wrench = np.concatenate([loads.force, loads.moment], axis=1)
+        self._wrench0 = np.zeros_like(self._wrench)
 
-    @property
-    def n_free(self) -> int:
-        return len(self.free)
+    def with_loads(self, loads: PointLoads, start: PointLoads | None = None) -> StaticProblem:
+        """A copy under other ``loads`` (same points, other values; patterns shared). With
+        ``start``, the loads at load factor 0 are ``start`` instead of zero (warm-started sweeps)."""
+        if len(loads.node) != len(self.loads.node) or (start is not None and len(start.node) != len(loads.node)):
+            raise ValueError("with_loads: the loads must act on the same points")
+        out = copy.copy(self)
+        out.loads = loads
+        out._wrench = np.concatenate([loads.force, loads.moment], axis=1)
+        out._wrench0 = (np.zeros_like(out._wrench) if start is None
+                        else np.concatenate([start.force, start.moment], axis=1))
+        return out
 
-    def external_force(self, state: State):
-        """Assembled external load vector at load factor 1 and the load-stiffness blocks."""
+    def external_force(self, state: State, lam: float = 1.0):
+        """Assembled external load vector at load factor ``lam`` and the load-stiffness blocks."""
         m = self.model
         d = m.offsets(state, self.loads.node, self.loads.offset)
-        w, G = m.transfer(self._wrench, d)
+        w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
         return scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs), G
 
     def residual(self, state: State, lam: float) -> np.ndarray:
-        """``f_int - lam f_ext`` on all DOFs (N * ndof,)."""
-        f_ext, _ = self.external_force(state)
-        return self.model.internal_force(state) - lam * f_ext
+        """``f_int - f_ext(lam)`` on all DOFs (N * ndof,)."""
+        return self.model.internal_force(state) - self.external_force(state, lam)[0]
 
     def evaluate(self, state: State, lam: float, tangent: bool = True):
         """Residual on all DOFs and, if asked, the tangent blocks ``K_ff`` and ``K_fp`` (CSR).
@@ -100,11 +121,11 @@ class StaticProblem:
         """
         m = self.model
         Fe, Ke, _, sig = m.element_response(state, tangent=tangent)
-        f_ext, G = self.external_force(state)
-        r = scatter_add(m.element_dofs, Fe, m.n_dofs) - lam * f_ext
+        f_ext, G = self.external_force(state, lam)
+        r = scatter_add(m.element_dofs, Fe, m.n_dofs) - f_ext
         if not tangent:
             return r, None, None, sig
-        vals = np.concatenate([Ke.ravel(), (-lam * G).ravel()])
+        vals = np.concatenate([Ke.ravel(), (-G).ravel()])
         return r, self._pattern_ff.matrix(vals), self._pattern_fp.matrix(vals), sig
 
     def prescribed_increment(self, dlam: float) -> np.ndarray:

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import UnsupportedStrategyError
 
-__all__ = ["Joint", "JointMesh", "INTERNAL", "SIDE_A", "SIDE_B"]
+__all__ = ["Joint", "JointMesh", "ClosedForm", "INTERNAL", "SIDE_A", "SIDE_B", "FLEXURE_MODELS"]
 
 INTERNAL, SIDE_A, SIDE_B = 0, 1, 2
 
@@ -41,6 +41,28 @@ class JointMesh:
     ny0: np.ndarray | None = None
 
 
+#: Wrench models of a constant-stiffness flexure (Cammarata et al. 2022): balance of the flexure in the
+#: undeformed configuration (Eq. 15) or with the tip displacement in the moment arm (Eq. 17).
+FLEXURE_MODELS = ("linear", "partial-nonlinear")
+
+
+@attrs.frozen(eq=False)
+class ClosedForm:
+    """A planar flexure as a constant end stiffness (Cammarata et al. 2022, Secs. 2-3).
+
+    The flexure is clamped at node A (joint frame origin, the *first* section S_if) and its
+    end section S_fj sits at ``end`` [m] in the joint frame, rotated by ``end_angle`` [rad]
+    (A_f of Eq. 16). ``stiffness`` K_f (3, 3) maps the end's displacement and rotation
+    psi_f = [x', phi] to the end wrench [F_x, F_y, M], both in the undeformed end frame (Eq. 1).
+    ``model`` is one of `FLEXURE_MODELS`.
+    """
+
+    stiffness: np.ndarray
+    end: np.ndarray
+    end_angle: float
+    model: str = "partial-nonlinear"
+
+
 class Joint(abc.ABC):
     """Base class of flexure joints, the edges of a `flexmb.Mechanism`.
 
@@ -53,6 +75,8 @@ class Joint(abc.ABC):
 
     ``"fe_model"``
         `mesh` returns the joint's beam-element model (conventional method).
+    ``"closed_form"``
+        `closed_form` returns a constant end stiffness (planar; ``method="newton"``).
     """
 
     kind: ClassVar[str] = ""
@@ -63,6 +87,8 @@ class Joint(abc.ABC):
         caps = set()
         if type(self).mesh is not Joint.mesh:
             caps.add("fe_model")
+        if type(self).closed_form is not Joint.closed_form:
+            caps.add("closed_form")
         return frozenset(caps)
 
     @abc.abstractmethod
@@ -73,6 +99,12 @@ class Joint(abc.ABC):
         """The joint's finite-element model in its own frame (see `JointMesh`)."""
         raise UnsupportedStrategyError(
             f"joint kind {self.kind!r} has no finite-element model; it offers {sorted(self.capabilities)}"
+        )
+
+    def closed_form(self, dim: int) -> ClosedForm:
+        """The joint as a constant-stiffness flexure between its two links (see `ClosedForm`)."""
+        raise UnsupportedStrategyError(
+            f"joint kind {self.kind!r} has no closed-form model; it offers {sorted(self.capabilities)}"
         )
 
     def describe(self) -> dict:

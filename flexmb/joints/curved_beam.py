@@ -11,7 +11,7 @@ import numpy as np
 from .. import _validate as v
 from ..errors import ParameterError
 from ..sections import rectangle
-from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
+from ._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint, JointMesh
 
 __all__ = ["CurvedBeam"]
 
@@ -39,6 +39,11 @@ class CurvedBeam(Joint):
         Shear modulus for the finite-element model (default ``E / 2.6``, Poisson 0.3).
     elements
         Straight co-rotational beam elements along the arc in the finite-element model (16).
+    model
+        Wrench model of the closed form (``method="newton"``): ``"linear"`` (Eq. 15, balance in
+        the undeformed configuration) or ``"partial-nonlinear"`` (Eq. 17, the end displacement
+        in the moment arm; default). The finite-element model (``method="conventional"``) is
+        always fully non-linear.
 
     Notes
     -----
@@ -56,6 +61,7 @@ class CurvedBeam(Joint):
     height: float
     G: float | None = None
     elements: int = 16
+    model: str = "partial-nonlinear"
 
     def __attrs_post_init__(self):
         owner = "curved_beam"
@@ -65,6 +71,8 @@ class CurvedBeam(Joint):
         if self.G is not None:
             v.positive(owner, "G", self.G)
         v.integer(owner, "elements", self.elements, 1)
+        if self.model not in FLEXURE_MODELS:
+            raise ParameterError(f"{owner}: model={self.model!r}; valid: {', '.join(FLEXURE_MODELS)}")
         if not self.height < self.radius:
             raise ParameterError(f"{owner}: height={self.height!r} must be < radius={self.radius!r} (a slender arc)")
         try:
@@ -141,3 +149,7 @@ class CurvedBeam(Joint):
     def stiffness(self) -> np.ndarray:
         """K_f = C_f^-1 (3, 3), in the frame of `compliance`."""
         return np.linalg.inv(self.compliance())
+
+    def closed_form(self, dim: int) -> ClosedForm:
+        """K_f in the end frame at B (Eq. 16: A_f = rot(theta_f), d_f = r [sin, 1 - cos] theta_f)."""
+        return ClosedForm(self.stiffness(), self.interface_b(2), self.angle, self.model)

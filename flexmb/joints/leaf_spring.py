@@ -8,9 +8,9 @@ import attrs
 import numpy as np
 
 from .. import _validate as v
-from ..errors import ParameterError
+from ..errors import ParameterError, UnsupportedStrategyError
 from ..sections import Section, rectangle
-from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
+from ._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint, JointMesh
 
 __all__ = ["LeafSpring"]
 
@@ -34,6 +34,8 @@ class LeafSpring(Joint):
         Number of beam elements, 1 or more (4).
     section
         Optional `Section` that replaces the rectangle (e.g. to switch off shear with ``ky = kz = inf``).
+    model
+        Wrench model of the planar closed form (``method="newton"``, see `ClosedForm`).
     """
 
     kind: ClassVar[str] = "leaf_spring"
@@ -45,6 +47,7 @@ class LeafSpring(Joint):
     G: float = 76.9e9
     elements: int = 4
     section: Section | None = None
+    model: str = "partial-nonlinear"
 
     def __attrs_post_init__(self):
         owner = "leaf_spring"
@@ -53,6 +56,8 @@ class LeafSpring(Joint):
         v.integer(owner, "elements", self.elements, 1)
         if self.thickness >= self.length:
             raise ParameterError(f"{owner}: thickness={self.thickness!r} m must be < length={self.length!r} m")
+        if self.model not in FLEXURE_MODELS:
+            raise ParameterError(f"{owner}: model={self.model!r}; valid: {', '.join(FLEXURE_MODELS)}")
         if self.section is not None and not isinstance(self.section, Section):
             raise ParameterError(f"{owner}: section must be a flexmb.Section, got {type(self.section).__name__}")
         try:
@@ -77,3 +82,18 @@ class LeafSpring(Joint):
         ny = np.tile([0.0, 1.0, 0.0], (n, 1)) if dim == 3 else None
         return JointMesh(points=pts, side=side, elements=np.stack([np.arange(n), np.arange(1, n + 1)], 1),
                          sections=(self.cross_section(),) * n, ny0=ny)
+
+    def compliance(self) -> np.ndarray:
+        """Planar end compliance of the clamped leaf (3, 3) [m/N, 1/N, 1/(N m)]: axial ``L/EA``,
+        Timoshenko bending ``L^3/(3 EI) + L/(k G A)``, ``L^2/(2 EI)``, ``L/EI`` (in-plane, ``Iz``)."""
+        s, L = self.cross_section(), self.length
+        EI = s.E * s.Iz
+        return np.array([[L / (s.E * s.A), 0.0, 0.0],
+                         [0.0, L**3 / (3 * EI) + L / (s.ky * s.G * s.A), L**2 / (2 * EI)],
+                         [0.0, L**2 / (2 * EI), L / EI]])
+
+    def closed_form(self, dim: int) -> ClosedForm:
+        """The leaf as a constant-stiffness flexure (planar only): end frame at B, not rotated."""
+        if dim != 2:
+            raise UnsupportedStrategyError("leaf_spring: the closed-form model is planar (dim=2) only")
+        return ClosedForm(np.linalg.inv(self.compliance()), self.interface_b(2), 0.0, self.model)

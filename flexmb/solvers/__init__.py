@@ -4,18 +4,30 @@ from __future__ import annotations
 
 from ..errors import ModelError, ParameterError, UnsupportedStrategyError
 from .conventional import Conventional
+from .newton import Newton
 
-__all__ = ["solve", "STRATEGIES", "Conventional"]
+__all__ = ["solve", "make_strategy", "STRATEGIES", "Conventional", "Newton"]
 
-STRATEGIES = {Conventional.name: Conventional}
+STRATEGIES = {Conventional.name: Conventional, Newton.name: Newton}
 
 
 def solve(mechanism, method: str | object = "conventional", **options):
     """Static equilibrium of ``mechanism`` with strategy ``method`` (a name or a strategy instance).
 
+    ``"conventional"``: Newton with step control on the full finite-element model;
+    ``"newton"``: the closed-form linkage model of planar constant-stiffness flexures
+    (Cammarata et al. 2022) with ``tangent="full" | "first-term" | "constant"``.
     Options go to the strategy's constructor (e.g. ``tol``, ``max_iter``, ``raise_on_failure``).
     The mechanism is not modified. Returns a `flexmb.Solution`.
     """
+    strategy = make_strategy(method, options)
+    if not hasattr(mechanism, "compile"):
+        raise ModelError(f"solve() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
+    return strategy.solve(mechanism.compile(getattr(strategy, "capability", "fe_model")))
+
+
+def make_strategy(method: str | object, options: dict):
+    """A strategy instance from a name and constructor options (or an instance without options)."""
     if isinstance(method, str):
         try:
             cls = STRATEGIES[method]
@@ -35,6 +47,4 @@ def solve(mechanism, method: str | object = "conventional", **options):
         if options:
             raise UnsupportedStrategyError("options are given with a method name, not with a strategy instance")
         strategy = method
-    if not hasattr(mechanism, "compile"):
-        raise ModelError(f"solve() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
-    return strategy.solve(mechanism.compile())
+    return strategy

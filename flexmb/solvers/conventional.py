@@ -87,6 +87,7 @@ class Conventional:
     """
 
     name: ClassVar[str] = "conventional"
+    capability: ClassVar[str] = "fe_model"
     tol: float = attrs.field(default=5e-7, validator=positive_float)
     max_iter: int = attrs.field(default=20, validator=positive_int)
     divergence: float = attrs.field(default=1e3, validator=above_one)

@@ -1,0 +1,120 @@
+"""The kinetostatic problem of rigid links joined by constant-stiffness flexures (planar).
+
+Cammarata et al. (2022), Eqs. (18)-(25): per link ``R_i = -w_i + sum of flexure wrenches``
+with three coordinates ``q_i = [x_i, y_i, theta_i]`` per link; the global residual is
+``R(w, q)`` (Eq. 25) and its tangent ``K_T = K^I + K^II + K^III`` (Eq. 26), plus the load
+stiffness of dead forces applied away from a link's reference point (zero for loads at the
+reference points, as in the paper).
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from ..fe.model import State
+from ..problem import BoundaryConditions, PointLoads
+from .flexures import FlexureSet, rot
+
+__all__ = ["LinkageModel", "LinkageProblem", "TERMS"]
+
+#: Names of the tangent terms returned by `LinkageProblem.tangent_terms`.
+TERMS = ("I", "II", "III", "load")
+
+
+class LinkageModel:
+    """Links (the nodes: 3 DOFs each) and the flexures between them; the `Solution` accessors'
+    view of the closed-form model (the same interface as `flexmb.fe.model.FEModel`)."""
+
+    dim = 2
+    ndof = 3
+    nrot = 1
+
+    def __init__(self, x0: np.ndarray, flexures: FlexureSet):
+        self.x0 = np.asarray(x0, dtype=float)
+        self.n_nodes = len(self.x0)
+        self.n_dofs = 3 * self.n_nodes
+        self.node_dofs = np.arange(self.n_dofs).reshape(self.n_nodes, 3)
+        self.flexures = flexures
+
+    def initial_state(self) -> State:
+        return State(self.x0.copy(), np.zeros(self.n_nodes))
+
+    def offsets(self, state: State, master: np.ndarray, offset0: np.ndarray) -> np.ndarray:
+        """Current offsets ``A_i s`` [m] of points attached to links ``master``."""
+        return np.einsum("kij,kj->ki", rot(state.rotations[master]), offset0)
+
+    def point_positions(self, state: State) -> np.ndarray:
+        """Link reference points, then each flexure's two attachment points (first, end) [m]."""
+        fl = self.flexures
+        ends = np.stack([state.positions[fl.i] + self.offsets(state, fl.i, fl.s_i),
+                         state.positions[fl.j] + self.offsets(state, fl.j, fl.s_j)], 1).reshape(-1, 2)
+        return np.concatenate([state.positions, ends])
+
+    def apply_increment(self, state: State, du: np.ndarray) -> State:
+        du = du.reshape(self.n_nodes, 3)
+        return State(state.positions + du[:, :2], state.rotations + du[:, 2])
+
+    def strain_energy(self, state: State) -> float:
+        """``sum 1/2 psi^T K_f psi`` [J] (the flexures' linear stiffness, Eq. 1)."""
+        return self.flexures.strain_energy(state.positions, state.rotations)
+
+
+class LinkageProblem(BoundaryConditions):
+    """Residual and tangent terms of a closed-form linkage under dead loads and prescribed DOFs.
+
+    ``prescribed`` global DOF indices and their ``values`` (displacements [m], rotations [rad]
+    from the undeformed configuration; fixed links have zeros); ``loads`` dead point loads.
+    """
+
+    def __init__(self, model: LinkageModel, prescribed: np.ndarray, values: np.ndarray, loads: PointLoads):
+        self.model = model
+        super().__init__(model.n_dofs, prescribed, values)
+        n = model.n_dofs
+        fl = model.flexures
+        dofs = np.concatenate([model.node_dofs[fl.i], model.node_dofs[fl.j]], axis=1)  # (F, 6)
+        rows = np.stack([model.node_dofs[fl.i], model.node_dofs[fl.j]], 1)  # (F, 2, 3)
+        self._rows = rows
+        self._flat = (rows[:, :, :, None] * n + dofs[:, None, None, :]).ravel()  # (F, 2, 3, 6) -> n x n
+        self.set_loads(loads)
+
+    def set_loads(self, loads: PointLoads) -> None:
+        self.loads = loads
+        self._theta_dof = self.model.node_dofs[loads.node, 2]
+
+    def with_loads(self, loads: PointLoads) -> LinkageProblem:
+        """A copy of this problem under other loads (patterns shared)."""
+        out = copy.copy(self)
+        out.set_loads(loads)
+        return out
+
+    def prescribed_state(self, state: State) -> State:
+        """``state`` with the prescribed DOFs set to their values."""
+        q = np.concatenate([state.positions - self.model.x0, state.rotations[:, None]], axis=1).ravel()
+        q[self.prescribed] = self.values
+        q = q.reshape(-1, 3)
+        return State(self.model.x0 + q[:, :2], q[:, 2].copy())
+
+    def _external(self, state: State):
+        ld, n = self.loads, self.model.n_dofs
+        d = self.model.offsets(state, ld.node, ld.offset)
+        m = ld.moment[:, 0] + d[:, 0] * ld.force[:, 1] - d[:, 1] * ld.force[:, 0]
+        w = np.concatenate([ld.force, m[:, None]], axis=1)
+        f = np.bincount(self.model.node_dofs[ld.node].ravel(), w.ravel(), minlength=n)
+        return f, np.einsum("ki,ki->k", d, ld.force)
+
+    def evaluate(self, state: State, tangent: bool = True):
+        """Residual ``R`` (n_dofs,) on all DOFs (Eq. 25; the reactions on prescribed DOFs) and, if
+        asked, the tangent terms as a dict of dense (n_dofs, n_dofs) arrays keyed by `TERMS`."""
+        m, n = self.model, self.model.n_dofs
+        resp = m.flexures.evaluate(state.positions, state.rotations, tangent=tangent)
+        f_ext, dF = self._external(state)
+        r = np.bincount(self._rows.ravel(), resp.wrench.ravel(), minlength=n) - f_ext
+        if not tangent:
+            return r, None
+        terms = {name: np.bincount(self._flat, t.ravel(), minlength=n * n).reshape(n, n)
+                 for name, t in zip(TERMS, resp.terms)}
+        terms["load"] = np.zeros((n, n))
+        np.add.at(terms["load"], (self._theta_dof, self._theta_dof), dF)  # d(-(A s) x F)/dtheta = (A s).F
+        return r, terms

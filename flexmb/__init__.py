@@ -16,6 +16,7 @@ from .registry import available_joints, joint, register_joint
 from .results import Solution
 from .sections import Section, rectangle
 from .solvers import solve
+from .sweeps import find_actuation, sweep, tangent_stiffness
 
 __version__ = "0.1.0"
 
@@ -37,9 +38,12 @@ __all__ = [
     "UnknownJointError",
     "UnsupportedStrategyError",
     "available_joints",
+    "find_actuation",
     "joint",
     "models",
     "rectangle",
     "register_joint",
     "solve",
+    "sweep",
+    "tangent_stiffness",
 ]

@@ -89,10 +89,12 @@ class StaticProblem(BoundaryConditions):
         self.loads = loads
         self._wrench = np.concatenate([loads.force, loads.moment], axis=1)
         self._wrench0 = np.zeros_like(self._wrench)
+        self._motion_scale = 1.0
 
     def with_loads(self, loads: PointLoads, start: PointLoads | None = None) -> StaticProblem:
         """A copy under other ``loads`` (same points, other values; patterns shared). With
-        ``start``, the loads at load factor 0 are ``start`` instead of zero (warm-started sweeps)."""
+        ``start``, the loads at load factor 0 are ``start`` instead of zero and the prescribed
+        motion counts as already reached (a warm start from an equilibrium under ``start``)."""
         if len(loads.node) != len(self.loads.node) or (start is not None and len(start.node) != len(loads.node)):
             raise ValueError("with_loads: the loads must act on the same points")
         out = copy.copy(self)
@@ -100,6 +102,7 @@ class StaticProblem(BoundaryConditions):
         out._wrench = np.concatenate([loads.force, loads.moment], axis=1)
         out._wrench0 = (np.zeros_like(out._wrench) if start is None
                         else np.concatenate([start.force, start.moment], axis=1))
+        out._motion_scale = 1.0 if start is None else 0.0
         return out
 
     def external_force(self, state: State, lam: float = 1.0):
@@ -108,6 +111,10 @@ class StaticProblem(BoundaryConditions):
         d = m.offsets(state, self.loads.node, self.loads.offset)
         w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
         return scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs), G
+
+    def external_load(self, state: State) -> np.ndarray:
+        """Assembled applied loads at load factor 1 on all DOFs."""
+        return self.external_force(state, 1.0)[0]
 
     def residual(self, state: State, lam: float) -> np.ndarray:
         """``f_int - f_ext(lam)`` on all DOFs (N * ndof,)."""
@@ -130,7 +137,7 @@ class StaticProblem(BoundaryConditions):
 
     def prescribed_increment(self, dlam: float) -> np.ndarray:
         """Increments of the prescribed DOFs for a load-factor step ``dlam``."""
-        return dlam * self.values
+        return (dlam * self._motion_scale) * self.values
 
     def full_increment(self, du_free: np.ndarray, du_pres: np.ndarray) -> np.ndarray:
         du = np.zeros(self.model.n_dofs)

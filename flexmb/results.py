@@ -105,6 +105,25 @@ class Solution:
         the order links were added), then each joint's points in the order joints were added."""
         return self.compiled.problem.model.point_positions(self.state)
 
+    def imbalance(self) -> np.ndarray:
+        """Net wrench of all joint forces on all links, about the origin: ``[F (dim), M]`` [N, N m].
+
+        The internal forces of a model that balances globally (every flexure in equilibrium
+        between its two links) sum to zero; this returns that sum, computed as residual plus
+        applied loads over every link (fixed ones included). flexmb's finite-element model
+        balances to roundoff; see `flexmb.CurvedBeam` for the closed-form models.
+        """
+        problem, state = self.compiled.problem, self.state
+        f = (self.residual + problem.external_load(state)).reshape(len(state.positions), -1)
+        d = self.dim
+        force = f[:, :d].sum(axis=0)
+        x = state.positions
+        if d == 2:
+            moment = np.array([np.sum(f[:, 2] + x[:, 0] * f[:, 1] - x[:, 1] * f[:, 0])])
+        else:
+            moment = np.sum(f[:, 3:] + np.cross(x, f[:, :3]), axis=0)
+        return np.concatenate([force, moment])
+
     def strain_energy(self) -> float:
         """Elastic energy stored in all beam elements [J]."""
         return self.compiled.problem.model.strain_energy(self.state)

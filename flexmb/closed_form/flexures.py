@@ -64,65 +64,80 @@ class FlexureSet:
     K: np.ndarray
     nonlinear: np.ndarray
 
+    _c: dict = attrs.field(init=False, repr=False)
+
+    def __attrs_post_init__(self):
+        # 2D vectors as complex numbers and rotations as unit complex numbers: far fewer numpy
+        # calls per evaluation than (F, 2, 2) matrices, which is what costs at this size
+        def z(v):
+            return v[:, 0] + 1j * v[:, 1]
+
+        object.__setattr__(self, "_c", {
+            "s_i": z(self.s_i), "s_j": z(self.s_j), "b_i": z(self.B_i[:, :, 0]), "b_j": z(self.B_j[:, :, 0]),
+            "a_f": z(self.A_f[:, :, 0]), "arm": z(self.arm), "p_hat": z(self.p_hat),
+            "nl": self.nonlinear.astype(float), "b_j*": z(self.B_j[:, :, 0]).conj(),
+            "b_ia_f": -z(self.B_i[:, :, 0]) * z(self.A_f[:, :, 0]),
+        })
+
     def __len__(self) -> int:
         return len(self.i)
 
     def evaluate(self, positions: np.ndarray, angles: np.ndarray, tangent: bool = True) -> FlexureResponse:
         """Wrenches on both links and (if ``tangent``) the tangent terms, for links at
         ``positions`` (N, 2) [m] and ``angles`` (N,) [rad]."""
-        Ri, Rj = rot(angles[self.i]), rot(angles[self.j])
-        ai = np.einsum("fab,fb->fa", Ri, self.s_i)  # current attachment offsets
-        aj = np.einsum("fab,fb->fa", Rj, self.s_j)
-        p = positions[self.j] + aj - positions[self.i] - ai  # Eq. (4)
-        u = np.einsum("fba,fb->fa", Ri, p)  # A_i^T p
-        x = np.einsum("fba,fb->fa", self.B_j, u - self.p_hat)  # Eqs. (5)-(6)
-        phi = angles[self.j] - angles[self.i]  # Eq. (7)
-        psi = np.concatenate([x, phi[:, None]], axis=1)  # Eq. (8)
-        w = np.einsum("fab,fb->fa", self.K, psi)  # Eq. (1)
-        F_t, M_t = w[:, :2], w[:, 2]
-        arm = self.arm + np.where(self.nonlinear[:, None], x, 0.0)  # Eq. (15) or (17)
-        # link j: N_fj w; force in global axes, moment about r_j (Eq. 22)
-        Qj = Rj @ self.B_j
-        f_j = np.einsum("fab,fb->fa", Qj, F_t)
-        m_j = M_t + _cross(aj, f_j)
-        # link i: N_if T w; the clamp wrench in S_if is [-A_f F, -(M + arm x F)]
-        Qi = Ri @ self.B_i
-        F_c = -np.einsum("fab,fb->fa", self.A_f, F_t)
-        M_c = -(M_t + _cross(arm, F_t))
-        f_i = np.einsum("fab,fb->fa", Qi, F_c)
-        m_i = M_c + _cross(ai, f_i)
-        wrench = np.stack([np.concatenate([f_i, m_i[:, None]], 1), np.concatenate([f_j, m_j[:, None]], 1)], 1)
-        out = FlexureResponse(psi=psi, wrench=wrench)
+        c = self._c
+        e = np.exp(1j * angles)
+        P = positions[:, 0] + 1j * positions[:, 1]
+        ei, ej = e[self.i], e[self.j]
+        ai, aj = ei * c["s_i"], ej * c["s_j"]  # current attachment offsets
+        ai_, aj_ = ai.conj(), aj.conj()
+        p = P[self.j] + aj - P[self.i] - ai  # Eq. (4)
+        u = ei.conj() * p  # A_i^T p
+        x = c["b_j*"] * (u - c["p_hat"])  # Eqs. (5)-(6)
+        nF = len(self.i)
+        psi = np.empty((nF, 3))
+        psi[:, 0], psi[:, 1] = x.real, x.imag
+        psi[:, 2] = angles[self.j] - angles[self.i]  # Eqs. (7)-(8)
+        w = (self.K @ psi[:, :, None])[:, :, 0]  # Eq. (1)
+        Ft, Mt = w[:, 0] + 1j * w[:, 1], w[:, 2]
+        arm_ = (c["arm"] + c["nl"] * x).conj()  # Eq. (15) or (17)
+        Qj, Qi = ej * c["b_j"], ei * c["b_ia_f"]  # Qi includes the -A_f of T
+        f_j = Qj * Ft  # link j: N_fj w (Eq. 22), global force and moment about r_j
+        f_i = Qi * Ft  # link i: N_if T w; the clamp wrench in S_if is [-A_f F, -(M + arm x F)]
+        wrench = np.empty((nF, 2, 3))
+        wrench[:, 0, 0], wrench[:, 0, 1] = f_i.real, f_i.imag
+        wrench[:, 0, 2] = (ai_ * f_i).imag - Mt - (arm_ * Ft).imag
+        wrench[:, 1, 0], wrench[:, 1, 1] = f_j.real, f_j.imag
+        wrench[:, 1, 2] = Mt + (aj_ * f_j).imag
         if not tangent:
-            return out
+            return FlexureResponse(psi, wrench)
         # Jacobian J (F, 3, 6) of psi on [r_i, theta_i, r_j, theta_j] (Eqs. 12-13, 37)
-        nF = len(self)
+        g = c["b_j*"] * ei.conj()  # B_j^T A_i^T as a complex factor
         J = np.zeros((nF, 3, 6))
-        BRi = np.einsum("fba,fcb->fac", self.B_j, Ri)  # B_j^T A_i^T
-        J[:, :2, 0:2] = -BRi
-        J[:, :2, 3:5] = BRi
-        J[:, :2, 2] = -np.einsum("fba,fb->fa", self.B_j, _perp(u + self.s_i))
-        J[:, :2, 5] = np.einsum("fab,fb->fa", BRi, _perp(aj))
+        J[:, 0, 0], J[:, 1, 0] = -g.real, -g.imag
+        J[:, 0, 1], J[:, 1, 1] = g.imag, -g.real
+        J[:, :2, 3:5] = -J[:, :2, 0:2]
+        dti = -1j * c["b_j*"] * (u + c["s_i"])
+        dtj = 1j * g * aj
+        J[:, 0, 2], J[:, 1, 2] = dti.real, dti.imag
+        J[:, 0, 5], J[:, 1, 5] = dtj.real, dtj.imag
         J[:, 2, 2], J[:, 2, 5] = -1.0, 1.0
-        # N (F, 2, 3, 3): wrench in the section frame -> link wrench (Eq. 22)
-        N = np.zeros((nF, 2, 3, 3))
-        N[:, 0, :2, :2], N[:, 1, :2, :2] = Qi, Qj
-        N[:, 0, 2, :2] = np.einsum("fa,fab->fb", _perp(ai), Qi)
-        N[:, 1, 2, :2] = np.einsum("fa,fab->fb", _perp(aj), Qj)
-        N[:, :, 2, 2] = 1.0
-        T = np.zeros((nF, 3, 3))  # Eq. (15) / (17)
-        T[:, :2, :2] = -self.A_f
-        T[:, 2, :2] = -_perp(arm)
-        T[:, 2, 2] = -1.0
         KJ = self.K @ J
-        k1 = np.stack([N[:, 0] @ T @ KJ, N[:, 1] @ KJ], 1)  # (F, 2, 3, 6), Eq. (A2)
-        k2 = np.zeros_like(k1)  # Eq. (A8): dN/dtheta w, in the column of the link's own angle
-        k2[:, 0, :2, 2] = _perp(f_i)
-        k2[:, 1, :2, 5] = _perp(f_j)
-        k3 = np.zeros_like(k1)  # Eq. (A13): only the clamp-side moment row (N has [0, 0, 1] there)
-        v = np.einsum("fa,fab->fb", _perp(F_t), J[:, :2, :])  # Eq. (A11)
-        k3[:, 0, 2, :] = np.where(self.nonlinear[:, None], v, 0.0)
-        return attrs.evolve(out, terms=(k1, k2, k3))
+        kf = KJ[:, 0] + 1j * KJ[:, 1]  # force rows of K J as complex numbers (F, 6)
+        terms = np.zeros((3, nF, 2, 3, 6))
+        # K^I (Eq. A2): link j rows N_fj K J, link i rows N_if T K J
+        fj = Qj[:, None] * kf
+        terms[0, :, 1, 0], terms[0, :, 1, 1] = fj.real, fj.imag
+        terms[0, :, 1, 2] = KJ[:, 2] + (aj_[:, None] * fj).imag
+        fi = Qi[:, None] * kf
+        terms[0, :, 0, 0], terms[0, :, 0, 1] = fi.real, fi.imag
+        terms[0, :, 0, 2] = (ai_[:, None] * fi).imag - KJ[:, 2] - (arm_[:, None] * kf).imag
+        # K^II (Eq. A8): dN/dtheta w, in the column of the link's own angle
+        terms[1, :, 0, 0, 2], terms[1, :, 0, 1, 2] = -f_i.imag, f_i.real
+        terms[1, :, 1, 0, 5], terms[1, :, 1, 1, 5] = -f_j.imag, f_j.real
+        # K^III (Eq. A13): only the clamp-side moment row, (1~ F)^T J_x (Eq. A11)
+        terms[2, :, 0, 2] = c["nl"][:, None] * (Ft.real[:, None] * J[:, 1] - Ft.imag[:, None] * J[:, 0])
+        return FlexureResponse(psi, wrench, terms)
 
     def strain_energy(self, positions: np.ndarray, angles: np.ndarray) -> float:
         """``sum 1/2 psi^T K psi`` over the flexures [J]."""
@@ -137,8 +152,8 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 @attrs.frozen(eq=False)
 class FlexureResponse:
     """``psi`` (F, 3) deformations (Eq. 8); ``wrench`` (F, 2, 3) on links i and j (global force,
-    moment about the link reference); ``terms`` three arrays (F, 2, 3, 6): the rows of K^I, K^II,
-    K^III for links i and j over ``[r_i, theta_i, r_j, theta_j]``."""
+    moment about the link reference); ``terms`` (3, F, 2, 3, 6): the rows of K^I, K^II, K^III for
+    links i and j over ``[r_i, theta_i, r_j, theta_j]``."""
 
     psi: np.ndarray
     wrench: np.ndarray

@@ -76,12 +76,17 @@ class LinkageProblem(BoundaryConditions):
         dofs = np.concatenate([model.node_dofs[fl.i], model.node_dofs[fl.j]], axis=1)  # (F, 6)
         rows = np.stack([model.node_dofs[fl.i], model.node_dofs[fl.j]], 1)  # (F, 2, 3)
         self._rows = rows
-        self._flat = (rows[:, :, :, None] * n + dofs[:, None, None, :]).ravel()  # (F, 2, 3, 6) -> n x n
+        flat = rows[:, :, :, None] * n + dofs[:, None, None, :]  # (F, 2, 3, 6) -> n x n
+        self._flat = (flat[None] + n * n * np.arange(3)[:, None, None, None, None]).ravel()  # three terms
         self.set_loads(loads)
 
     def set_loads(self, loads: PointLoads) -> None:
         self.loads = loads
-        self._theta_dof = self.model.node_dofs[loads.node, 2]
+        nd = self.model.node_dofs
+        self._load_dofs = nd[loads.node].ravel()
+        self._load_flat = nd[loads.node, 2] * (self.model.n_dofs + 1)  # (theta, theta) entries
+        self._load_offset = loads.offset[:, 0] + 1j * loads.offset[:, 1]
+        self._load_force = loads.force[:, 0] + 1j * loads.force[:, 1]
 
     def with_loads(self, loads: PointLoads) -> LinkageProblem:
         """A copy of this problem under other loads (patterns shared)."""
@@ -97,12 +102,15 @@ class LinkageProblem(BoundaryConditions):
         return State(self.model.x0 + q[:, :2], q[:, 2].copy())
 
     def _external(self, state: State):
-        ld, n = self.loads, self.model.n_dofs
-        d = self.model.offsets(state, ld.node, ld.offset)
-        m = ld.moment[:, 0] + d[:, 0] * ld.force[:, 1] - d[:, 1] * ld.force[:, 0]
-        w = np.concatenate([ld.force, m[:, None]], axis=1)
-        f = np.bincount(self.model.node_dofs[ld.node].ravel(), w.ravel(), minlength=n)
-        return f, np.einsum("ki,ki->k", d, ld.force)
+        """Load vector and ``(A s).F`` per load (the load stiffness on its link's angle)."""
+        ld = self.loads
+        dF = np.exp(-1j * state.rotations[ld.node]) * self._load_offset.conj() * self._load_force  # conj(d) F
+        w = np.concatenate([ld.force, ld.moment[:, :1] + dF.imag[:, None]], axis=1)
+        return np.bincount(self._load_dofs, w.ravel(), minlength=self.model.n_dofs), dF.real
+
+    def external_load(self, state: State) -> np.ndarray:
+        """Assembled applied loads on all DOFs (forces, moments about the link reference points)."""
+        return self._external(state)[0]
 
     def evaluate(self, state: State, tangent: bool = True):
         """Residual ``R`` (n_dofs,) on all DOFs (Eq. 25; the reactions on prescribed DOFs) and, if
@@ -113,8 +121,8 @@ class LinkageProblem(BoundaryConditions):
         r = np.bincount(self._rows.ravel(), resp.wrench.ravel(), minlength=n) - f_ext
         if not tangent:
             return r, None
-        terms = {name: np.bincount(self._flat, t.ravel(), minlength=n * n).reshape(n, n)
-                 for name, t in zip(TERMS, resp.terms)}
-        terms["load"] = np.zeros((n, n))
-        np.add.at(terms["load"], (self._theta_dof, self._theta_dof), dF)  # d(-(A s) x F)/dtheta = (A s).F
+        K = np.bincount(self._flat, resp.terms.ravel(), minlength=3 * n * n).reshape(3, n, n)
+        terms = dict(zip(TERMS, K))
+        # d(-(A s) x F)/dtheta = (A s).F
+        terms["load"] = np.bincount(self._load_flat, dF, minlength=n * n).reshape(n, n)
         return r, terms

@@ -66,13 +66,14 @@ class Newton:
         t0 = time.perf_counter()
         problem: LinkageProblem = compiled.problem
         model, free = problem.model, problem.free
+        ixf = np.ix_(free, free)
         start = problem.prescribed_state(model.initial_state() if state is None else state)
         times = {"assemble": 0.0, "solve": 0.0}
         lu = None
         if self.tangent == "constant":
             t = time.perf_counter()
             _, terms = problem.evaluate(problem.prescribed_state(model.initial_state()))
-            K = sum(terms.values())[np.ix_(free, free)]
+            K = sum(terms.values())[ixf]
             times["assemble"] += time.perf_counter() - t
             t = time.perf_counter()
             lu = sla.lu_factor(K, check_finite=False) if len(free) else None
@@ -85,7 +86,8 @@ class Newton:
             t = time.perf_counter()
             r, terms = problem.evaluate(cur, tangent=lu is None)
             times["assemble"] += time.perf_counter() - t
-            res = float(np.linalg.norm(r[free]))
+            rf = r[free]
+            res = float(np.sqrt(rf @ rf))
             if it > 0:
                 history.append(res)
             first = res if first is None else first
@@ -107,7 +109,7 @@ class Newton:
                     dq = sla.lu_solve(lu, -r[free], check_finite=False)
                 else:
                     K = terms["I"] if self.tangent == "first-term" else sum(terms.values())
-                    dq = np.linalg.solve(K[np.ix_(free, free)], -r[free])
+                    dq = np.linalg.solve(K[ixf], -r[free])
             except np.linalg.LinAlgError:
                 message = f"not converged: singular tangent at iteration {it} (tangent={self.tangent})"
                 break

@@ -66,7 +66,7 @@ GRIPPER_MATERIALS = {"silicon": 100e9, "nylon": 3.84e9}
 
 
 def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: float = 0.0,
-            elements: int = 16) -> Mechanism:
+            elements: int = 16, width: float | None = None, height: float | None = None) -> Mechanism:
     """The MEMS gripper of Cammarata et al. (2022), Sec. 5, Table 1, in mm and uN.
 
     Rigid bodies ``"body1"`` (fixed, frame at the origin) ... ``"body4"`` (reference points at the
@@ -80,7 +80,8 @@ def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: 
     body 2 at G2 along +y; the named point ``"end_effector"`` on body 3 is G3 + s_3EE.
     ``model`` ("linear" | "partial-nonlinear") selects the wrench model of the closed form
     (``method="newton"``); ``elements`` is the number of beam elements per arc in flexmb's fully
-    non-linear finite-element model (``method="conventional"``).
+    non-linear finite-element model (``method="conventional"``). ``width`` and ``height`` [mm]
+    replace Table 1's cross-section b = 0.025, h = 0.005 (the cross-section study, Fig. 10).
     """
     if material not in GRIPPER_MATERIALS:
         raise ParameterError(f"gripper: material={material!r}; valid: {sorted(GRIPPER_MATERIALS)}")
@@ -96,7 +97,8 @@ def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: 
         center = t[f"O_{h}"]
         # through() checks that both attachment points lie on one circle about the hinge centre
         beam, placement = CurvedBeam.through(center, origin[bi] + t[si], origin[bj] + t[sj],
-                                             E=GRIPPER_MATERIALS[material], width=t["b"], height=t["h"],
+                                             E=GRIPPER_MATERIALS[material], width=t["b"] if width is None else width,
+                                             height=t["h"] if height is None else height,
                                              elements=elements, model=model)
         if abs(np.degrees(beam.angle) - deg) > 0.5:  # Table 1 lists the angles: the geometry must agree
             raise ParameterError(f"gripper: hinge {h} spans {np.degrees(beam.angle):.2f} deg, Table 1 says {deg}")

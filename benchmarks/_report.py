@@ -37,3 +37,14 @@ def write_section(name: str, body: str, path: Path = ROOT / "BENCHMARKS.md") -> 
     pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end), re.S)
     text = pattern.sub(lambda _: block, text) if pattern.search(text) else text.rstrip() + "\n\n" + block + "\n"
     path.write_text(text)
+
+
+def run(name: str, main, doc: str, quick_help: str) -> None:
+    """Command line of a benchmark script: ``[--quick]``, write section ``name``, print it."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help=quick_help)
+    body = main(ap.parse_args().quick)
+    write_section(name, body)
+    print(body)

@@ -5,7 +5,6 @@ Writes the "core" section of BENCHMARKS.md. Run: python benchmarks/bench_core.py
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -13,7 +12,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import flexmb  # noqa: E402
-from _report import machine, median_time, write_section  # noqa: E402
+from _report import machine, median_time, run  # noqa: E402
 
 SWEEP_DEG = np.arange(5, 76, 5)
 
@@ -80,9 +79,4 @@ def main(quick: bool = False) -> str:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="only 1...6 elements per leaf")
-    args = ap.parse_args()
-    body = main(args.quick)
-    write_section("core", body)
-    print(body)
+    run("core", main, __doc__, "only 1...6 elements per leaf")

@@ -19,7 +19,7 @@ from .errors import FlexmbError
 def _demo(args) -> int:
     from . import demo
 
-    print("flexmb demo: cross-flexure pivot of Dwarshuis et al. (2020), Table 1, full model, conventional method")
+    print("flexmb demo 1: cross-flexure pivot of Dwarshuis et al. (2020), Table 1, full model, conventional method")
     print("M / M_lin with M_lin = 2 E I theta / L (Eq. 4.3); reference: inextensible elastica (Wittrick 1948)\n")
     elements = (1, 2, 3) if args.quick else (1, 2, 3, 4, 5)
     curves = {n: demo.cross_flexure_curve(n, dim=3) for n in elements}
@@ -33,14 +33,36 @@ def _demo(args) -> int:
     err, pred, its = demo.cantilever_circle_check()
     print(f"\nend-moment cantilever, 8 elements, 180 deg: tip error {err:.6e} L, closed form {pred:.6e} L, "
           f"{its} iterations")
+    gripper = _demo_gripper(args.quick)
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
         demo.plot_cross_flexure(curves, reference, out / "cross_flexure.png")
-        print(f"\nfigure: {out / 'cross_flexure.png'}")
+        from . import gripper_case as g
+
+        g.plot_comparison({"silicon": gripper}, out / "gripper_models.png")
+        print(f"\nfigures: {out / 'cross_flexure.png'}, {out / 'gripper_models.png'}")
     except ImportError:
         print("\n(no figures: install the plot extra, pip install 'flexmb[plot]')")
     return 0
+
+
+def _demo_gripper(quick: bool) -> dict:
+    """The gripper of Cammarata et al. (2022): closing forces and strategy timings; returns the sweeps."""
+    from . import gripper_case as g
+
+    print("\nMEMS gripper with curved beams, Cammarata et al. (2022) Table 1, silicon, mm and uN")
+    print(f"{'model':26s} {'closing F_2y [uN]':>18s} {'sweep -60..close':>17s} {'iterations':>11s}")
+    sweeps = {}
+    for label, model, method in (("linear (closed form)", "linear", "newton"),
+                                 ("partial NL (closed form)", "partial-nonlinear", "newton"),
+                                 ("fully NL (FE, 32 el./arc)", "partial-nonlinear", "conventional")):
+        F = g.closing_force("silicon", model, method)
+        r = g.opening_closing("silicon", model, method, points=21 if method == "conventional" else 131, upper=F)
+        sweeps[label] = r
+        print(f"{label:26s} {F:18.3f} {r['total_time'] * 1e3:12.1f} ms {r['iterations'].sum():11d}"
+              f"  ({len(r['forces'])} forces)")
+    return sweeps
 
 
 def _joints(args) -> int:

@@ -255,7 +255,6 @@ class Mechanism:
         if capability == "closed_form":
             return self._compile_closed_form()
         dim = self.dim
-        ndof = 3 if dim == 2 else 6
         names = list(self.graph.nodes)
         link_node = {n: i for i, n in enumerate(names)}
         node_x0 = [self.links[n].position for n in names]

@@ -24,7 +24,7 @@ def _with_actuation(compiled, value: float):
     return PointLoads(ld.node, ld.offset, force, ld.moment)
 
 
-def sweep(mechanism, forces, *, method: str | object = "newton", start: str = "previous", **options) -> list:
+def sweep(mechanism, forces, *, method: str | object = "conventional", start: str = "previous", **options) -> list:
     """Solve ``mechanism`` for each actuation force in ``forces`` [N] (`Mechanism.set_actuation`).
 
     ``start="previous"`` starts each solve from the last converged solution (continuation, the
@@ -36,7 +36,7 @@ def sweep(mechanism, forces, *, method: str | object = "newton", start: str = "p
     return list(iter_sweep(mechanism, forces, method=method, start=start, **options))
 
 
-def iter_sweep(mechanism, forces, *, method: str | object = "newton", start: str = "previous", **options):
+def iter_sweep(mechanism, forces, *, method: str | object = "conventional", start: str = "previous", **options):
     """`sweep` as a generator: yields each `Solution` as soon as it is computed."""
     if start not in STARTS:
         raise ParameterError(f"sweep: start={start!r}; valid: {', '.join(STARTS)}")
@@ -123,7 +123,7 @@ def tangent_stiffness(mechanism, solution=None, terms: bool = False, *, method: 
 
 
 def find_actuation(mechanism, point: tuple[str, str], forces, *, coordinate: int = 0, target: float = 0.0,
-                   method: str | object = "newton", xtol: float = 1e-10, **options) -> float:
+                   method: str | object = "conventional", xtol: float = 1e-10, **options) -> float:
     """The actuation force [N] at which coordinate ``coordinate`` of the named ``point`` =
     (link, name) reaches ``target`` (the gripper's clamp closes: end-effector x = 0).
 

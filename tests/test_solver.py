@@ -133,3 +133,22 @@ def test_global_equilibrium_of_a_loop_with_offsets_and_prescribed_links():
          + np.cross(p_now, f) + mz)
     np.testing.assert_allclose(F, 0.0, atol=2e-6)
     np.testing.assert_allclose(M, 0.0, atol=2e-6)
+
+
+def test_whole_step_does_not_jump_to_a_folded_branch():
+    """2D cross flexure (Table 1, 5 el./leaf) taken to 55 degrees in one step: without the
+    corrector-rotation limit Newton turned a node by 341 degrees in its third iteration and
+    converged to a folded equilibrium with 216 J; the branch reached by continuation (first step 5 degrees)
+    stores 6.58 J (measured), and the one-step solve must find that one."""
+    import flexmb
+
+    def pivot(theta):
+        return flexmb.models.cross_flexure_pivot(elements_per_leaf=5, dim=2, rotation=np.radians(theta))
+
+    one_step = flexmb.solve(pivot(55.0))
+    stepped = flexmb.solve(pivot(55.0), initial_step=5.0 / 55.0)
+    assert one_step.converged and stepped.converged
+    assert one_step.strain_energy() == pytest.approx(stepped.strain_energy(), rel=1e-9)
+    assert one_step.strain_energy() < 10.0
+    wandering = flexmb.solve(pivot(55.0), max_rotation=None)
+    assert wandering.strain_energy() > 100.0  # the failure mode this guards against, still there without it

@@ -1,4 +1,4 @@
-"""The ``flexmb`` command: ``flexmb demo``, ``flexmb joints``. Errors are one line (``--debug`` for a traceback).
+"""The ``flexmb`` command: ``flexmb demo``, ``flexmb train``, ``flexmb joints``. Errors are one line (``--debug`` for a traceback).
 
 Exit codes: 0 success, 1 a flexmb error (bad input, no convergence), 2 usage error.
 """
@@ -78,6 +78,23 @@ def _joints(args) -> int:
     return 0
 
 
+def _train(args) -> int:
+    from . import database
+    from .registry import joint as make_joint
+
+    out = Path(args.out) if args.out else database.data_path()
+    out.mkdir(parents=True, exist_ok=True)
+    for dim in args.dim:
+        for n in args.elements:
+            j = make_joint(args.kind, elements_per_leaf=n) if n else make_joint(args.kind)
+            data = database.train(j, dim, range_deg=(-args.range, args.range), step_deg=args.step)
+            path = database.save(data, out / database.file_name(j.kind, dim, data.key))
+            res = ", ".join(f"{k} {f.max_residual:.1e}" for k, f in data.functions.items())
+            print(f"{path}: {len(data.samples)} runs; max fit residuals: {res}, elements "
+                  f"{data.elements.max_residual:.1e} rad, nodes {data.nodes.max_residual:.1e} rad")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="flexmb", description="Kinetostatics of flexure mechanisms.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
@@ -86,6 +103,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default="figures", help="folder for the figures (default: ./figures)")
     p.add_argument("--quick", action="store_true", help="fewer element counts")
     p.set_defaults(func=_demo)
+    p = sub.add_parser("train", help="(re)train a joint database from the joint's finite-element model")
+    p.add_argument("kind", nargs="?", default="cross_flexure", help="joint kind (default: cross_flexure)")
+    p.add_argument("--dim", type=int, nargs="+", default=[2, 3], choices=(2, 3))
+    p.add_argument("--elements", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="elements per leaf")
+    p.add_argument("--range", type=float, default=75.0, help="intended rotation range +- [deg] (75)")
+    p.add_argument("--step", type=float, default=5.0, help="sampling step [deg] (5)")
+    p.add_argument("--out", default=None, help="folder (default: the package's shipped data)")
+    p.set_defaults(func=_train)
     p = sub.add_parser("joints", help="list the registered joint plugins and their parameters")
     p.set_defaults(func=_joints)
     args = parser.parse_args(argv)

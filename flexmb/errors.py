@@ -51,3 +51,12 @@ class ConvergenceError(FlexmbError):
     def __init__(self, message: str, solution=None):
         super().__init__(message)
         self.solution = solution
+
+
+class DatabaseError(FlexmbError):
+    """A joint database file is missing, corrupted, stale (trained on another mesh or format), or
+    was asked for data it does not hold."""
+
+
+class ExtrapolationWarning(UserWarning):
+    """A joint database was queried outside its trained range (the polynomial is extrapolated)."""

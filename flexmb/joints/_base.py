@@ -77,6 +77,9 @@ class Joint(abc.ABC):
         `mesh` returns the joint's beam-element model (conventional method).
     ``"closed_form"``
         `closed_form` returns a constant end stiffness (planar; ``method="newton"``).
+    ``"database"``
+        `database_key` names the shape parameters its trained kinematic data depend on
+        (`flexmb.database`; KSD strategies).
     """
 
     kind: ClassVar[str] = ""
@@ -89,6 +92,8 @@ class Joint(abc.ABC):
             caps.add("fe_model")
         if type(self).closed_form is not Joint.closed_form:
             caps.add("closed_form")
+        if type(self).database_key is not Joint.database_key:
+            caps.add("database")
         return frozenset(caps)
 
     @abc.abstractmethod
@@ -105,6 +110,12 @@ class Joint(abc.ABC):
         """The joint as a constant-stiffness flexure between its two links (see `ClosedForm`)."""
         raise UnsupportedStrategyError(
             f"joint kind {self.kind!r} has no closed-form model; it offers {sorted(self.capabilities)}"
+        )
+
+    def database_key(self) -> dict:
+        """The dimensionless shape parameters that select the joint's trained database file."""
+        raise UnsupportedStrategyError(
+            f"joint kind {self.kind!r} has no joint database; it offers {sorted(self.capabilities)}"
         )
 
     def describe(self) -> dict:

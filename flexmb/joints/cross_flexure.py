@@ -134,6 +134,11 @@ class CrossFlexure(Joint):
             ny0=np.array(ny) if dim == 3 else None,
         )
 
+    def database_key(self) -> dict:
+        """Kinematic data depend on the leaf angle and the mesh (Sec. 2.1, Eq. 2.1); lengths are
+        scaled out (positions over D0) and widths and thickness hardly matter (Sec. 4.1)."""
+        return {"angle": round(float(self.angle), 12), "elements_per_leaf": int(self.elements_per_leaf)}
+
     @property
     def second_moment(self) -> float:
         """I = (w1 + 2 w2) t^3 / 12 [m^4], Eq. (4.4)."""

@@ -1,0 +1,7 @@
+"""Joint database: trained kinematic data of standard joints (Dwarshuis et al. 2020, Secs. 2.1, 3.1)."""
+
+from .store import FORMAT, FORMAT_VERSION, JointData, Polynomial, data_path, file_name, load, save, shipped
+from .training import TrainingRun, simulate, train
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "JointData", "Polynomial", "TrainingRun", "data_path", "file_name", "load",
+           "save", "shipped", "simulate", "train"]

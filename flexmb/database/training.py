@@ -1,0 +1,103 @@
+"""Training a joint database (Dwarshuis et al. 2020, Secs. 2.1, 3.1, 4.1): the joint's own FE model,
+node A fixed, node B turned about z over the intended range with zero reaction in the unintended
+in-plane directions, then least-squares fits of the kinematics.
+
+2D: B free in x, y. 3D: B free in x, y; its z displacement and tilts are held at zero, which the
+symmetric three-leaf cross flexure needs no force for (the reactions are recorded and checked,
+`TrainingRun.max_unintended_reaction`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import attrs
+import numpy as np
+
+from ..errors import ConvergenceError, DatabaseError
+from ..mechanism import Mechanism
+from ..rotations import logm_so3
+from ..solvers import solve
+from .store import JointData, Polynomial, mesh_hash
+
+__all__ = ["TrainingRun", "simulate", "train", "DEFAULT_RANGE_DEG", "ELEMENT_POWERS", "CONSTRAINT_POWERS"]
+
+DEFAULT_RANGE_DEG = (-75.0, 75.0)
+#: Element (and node) rotations as polynomials without constant term, Eq. (4.2) taken to fifth
+#: order: over +-75 deg the paper's cubic leaves 3.2e-3 rad (3D cross flexure, 3 el./leaf), the
+#: quintic 1.8e-4 rad.
+ELEMENT_POWERS = (1, 2, 3, 4, 5)
+#: Positions of B (over D0) as full sixth-order polynomials; D/D0 - 1 even (Eq. 4.1).
+CONSTRAINT_POWERS = tuple(range(7))
+LENGTH_POWERS = (2, 4, 6)
+
+
+@attrs.frozen(eq=False)
+class TrainingRun:
+    """Raw training results at the sampled intended rotations ``theta`` [rad] (S,)."""
+
+    theta: np.ndarray
+    b_position: np.ndarray  # (S, dim) position of node B in the joint frame [m]
+    element_rotation: np.ndarray  # (S, E) rotation of every element chord about z [rad]
+    node_rotation: np.ndarray  # (S, N) rotation of every internal node about z [rad]
+    moment: np.ndarray  # (S,) reaction moment about z on B [N m]
+    max_unintended_reaction: float  # largest |reaction| in the held unintended DOFs (3D) [N, N m]
+    wall_time: float
+
+
+def simulate(joint, dim: int, theta) -> TrainingRun:
+    """Solve the joint's FE model at every intended rotation ``theta`` [rad], each from rest."""
+    t0 = time.perf_counter()
+    m = Mechanism(dim=dim)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=joint.interface_b(dim))
+    m.add_joint("A", "B", joint, name="joint")
+    out = []
+    for a in np.asarray(theta, float):
+        if dim == 2:
+            m.prescribe("B", rotation=a)
+        else:
+            m.prescribe("B", z=0.0, rotation=(0.0, 0.0, a))
+        try:
+            sol = solve(m, raise_on_failure=True)
+        except ConvergenceError as exc:
+            raise DatabaseError(f"training {joint.kind}: the FE model did not converge at {np.degrees(a):.1f} deg: "
+                                f"{exc}") from None
+        p = sol.compiled.problem
+        pts = p.model.point_positions(sol.state)
+        ends = p.model.elements.ends
+        c = pts[ends[:, 1]] - pts[ends[:, 0]]
+        c0 = p.model.point_x0[ends[:, 1]] - p.model.point_x0[ends[:, 0]]
+        beta = np.arctan2(c0[:, 0] * c[:, 1] - c0[:, 1] * c[:, 0], np.einsum("ei,ei->e", c0[:, :2], c[:, :2]))
+        internal = slice(2, None)
+        rot = sol.state.rotations[internal]
+        node_rot = rot if dim == 2 else np.array([logm_so3(R)[2] for R in rot])
+        reaction = sol.reaction("B")
+        unintended = np.abs(reaction[[2, 3, 4]]).max() if dim == 3 else 0.0
+        out.append((sol.pose("B")[0], beta, node_rot, reaction[-1], unintended))
+    b, beta, nodes, moment, unintended = (np.array(x) for x in zip(*out))
+    return TrainingRun(np.asarray(theta, float), b, beta, nodes, moment, float(unintended.max()),
+                       time.perf_counter() - t0)
+
+
+def train(joint, dim: int, range_deg=DEFAULT_RANGE_DEG, step_deg: float = 5.0) -> JointData:
+    """Train the database of ``joint`` (a `Joint` with a FE model and a `database_key`) in ``dim``."""
+    key = joint.database_key()
+    lo, hi = range_deg
+    theta = np.radians(np.arange(lo, hi + 0.5 * step_deg, step_deg))
+    run = simulate(joint, dim, theta)
+    D0 = float(np.linalg.norm(joint.interface_b(dim)))
+    pos = run.b_position / D0
+    functions = {name: Polynomial.fit(theta, pos[:, k], CONSTRAINT_POWERS)
+                 for k, name in enumerate(("x/D0", "y/D0", "z/D0")[:dim])}
+    functions["D/D0-1"] = Polynomial.fit(theta, np.linalg.norm(pos, axis=1) - 1.0, LENGTH_POWERS)
+    return JointData(kind=joint.kind, dim=dim, parameters=_plain(joint.describe()), key=key,
+                     mesh_hash=mesh_hash(joint, dim), range=(float(theta[0]), float(theta[-1])), samples=theta,
+                     length=D0, functions=functions,
+                     elements=Polynomial.fit(theta, run.element_rotation, ELEMENT_POWERS),
+                     nodes=Polynomial.fit(theta, run.node_rotation, ELEMENT_POWERS))
+
+
+def _plain(d: dict) -> dict:
+    return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in d.items()
+            if isinstance(v, (int, float, str, bool, np.floating)) or v is None}

@@ -210,7 +210,10 @@ class Mechanism:
         """
         lk = self.link(link)
         where = f"actuation on link {link!r}"
+        if lk.fixed:
+            raise ModelError(f"{where}: link {link!r} is fixed; an actuation force on it would do nothing")
         d = v.vector(where, "direction", direction, self.dim)
+        d = d / np.abs(d).max() if np.abs(d).max() > 0 else d  # scale first: no overflow in the norm
         norm = float(np.linalg.norm(d))
         if not norm > 0.0:
             raise ParameterError(f"{where}: direction={direction!r} must be a non-zero vector")

@@ -83,7 +83,7 @@ def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: 
     non-linear finite-element model (``method="conventional"``). ``width`` and ``height`` [mm]
     replace Table 1's cross-section b = 0.025, h = 0.005 (the cross-section study, Fig. 10).
     """
-    if material not in GRIPPER_MATERIALS:
+    if not isinstance(material, str) or material not in GRIPPER_MATERIALS:
         raise ParameterError(f"gripper: material={material!r}; valid: {sorted(GRIPPER_MATERIALS)}")
     t = {k: np.asarray(x, dtype=float) if not isinstance(x, (float, int)) else x for k, x in GRIPPER_TABLE_1.items()}
     origin = {"body1": np.zeros(2), "body2": t["G2"], "body3": t["G3"], "body4": t["G4"]}

@@ -112,9 +112,9 @@ class StaticProblem(BoundaryConditions):
         w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
         return scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs), G
 
-    def external_load(self, state: State) -> np.ndarray:
-        """Assembled applied loads at load factor 1 on all DOFs."""
-        return self.external_force(state, 1.0)[0]
+    def external_load(self, state: State, lam: float = 1.0) -> np.ndarray:
+        """Assembled applied loads at load factor ``lam`` on all DOFs (what `residual` subtracts)."""
+        return self.external_force(state, lam)[0]
 
     def residual(self, state: State, lam: float) -> np.ndarray:
         """``f_int - f_ext(lam)`` on all DOFs (N * ndof,)."""

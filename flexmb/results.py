@@ -115,7 +115,7 @@ class Solution:
         balances to roundoff; see `flexmb.CurvedBeam` for the closed-form models.
         """
         problem, state = self.compiled.problem, self.state
-        f = (self.residual + problem.external_load(state)).reshape(len(state.positions), -1)
+        f = (self.residual + problem.external_load(state, self.load_factor)).reshape(len(state.positions), -1)
         d = self.dim
         force = f[:, :d].sum(axis=0)
         x = state.positions

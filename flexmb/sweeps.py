@@ -6,9 +6,11 @@ import attrs
 import numpy as np
 import scipy.linalg as sla
 
+from . import _validate as v
 from .closed_form.problem import TERMS, LinkageProblem
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
 from .problem import PointLoads
+from .results import Solution
 from .solvers import make_strategy
 
 __all__ = ["sweep", "iter_sweep", "tangent_stiffness", "find_actuation", "STARTS"]
@@ -40,9 +42,7 @@ def iter_sweep(mechanism, forces, *, method: str | object = "conventional", star
     """`sweep` as a generator: yields each `Solution` as soon as it is computed."""
     if start not in STARTS:
         raise ParameterError(f"sweep: start={start!r}; valid: {', '.join(STARTS)}")
-    values = None if isinstance(forces, str) else np.atleast_1d(np.asarray(forces, dtype=float))
-    if values is None or values.ndim != 1 or not np.all(np.isfinite(values)):
-        raise ParameterError(f"sweep: forces must be a 1-D sequence of finite numbers, got {forces!r}")
+    values = _forces("sweep", forces)
     strategy = make_strategy(method, options)
     if not hasattr(mechanism, "compile"):
         raise ModelError(f"sweep() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
@@ -56,6 +56,16 @@ def iter_sweep(mechanism, forces, *, method: str | object = "conventional", star
         if sol.converged:
             last = sol
         yield sol
+
+
+def _forces(owner: str, forces) -> np.ndarray:
+    try:
+        values = None if isinstance(forces, (str, bytes)) else np.atleast_1d(np.asarray(forces, dtype=float))
+    except (TypeError, ValueError):
+        values = None
+    if values is None or values.ndim != 1 or len(values) == 0 or not np.all(np.isfinite(values)):
+        raise ParameterError(f"{owner}: forces must be a non-empty 1-D sequence of finite numbers, got {forces!r}")
+    return values
 
 
 def _solve_at(strategy, compiled, value: float, previous=None):
@@ -83,11 +93,15 @@ def tangent_stiffness(mechanism, solution=None, terms: bool = False, *, method: 
     factor 1 (their load stiffness); with ``solution`` its own model, loads and state are used.
     """
     if solution is not None:
+        if not isinstance(solution, Solution):
+            raise ModelError(f"tangent_stiffness: solution must be a flexmb.Solution, got {type(solution).__name__}")
         compiled, state = solution.compiled, solution.state
         if method is not None and method != solution.method and {method, solution.method} != {"newton"}:
             raise UnsupportedStrategyError(f"tangent_stiffness: solution is from method {solution.method!r}, "
                                            f"not {method!r}")
     else:
+        if not hasattr(mechanism, "compile"):
+            raise ModelError(f"tangent_stiffness() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
         if method is None:
             caps = [j.capabilities for j in mechanism.joints.values()]
             method = "newton" if mechanism.dim == 2 and all("closed_form" in c for c in caps) else "conventional"
@@ -95,9 +109,7 @@ def tangent_stiffness(mechanism, solution=None, terms: bool = False, *, method: 
         if capability is None:
             raise UnsupportedStrategyError(f"tangent_stiffness: method={method!r}; valid: newton, conventional")
         compiled = mechanism.compile(capability)
-        problem = compiled.problem
-        state = (problem.prescribed_state(problem.model.initial_state()) if isinstance(problem, LinkageProblem)
-                 else problem.model.initial_state())
+        state = compiled.problem.model.initial_state()  # the undeformed configuration (prescribed motion not applied)
     problem = compiled.problem
     links = np.sort(np.array(list(compiled.link_node.values()), dtype=np.int64))
     link_dofs = problem.model.node_dofs[links].ravel()
@@ -128,11 +140,18 @@ def find_actuation(mechanism, point: tuple[str, str], forces, *, coordinate: int
     (link, name) reaches ``target`` (the gripper's clamp closes: end-effector x = 0).
 
     Sweeps ``forces`` (warm-started) until the coordinate crosses ``target``, then refines between
-    the two bracketing forces with Brent's method, each solve warm-started from the lower one.
-    Raises `ModelError` when the sweep fails or never crosses (naming the last force reached).
+    the two bracketing forces with Brent's method (to ``xtol`` [N]), each solve warm-started from
+    the lower one. Raises `ModelError` when the sweep fails or never crosses.
     """
+    values = _forces("find_actuation", forces)
+    if (not isinstance(point, tuple) or len(point) != 2 or not all(isinstance(x, str) for x in point)):
+        raise ParameterError(f"find_actuation: point={point!r} must be a (link, point name) tuple")
+    dim = getattr(mechanism, "dim", 2)
+    if isinstance(coordinate, bool) or not isinstance(coordinate, (int, np.integer)) or not 0 <= coordinate < dim:
+        raise ParameterError(f"find_actuation: coordinate={coordinate!r} must be an integer in 0..{dim - 1}")
+    target = v.finite("find_actuation", "target", target)
+    xtol = v.positive("find_actuation", "xtol", xtol)
     prev = None
-    values = np.atleast_1d(np.asarray(forces, dtype=float))
     for sol, F in zip(iter_sweep(mechanism, values, method=method, **options), values):
         if not sol.converged:
             raise ModelError(f"find_actuation: no equilibrium at actuation {F:.6g} before the crossing: {sol.message}")

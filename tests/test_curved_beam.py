@@ -137,3 +137,23 @@ def test_gripper_fe_closing_force_scales_with_youngs_modulus():
     ny = closing("nylon", 200.0 * 0.0384)
     assert 60.0 < si < 80.0  # measured: 71.96 uN at 8 elements/beam, 69.85 uN extrapolated
     assert abs(ny / si - 0.0384) < 1e-6
+
+
+@pytest.mark.parametrize("angle", [1e-3, 3e-2, 0.3, 0.4999, 0.5001])
+def test_eq2_is_evaluated_without_cancellation_at_small_angles(angle):
+    """6t + sin2t - 8 sin t = t^5/5 - t^7/42 + t^9/720 - ... (Taylor): evaluated directly it
+    cancels to zero below ~1e-4 rad (review), so flexmb sums the series below 0.5 rad. Reference:
+    the three-term series below 0.05 rad (truncation < 1e-12 relative), the direct formula above
+    (cancellation error 40 eps / t^4 < 1e-9 relative)."""
+    j = flexmb.CurvedBeam(radius=1.0, angle=angle, E=12.0, width=1.0, height=0.1)
+    C00 = j.compliance()[0, 0] * j.bending_stiffness * 4
+    t = angle
+    reference = t**5 / 5 - t**7 / 42 + t**9 / 720 if t < 0.05 else 6 * t + np.sin(2 * t) - 8 * np.sin(t)
+    assert C00 == pytest.approx(reference, rel=1e-9)
+    assert np.all(np.linalg.eigvalsh(j.compliance()) > 0)
+
+
+def test_too_small_an_angle_for_the_bending_only_closed_form_is_a_parameter_error():
+    j = flexmb.CurvedBeam(radius=1.0, angle=1e-4, E=12.0, width=1.0, height=0.1)
+    with pytest.raises(flexmb.ParameterError, match="angle.*too small"):
+        j.stiffness()

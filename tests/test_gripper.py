@@ -123,3 +123,44 @@ def test_leaf_spring_closed_form_equals_its_fe_model_for_small_loads():
     np.testing.assert_allclose(cf.displacement("tip"), fe.displacement("tip"), rtol=0, atol=1e-3 * abs(fe.displacement("tip")[1]))
     C = leaf.compliance()
     assert cf.displacement("tip")[1] == pytest.approx(C[1, 1] * P, rel=1e-3)
+
+
+def test_bad_inputs_to_sweeps_are_flexmb_errors():
+    """Found by review: these came out as bare IndexError/TypeError/ValueError or silent zeros."""
+    m = flexmb.models.gripper()
+    fa = flexmb.find_actuation
+    bad_calls = [
+        lambda: fa(m, EE, []), lambda: fa(m, EE, [0.0, 10.0], coordinate=5),
+        lambda: fa(m, EE, [0.0, 10.0], coordinate=1.0), lambda: fa(m, "end_effector", [0.0, 10.0]),
+        lambda: fa(m, EE, [0.0, 10.0], target=np.nan), lambda: fa(m, EE, [0.0, 10.0], target="a"),
+        lambda: fa(m, EE, [0.0, 10.0], xtol=0.0), lambda: flexmb.sweep(m, ["a"]),
+        lambda: flexmb.sweep(m, object()), lambda: flexmb.tangent_stiffness(None),
+        lambda: flexmb.tangent_stiffness(m, "x"), lambda: flexmb.models.gripper(material=["silicon"]),
+        lambda: m.set_actuation("body1", (0.0, 1.0)),
+    ]
+    for call in bad_calls:
+        with pytest.raises(flexmb.FlexmbError):
+            call()
+    m.set_actuation("body2", (1e200, 1e200), value=1.0)  # no overflow to a zero direction
+    np.testing.assert_allclose(m.actuation["direction"], [2**-0.5, 2**-0.5])
+
+
+def test_tangent_at_rest_ignores_prescribed_motion_for_both_models():
+    """At rest means the undeformed configuration for the closed form and the FE model alike
+    (review: the closed form used the prescribed state, 30 % off the FE value)."""
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("g", fixed=True)
+    m.add_link("b", position=(0.1, 0.0))
+    m.add_joint("g", "b", flexmb.LeafSpring(elements=8))
+    m.prescribe("b", rotation=0.3)
+    cf = flexmb.tangent_stiffness(m, method="newton")
+    fe = flexmb.tangent_stiffness(m, method="conventional")
+    np.testing.assert_allclose(cf, fe, rtol=1e-6, atol=1e-6 * np.abs(fe).max())
+
+
+def test_imbalance_of_an_unconverged_fe_solve_is_the_models_not_the_load_factors():
+    m = flexmb.models.cantilever(elements=4)
+    m.apply_force("tip", (0.0, 2000.0))
+    sol = flexmb.solve(m, max_iter=3, min_step=0.1)
+    assert not sol.converged and sol.load_factor < 1.0
+    assert np.abs(sol.imbalance()).max() < 1e-6

@@ -108,8 +108,9 @@ class LinkageProblem(BoundaryConditions):
         w = np.concatenate([ld.force, ld.moment[:, :1] + dF.imag[:, None]], axis=1)
         return np.bincount(self._load_dofs, w.ravel(), minlength=self.model.n_dofs), dF.real
 
-    def external_load(self, state: State) -> np.ndarray:
-        """Assembled applied loads on all DOFs (forces, moments about the link reference points)."""
+    def external_load(self, state: State, lam: float = 1.0) -> np.ndarray:
+        """Assembled applied loads on all DOFs (forces, moments about the link reference points).
+        The closed-form residual always carries the whole load, so ``lam`` is not used."""
         return self._external(state)[0]
 
     def evaluate(self, state: State, tangent: bool = True):

@@ -13,6 +13,7 @@ import time
 import numpy as np
 
 from . import models
+from .solvers import solve
 from .sweeps import find_actuation, sweep, tangent_stiffness
 
 __all__ = ["MODELS", "STRATEGIES", "FE_OPTIONS", "closing_force", "opening_closing", "stiffness_tables",
@@ -47,7 +48,8 @@ def closing_force(material: str = "silicon", model: str = "partial-nonlinear", m
     """Actuation force F_2y [uN] that closes the clamp (end-effector x = 0)."""
     m = _mechanism(material, model, **section)
     opts = {"tol": FE_OPTIONS["tol"]} if method == "conventional" else {}
-    scale = _scale(material) * (section.get("height", 0.005) / 0.005) ** 3 * section.get("width", 0.025) / 0.025
+    b, h = models.GRIPPER_TABLE_1["b"], models.GRIPPER_TABLE_1["h"]
+    scale = _scale(material) * (section.get("height", h) / h) ** 3 * section.get("width", b) / b  # F ~ E b h^3
     return find_actuation(m, EE, np.arange(0.0, 400.0, 10.0) * scale, method=method, **opts)
 
 
@@ -75,8 +77,6 @@ def stiffness_tables(force: float = 50.0, model: str = "partial-nonlinear", mate
     m = models.gripper(material, model=model)
     rest = tangent_stiffness(m)
     loaded = models.gripper(material, model=model, force=force)
-    from .solvers import solve
-
     sol = solve(loaded, method="newton", raise_on_failure=True)
     terms = tangent_stiffness(loaded, sol, terms=True)
     K = sum(terms.values())

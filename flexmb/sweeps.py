@@ -70,11 +70,9 @@ def _forces(owner: str, forces) -> np.ndarray:
 
 def _solve_at(strategy, compiled, value: float, previous=None):
     """Solve at actuation ``value``, from the converged ``previous`` solution if given."""
-    loads = _with_actuation(compiled, value)
-    if isinstance(compiled.problem, LinkageProblem):
-        problem = compiled.problem.with_loads(loads)
-    else:  # the conventional method steps the load from where ``previous`` was in equilibrium
-        problem = compiled.problem.with_loads(loads, start=None if previous is None else previous.compiled.problem.loads)
+    # a load-stepping strategy steps the load from where ``previous`` was in equilibrium
+    start = None if previous is None else previous.compiled.problem.loads
+    problem = compiled.problem.with_loads(_with_actuation(compiled, value), start=start)
     return strategy.solve(attrs.evolve(compiled, problem=problem), state=None if previous is None else previous.state)
 
 
@@ -123,8 +121,7 @@ def tangent_stiffness(mechanism, solution=None, terms: bool = False, *, method: 
     if terms:
         raise UnsupportedStrategyError("tangent_stiffness: terms are defined for the closed-form model "
                                        "(method='newton'), not the finite-element model")
-    lam = 1.0
-    _, Kff, _, _ = problem.evaluate(state, lam)
+    _, Kff, _, _ = problem.evaluate(state, 1.0)
     K = Kff.toarray()
     pos = np.searchsorted(problem.free, keep)
     inner = np.setdiff1d(np.arange(len(problem.free)), pos)

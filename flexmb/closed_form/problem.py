@@ -88,8 +88,10 @@ class LinkageProblem(BoundaryConditions):
         self._load_offset = loads.offset[:, 0] + 1j * loads.offset[:, 1]
         self._load_force = loads.force[:, 0] + 1j * loads.force[:, 1]
 
-    def with_loads(self, loads: PointLoads) -> LinkageProblem:
-        """A copy of this problem under other loads (patterns shared)."""
+    def with_loads(self, loads: PointLoads, start: PointLoads | None = None) -> LinkageProblem:
+        """A copy of this problem under other loads (patterns shared). ``start`` is accepted for the
+        interface of `flexmb.problem.StaticProblem.with_loads` and not needed: the closed-form
+        residual always carries the whole load (no load factor)."""
         out = copy.copy(self)
         out.set_loads(loads)
         return out

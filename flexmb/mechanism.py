@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import attrs
 import networkx as nx
 import numpy as np
@@ -50,6 +52,8 @@ class Compiled:
     points: dict  # named points: name -> (link, offset)
     joint_elements: dict  # joint name -> element indices
     actuation: tuple | None = None  # (row of the actuation in problem.loads, unit direction)
+    joint_nodes: dict = attrs.field(factory=dict)  # joint name -> FE node indices of its internal nodes
+    joints: tuple = ()  # (name, joint, placement, side A link, side B link) at compile time
 
 
 class Mechanism:
@@ -263,17 +267,18 @@ class Mechanism:
         node_x0 = [self.links[n].position for n in names]
         pt_master = list(range(len(names)))
         pt_x0 = list(node_x0)
-        ends, sections, ny, owner, joint_elements = [], [], [], [], {}
+        ends, sections, ny, owner, joint_elements, joint_nodes = [], [], [], [], {}, {}
         for j, (a, b, key, data) in enumerate(self.graph.edges(keys=True, data=True)):
             jt: Joint = data["joint"]
             side_a, side_b = data["sides"]
             if capability not in jt.capabilities:
                 raise UnsupportedStrategyError(
                     f"joint {key!r} ({jt.kind}) does not offer {capability!r}; it offers {sorted(jt.capabilities)}")
-            mesh = _checked_mesh(key, jt, dim)
+            mesh = _joint_mesh(key, jt, dim)
             pl: Placement = data["placement"]
             gx = pl.to_global(np.asarray(mesh.points, dtype=float))
             idx = np.empty(len(gx), dtype=np.int64)
+            joint_nodes[key] = len(node_x0) + np.arange(np.count_nonzero(np.asarray(mesh.side) == INTERNAL))
             for k, (x, s) in enumerate(zip(gx, mesh.side)):
                 if s == INTERNAL:
                     master = len(node_x0)
@@ -318,7 +323,9 @@ class Mechanism:
 
         pres, vals, loads = self._boundary(link_node)
         return Compiled(StaticProblem(model, pres, vals, loads), link_node, dict(self._points), joint_elements,
-                        self._actuation_row(loads))
+                        self._actuation_row(loads), joint_nodes,
+                        tuple((k, d["joint"], d["placement"], *d["sides"])
+                              for _, _, k, d in self.graph.edges(keys=True, data=True)))
 
     def _actuation_row(self, loads: PointLoads) -> tuple | None:
         return None if self._actuation is None else (len(loads.node) - 1, self._actuation[2].copy())
@@ -390,6 +397,24 @@ class Mechanism:
     def __repr__(self) -> str:
         return (f"Mechanism(dim={self.dim}, links={list(self.graph.nodes)}, "
                 f"joints={[f'{k}: {a}-{b}' for a, b, k in self.graph.edges(keys=True)]})")
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_mesh(joint: Joint, dim: int):
+    return _checked_mesh("?", joint, dim)
+
+
+def _joint_mesh(key: str, joint: Joint, dim: int):
+    """The joint's checked mesh; cached per joint value (joints are immutable), so a mechanism of
+    identical joints and repeated solves build it once."""
+    try:
+        hash(joint)
+    except TypeError:
+        return _checked_mesh(key, joint, dim)
+    try:
+        return _cached_mesh(joint, dim)
+    except ModelError:
+        return _checked_mesh(key, joint, dim)  # repeat to name the joint in the error
 
 
 def _checked_mesh(key: str, joint: Joint, dim: int):

@@ -14,7 +14,7 @@ from .joints.leaf_spring import LeafSpring
 from .mechanism import Mechanism
 from .registry import joint_from_params
 
-__all__ = ["cantilever", "cross_flexure_pivot", "gripper"]
+__all__ = ["cantilever", "cross_flexure_pivot", "fourbar", "gripper"]
 
 
 def cross_flexure_pivot(elements_per_leaf: int = 3, dim: int = 3, rotation: float = 0.0, **joint_params) -> Mechanism:
@@ -36,6 +36,53 @@ def cross_flexure_pivot(elements_per_leaf: int = 3, dim: int = 3, rotation: floa
     else:
         m.prescribe("B", z=0.0, rotation=(0.0, 0.0, rotation))
     return m
+
+
+def fourbar(elements_per_leaf: int = 3, displacement: float = 0.0, moment: float = 0.0, *, dim: int = 3,
+            width: float = 0.4, height: float = 0.3, **joint_params) -> Mechanism:
+    """The four-bar of Dwarshuis et al. (2020), Sec. 4.3, Fig. 9: four cross flexures (Table 1).
+
+    Link ``"ground"`` (fixed) carries the two lower cross flexures ``"bottom_left"`` and
+    ``"bottom_right"``, ``width`` [m] apart (W = 0.4 m) on the x axis; rigid vertical links
+    ``"left"`` and ``"right"`` of length ``height`` [m] (H = 0.3 m, from the upper block of the
+    lower flexure to the lower block of the upper flexure) carry ``"top_left"`` and
+    ``"top_right"``, whose upper blocks hold link ``"top"``. Every flexure stands upright (node
+    B above node A, the joint frame parallel to the global axes), so the pivots (the leaf
+    crossings) are ``height + D0`` apart, D0 = L sin(alpha) = 0.0707 m: the paper's largest
+    actuation d = 0.3 m turns the flexures by 54 degrees, inside the trained range.
+
+    The reference point of ``"top"`` is the centre of the upper link (x = 0, at the height of the
+    upper flexures' B nodes); its x displacement is prescribed to ``displacement`` [m] (the
+    actuation; the reaction is the actuation force F of Fig. 10) and an extra ``moment`` [N m]
+    about z acts on it (Fig. 12). ``joint_params`` go to `CrossFlexure`.
+    """
+    v.finite("fourbar", "displacement", displacement)
+    v.finite("fourbar", "moment", moment)
+    v.positive("fourbar", "width", width)
+    v.positive("fourbar", "height", height)
+    joint = joint_from_params(CrossFlexure, elements_per_leaf=elements_per_leaf, **joint_params)
+    D0 = float(joint.interface_b(2)[1])
+    half = 0.5 * width
+    m = Mechanism(dim=dim)
+    pt = (lambda x, y: (x, y)) if dim == 2 else (lambda x, y: (x, y, 0.0))
+    m.add_link("ground", fixed=True)
+    m.add_link("left", position=pt(-half, D0 + 0.5 * height))
+    m.add_link("right", position=pt(half, D0 + 0.5 * height))
+    m.add_link("top", position=pt(0.0, 2 * D0 + height))
+    for side, x, link in (("left", -half, "left"), ("right", half, "right")):
+        m.add_joint("ground", link, joint, name=f"bottom_{side}", origin=pt(x, 0.0))
+        m.add_joint(link, "top", joint, name=f"top_{side}", origin=pt(x, D0 + height))
+    m.prescribe("top", x=displacement)
+    if moment:
+        m.apply_moment("top", moment if dim == 2 else (0.0, 0.0, moment))
+    return m
+
+
+def fourbar_linear_force(displacement: float, elements_per_leaf: int = 3, height: float = 0.3,
+                         **joint_params) -> float:
+    """F_lin = 4 E I d / (L H^2) [N], Eq. (4.7), with I of Eq. (4.4) for the four-bar's flexures."""
+    joint = joint_from_params(CrossFlexure, elements_per_leaf=elements_per_leaf, **joint_params)
+    return 4.0 * joint.E * joint.second_moment * displacement / (joint.length * height**2)
 
 
 def cantilever(elements: int = 8, dim: int = 2, **leaf_params) -> Mechanism:

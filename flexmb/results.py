@@ -7,7 +7,7 @@ import numpy as np
 
 from .errors import ModelError
 from .fe.model import State
-from .rotations import logm_so3
+from .rotations import cross, logm_so3
 
 __all__ = ["Solution"]
 
@@ -36,6 +36,9 @@ class Solution:
         True when the converged equilibrium is stable (free tangent positive definite), False when
         not, None when not checked (not converged, more than 3000 free DOFs, or the closed-form
         models of ``method="newton"``, whose tangent is not the Hessian of an energy).
+    stages
+        Per-step details of multi-step strategies (KSD: ``"kinematics"``, ``"reduced"``,
+        ``"full"`` with their iterations, residuals and times; ``"eob"``, ``"internal"`` times).
     state
         Nodal configuration (internal use; see `pose`, `node_positions`).
     """
@@ -54,6 +57,7 @@ class Solution:
     compiled: object = attrs.field(repr=False)
     tolerance: float = 5e-7
     stable: bool | None = None
+    stages: dict = attrs.field(factory=dict, repr=False)
 
     @property
     def dim(self) -> int:
@@ -122,7 +126,7 @@ class Solution:
         if d == 2:
             moment = np.array([np.sum(f[:, 2] + x[:, 0] * f[:, 1] - x[:, 1] * f[:, 0])])
         else:
-            moment = np.sum(f[:, 3:] + np.cross(x, f[:, :3]), axis=0)
+            moment = np.sum(f[:, 3:] + cross(x, f[:, :3]), axis=0)
         return np.concatenate([force, moment])
 
     def strain_energy(self) -> float:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["skew", "unskew", "expm_so3", "logm_so3", "rot2"]
+__all__ = ["skew", "unskew", "cross", "expm_so3", "logm_so3", "rot2"]
 
 # Below this angle the Rodrigues coefficients are evaluated by their Taylor series:
 # sin(t)/t and (1 - cos t)/t^2 lose all digits to cancellation near t = 0.
@@ -23,6 +23,15 @@ def skew(w: np.ndarray) -> np.ndarray:
     S[..., 1, 0], S[..., 1, 2] = w[..., 2], -w[..., 0]
     S[..., 2, 0], S[..., 2, 1] = -w[..., 1], w[..., 0]
     return S
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` for arrays of 3-vectors (...,3), broadcast; np.cross's generic path is ~10x slower
+    on the small batches of the Newton loop."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 def unskew(S: np.ndarray) -> np.ndarray:

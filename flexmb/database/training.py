@@ -17,7 +17,6 @@ import numpy as np
 from ..errors import ConvergenceError, DatabaseError
 from ..mechanism import Mechanism
 from ..rotations import logm_so3
-from ..solvers import solve
 from .store import JointData, Polynomial, mesh_hash
 
 __all__ = ["TrainingRun", "simulate", "train", "DEFAULT_RANGE_DEG", "ELEMENT_POWERS", "CONSTRAINT_POWERS"]
@@ -47,6 +46,8 @@ class TrainingRun:
 
 def simulate(joint, dim: int, theta) -> TrainingRun:
     """Solve the joint's FE model at every intended rotation ``theta`` [rad], each from rest."""
+    from ..solvers import solve  # the solvers use the database: import at call time
+
     t0 = time.perf_counter()
     m = Mechanism(dim=dim)
     m.add_link("A", fixed=True)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rotations import skew
+from ..rotations import cross, skew
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent"]
 
@@ -135,7 +135,7 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent):
             B = np.sqrt(1.0 - c * c)
             e[:, row] += coef * L0 * np.arcsin(c)
         g = np.zeros((nE, 12))
-        g[:, ia], g[:, ib] = np.cross(a, b), np.cross(b, a)
+        g[:, ia], g[:, ib] = cross(a, b), cross(b, a)
         s = coef * L0 / B
         Dm[:, row] += s[:, None] * g
         if tangent:
@@ -156,7 +156,7 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent):
             e[:, row] = coef * L0 * np.arcsin(c)
         Pa = np.einsum("eij,ej->ei", P, a) / l[:, None]
         g = np.zeros((nE, 12))
-        g[:, ia], g[:, _RP], g[:, _RQ] = np.cross(a, nl), -Pa, Pa
+        g[:, ia], g[:, _RP], g[:, _RQ] = cross(a, nl), -Pa, Pa
         s = coef * L0 / B
         Dm[:, row] = s[:, None] * g
         if tangent:
@@ -182,7 +182,7 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent):
     # asin(c) cannot tell a rotation x from pi - x: beyond 90 degrees between a node's axis and
     # the chord (or between the two nodes' cross-sections) Eq. (A.4) has spurious equilibria, so
     # such states are marked invalid (NaN) and the solver cuts its step instead of landing there.
-    nx0 = np.cross(ny0, nz0)
+    nx0 = cross(ny0, nz0)
     valid = (
         (_dot(np.einsum("eij,ej->ei", Rp, nx0), nl) > 0.0)
         & (_dot(np.einsum("eij,ej->ei", Rq, nx0), nl) > 0.0)

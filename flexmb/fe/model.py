@@ -13,7 +13,7 @@ from __future__ import annotations
 import attrs
 import numpy as np
 
-from ..rotations import expm_so3, rot2, skew
+from ..rotations import cross, expm_so3, rot2, skew
 from . import beam2d, beam3d
 from .assembly import scatter_add
 
@@ -111,7 +111,7 @@ class FEModel:
         if self.dim == 2:
             out[:, 2] += d[:, 0] * f[:, 1] - d[:, 1] * f[:, 0]
             return out, -dot[:, None, None]
-        out[:, 3:6] += np.cross(d, f)
+        out[:, 3:6] += cross(d, f)
         return out, d[:, :, None] * f[:, None, :] - dot[:, None, None] * np.eye(3)
 
     def _lever(self, d: np.ndarray) -> np.ndarray:

@@ -118,6 +118,12 @@ class Joint(abc.ABC):
             f"joint kind {self.kind!r} has no joint database; it offers {sorted(self.capabilities)}"
         )
 
+    def kinematic_constraints(self, dim: int) -> tuple[str, ...]:
+        """Constraints on the unintended motion for the KSD kinematic step, named from
+        `flexmb.ksd.constraints.NAMES`: by default node B's offsets from A as trained functions of
+        the intended rotation (Eq. 2.1) and, in 3D, no out-of-plane offset and no tilt."""
+        return ("x", "y") if dim == 2 else ("z", "tilt_x", "tilt_y", "x", "y")
+
     def describe(self) -> dict:
         """Parameters as a plain dict (for tables, JSON and error messages)."""
         return attrs.asdict(self) if attrs.has(type(self)) else {}

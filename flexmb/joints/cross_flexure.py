@@ -139,6 +139,11 @@ class CrossFlexure(Joint):
         scaled out (positions over D0) and widths and thickness hardly matter (Sec. 4.1)."""
         return {"angle": round(float(self.angle), 12), "elements_per_leaf": int(self.elements_per_leaf)}
 
+    def kinematic_constraints(self, dim: int) -> tuple[str, ...]:
+        """2D: B's offsets x(theta), y(theta) (Eq. 2.1); 3D: the five constraints of Sec. 4.1 (no z
+        offset, no tilt about x and y, A and B turned symmetrically about the line AB, D/D0 of Eq. 4.1)."""
+        return ("x", "y") if dim == 2 else ("z", "tilt_x", "tilt_y", "symmetric", "length")
+
     @property
     def second_moment(self) -> float:
         """I = (w1 + 2 w2) t^3 / 12 [m^4], Eq. (4.4)."""

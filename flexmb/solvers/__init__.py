@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from ..errors import ModelError, ParameterError, UnsupportedStrategyError
 from .conventional import Conventional
+from .ksd import KSDFull, KSDReduced
 from .newton import Newton
 
-__all__ = ["solve", "make_strategy", "STRATEGIES", "Conventional", "Newton"]
+__all__ = ["solve", "make_strategy", "STRATEGIES", "Conventional", "Newton", "KSDReduced", "KSDFull"]
 
-STRATEGIES = {Conventional.name: Conventional, Newton.name: Newton}
+STRATEGIES = {cls.name: cls for cls in (Conventional, Newton, KSDReduced, KSDFull)}
 
 
 def solve(mechanism, method: str | object = "conventional", **options):
@@ -16,7 +17,9 @@ def solve(mechanism, method: str | object = "conventional", **options):
 
     ``"conventional"``: Newton with step control on the full finite-element model;
     ``"newton"``: the closed-form linkage model of planar constant-stiffness flexures
-    (Cammarata et al. 2022) with ``tangent="full" | "first-term" | "constant"``.
+    (Cammarata et al. 2022) with ``tangent="full" | "first-term" | "constant"``;
+    ``"ksd-reduced"`` / ``"ksd-full"``: the Kinematically Started Deformation method with the
+    joint database and EOBs (Dwarshuis et al. 2020), steps 1-4 / 1-5.
     Options go to the strategy's constructor (e.g. ``tol``, ``max_iter``, ``raise_on_failure``).
     The mechanism is not modified. Returns a `flexmb.Solution`.
     """

@@ -1,0 +1,83 @@
+"""Kinematic constraints of a joint on its unintended motion (KSD step 1, Sec. 2.2).
+
+A joint's constraints are named from this vocabulary (`flexmb.Joint.kinematic_constraints`);
+each is a dimensionless function of the relative pose ``(p, R_rel)`` of node B seen from node A
+(lengths over D0, the undeformed distance of the interface nodes) and of the intended rotation
+``theta`` about the joint's z axis, with the trained functions of the joint database:
+
+``x``, ``y``
+    ``p_x / D0 - xbar(theta)``, ``p_y / D0 - ybar(theta)`` (Eq. 2.1).
+``z``
+    ``p_z / D0``: no out-of-plane offset (Sec. 4.1, first constraint).
+``tilt_x``, ``tilt_y``
+    x and y components of ``R_rel e_z``: no rotation about x and y (Sec. 4.1).
+``symmetric``
+    ``p . n(theta/2) / D0`` with ``n = e_z x b0/|b0|`` turned by ``theta/2``: nodes A and B
+    turn by equal and opposite angles with respect to the line AB (Sec. 4.1, fourth).
+``length``
+    ``|p| / D0 - 1 - g(theta)``, the even polynomial of Eq. (4.1) (Sec. 4.1, fifth).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ModelError
+from ..rotations import cross
+
+__all__ = ["NAMES", "check_names", "evaluate"]
+
+NAMES = ("x", "y", "z", "tilt_x", "tilt_y", "symmetric", "length")
+_FUNCTION = {"x": "x/D0", "y": "y/D0", "length": "D/D0-1"}
+
+
+def check_names(where: str, names, dim: int) -> tuple[str, ...]:
+    """Validate a joint's constraint names: known, distinct, one per unintended DOF."""
+    names = tuple(names)
+    need = 2 if dim == 2 else 5
+    bad = [n for n in names if n not in NAMES]
+    if bad or len(set(names)) != len(names) or len(names) != need:
+        raise ModelError(f"{where}: kinematic constraints {names} must be {need} distinct names from {NAMES} "
+                         f"(one per unintended direction of a {dim}D joint)")
+    if dim == 2 and set(names) & {"z", "tilt_x", "tilt_y"}:
+        raise ModelError(f"{where}: constraints z, tilt_x, tilt_y have no meaning in a planar mechanism")
+    return names
+
+
+def evaluate(names, data, p, R, theta, dtheta, D0, b0):
+    """Values (J, m) and gradients (J, m, 6) with respect to ``(dp, omega)`` of the constraints
+    ``names`` for J joints sharing one database ``data``; ``theta`` (J,) and ``dtheta`` (J, 3)
+    from `intended_angle`, ``D0`` (J,), ``b0`` (J, 3) undeformed position of B."""
+    J = len(p)
+    val = np.zeros((J, len(names)))
+    grad = np.zeros((J, len(names), 6))
+    inv = 1.0 / D0
+    for k, name in enumerate(names):
+        if name in ("x", "y", "z"):
+            c = "xyz".index(name)
+            val[:, k] = p[:, c] * inv
+            grad[:, k, c] = inv
+        elif name in ("tilt_x", "tilt_y"):
+            c = 0 if name == "tilt_x" else 1
+            ez = R[:, :, 2]
+            val[:, k] = ez[:, c]
+            # d(R e_z) = omega x (R e_z)
+            grad[:, k, 3:] = cross(ez, np.eye(3)[c])
+        elif name == "symmetric":
+            n0 = cross([0.0, 0.0, 1.0], b0 / np.linalg.norm(b0, axis=1, keepdims=True))
+            h = 0.5 * theta
+            c, s = np.cos(h), np.sin(h)
+            n = np.stack([c * n0[:, 0] - s * n0[:, 1], s * n0[:, 0] + c * n0[:, 1], n0[:, 2]], axis=1)
+            dn = 0.5 * np.stack([-n[:, 1], n[:, 0], np.zeros(J)], axis=1)
+            val[:, k] = np.einsum("ji,ji->j", p, n) * inv
+            grad[:, k, :3] = n * inv[:, None]
+            grad[:, k, 3:] = (np.einsum("ji,ji->j", p, dn) * inv)[:, None] * dtheta
+        elif name == "length":
+            d = np.linalg.norm(p, axis=1)
+            val[:, k] = d * inv - 1.0
+            grad[:, k, :3] = p / (d * D0)[:, None]
+        if name in _FUNCTION:
+            f = data.function(_FUNCTION[name])
+            val[:, k] -= f(theta)
+            grad[:, k, 3:] -= f.derivative(theta)[:, None] * dtheta
+    return val, grad

@@ -1,0 +1,231 @@
+"""Element Orientation based Body (EOB), Dwarshuis et al. (2020), Section 3.
+
+Everything is in the joint's own frame, relative to interface node A (the origin, held fixed):
+the joint's large rigid motion in a mechanism is the pose of that frame (`geometry.JointFrames`).
+
+1. Element orientations from the database, Eq. (3.1): chord rotations ``beta_k(theta)`` about z.
+2. Near configuration, Eq. (3.2): every element rigidly rotated and undeformed, its two *markers*
+   placed along chains of elements that start at node A (breadth-first tree over the nodes):
+   ``x_q = x_p + R_k d_pq``. Where chains close a loop (at node B of a cross flexure) the markers
+   of coupled elements do not coincide.
+3. Stiffness in the near configuration, Eqs. (3.3)-(3.11): ``K_k`` the element's material
+   stiffness rotated by ``R_k`` (stress-free, so no geometric part), ``K_all`` block-diagonal,
+   ``F_all = K_all (L q - q_hat)`` and ``F_nodes = K_nodes q + F_hat_nodes``,
+   ``K_nodes = L^T K_all L``, ``F_hat_nodes = L^T F_hat_all``.
+
+Node displacements ``q`` are measured from each node's near pose (node A: rest; node B: the
+pose found by the kinematic step; internal nodes: the chains and the trained node rotations),
+rotations as small spins about it. Then ``L`` maps node increments to marker increments; it is
+Boolean for elements attached directly to a node (the paper's case) and carries the lever arm
+``R_n s`` of the connector block for elements attached to a block at offset ``s`` (linearised
+about the near pose, exact to first order for any block rotation). ``q_hat_all`` is the rigid
+displacement of each marker from where the nodes' near poses put it, so
+``F_hat_all = -K_all q_hat_all`` (Eq. 3.8).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import attrs
+import numpy as np
+
+from ..errors import ModelError
+from ..fe import beam2d, beam3d
+from ..rotations import rot2
+from .geometry import rz
+
+__all__ = ["EOBTemplate", "EOB", "lever"]
+
+
+def lever(r: np.ndarray, dim: int) -> np.ndarray:
+    """Blocks ``(..., ndof, ndof)`` mapping a node increment to that of a point at arm ``r``."""
+    nd = 3 if dim == 2 else 6
+    T = np.zeros(r.shape[:-1] + (nd, nd))
+    T[..., range(nd), range(nd)] = 1.0
+    if dim == 2:
+        T[..., 0, 2], T[..., 1, 2] = -r[..., 1], r[..., 0]
+    else:
+        T[..., 0, 4], T[..., 0, 5] = r[..., 2], -r[..., 1]
+        T[..., 1, 3], T[..., 1, 5] = -r[..., 2], r[..., 0]
+        T[..., 2, 3], T[..., 2, 4] = r[..., 1], -r[..., 0]
+    return T
+
+
+def _rot(angle: np.ndarray, dim: int) -> np.ndarray:
+    return rot2(angle) if dim == 2 else rz(angle)
+
+
+@attrs.frozen(eq=False)
+class EOB:
+    """Result of `EOBTemplate.evaluate` for J joints (leading axis J everywhere).
+
+    ``K_all`` (J, E, 2nd, 2nd), ``F_hat_all`` (J, E, 2nd) in marker DOFs (markers p, q of each
+    element); ``L`` (J, E, 2nd, 2nd) node-to-marker blocks; ``K_nodes`` (J, n, n) and
+    ``F_hat_nodes`` (J, n) on the node DOFs (node A, node B, internal nodes); ``K_T``
+    (J, 2nd, 2nd) and ``F_hat_T`` (J, 2nd) condensed on A and B (Eq. 2.5); ``recover``
+    (J, n_i, nd + 1): ``q_i = -recover @ [q_B, 1]`` with node A held (Eq. 2.6).
+    Near configuration: ``node_position`` (J, N, dim), ``node_angle`` (J, N) [rad],
+    ``marker_position`` (J, E, 2, dim).
+    """
+
+    K_all: np.ndarray
+    F_hat_all: np.ndarray
+    L: np.ndarray
+    K_nodes: np.ndarray
+    F_hat_nodes: np.ndarray
+    K_T: np.ndarray
+    F_hat_T: np.ndarray
+    recover: np.ndarray
+    node_position: np.ndarray
+    node_angle: np.ndarray
+    marker_position: np.ndarray
+
+
+class EOBTemplate:
+    """What an EOB needs from one joint, prepared once: its mesh in the joint frame (node A = 0,
+    B = 1, internal nodes 2.. in mesh order, as in training), the chains from node A and every
+    element's material stiffness at rest."""
+
+    def __init__(self, joint, dim: int, data):
+        from ..mechanism import Mechanism
+
+        m = Mechanism(dim=dim)
+        m.add_link("A", fixed=True)
+        m.add_link("B", position=joint.interface_b(dim))
+        m.add_joint("A", "B", joint, name="joint")
+        model = m.compile().problem.model
+        el = model.elements
+        self.dim, self.data = dim, data
+        self.nd = nd = model.ndof
+        self.n_nodes = N = model.n_nodes
+        self.n_elements = E = len(el.L0)
+        self.node_x0 = model.x0
+        ends = el.ends
+        master = model.point_master
+        offset = model.point_offset
+
+        # element material stiffness at rest, marker order (end 0, end 1)
+        x = model.point_x0[ends]
+        if dim == 2:
+            K0 = beam2d.internal_force_and_tangent(x[:, 0], x[:, 1], np.zeros(E), np.zeros(E), el.alpha0, el.L0,
+                                                   el.S)[1]
+        else:
+            I = np.tile(np.eye(3), (E, 1, 1))
+            K0 = beam3d.internal_force_and_tangent(x[:, 0], x[:, 1], I, I, el.ny0, el.nz0, el.L0, el.S)[1]
+
+        # chains: breadth-first tree over the nodes from node A; each element runs p -> q away from A
+        incident = [[] for _ in range(N)]
+        for k, (i, j) in enumerate(master[ends]):
+            incident[i].append(k)
+            incident[j].append(k)
+        order = np.full(N, -1)
+        order[0] = 0
+        parent = np.full(N, -1)
+        oriented = np.zeros(E, dtype=bool)
+        flip = np.zeros(E, dtype=bool)
+        queue, seen = deque([0]), 1
+        while queue:
+            u = queue.popleft()
+            for k in incident[u]:
+                if oriented[k]:
+                    continue
+                oriented[k] = True
+                flip[k] = master[ends[k, 0]] != u
+                v = master[ends[k, 1 - int(flip[k])]]
+                if order[v] < 0:
+                    order[v], seen = seen, seen + 1
+                    parent[v] = k
+                    queue.append(v)
+        if seen < N:
+            raise ModelError(f"joint {joint.kind!r}: nodes {np.flatnonzero(order < 0).tolist()} are not connected "
+                             "to node A by elements")
+        pq = np.where(flip[:, None], ends[:, ::-1], ends)
+        self.p_point, self.q_point = pq[:, 0], pq[:, 1]
+        self.p_node, self.q_node = master[self.p_point], master[self.q_point]
+        self.s_p, self.s_q = offset[self.p_point], offset[self.q_point]
+        self.d = model.point_x0[self.q_point] - model.point_x0[self.p_point]
+        perm = np.r_[nd:2 * nd, 0:nd]
+        self.K0 = np.where(flip[:, None, None], K0[:, perm][:, :, perm], K0)
+
+        # internal nodes: x_n = x_root + R_root s_entry + sum over the path of R_k d_k (root A or B)
+        n_int = N - 2
+        self.path = np.zeros((n_int, E))
+        self.root = np.zeros(n_int, dtype=np.int64)
+        self.entry = np.zeros((n_int, dim))
+        for n in range(2, N):
+            v = n
+            while v > 1:
+                k = parent[v]
+                self.path[n - 2, k] = 1.0
+                v = self.p_node[k]
+                self.root[n - 2], self.entry[n - 2] = v, self.s_p[k]
+
+        # node DOFs of every element's (p, q) markers, flattened for assembly into K_nodes
+        dofs = np.concatenate([self.p_node[:, None] * nd + np.arange(nd), self.q_node[:, None] * nd + np.arange(nd)],
+                              axis=1)
+        self.element_dofs = dofs
+        self._kidx = (dofs[:, :, None] * (N * nd) + dofs[:, None, :]).ravel()
+
+    def evaluate(self, theta: np.ndarray, b_position: np.ndarray) -> EOB:
+        """EOBs of J joints at intended rotations ``theta`` (J,) [rad] with node B's near position
+        ``b_position`` (J, dim) [m] in the joint frame (from the kinematic step)."""
+        dim, nd, N, E = self.dim, self.nd, self.n_nodes, self.n_elements
+        theta = np.asarray(theta, dtype=float)
+        J = len(theta)
+        beta = self.data.elements(theta).reshape(J, E)
+        internal = self.data.nodes(theta).reshape(J, N - 2) if N > 2 else np.zeros((J, 0))
+        node_angle = np.concatenate([np.zeros((J, 1)), theta[:, None], internal], axis=1)
+        Re = _rot(beta, dim)  # (J, E, dim, dim)
+        Rn = _rot(node_angle, dim)  # (J, N, dim, dim)
+        Rd = np.einsum("jeab,eb->jea", Re, self.d)
+        x = np.zeros((J, N, dim))
+        x[:, 1] = b_position
+        if N > 2:
+            root = self.root
+            start = x[:, root] + np.einsum("jnab,nb->jna", Rn[:, root], self.entry)
+            x[:, 2:] = start + np.einsum("ne,jea->jna", self.path, Rd)
+        arm_p = np.einsum("jeab,eb->jea", Rn[:, self.p_node], self.s_p)
+        arm_q = np.einsum("jeab,eb->jea", Rn[:, self.q_node], self.s_q)
+        mp = x[:, self.p_node] + arm_p
+        mq = mp + Rd
+        # q_hat: marker near pose minus where the nodes' near poses put the marker
+        q_hat = np.zeros((J, E, 2 * nd))
+        q_hat[:, :, nd:nd + dim] = mq - (x[:, self.q_node] + arm_q)
+        q_hat[:, :, nd - 1] = beta - node_angle[:, self.p_node]
+        q_hat[:, :, 2 * nd - 1] = beta - node_angle[:, self.q_node]
+
+        T = np.zeros((J, E, 2 * nd, 2 * nd))  # element rotation, per translation/rotation block
+        for blk in (0, nd):
+            T[:, :, blk:blk + dim, blk:blk + dim] = Re
+            if dim == 2:
+                T[:, :, blk + 2, blk + 2] = 1.0
+            else:
+                T[:, :, blk + 3:blk + 6, blk + 3:blk + 6] = Re
+        K_all = T @ self.K0 @ np.swapaxes(T, 2, 3)
+        F_all = -np.einsum("jeab,jeb->jea", K_all, q_hat)
+        L = np.zeros((J, E, 2 * nd, 2 * nd))
+        L[:, :, :nd, :nd] = lever(arm_p, dim)
+        L[:, :, nd:, nd:] = lever(arm_q, dim)
+        Lt = np.swapaxes(L, 2, 3)
+        Ke = Lt @ K_all @ L
+        Fe = np.einsum("jeab,jeb->jea", Lt, F_all)
+
+        n = N * nd
+        flat = (self._kidx[None, :] + (np.arange(J) * n * n)[:, None]).ravel()
+        K_nodes = np.bincount(flat, weights=Ke.ravel(), minlength=J * n * n).reshape(J, n, n)
+        fidx = (self.element_dofs.ravel()[None, :] + (np.arange(J) * n)[:, None]).ravel()
+        F_nodes = np.bincount(fidx, weights=Fe.ravel(), minlength=J * n).reshape(J, n)
+
+        b = 2 * nd
+        if n > b:  # Craig-Bampton boundary modes, Eq. (2.5)
+            rhs = np.concatenate([K_nodes[:, b:, :b], F_nodes[:, b:, None]], axis=2)
+            X = np.linalg.solve(K_nodes[:, b:, b:], rhs)
+            K_T = K_nodes[:, :b, :b] - K_nodes[:, :b, b:] @ X[:, :, :b]
+            F_T = F_nodes[:, :b] - np.einsum("jab,jb->ja", K_nodes[:, :b, b:], X[:, :, b])
+            recover = np.concatenate([X[:, :, nd:b], X[:, :, b:]], axis=2)
+        else:
+            K_T, F_T = K_nodes.copy(), F_nodes.copy()
+            recover = np.zeros((J, 0, nd + 1))
+        return EOB(K_all, F_all, L, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle,
+                   np.stack([mp, mq], axis=2))

@@ -1,0 +1,101 @@
+"""Link poses and joint frames of the reduced mechanism (KSD steps 1 and 3).
+
+The reduced mechanism has one node per rigid link. Its poses are kept in 3D form whatever the
+mechanism's dimension: positions (n, 3) and rotation matrices (n, 3, 3) relative to the
+undeformed configuration, updated with increments ``[dx, dphi]`` (6 per link, spatial spin
+``R <- exp(skew(dphi)) R``). A planar mechanism uses only x, y and the spin about z
+(`ACTIVE`), so one code path serves both.
+
+A joint's frame sits on its side-A link: origin ``o_A = x_a + R_a s_a`` and axes ``F = R_a P``
+(``P`` the placement rotation); interface node B is ``o_B = x_b + R_b s_b`` with axes
+``R_b P``. The relative pose of B seen from A is ``p = F^T (o_B - o_A)`` and
+``R_rel = F^T R_b P``; its variation is ``(dp, omega)`` with ``dR_rel = skew(omega) R_rel``.
+"""
+
+from __future__ import annotations
+
+import attrs
+import numpy as np
+
+from ..rotations import expm_so3, skew
+
+__all__ = ["ACTIVE", "LinkPoses", "JointFrames", "rz", "intended_angle"]
+
+#: Increment components a link uses: planar (x, y, spin z) or spatial (all six).
+ACTIVE = {2: np.array([0, 1, 5]), 3: np.arange(6)}
+
+
+def rz(angle: np.ndarray) -> np.ndarray:
+    """Rotation matrices about z, angles [rad] (...) -> (..., 3, 3)."""
+    angle = np.asarray(angle, dtype=float)
+    c, s = np.cos(angle), np.sin(angle)
+    R = np.zeros(angle.shape + (3, 3))
+    R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1], R[..., 2, 2] = c, -s, s, c, 1.0
+    return R
+
+
+def intended_angle(R: np.ndarray):
+    """Rotation about z of ``R`` (..., 3, 3) [rad] and its gradient with respect to a spin
+    ``omega`` (``dR = skew(omega) R``), shape (..., 3). Exact for any tilt (atan2 of the
+    in-plane block)."""
+    s = R[..., 1, 0] - R[..., 0, 1]
+    c = R[..., 0, 0] + R[..., 1, 1]
+    # d(skew(e_k) R): row i of skew(e_k) R = (e_k x R[:, j])_i
+    dR = np.einsum("kil,...lj->...kij", skew(np.eye(3)), R)
+    ds = dR[..., 1, 0] - dR[..., 0, 1]
+    dc = dR[..., 0, 0] + dR[..., 1, 1]
+    n = s * s + c * c
+    return np.arctan2(s, c), (c[..., None] * ds - s[..., None] * dc) / n[..., None]
+
+
+@attrs.frozen(eq=False)
+class LinkPoses:
+    """Positions [m] (n, 3) and rotations (n, 3, 3) of the links, from the undeformed state."""
+
+    x: np.ndarray
+    R: np.ndarray
+
+    def moved(self, dz: np.ndarray) -> LinkPoses:
+        """Poses after increments ``dz`` (n, 6)."""
+        dz = dz.reshape(-1, 6)
+        return LinkPoses(self.x + dz[:, :3], expm_so3(dz[:, 3:]) @ self.R)
+
+
+@attrs.frozen(eq=False)
+class JointFrames:
+    """Where J joints attach: link indices ``a``, ``b`` (J,), offsets ``s_a``, ``s_b`` (J, 3) of
+    the joint origin and of node B from the links' reference points (undeformed), placement
+    rotations ``P`` (J, 3, 3)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    s_a: np.ndarray
+    s_b: np.ndarray
+    P: np.ndarray
+
+    def frame_a(self, poses: LinkPoses):
+        """Current joint frames: origins ``o_A`` (J, 3) and axes ``F`` (J, 3, 3)."""
+        Ra = poses.R[self.a]
+        return poses.x[self.a] + np.einsum("jik,jk->ji", Ra, self.s_a), Ra @ self.P
+
+    def relative(self, poses: LinkPoses):
+        """``p`` (J, 3), ``R_rel`` (J, 3, 3) and ``dict`` of intermediate vectors."""
+        oA, F = self.frame_a(poses)
+        Rb = poses.R[self.b]
+        rb = np.einsum("jik,jk->ji", Rb, self.s_b)  # o_B - x_b
+        oB = poses.x[self.b] + rb
+        Ft = np.swapaxes(F, 1, 2)
+        p = np.einsum("jik,jk->ji", Ft, oB - oA)
+        return p, Ft @ Rb @ self.P, {"F": F, "Ft": Ft, "oA": oA, "oB": oB, "rb": rb, "ra": oB - poses.x[self.a]}
+
+    def relative_jacobian(self, geo: dict) -> np.ndarray:
+        """``d(p, omega) / d(dx_a, dphi_a, dx_b, dphi_b)``, shape (J, 6, 12)."""
+        Ft = geo["Ft"]
+        J = np.zeros((len(Ft), 6, 12))
+        J[:, :3, 0:3] = -Ft
+        J[:, :3, 3:6] = Ft @ skew(geo["ra"])
+        J[:, :3, 6:9] = Ft
+        J[:, :3, 9:12] = -Ft @ skew(geo["rb"])
+        J[:, 3:, 3:6] = -Ft
+        J[:, 3:, 9:12] = Ft
+        return J

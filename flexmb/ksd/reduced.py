@@ -1,0 +1,247 @@
+"""The reduced mechanism of the KSD method (Dwarshuis et al. 2020, Secs. 2.2-2.5): one node per
+rigid link, every joint replaced by its database constraints (step 1) or by its condensed EOB
+stiffness (steps 3-4).
+
+Step 3 uses the Craig-Bampton stiffness of each joint with node A held in the joint frame
+(``F_B = K_T,BB q_B + F_hat_T,B``, Eq. 2.4) and takes the wrench on node A from the statics of
+the joint in its current geometry, so the joint wrenches balance exactly, as in the full model.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import numpy as np
+
+from ..database.store import data_path, file_name, shipped
+from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
+from ..rotations import cross, expm_so3, skew, unskew
+from . import constraints
+from .eob import EOBTemplate
+from .geometry import ACTIVE, JointFrames, LinkPoses, intended_angle
+
+__all__ = ["ReducedMechanism", "template"]
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_template(joint, dim: int, folder: str, stamp: int) -> EOBTemplate:
+    return EOBTemplate(joint, dim, shipped(joint, dim, folder))
+
+
+def template(joint, dim: int, folder=None) -> EOBTemplate:
+    """The joint's `EOBTemplate` with its database (cached per joint value and database file)."""
+    folder = str(folder or data_path())
+    if "database" not in joint.capabilities:
+        raise UnsupportedStrategyError(
+            f"joint kind {joint.kind!r} has no joint database (KSD needs one); it offers {sorted(joint.capabilities)}")
+    path = Path(folder) / file_name(joint.kind, dim, joint.database_key())
+    stamp = path.stat().st_mtime_ns if path.exists() else -1
+    try:
+        return _cached_template(joint, dim, folder, stamp)
+    except TypeError:  # an unhashable plugin joint: no caching
+        return EOBTemplate(joint, dim, shipped(joint, dim, folder))
+
+
+def _embed(v: np.ndarray, dim: int) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    if dim == 3:
+        return v.copy()
+    out = np.zeros(v.shape[:-1] + (3,))
+    out[..., :2] = v
+    return out
+
+
+class ReducedMechanism:
+    """Links, joint frames, constraint groups and loads of a compiled mechanism, in 3D form."""
+
+    def __init__(self, compiled, folder=None):
+        problem = compiled.problem
+        dim = self.dim = problem.model.dim
+        self.compiled = compiled
+        self.n_links = nL = len(compiled.link_node)
+        model = problem.model
+        self.X0 = _embed(model.x0[:nL], dim)
+        nd = model.ndof
+        act = ACTIVE[dim]
+        self.active = act
+        # prescribed link DOFs (all prescribed DOFs belong to links)
+        pres = problem.prescribed
+        link_of, comp = np.divmod(pres, nd)
+        self.prescribed = link_of * 6 + act[comp]
+        self.values = problem.values
+        is_free = np.zeros(6 * nL, dtype=bool)
+        is_free[(np.arange(nL)[:, None] * 6 + act).ravel()] = True
+        is_free[self.prescribed] = False
+        self.free = np.flatnonzero(is_free)
+        # FE DOF index of every embedded link DOF (for reactions)
+        self.fe_dofs = (np.arange(nL)[:, None] * nd + np.arange(nd)).ravel()
+        self.emb_dofs = (np.arange(nL)[:, None] * 6 + act).ravel()
+
+        names, a, b, s_a, s_b, P, b0, groups = [], [], [], [], [], [], [], {}
+        for key, jt, pl, side_a, side_b in compiled.joints:
+            la, lb = compiled.link_node[side_a], compiled.link_node[side_b]
+            Pm = np.eye(3)
+            Pm[:dim, :dim] = pl.rotation
+            bj = _embed(jt.interface_b(dim), dim)
+            origin = _embed(pl.origin, dim)
+            try:
+                tpl = template(jt, dim, folder)
+            except DatabaseError as exc:
+                raise DatabaseError(f"joint {key!r}: {exc}") from None
+            cons = constraints.check_names(f"joint {key!r} ({jt.kind})", jt.kinematic_constraints(dim), dim)
+            groups.setdefault(id(tpl), (tpl, cons, []))[2].append(len(names))
+            names.append(key)
+            a.append(la)
+            b.append(lb)
+            s_a.append(origin - self.X0[la])
+            s_b.append(origin + Pm @ bj - self.X0[lb])
+            P.append(Pm)
+            b0.append(bj)
+        if not names:
+            raise ModelError("the mechanism has no joints")
+        self.joint_names = names
+        self.frames = JointFrames(np.array(a), np.array(b), np.array(s_a), np.array(s_b), np.array(P))
+        self.b0 = np.array(b0)
+        self.D0 = np.linalg.norm(self.b0, axis=1)
+        self.groups = [(tpl, cons, np.array(idx)) for tpl, cons, idx in groups.values()]
+        self.joint_nodes = [compiled.joint_nodes[k] for k in names]
+        # equation rows: (joint, constraint) per group, in group order
+        self.rows = [(names[j], c) for tpl, cons, idx in self.groups for j in idx for c in cons]
+        cols = np.concatenate([self.frames.a[:, None] * 6 + np.arange(6), self.frames.b[:, None] * 6 + np.arange(6)],
+                              axis=1)
+        self._cols = cols  # (J, 12)
+        loads = problem.loads
+        self.load_node = loads.node
+        self.load_offset = _embed(loads.offset, dim)
+        self.load_force = _embed(loads.force, dim)
+        self.load_moment = loads.moment if dim == 3 else np.concatenate(
+            [np.zeros((len(loads.node), 2)), loads.moment], axis=1)
+        # characteristic length for scaling translations against rotations
+        self.length = float(np.mean(self.D0))
+
+    # -- poses ------------------------------------------------------------------------------
+    def rest(self) -> LinkPoses:
+        return LinkPoses(self.X0.copy(), np.tile(np.eye(3), (self.n_links, 1, 1)))
+
+    def with_prescribed(self, poses: LinkPoses, lam: float = 1.0) -> LinkPoses:
+        """``poses`` with the prescribed components set to ``lam`` times their values (exactly)."""
+        x, R = poses.x.copy(), poses.R.copy()
+        link, comp = np.divmod(self.prescribed, 6)
+        rot = {}
+        for l, c, v in zip(link, comp, self.values):
+            if c < 3:
+                x[l, c] = self.X0[l, c] + lam * v
+            else:
+                rot.setdefault(l, np.zeros(3))[c - 3] = v
+        for l, w in rot.items():
+            R[l] = expm_so3(lam * w)
+        return LinkPoses(x, R)
+
+    # -- step 1: kinematics -------------------------------------------------------------------
+    def constraint_equations(self, poses: LinkPoses):
+        """Values (m,) and Jacobian (m, 6 n_links) of all joints' kinematic constraints; the
+        intended rotations ``theta`` (J,) and relative positions ``p`` (J, 3)."""
+        p, R, geo = self.frames.relative(poses)
+        Jrel = self.frames.relative_jacobian(geo)
+        theta, dth = intended_angle(R)
+        vals, jac = [], []
+        m = 6 * self.n_links
+        for tpl, cons, idx in self.groups:
+            v, g = constraints.evaluate(cons, tpl.data, p[idx], R[idx], theta[idx], dth[idx], self.D0[idx],
+                                        self.b0[idx])
+            G = g @ Jrel[idx]  # (Jg, m_c, 12)
+            rows = np.zeros((len(idx), len(cons), m))
+            for k, j in enumerate(idx):
+                np.add.at(rows[k], (slice(None), self._cols[j]), G[k])
+            vals.append(v.ravel())
+            jac.append(rows.reshape(-1, m))
+        return np.concatenate(vals), np.concatenate(jac), theta, p
+
+    # -- step 3: equilibrium with the condensed joints ----------------------------------------
+    def equilibrium(self, poses: LinkPoses, K: np.ndarray, F_hat: np.ndarray, p_hat: np.ndarray,
+                    R_hat: np.ndarray, tangent: bool = True):
+        """Residual (6 n_links,) = joint wrenches on the links minus applied loads, and its
+        Jacobian (6 n_links, 6 n_links). ``K`` (J, 6, 6), ``F_hat`` (J, 6): each joint's
+        condensed stiffness on node B (node A held) about its near pose ``p_hat`` (J, 3),
+        ``R_hat`` (J, 3, 3), in the joint frame."""
+        fr = self.frames
+        p, Rrel, geo = fr.relative(poses)
+        Q = Rrel @ np.swapaxes(R_hat, 1, 2)
+        xi = np.concatenate([p - p_hat, unskew(Q)], axis=1)
+        w = np.einsum("jab,jb->ja", K, xi) + F_hat
+        F = geo["F"]
+        f = np.einsum("jab,jb->ja", F, w[:, :3])
+        mB = np.einsum("jab,jb->ja", F, w[:, 3:])
+        rb, ra = geo["rb"], geo["ra"]
+        nL = self.n_links
+        r = np.zeros((nL, 6))
+        np.add.at(r, fr.b, np.concatenate([f, mB + cross(rb, f)], axis=1))
+        np.add.at(r, fr.a, -np.concatenate([f, mB + cross(ra, f)], axis=1))
+        d = np.einsum("kab,kb->ka", poses.R[self.load_node], self.load_offset)
+        np.add.at(r, self.load_node, -np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)],
+                                                     axis=1))
+        if not tangent:
+            return r.ravel(), None
+        Jrel = fr.relative_jacobian(geo)
+        trQ = np.trace(Q, axis1=1, axis2=2)
+        Jrel[:, 3:] = (0.5 * (trQ[:, None, None] * np.eye(3) - Q)) @ Jrel[:, 3:]
+        dw = K @ Jrel  # (J, 6, 12)
+        df = F @ dw[:, :3]
+        df[:, :, 3:6] -= skew(f)
+        dmB = F @ dw[:, 3:]
+        dmB[:, :, 3:6] -= skew(mB)
+        eye = np.eye(3)
+        dra = np.zeros((len(p), 3, 12))
+        dra[:, :, 0:3], dra[:, :, 6:9], dra[:, :, 9:12] = -eye, eye, -skew(rb)
+        Sf = skew(f)
+        mb = dmB + skew(rb) @ df
+        mb[:, :, 9:12] += Sf @ skew(rb)
+        ma = -dmB + Sf @ dra - skew(ra) @ df
+        blocks = np.zeros((len(p), 12, 12))
+        blocks[:, 0:3], blocks[:, 3:6], blocks[:, 6:9], blocks[:, 9:12] = -df, ma, df, mb
+        Kr = np.zeros((6 * nL, 6 * nL))
+        rows = self._cols[:, :, None]
+        np.add.at(Kr, (rows, self._cols[:, None, :]), blocks)
+        G = skew(self.load_force) @ skew(d)  # d(d x f)/dphi of loads at offset points
+        ld = self.load_node[:, None] * 6 + np.arange(3, 6)
+        np.add.at(Kr, (ld[:, :, None], ld[:, None, :]), -G)
+        return r.ravel(), Kr
+
+    # -- step 4: back to the full model -----------------------------------------------------
+    def fe_state(self, poses: LinkPoses, internal):
+        """The full model's `State`: link nodes from ``poses``, each joint's internal nodes from
+        ``internal[j] = (positions (n, dim), rotations)`` in its joint frame (angles [rad] in 2D,
+        matrices in 3D)."""
+        from ..fe.model import State
+
+        model = self.compiled.problem.model
+        dim = self.dim
+        pos = model.x0.copy()
+        nL = self.n_links
+        pos[:nL] = poses.x[:, :dim]
+        if dim == 2:
+            rot = np.zeros(model.n_nodes)
+            rot[:nL] = np.arctan2(poses.R[:, 1, 0], poses.R[:, 0, 0])
+        else:
+            rot = np.tile(np.eye(3), (model.n_nodes, 1, 1))
+            rot[:nL] = poses.R
+        oA, F = self.frames.frame_a(poses)
+        for j, (xl, Rl) in enumerate(internal):
+            nodes = self.joint_nodes[j]
+            if len(nodes) == 0:
+                continue
+            pos[nodes] = (oA[j] + _embed(xl, dim) @ F[j].T)[:, :dim]
+            if dim == 2:
+                rot[nodes] = np.arctan2(F[j][1, 0], F[j][0, 0]) - np.arctan2(self.frames.P[j][1, 0],
+                                                                              self.frames.P[j][0, 0]) + Rl
+            else:
+                rot[nodes] = F[j] @ Rl @ self.frames.P[j].T
+        return State(pos, rot)
+
+    def reaction_vector(self, r_links: np.ndarray) -> np.ndarray:
+        """The full model's residual layout with the reduced residual on the link DOFs."""
+        out = np.zeros(self.compiled.problem.model.n_dofs)
+        out[self.fe_dofs] = r_links[self.emb_dofs]
+        return out
+

@@ -1,0 +1,300 @@
+"""Kinematically Started Deformation (KSD) method, Dwarshuis et al. (2020), Section 2.
+
+1. Kinematics of the reduced mechanism (one node per link) with the database constraints of
+   every joint and the prescribed motion (Newton; redundant equations of an over-constrained
+   mechanism removed by a rank-revealing QR at rest; a kinematically indeterminate mechanism is
+   refused with its free motion named).
+2. An EOB per joint at the intended rotation found in step 1 (`flexmb.ksd.eob`).
+3. Craig-Bampton condensation of each EOB on its interface nodes (Eq. 2.5) and Newton on the
+   equilibrium of the reduced mechanism.
+4. Internal displacements of each joint from its interface displacements (Eq. 2.6).
+5. Newton on the full finite-element model from that start: the conventional method's equations,
+   so the converged configuration is the conventional one (``ksd-full`` only).
+
+``ksd-reduced`` stops after step 4.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import ClassVar
+
+import attrs
+import numpy as np
+import scipy.linalg
+
+from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, TopologyError
+from ..ksd.geometry import rz
+from ..ksd.reduced import ReducedMechanism
+from ..results import Solution
+from ..rotations import expm_so3, unskew
+from .conventional import above_one, boolean, newton_steps, positive_float, positive_int, unit_interval
+
+__all__ = ["KSDReduced", "KSDFull", "solve_kinematics"]
+
+_COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
+
+
+def _describe(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) -> str:
+    names = list(red.compiled.link_node)
+    big = np.flatnonzero(np.abs(vector) > 0.2 * np.abs(vector).max())
+    parts = []
+    for k in big:
+        link, comp = divmod(int(columns[k]), 6)
+        label = "rotation" if (red.dim == 2 and comp == 5) else _COMPONENTS[comp]
+        parts.append(f"link {names[link]!r} {label} ({vector[k]:+.2f})")
+    return ", ".join(parts)
+
+
+def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
+    """Rows of the constraint Jacobian at rest to keep (redundant ones removed, Sec. 2.2)."""
+    free = red.free
+    scale = np.where(free % 6 < 3, 1.0 / red.length, 1.0)  # unknowns in D0 and rad
+    A = jac[:, free] / scale
+    n_free = len(free)
+    if n_free == 0:
+        return np.zeros(0, dtype=np.int64)
+    if A.shape[0] == 0:
+        rank, null = 0, np.eye(n_free)[0]
+    else:
+        _, s, vt = np.linalg.svd(A)
+        rank = int(np.sum(s > 1e-9 * s[0])) if s.size and s[0] > 0 else 0
+        null = vt[rank] if rank < n_free else None
+    if rank < n_free:
+        raise TopologyError(
+            f"the mechanism is kinematically indeterminate for KSD ({n_free} unknown link coordinates, "
+            f"{rank} independent joint constraints): this motion is free: {_describe(red, free, null)}. "
+            "Prescribe it (Mechanism.prescribe) or use method='conventional'")
+    _, R, piv = scipy.linalg.qr(A.T, pivoting=True, mode="economic")
+    return np.sort(piv[:rank])
+
+
+def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30):
+    """KSD step 1: link poses satisfying all joint constraints and the prescribed motion.
+
+    Returns ``(poses, info)``; info has iterations, the equations kept/removed and the largest
+    residual of the removed (redundant) equations at the solution.
+    """
+    rest = red.rest()
+    c0, jac0, _, _ = red.constraint_equations(rest)
+    rows = _independent_rows(red, jac0)
+    free = red.free
+    poses, lam, dlam = rest, 0.0, 1.0
+    iterations, history = 0, []
+    while True:
+        target = lam + dlam
+        trial = red.with_prescribed(poses, target)
+        accepted, prev = False, np.inf
+        for _ in range(max_iter):
+            c, jac, theta, p = red.constraint_equations(trial)
+            res = float(np.linalg.norm(c[rows])) if len(rows) else 0.0
+            if not np.isfinite(res) or res > 1e3 * prev:
+                break
+            if res < tol:
+                accepted = True
+                break
+            prev = res
+            dz = np.zeros(6 * red.n_links)
+            try:
+                dz[free] = np.linalg.solve(jac[np.ix_(rows, free)], -c[rows])
+            except np.linalg.LinAlgError:
+                break
+            trial = trial.moved(dz)
+            iterations += 1
+            history.append(res)
+        if accepted:
+            poses, lam = trial, target
+            if lam >= 1.0 - 1e-14:
+                break
+            dlam = min(2.0 * dlam, 1.0 - lam)
+        else:
+            dlam *= 0.5
+            if dlam < 1e-4:
+                raise ConvergenceError(
+                    f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
+                    f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
+    removed = np.setdiff1d(np.arange(len(c)), rows)
+    info = {"iterations": iterations, "residual": res, "equations": len(c), "removed": len(removed),
+            "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
+            "removed_equations": [red.rows[k] for k in removed], "history": history}
+    return poses, theta, p, info
+
+
+def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool) -> None:
+    import warnings
+
+    for tpl, _, idx in red.groups:
+        lo, hi = tpl.data.range
+        for j in idx:
+            if not lo - 1e-12 <= theta[j] <= hi + 1e-12:
+                msg = (f"joint {red.joint_names[j]!r} ({tpl.data.kind}): intended rotation {np.degrees(theta[j]):.2f} "
+                       f"deg is outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg")
+                if strict:
+                    raise DatabaseError(msg + " (KSD cannot extrapolate the joint database; use "
+                                              "method='conventional' or retrain with `flexmb train --range`)")
+                warnings.warn(msg + "; the database fits are extrapolated", ExtrapolationWarning, stacklevel=4)
+
+
+@attrs.frozen(kw_only=True)
+class _KSD:
+    """Kinematically Started Deformation method (Dwarshuis et al. 2020).
+
+    Parameters
+    ----------
+    tol
+        Convergence threshold on the free residual 2-norm [N, N m] of the reduced mechanism
+        (step 3) and of the full model (step 5); 5e-7 as the paper.
+    max_iter
+        Newton iterations allowed in step 3 (and per step in step 5).
+    kinematic_tol
+        Threshold on the dimensionless constraint residual of step 1 (lengths over D0, rad).
+    strict_range
+        Refuse (`DatabaseError`) an intended joint rotation outside the trained range; with
+        False the fits are extrapolated with an `ExtrapolationWarning`.
+    database
+        Folder of joint database files (default: the shipped data).
+    divergence, min_step, max_rotation
+        Step control of step 5, as `Conventional`.
+    raise_on_failure
+        Raise `ConvergenceError` instead of returning ``converged=False``.
+    """
+
+    name: ClassVar[str] = ""
+    full: ClassVar[bool] = False
+    capability: ClassVar[str] = "fe_model"
+    tol: float = attrs.field(default=5e-7, validator=positive_float)
+    max_iter: int = attrs.field(default=20, validator=positive_int)
+    kinematic_tol: float = attrs.field(default=1e-10, validator=positive_float)
+    strict_range: bool = attrs.field(default=True, validator=boolean)
+    database: str | None = None
+    divergence: float = attrs.field(default=1e3, validator=above_one)
+    min_step: float = attrs.field(default=1e-5, validator=unit_interval)
+    max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(positive_float))
+    raise_on_failure: bool = attrs.field(default=False, validator=boolean)
+
+    def solve(self, compiled) -> Solution:
+        t0 = time.perf_counter()
+        times, stages = {}, {}
+
+        def lap(key, t):
+            now = time.perf_counter()
+            times[key] = now - t
+            return now
+
+        red = ReducedMechanism(compiled, self.database)
+        t = lap("setup", t0)
+
+        poses, theta, p_hat, info = solve_kinematics(red, tol=self.kinematic_tol)
+        _check_range(red, theta, self.strict_range)
+        stages["kinematics"] = info
+        t = lap("kinematics", t)
+
+        dim = red.dim
+        nd = 3 if dim == 2 else 6
+        emb = np.array([0, 1, 5]) if dim == 2 else np.arange(6)
+        J = len(red.joint_names)
+        K = np.zeros((J, 6, 6))
+        Fh = np.zeros((J, 6))
+        eobs = []
+        for tpl, _, idx in red.groups:
+            e = tpl.evaluate(theta[idx], p_hat[idx, :dim])
+            K[np.ix_(idx, emb, emb)] = e.K_T[:, nd:, nd:]
+            Fh[np.ix_(idx, emb)] = e.F_hat_T[:, nd:]
+            eobs.append(e)
+        R_hat = rz(theta)
+        t = lap("eob", t)
+
+        poses3, ok3, hist3, r3 = self._reduced(red, poses, K, Fh, p_hat, R_hat)
+        stages["reduced"] = {"iterations": len(hist3), "residual": hist3[-1] if hist3 else np.nan,
+                             "converged": ok3, "history": hist3}
+        t = lap("reduced", t)
+
+        state = self._internal(red, poses3, eobs, p_hat, R_hat)
+        t = lap("internal", t)
+        for key in ("kinematics", "eob", "reduced", "internal"):
+            stages.setdefault(key, {})["time"] = times[key]
+
+        if not self.full:
+            times["total"] = time.perf_counter() - t0
+            msg = (f"KSD-reduced: reduced mechanism in equilibrium, residual {hist3[-1]:.3g} < tol {self.tol:.3g}"
+                   if ok3 else f"KSD-reduced: step 3 did not converge (residual {hist3[-1]:.3g})")
+            sol = Solution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
+                           residual_history=np.array(hist3), load_factor=1.0, steps=1, rejected_steps=0,
+                           wall_time=times, message=msg, state=state, residual=red.reaction_vector(r3),
+                           compiled=compiled, tolerance=self.tol, stable=None, stages=stages)
+        else:
+            problem = compiled.problem
+            start = problem.with_loads(problem.loads, start=problem.loads)
+            out = newton_steps(start, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
+                               min_step=self.min_step, initial_step=1.0, max_rotation=self.max_rotation)
+            t = lap("full", t)
+            stages["full"] = {"iterations": out["iterations"], "time": times["full"],
+                              "residual": float(out["residual_history"][-1]) if out["iterations"] else np.nan,
+                              "converged": out["converged"]}
+            inner = out.pop("wall_time")
+            times.update({f"full_{k}": v for k, v in inner.items()})
+            times["total"] = time.perf_counter() - t0
+            out["iterations"] += info["iterations"] + len(hist3)
+            out["message"] = "KSD-full: " + out["message"]
+            sol = Solution(method=self.name, compiled=compiled, tolerance=self.tol, wall_time=times, stages=stages,
+                           **out)
+        if self.raise_on_failure and not sol.converged:
+            raise ConvergenceError(sol.message, sol)
+        return sol
+
+    def _reduced(self, red, poses, K, Fh, p_hat, R_hat):
+        """Step 3: Newton on the reduced mechanism; returns poses, converged, history, residual."""
+        free = red.free
+        history, prev = [], np.inf
+        r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat)
+        res = float(np.linalg.norm(r[free]))
+        for _ in range(self.max_iter):
+            if res < self.tol and history:
+                return poses, True, history, r
+            dz = np.zeros(6 * red.n_links)
+            try:
+                dz[free] = np.linalg.solve(Kr[np.ix_(free, free)], -r[free])
+            except np.linalg.LinAlgError:
+                break
+            poses = poses.moved(dz)
+            r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat)
+            prev, res = res, float(np.linalg.norm(r[free]))
+            history.append(res)
+            if not np.isfinite(res) or res > self.divergence * prev:
+                break
+        return poses, res < self.tol, history, r
+
+    def _internal(self, red, poses, eobs, p_hat, R_hat):
+        """Step 4: internal nodes of every joint from its interface displacement (Eq. 2.6)."""
+        dim = red.dim
+        nd = 3 if dim == 2 else 6
+        emb = np.array([0, 1, 5]) if dim == 2 else np.arange(6)
+        p, Rrel, _ = red.frames.relative(poses)
+        xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
+        internal = [None] * len(red.joint_names)
+        for (tpl, _, idx), e in zip(red.groups, eobs):
+            n_int = tpl.n_nodes - 2
+            xi = -(np.einsum("jab,jb->ja", e.recover[:, :, :nd], xi_B[idx]) + e.recover[:, :, nd])
+            xi = xi.reshape(len(idx), n_int, nd)
+            x = e.node_position[:, 2:] + xi[..., :dim]
+            if dim == 2:
+                rot = e.node_angle[:, 2:] + xi[..., 2]
+            else:
+                rot = expm_so3(xi[..., 3:]) @ rz(e.node_angle[:, 2:])
+            for k, j in enumerate(idx):
+                internal[j] = (x[k], rot[k])
+        return red.fe_state(poses, internal)
+
+
+@attrs.frozen(kw_only=True)
+class KSDReduced(_KSD):
+    __doc__ = "KSD steps 1-4 [``ksd-reduced``]: the reduced mechanism with EOB joints.\n" + _KSD.__doc__
+    name: ClassVar[str] = "ksd-reduced"
+    full: ClassVar[bool] = False
+
+
+@attrs.frozen(kw_only=True)
+class KSDFull(_KSD):
+    __doc__ = "KSD steps 1-5 [``ksd-full``]: converges to the conventional method's solution.\n" + _KSD.__doc__
+    name: ClassVar[str] = "ksd-full"
+    full: ClassVar[bool] = True

@@ -58,13 +58,16 @@ def evaluate(names, data, p, R, theta, dtheta, D0, b0):
             val[:, k] = p[:, c] * inv
             grad[:, k, c] = inv
         elif name in ("tilt_x", "tilt_y"):
-            c = 0 if name == "tilt_x" else 1
             ez = R[:, :, 2]
-            val[:, k] = ez[:, c]
-            # d(R e_z) = omega x (R e_z)
-            grad[:, k, 3:] = cross(ez, np.eye(3)[c])
+            # d(R e_z) = omega x (R e_z): gradient of component c is (R e_z) x e_c
+            if name == "tilt_x":
+                val[:, k] = ez[:, 0]
+                grad[:, k, 4], grad[:, k, 5] = ez[:, 2], -ez[:, 1]
+            else:
+                val[:, k] = ez[:, 1]
+                grad[:, k, 3], grad[:, k, 5] = -ez[:, 2], ez[:, 0]
         elif name == "symmetric":
-            n0 = cross([0.0, 0.0, 1.0], b0 / np.linalg.norm(b0, axis=1, keepdims=True))
+            n0 = cross([0.0, 0.0, 1.0], b0 / D0[:, None])
             h = 0.5 * theta
             c, s = np.cos(h), np.sin(h)
             n = np.stack([c * n0[:, 0] - s * n0[:, 1], s * n0[:, 0] + c * n0[:, 1], n0[:, 2]], axis=1)

@@ -40,10 +40,9 @@ def intended_angle(R: np.ndarray):
     in-plane block)."""
     s = R[..., 1, 0] - R[..., 0, 1]
     c = R[..., 0, 0] + R[..., 1, 1]
-    # d(skew(e_k) R): row i of skew(e_k) R = (e_k x R[:, j])_i
-    dR = np.einsum("kil,...lj->...kij", skew(np.eye(3)), R)
-    ds = dR[..., 1, 0] - dR[..., 0, 1]
-    dc = dR[..., 0, 0] + dR[..., 1, 1]
+    # s and c along skew(e_k) R, k = x, y, z (rows of skew(e_k) written out)
+    ds = np.stack([-R[..., 2, 0], -R[..., 2, 1], R[..., 0, 0] + R[..., 1, 1]], axis=-1)
+    dc = np.stack([-R[..., 2, 1], R[..., 2, 0], R[..., 0, 1] - R[..., 1, 0]], axis=-1)
     n = s * s + c * c
     return np.arctan2(s, c), (c[..., None] * ds - s[..., None] * dc) / n[..., None]
 

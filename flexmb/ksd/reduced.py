@@ -152,8 +152,8 @@ class ReducedMechanism:
                                         self.b0[idx])
             G = g @ Jrel[idx]  # (Jg, m_c, 12)
             rows = np.zeros((len(idx), len(cons), m))
-            for k, j in enumerate(idx):
-                np.add.at(rows[k], (slice(None), self._cols[j]), G[k])
+            # a joint's 12 columns are distinct (links a != b): plain assignment, no accumulation
+            rows[np.arange(len(idx))[:, None, None], np.arange(len(cons))[None, :, None], self._cols[idx][:, None, :]] = G
             vals.append(v.ravel())
             jac.append(rows.reshape(-1, m))
         return np.concatenate(vals), np.concatenate(jac), theta, p

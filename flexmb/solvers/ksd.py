@@ -65,7 +65,9 @@ def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
             f"the mechanism is kinematically indeterminate for KSD ({n_free} unknown link coordinates, "
             f"{rank} independent joint constraints): this motion is free: {_describe(red, free, null)}. "
             "Prescribe it (Mechanism.prescribe) or use method='conventional'")
-    _, R, piv = scipy.linalg.qr(A.T, pivoting=True, mode="economic")
+    if A.shape[0] == rank:  # nothing redundant
+        return np.arange(rank)
+    _, _, piv = scipy.linalg.qr(A.T, pivoting=True, mode="economic")
     return np.sort(piv[:rank])
 
 

@@ -303,3 +303,33 @@ def test_solving_leaves_the_mechanism_unchanged():
         warnings.simplefilter("error")
         flexmb.solve(m, method="ksd-full")
     assert (repr(m), m.prescribed("top"), len(m._loads)) == before
+
+
+# -- the EOB's known limits (Sec. 4.2) --------------------------------------------------------------
+
+@pytest.mark.slow
+def test_eob_limit_wider_outer_leaves():
+    """Fig. 7b: four times wider outer leaves lower the normalised moment of the full model more
+    than the EOB's (its element rotations are the default joint's). Measured at 75 deg, 2 el./leaf:
+    FE 0.6493 -> 0.6321, EOB 0.6493 -> 0.6395 (+1.18 %); default widths exact to 1e-5."""
+    from flexmb import eob_case as ec
+
+    w = ec.outer_width_study(2, degrees=(45, 75))
+    np.testing.assert_allclose(w[0.02]["eob"], w[0.02]["fe"], rtol=1e-5)
+    drop_fe = w[0.02]["fe"][-1] - w[0.08]["fe"][-1]
+    drop_eob = w[0.02]["eob"][-1] - w[0.08]["eob"][-1]
+    assert 0 < drop_eob < 0.6 * drop_fe
+    assert 0.005 < w[0.08]["eob"][-1] / w[0.08]["fe"][-1] - 1 < 0.02
+
+
+@pytest.mark.slow
+def test_eob_limit_large_force_along_z():
+    """Fig. 8: the EOB follows the z displacement under a large z force (within 3 % at F = 4,
+    Eq. 4.5) but its moment hardly changes (linear unintended deformation), while the full model's
+    drops (measured at 75 deg, 4 el./leaf: 0.8134 -> 0.7863, -3.3 %)."""
+    from flexmb import eob_case as ec
+
+    z = ec.z_force_study(4, degrees=(75,), forces=(0.0, 4.0))[75]
+    assert abs(z["z_eob"][1] / z["z_fe"][1] - 1) < 0.03
+    assert abs(z["M_eob"][1] / z["M_eob"][0] - 1) < 1e-3
+    assert z["M_fe"][1] / z["M_fe"][0] - 1 < -0.03

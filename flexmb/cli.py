@@ -34,6 +34,7 @@ def _demo(args) -> int:
     print(f"\nend-moment cantilever, 8 elements, 180 deg: tip error {err:.6e} L, closed form {pred:.6e} L, "
           f"{its} iterations")
     gripper = _demo_gripper(args.quick)
+    _demo_fourbar(args.quick)
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -45,6 +46,17 @@ def _demo(args) -> int:
     except ImportError:
         print("\n(no figures: install the plot extra, pip install 'flexmb[plot]')")
     return 0
+
+
+def _demo_fourbar(quick: bool) -> None:
+    """The four-bar of Dwarshuis et al. (2020), Sec. 4.3: conventional method against KSD (Fig. 11)."""
+    from . import fourbar_case as fc
+
+    print("\nFour-bar of four cross flexures, Dwarshuis et al. (2020) Sec. 4.3, d = 0.3 m: conventional vs KSD")
+    print(f"{'el./leaf':>8s} {'method':>13s} {'F [N]':>10s} {'iterations':>11s} {'time [ms]':>10s} {'speed-up':>9s}")
+    for r in fc.speed_study((1, 3) if quick else (1, 3, 5), repeats=1 if quick else 3):
+        print(f"{r['elements_per_leaf']:8d} {r['method']:>13s} {r['force']:10.4f} {r['iterations']:11d} "
+              f"{r['time'] * 1e3:10.1f} {r['speedup']:8.1f}x")
 
 
 def _demo_gripper(quick: bool) -> dict:

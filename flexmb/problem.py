@@ -90,6 +90,7 @@ class StaticProblem(BoundaryConditions):
         self._wrench = np.concatenate([loads.force, loads.moment], axis=1)
         self._wrench0 = np.zeros_like(self._wrench)
         self._motion_scale = 1.0
+        self._offset = None
 
     def with_loads(self, loads: PointLoads, start: PointLoads | None = None) -> StaticProblem:
         """A copy under other ``loads`` (same points, other values; patterns shared). With
@@ -103,6 +104,15 @@ class StaticProblem(BoundaryConditions):
         out._wrench0 = (np.zeros_like(out._wrench) if start is None
                         else np.concatenate([start.force, start.moment], axis=1))
         out._motion_scale = 1.0 if start is None else 0.0
+        out._offset = None
+        return out
+
+    def continued_from(self, state: State) -> StaticProblem:
+        """A copy whose load factor runs from ``state`` (any configuration satisfying the prescribed
+        motion) to this problem: ``r_lam(u) = r(u) - (1 - lam) r(state)``, so ``state`` is the
+        equilibrium at load factor 0 and the step control can halve towards it (homotopy)."""
+        out = self.with_loads(self.loads, start=self.loads)
+        out._offset = self.residual(state, 1.0)
         return out
 
     def external_force(self, state: State, lam: float = 1.0):
@@ -110,7 +120,10 @@ class StaticProblem(BoundaryConditions):
         m = self.model
         d = m.offsets(state, self.loads.node, self.loads.offset)
         w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
-        return scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs), G
+        f = scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs)
+        if self._offset is not None:
+            f = f + (1.0 - lam) * self._offset
+        return f, G
 
     def external_load(self, state: State, lam: float = 1.0) -> np.ndarray:
         """Assembled applied loads at load factor ``lam`` on all DOFs (what `residual` subtracts)."""

@@ -334,3 +334,51 @@ def test_eob_limit_large_force_along_z():
     assert abs(z["z_eob"][1] / z["z_fe"][1] - 1) < 0.03
     assert abs(z["M_eob"][1] / z["M_eob"][0] - 1) < 1e-3
     assert z["M_fe"][1] / z["M_fe"][0] - 1 < -0.03
+
+
+# -- regressions found in review ----------------------------------------------------------------------
+
+def test_planar_angles_beyond_pi_are_kept():
+    """A chain of three planar cross flexures turned 1.2 rad each: the last link is at 3.6 rad, not
+    wrapped to -2.68 (links and internal nodes carry accumulated angles, as the conventional state)."""
+    j = flexmb.CrossFlexure(elements_per_leaf=2)
+    b = j.interface_b(2)
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("L0", fixed=True)
+    for k in range(1, 4):
+        m.add_link(f"L{k}", position=k * b)
+        m.add_joint(f"L{k - 1}", f"L{k}", j, origin=(k - 1) * b)
+        m.prescribe(f"L{k}", rotation=1.2 * k)
+    conv = flexmb.solve(m)
+    for method in ("ksd-reduced", "ksd-full"):
+        sol = flexmb.solve(m, method=method)
+        assert sol.pose("L3")[1] == pytest.approx(3.6, abs=1e-12)
+        np.testing.assert_allclose(sol.state.rotations, conv.state.rotations, atol=2e-3)
+
+
+def _parallel_pivots(rotation):
+    """Two cross flexures side by side between the same two links: over-constrained in the plane,
+    and inconsistently (the two pivots' centres differ, so their kinematics disagree)."""
+    j = flexmb.CrossFlexure(elements_per_leaf=2)
+    D0 = j.interface_b(2)[1]
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=(0.0, D0))
+    m.add_joint("A", "B", j, name="j1", origin=(-0.05, 0.0))
+    m.add_joint("A", "B", j, name="j2", origin=(0.05, 0.0))
+    m.prescribe("B", rotation=rotation)
+    return m
+
+
+def test_inconsistent_redundant_constraints_warn_and_ksd_full_still_converges():
+    """Dropped redundant equations that do not hold are reported; step 5 continues from the KSD
+    start along r(u) - (1 - lam) r(u_start) when the whole step fails (it converged in 1-25
+    iterations; retrying the same whole step had restarted 17 times and failed)."""
+    m = _parallel_pivots(1e-3)
+    with pytest.warns(RuntimeWarning, match=r"inconsistent.*\('j2', 'y'\)"):
+        full = flexmb.solve(m, method="ksd-full")
+    conv = flexmb.solve(m)
+    assert full.converged and _rel_positions(full, conv) < 1e-8
+    with pytest.warns(RuntimeWarning):
+        far = flexmb.solve(_parallel_pivots(0.02), method="ksd-full")
+    assert far.converged and far.stable  # a stable equilibrium (the conventional one is unstable)

@@ -49,15 +49,17 @@ def intended_angle(R: np.ndarray):
 
 @attrs.frozen(eq=False)
 class LinkPoses:
-    """Positions [m] (n, 3) and rotations (n, 3, 3) of the links, from the undeformed state."""
+    """Positions [m] (n, 3) and rotations (n, 3, 3) of the links, from the undeformed state, and
+    the accumulated spin about z [rad] (n,): a planar link's angle, not wrapped to (-pi, pi]."""
 
     x: np.ndarray
     R: np.ndarray
+    angle: np.ndarray
 
     def moved(self, dz: np.ndarray) -> LinkPoses:
         """Poses after increments ``dz`` (n, 6)."""
         dz = dz.reshape(-1, 6)
-        return LinkPoses(self.x + dz[:, :3], expm_so3(dz[:, 3:]) @ self.R)
+        return LinkPoses(self.x + dz[:, :3], expm_so3(dz[:, 3:]) @ self.R, self.angle + dz[:, 5])
 
 
 @attrs.frozen(eq=False)

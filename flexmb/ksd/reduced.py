@@ -122,11 +122,11 @@ class ReducedMechanism:
 
     # -- poses ------------------------------------------------------------------------------
     def rest(self) -> LinkPoses:
-        return LinkPoses(self.X0.copy(), np.tile(np.eye(3), (self.n_links, 1, 1)))
+        return LinkPoses(self.X0.copy(), np.tile(np.eye(3), (self.n_links, 1, 1)), np.zeros(self.n_links))
 
     def with_prescribed(self, poses: LinkPoses, lam: float = 1.0) -> LinkPoses:
         """``poses`` with the prescribed components set to ``lam`` times their values (exactly)."""
-        x, R = poses.x.copy(), poses.R.copy()
+        x, R, angle = poses.x.copy(), poses.R.copy(), poses.angle.copy()
         link, comp = np.divmod(self.prescribed, 6)
         rot = {}
         for l, c, v in zip(link, comp, self.values):
@@ -136,7 +136,8 @@ class ReducedMechanism:
                 rot.setdefault(l, np.zeros(3))[c - 3] = v
         for l, w in rot.items():
             R[l] = expm_so3(lam * w)
-        return LinkPoses(x, R)
+            angle[l] = lam * w[2]
+        return LinkPoses(x, R, angle)
 
     # -- step 1: kinematics -------------------------------------------------------------------
     def constraint_equations(self, poses: LinkPoses):
@@ -222,7 +223,7 @@ class ReducedMechanism:
         pos[:nL] = poses.x[:, :dim]
         if dim == 2:
             rot = np.zeros(model.n_nodes)
-            rot[:nL] = np.arctan2(poses.R[:, 1, 0], poses.R[:, 0, 0])
+            rot[:nL] = poses.angle  # accumulated, not wrapped: the FE state's angles may exceed pi
         else:
             rot = np.tile(np.eye(3), (model.n_nodes, 1, 1))
             rot[:nL] = poses.R
@@ -232,9 +233,8 @@ class ReducedMechanism:
             if len(nodes) == 0:
                 continue
             pos[nodes] = (oA[j] + _embed(xl, dim) @ F[j].T)[:, :dim]
-            if dim == 2:
-                rot[nodes] = np.arctan2(F[j][1, 0], F[j][0, 0]) - np.arctan2(self.frames.P[j][1, 0],
-                                                                              self.frames.P[j][0, 0]) + Rl
+            if dim == 2:  # global rotation from rest = side-A link's angle + angle in the joint frame
+                rot[nodes] = poses.angle[self.frames.a[j]] + Rl
             else:
                 rot[nodes] = F[j] @ Rl @ self.frames.P[j].T
         return State(pos, rot)

@@ -116,6 +116,14 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                     f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
                     f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
     removed = np.setdiff1d(np.arange(len(c)), rows)
+    if len(removed) and np.abs(c[removed]).max() > 1e-6:
+        import warnings
+
+        k = removed[np.argmax(np.abs(c[removed]))]
+        warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
+                      f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
+                      "rad); the kinematic start and KSD-reduced are approximate there (KSD-full is not affected)",
+                      RuntimeWarning, stacklevel=3)
     info = {"iterations": iterations, "residual": res, "equations": len(c), "removed": len(removed),
             "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
             "removed_equations": [red.rows[k] for k in removed], "history": history}
@@ -218,15 +226,19 @@ class _KSD:
 
         if not self.full:
             times["total"] = time.perf_counter() - t0
-            msg = (f"KSD-reduced: reduced mechanism in equilibrium, residual {hist3[-1]:.3g} < tol {self.tol:.3g}"
-                   if ok3 else f"KSD-reduced: step 3 did not converge (residual {hist3[-1]:.3g})")
+            last = hist3[-1] if hist3 else np.nan
+            msg = (f"KSD-reduced: reduced mechanism in equilibrium, residual {last:.3g} < tol {self.tol:.3g}"
+                   if ok3 else f"KSD-reduced: step 3 did not converge (residual {last:.3g} after {len(hist3)} "
+                               "iterations; a singular or diverging reduced tangent: the unintended deformation may "
+                               "be too large for the linearised joints, use method='ksd-full' or 'conventional')")
             sol = Solution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
                            residual_history=np.array(hist3), load_factor=1.0, steps=1, rejected_steps=0,
                            wall_time=times, message=msg, state=state, residual=red.reaction_vector(r3),
                            compiled=compiled, tolerance=self.tol, stable=None, stages=stages)
         else:
-            problem = compiled.problem
-            start = problem.with_loads(problem.loads, start=problem.loads)
+            # from the step-4 state: the whole way first; if that fails, halve along the homotopy
+            # r(u) - (1 - lam) r(u_start), whose lam = 0 equilibrium is the KSD start
+            start = compiled.problem.continued_from(state)
             out = newton_steps(start, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
                                min_step=self.min_step, initial_step=1.0, max_rotation=self.max_rotation)
             t = lap("full", t)
@@ -237,7 +249,8 @@ class _KSD:
             times.update({f"full_{k}": v for k, v in inner.items()})
             times["total"] = time.perf_counter() - t0
             out["iterations"] += info["iterations"] + len(hist3)
-            out["message"] = "KSD-full: " + out["message"]
+            out["message"] = "KSD-full: " + ("" if ok3 else "step 3 did not converge, step 5 started from its last "
+                                                          "iterate; ") + out["message"]
             sol = Solution(method=self.name, compiled=compiled, tolerance=self.tol, wall_time=times, stages=stages,
                            **out)
         if self.raise_on_failure and not sol.converged:

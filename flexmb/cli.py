@@ -13,7 +13,7 @@ from pathlib import Path
 import attrs
 import numpy as np
 
-from .errors import FlexmbError
+from .errors import FlexmbError, ParameterError
 
 
 def _demo(args) -> int:
@@ -98,13 +98,28 @@ def _train(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     for dim in args.dim:
         for n in args.elements:
-            j = make_joint(args.kind, elements_per_leaf=n) if n else make_joint(args.kind)
+            params = dict(_parse_params(args.param))
+            j = make_joint(args.kind, elements_per_leaf=n, **params) if n else make_joint(args.kind, **params)
             data = database.train(j, dim, range_deg=(-args.range, args.range), step_deg=args.step)
             path = database.save(data, out / database.file_name(j.kind, dim, data.key))
             res = ", ".join(f"{k} {f.max_residual:.1e}" for k, f in data.functions.items())
             print(f"{path}: {len(data.samples)} runs; max fit residuals: {res}, elements "
                   f"{data.elements.max_residual:.1e} rad, nodes {data.nodes.max_residual:.1e} rad")
     return 0
+
+
+def _parse_params(items) -> list[tuple[str, object]]:
+    """``["angle=0.6", "gap=1e-3"]`` -> ``[("angle", 0.6), ("gap", 0.001)]`` (numbers where they parse)."""
+    out = []
+    for item in items or ():
+        key, sep, val = item.partition("=")
+        if not sep or not key:
+            raise ParameterError(f"--param {item!r}: expected NAME=VALUE, e.g. --param angle=0.6")
+        try:
+            out.append((key, int(val) if val.lstrip("-").isdigit() else float(val)))
+        except ValueError:
+            out.append((key, val))
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -121,7 +136,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--elements", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="elements per leaf")
     p.add_argument("--range", type=float, default=75.0, help="intended rotation range +- [deg] (75)")
     p.add_argument("--step", type=float, default=5.0, help="sampling step [deg] (5)")
-    p.add_argument("--out", default=None, help="folder (default: the package's shipped data)")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="joint shape parameter, repeatable (e.g. --param angle=0.6)")
+    p.add_argument("--out", default=None, help="folder (default: the package's shipped data); pass it to "
+                                               "solve(..., method='ksd-full', database=FOLDER)")
     p.set_defaults(func=_train)
     p = sub.add_parser("joints", help="list the registered joint plugins and their parameters")
     p.set_defaults(func=_joints)

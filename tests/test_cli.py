@@ -72,3 +72,36 @@ def test_gripper_example_prints_the_study_and_saves_its_figures(tmp_path, capsys
     assert c["nylon"]["fe"] == pytest.approx(0.0384 * c["silicon"]["fe"], rel=1e-6)  # F / E is the only parameter
     for name in ("workspace", "models", "strategies", "cross_section"):
         assert (tmp_path / f"gripper_{name}.png").stat().st_size > 10_000
+
+
+def test_train_with_a_shape_parameter_feeds_ksd(tmp_path, capsys):
+    """`flexmb train --param angle=0.6 --out DIR` makes the database a non-default joint needs;
+    KSD then finds it with database=DIR, and KSD-full equals the conventional solution."""
+    import flexmb
+
+    j = flexmb.CrossFlexure(elements_per_leaf=1, angle=0.6)
+    m = flexmb.Mechanism(2)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=j.interface_b(2))
+    m.add_joint("A", "B", j, name="cf")
+    m.prescribe("B", rotation=0.3)
+    with pytest.raises(flexmb.FlexmbError, match=r"joint 'cf'.*--param angle=0\.6 --out FOLDER"):
+        flexmb.solve(m, method="ksd-reduced")
+    assert cli.main(["train", "--dim", "2", "--elements", "1", "--param", "angle=0.6", "--range", "30",
+                     "--step", "10", "--out", str(tmp_path)]) == 0
+    full = flexmb.solve(m, method="ksd-full", database=str(tmp_path))
+    conv = flexmb.solve(m)
+    assert full.converged
+    np.testing.assert_allclose(full.node_positions(), conv.node_positions(), rtol=0, atol=1e-9)
+
+
+def test_fourbar_example_prints_figs_10_and_12(tmp_path, capsys):
+    spec = importlib.util.spec_from_file_location("fourbar_example",
+                                                  Path(__file__).resolve().parents[1] / "examples" / "fourbar.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    res = mod.main(tmp_path, quick=True)
+    out = capsys.readouterr().out
+    assert "F / F_lin" in out and "Fig. 12" in out
+    c = res["curve3"]
+    assert np.all(np.abs(c["ksd-reduced"] / c["conventional"] - 1) < 4e-3)

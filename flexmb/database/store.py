@@ -191,8 +191,11 @@ def shipped(joint, dim: int, folder=None) -> JointData:
     key = joint.database_key()
     path = Path(folder or data_path()) / file_name(joint.kind, dim, key)
     if not path.exists():
+        params = " ".join(f"--param {k}={v}" for k, v in key.items() if k != "elements_per_leaf")
+        elements = f" --elements {key['elements_per_leaf']}" if "elements_per_leaf" in key else ""
         raise DatabaseError(f"no trained data for {joint.kind} ({dim}D, {key}) in {path.parent}; train it with "
-                            f"`flexmb train {joint.kind} --dim {dim}` (shipped: {sorted(p.name for p in path.parent.glob('*.json'))})")
+                            f"`flexmb train {joint.kind} --dim {dim}{elements} {params} --out FOLDER` and solve with "
+                            f"database=FOLDER (present: {sorted(p.name for p in path.parent.glob('*.json'))})")
     data = load(path)
     if data.kind != joint.kind or data.dim != dim or data.key != key:
         raise DatabaseError(f"joint database {path} holds {data.kind} {data.dim}D {data.key}, not {joint.kind} "

@@ -8,6 +8,7 @@ give a load stiffness (their moment arm turns with the node), included in the ta
 from __future__ import annotations
 
 import copy
+import functools
 
 import attrs
 import numpy as np
@@ -76,21 +77,24 @@ class StaticProblem(BoundaryConditions):
         slot_p = np.full(n, -1)
         slot_p[self.prescribed] = np.arange(npres)
 
-        ed = model.element_dofs
-        rows = [np.broadcast_to(ed[:, :, None], ed.shape + ed.shape[1:]).ravel()]
-        cols = [np.broadcast_to(ed[:, None, :], ed.shape + ed.shape[1:]).ravel()]
-        self._load_rot_dofs = model.node_dofs[loads.node][:, model.dim:]  # (K, nrot)
-        lr = self._load_rot_dofs
-        rows.append(np.broadcast_to(lr[:, :, None], lr.shape + lr.shape[1:]).ravel())
-        cols.append(np.broadcast_to(lr[:, None, :], lr.shape + lr.shape[1:]).ravel())
-        rows, cols = np.concatenate(rows), np.concatenate(cols)
-        self._pattern_ff = SparsePattern(slot_f[rows], slot_f[cols], (nf, nf))
-        self._pattern_fp = SparsePattern(slot_f[rows], slot_p[cols], (nf, npres))
+        self._slots = (slot_f, slot_p, nf, npres)
         self.loads = loads
         self._wrench = np.concatenate([loads.force, loads.moment], axis=1)
         self._wrench0 = np.zeros_like(self._wrench)
         self._motion_scale = 1.0
         self._offset = None
+
+    @functools.cached_property
+    def _patterns(self) -> tuple[SparsePattern, SparsePattern]:
+        """Sparsity of K_ff and K_fp (element blocks, then the load-stiffness blocks), built once
+        on the first tangent evaluation and shared by `with_loads` copies made after it."""
+        model, (slot_f, slot_p, nf, npres) = self.model, self._slots
+        ed = model.element_dofs
+        lr = model.node_dofs[self.loads.node][:, model.dim:]  # (K, nrot)
+        rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in (ed, lr)])
+        cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in (ed, lr)])
+        return (SparsePattern(slot_f[rows], slot_f[cols], (nf, nf)),
+                SparsePattern(slot_f[rows], slot_p[cols], (nf, npres)))
 
     def with_loads(self, loads: PointLoads, start: PointLoads | None = None) -> StaticProblem:
         """A copy under other ``loads`` (same points, other values; patterns shared). With
@@ -146,7 +150,8 @@ class StaticProblem(BoundaryConditions):
         if not tangent:
             return r, None, None, sig
         vals = np.concatenate([Ke.ravel(), (-G).ravel()])
-        return r, self._pattern_ff.matrix(vals), self._pattern_fp.matrix(vals), sig
+        ff, fp = self._patterns
+        return r, ff.matrix(vals), fp.matrix(vals), sig
 
     def prescribed_increment(self, dlam: float) -> np.ndarray:
         """Increments of the prescribed DOFs for a load-factor step ``dlam``."""

@@ -43,6 +43,14 @@ def template(joint, dim: int, folder=None) -> EOBTemplate:
         return EOBTemplate(joint, dim, shipped(joint, dim, folder))
 
 
+def _hashable(obj) -> bool:
+    try:
+        hash(obj)
+    except TypeError:
+        return False
+    return True
+
+
 def _embed(v: np.ndarray, dim: int) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     if dim == 3:
@@ -78,7 +86,7 @@ class ReducedMechanism:
         self.fe_dofs = (np.arange(nL)[:, None] * nd + np.arange(nd)).ravel()
         self.emb_dofs = (np.arange(nL)[:, None] * 6 + act).ravel()
 
-        names, a, b, s_a, s_b, P, b0, groups = [], [], [], [], [], [], [], {}
+        names, a, b, s_a, s_b, P, b0, groups, seen = [], [], [], [], [], [], [], {}, {}
         for key, jt, pl, side_a, side_b in compiled.joints:
             la, lb = compiled.link_node[side_a], compiled.link_node[side_b]
             Pm = np.eye(3)
@@ -86,9 +94,11 @@ class ReducedMechanism:
             bj = _embed(jt.interface_b(dim), dim)
             origin = _embed(pl.origin, dim)
             try:
-                tpl = template(jt, dim, folder)
+                tpl = seen[jt] if _hashable(jt) and jt in seen else template(jt, dim, folder)
             except DatabaseError as exc:
                 raise DatabaseError(f"joint {key!r}: {exc}") from None
+            if _hashable(jt):
+                seen[jt] = tpl
             cons = constraints.check_names(f"joint {key!r} ({jt.kind})", jt.kinematic_constraints(dim), dim)
             groups.setdefault(id(tpl), (tpl, cons, []))[2].append(len(names))
             names.append(key)

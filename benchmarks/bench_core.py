@@ -73,7 +73,7 @@ def main(quick: bool = False) -> str:
     lines += [
         "",
         f"Least-squares fit over all rows: iteration time = {offset*1e3:.3f} ms + {slope*1e6:.2f} us x elements "
-        f"(fixed numpy-call overhead plus a linear term; dense LAPACK below 400 unknowns, SuperLU above).",
+        f"(fixed numpy-call overhead plus a linear term; dense LAPACK below 220 unknowns, SuperLU above).",
     ]
     return "\n".join(lines)
 

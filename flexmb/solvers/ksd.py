@@ -71,6 +71,17 @@ def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
     return np.sort(piv[:rank])
 
 
+def _correction(red: ReducedMechanism, A: np.ndarray, r: np.ndarray):
+    """Newton correction of the free link coordinates, ``A dz_free = -r``, as increments (6 per
+    link); None when ``A`` is singular."""
+    dz = np.zeros(6 * red.n_links)
+    try:
+        dz[red.free] = np.linalg.solve(A, -r)
+    except np.linalg.LinAlgError:
+        return None
+    return dz
+
+
 def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30):
     """KSD step 1: link poses satisfying all joint constraints and the prescribed motion.
 
@@ -96,10 +107,8 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                 accepted = True
                 break
             prev = res
-            dz = np.zeros(6 * red.n_links)
-            try:
-                dz[free] = np.linalg.solve(jac[np.ix_(rows, free)], -c[rows])
-            except np.linalg.LinAlgError:
+            dz = _correction(red, jac[np.ix_(rows, free)], c[rows])
+            if dz is None:
                 break
             trial = trial.moved(dz)
             iterations += 1
@@ -266,10 +275,8 @@ class _KSD:
         for _ in range(self.max_iter):
             if res < self.tol and history:
                 return poses, True, history, r
-            dz = np.zeros(6 * red.n_links)
-            try:
-                dz[free] = np.linalg.solve(Kr[np.ix_(free, free)], -r[free])
-            except np.linalg.LinAlgError:
+            dz = _correction(red, Kr[np.ix_(free, free)], r[free])
+            if dz is None:
                 break
             poses = poses.moved(dz)
             r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat)

@@ -63,3 +63,12 @@ def finite_model(owner: str, values: dict) -> None:
     if bad:
         raise ParameterError(f"{owner}: the parameters give non-finite or zero {', '.join(bad)}; "
                              "check their magnitudes and units (SI: m, Pa)")
+
+
+def hashable(obj) -> bool:
+    """Whether ``obj`` can key a cache (joints are immutable values; a plugin's may not hash)."""
+    try:
+        hash(obj)
+    except TypeError:
+        return False
+    return True

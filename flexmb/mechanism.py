@@ -407,9 +407,7 @@ def _cached_mesh(joint: Joint, dim: int):
 def _joint_mesh(key: str, joint: Joint, dim: int):
     """The joint's checked mesh; cached per joint value (joints are immutable), so a mechanism of
     identical joints and repeated solves build it once."""
-    try:
-        hash(joint)
-    except TypeError:
+    if not v.hashable(joint):
         return _checked_mesh(key, joint, dim)
     try:
         return _cached_mesh(joint, dim)

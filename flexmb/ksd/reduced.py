@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._validate import hashable
 from ..database.store import data_path, file_name, shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
 from ..rotations import cross, expm_so3, skew, unskew
@@ -37,18 +38,9 @@ def template(joint, dim: int, folder=None) -> EOBTemplate:
             f"joint kind {joint.kind!r} has no joint database (KSD needs one); it offers {sorted(joint.capabilities)}")
     path = Path(folder) / file_name(joint.kind, dim, joint.database_key())
     stamp = path.stat().st_mtime_ns if path.exists() else -1
-    try:
-        return _cached_template(joint, dim, folder, stamp)
-    except TypeError:  # an unhashable plugin joint: no caching
+    if not hashable(joint):  # a plugin joint that is not a value: no caching
         return EOBTemplate(joint, dim, shipped(joint, dim, folder))
-
-
-def _hashable(obj) -> bool:
-    try:
-        hash(obj)
-    except TypeError:
-        return False
-    return True
+    return _cached_template(joint, dim, folder, stamp)
 
 
 def _embed(v: np.ndarray, dim: int) -> np.ndarray:
@@ -94,10 +86,10 @@ class ReducedMechanism:
             bj = _embed(jt.interface_b(dim), dim)
             origin = _embed(pl.origin, dim)
             try:
-                tpl = seen[jt] if _hashable(jt) and jt in seen else template(jt, dim, folder)
+                tpl = seen[jt] if hashable(jt) and jt in seen else template(jt, dim, folder)
             except DatabaseError as exc:
                 raise DatabaseError(f"joint {key!r}: {exc}") from None
-            if _hashable(jt):
+            if hashable(jt):
                 seen[jt] = tpl
             cons = constraints.check_names(f"joint {key!r} ({jt.kind})", jt.kinematic_constraints(dim), dim)
             groups.setdefault(id(tpl), (tpl, cons, []))[2].append(len(names))

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import time
+import warnings
 from typing import ClassVar
 
 import attrs
@@ -24,7 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, TopologyError
-from ..ksd.geometry import rz
+from ..ksd.geometry import ACTIVE, rz
 from ..ksd.reduced import ReducedMechanism
 from ..results import Solution
 from ..rotations import expm_so3, unskew
@@ -126,8 +127,6 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                     f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
     removed = np.setdiff1d(np.arange(len(c)), rows)
     if len(removed) and np.abs(c[removed]).max() > 1e-6:
-        import warnings
-
         k = removed[np.argmax(np.abs(c[removed]))]
         warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
                       f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
@@ -140,8 +139,6 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
 
 
 def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool) -> None:
-    import warnings
-
     for tpl, _, idx in red.groups:
         lo, hi = tpl.data.range
         for j in idx:
@@ -209,8 +206,8 @@ class _KSD:
         t = lap("kinematics", t)
 
         dim = red.dim
-        nd = 3 if dim == 2 else 6
-        emb = np.array([0, 1, 5]) if dim == 2 else np.arange(6)
+        emb = ACTIVE[dim]
+        nd = len(emb)
         J = len(red.joint_names)
         K = np.zeros((J, 6, 6))
         Fh = np.zeros((J, 6))
@@ -289,8 +286,8 @@ class _KSD:
     def _internal(self, red, poses, eobs, p_hat, R_hat):
         """Step 4: internal nodes of every joint from its interface displacement (Eq. 2.6)."""
         dim = red.dim
-        nd = 3 if dim == 2 else 6
-        emb = np.array([0, 1, 5]) if dim == 2 else np.arange(6)
+        emb = ACTIVE[dim]
+        nd = len(emb)
         p, Rrel, _ = red.frames.relative(poses)
         xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
         internal = [None] * len(red.joint_names)

@@ -116,7 +116,7 @@ class StaticProblem(BoundaryConditions):
         motion) to this problem: ``r_lam(u) = r(u) - (1 - lam) r(state)``, so ``state`` is the
         equilibrium at load factor 0 and the step control can halve towards it (homotopy)."""
         out = self.with_loads(self.loads, start=self.loads)
-        out._offset = self.residual(state, 1.0)
+        out._offset = functools.partial(self.residual, state, 1.0)  # needed only if a step is cut
         return out
 
     def external_force(self, state: State, lam: float = 1.0):
@@ -125,7 +125,9 @@ class StaticProblem(BoundaryConditions):
         d = m.offsets(state, self.loads.node, self.loads.offset)
         w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
         f = scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs)
-        if self._offset is not None:
+        if self._offset is not None and lam != 1.0:
+            if callable(self._offset):
+                self._offset = self._offset()
             f = f + (1.0 - lam) * self._offset
         return f, G
 

@@ -34,7 +34,7 @@ class Solution:
         Why the solver stopped.
     stable
         True when the converged equilibrium is stable (free tangent positive definite), False when
-        not, None when not checked (not converged, more than 3000 free DOFs, or the closed-form
+        not, None when not checked (not converged, KSD-reduced, or the closed-form
         models of ``method="newton"``, whose tangent is not the Hessian of an energy).
     stages
         Per-step details of multi-step strategies (KSD: ``"kinematics"``, ``"reduced"``,

@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import flexmb
 
@@ -95,7 +97,7 @@ def test_reactions_balance_the_applied_loads():
 def test_an_unstable_equilibrium_is_flagged_not_hidden():
     """2D cross flexure at 270 deg in one step lands on an unstable branch (found in review: the
     strain energy 512 J vs 428 J on the stable branch reached in small steps). Both are equilibria;
-    the solution must say which one is stable (Cholesky of the free tangent)."""
+    the solution must say which one is stable (inertia of the free tangent)."""
     m = flexmb.models.cross_flexure_pivot(elements_per_leaf=3, dim=2, rotation=np.radians(270))
     jump = flexmb.solve(m, initial_step=1.0)
     walk = flexmb.solve(m, initial_step=0.02)
@@ -152,3 +154,31 @@ def test_whole_step_does_not_jump_to_a_folded_branch():
     assert one_step.strain_energy() < 10.0
     wandering = flexmb.solve(pivot(55.0), max_rotation=None)
     assert wandering.strain_energy() > 100.0  # the failure mode this guards against, still there without it
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(1, 40), seed=st.integers(0, 2**31), shift=st.floats(-2.0, 2.0), density=st.floats(0.05, 0.5))
+def test_stability_is_the_sign_of_the_smallest_eigenvalue(n, seed, shift, density):
+    """is_stable(K) = (smallest eigenvalue of (K + K^T)/2 > 0), closed form by eigvalsh, on sparse
+    random matrices shifted through definiteness (the sparse LDL^T inertia path and its fallback)."""
+    import scipy.sparse as sp
+    from flexmb.solvers.conventional import is_stable
+
+    rng = np.random.default_rng(seed)
+    B = sp.random(n, n, density=density, random_state=rng).toarray()
+    A = B @ B.T + 0.1 * np.eye(n) + rng.normal(size=(n, n)) * 1e-3  # slightly non-symmetric
+    lo = np.linalg.eigvalsh(0.5 * (A + A.T))[0]
+    A = A - (lo + shift * max(abs(lo), 1.0)) * np.eye(n)
+    lmin = np.linalg.eigvalsh(0.5 * (A + A.T))[0]
+    assume(abs(lmin) > 1e-8)
+    assert is_stable(sp.csr_array(A)) == (lmin > 0)
+
+
+def test_stability_of_a_matrix_that_needs_off_diagonal_pivots():
+    """[[0, 1], [1, 0]] has eigenvalues -1 and 1 and no usable diagonal pivot; [[0]] is singular."""
+    import scipy.sparse as sp
+    from flexmb.solvers.conventional import is_stable
+
+    assert is_stable(sp.csr_array(np.array([[0.0, 1.0], [1.0, 0.0]]))) is False
+    assert is_stable(sp.csr_array(np.array([[0.0]]))) is False
+    assert is_stable(sp.csr_array(np.array([[2.0, 1.0], [1.0, 2.0]]))) is True

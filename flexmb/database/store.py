@@ -16,6 +16,7 @@ Functions are dimensionless (positions over D0, the undeformed distance of the i
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import warnings
@@ -171,6 +172,7 @@ def load(path) -> JointData:
         raise DatabaseError(f"joint database {path} is incomplete ({exc!r})") from None
 
 
+@functools.cache
 def data_path() -> Path:
     """Folder of the shipped, pre-trained database files."""
     return Path(str(resources.files("flexmb.database") / "data"))

@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import ModelError
 from ..rotations import cross
 
-__all__ = ["NAMES", "check_names", "evaluate"]
+__all__ = ["NAMES", "check_names", "ConstraintSet", "evaluate"]
 
 NAMES = ("x", "y", "z", "tilt_x", "tilt_y", "symmetric", "length")
 _FUNCTION = {"x": "x/D0", "y": "y/D0", "length": "D/D0-1"}
@@ -44,20 +44,35 @@ def check_names(where: str, names, dim: int) -> tuple[str, ...]:
     return names
 
 
-def evaluate(names, data, p, R, theta, dtheta, D0, b0):
-    """Values (J, m) and gradients (J, m, 6) with respect to ``(dp, omega)`` of the constraints
-    ``names`` for J joints sharing one database ``data``; ``theta`` (J,) and ``dtheta`` (J, 3)
-    from `intended_angle`, ``D0`` (J,), ``b0`` (J, 3) undeformed position of B."""
-    J = len(p)
-    val = np.zeros((J, len(names)))
-    grad = np.zeros((J, len(names), 6))
-    inv = 1.0 / D0
-    for k, name in enumerate(names):
-        if name in ("x", "y", "z"):
-            c = "xyz".index(name)
+class ConstraintSet:
+    """The constraints ``names`` of J joints sharing one database ``data``: ``D0`` (J,) and
+    ``b0`` (J, 3), the undeformed position of node B. Everything that does not depend on the
+    configuration is prepared once, so `evaluate` is a handful of array operations."""
+
+    def __init__(self, names, data, D0, b0):
+        self.names = tuple(names)
+        J, m = len(D0), len(self.names)
+        self.inv = inv = 1.0 / np.asarray(D0, dtype=float)
+        # rows linear in p (x, y, z): constant gradient
+        self.lin = [(k, "xyz".index(n)) for k, n in enumerate(self.names) if n in ("x", "y", "z")]
+        self.tilt = [(k, n) for k, n in enumerate(self.names) if n in ("tilt_x", "tilt_y")]
+        self.sym = self.names.index("symmetric") if "symmetric" in self.names else None
+        self.len = self.names.index("length") if "length" in self.names else None
+        self.n0 = cross([0.0, 0.0, 1.0], np.asarray(b0, dtype=float) * inv[:, None])
+        self.fun = [(k, data.function(_FUNCTION[n])) for k, n in enumerate(self.names) if n in _FUNCTION]
+        self.grad0 = np.zeros((J, m, 6))
+        for k, c in self.lin:
+            self.grad0[:, k, c] = inv
+
+    def evaluate(self, p, R, theta, dtheta):
+        """Values (J, m) and gradients (J, m, 6) with respect to ``(dp, omega)``; ``theta`` (J,)
+        and ``dtheta`` (J, 3) from `intended_angle`."""
+        inv = self.inv
+        val = np.empty((len(p), len(self.names)))
+        grad = self.grad0.copy()
+        for k, c in self.lin:
             val[:, k] = p[:, c] * inv
-            grad[:, k, c] = inv
-        elif name in ("tilt_x", "tilt_y"):
+        for k, name in self.tilt:
             ez = R[:, :, 2]
             # d(R e_z) = omega x (R e_z): gradient of component c is (R e_z) x e_c
             if name == "tilt_x":
@@ -66,21 +81,29 @@ def evaluate(names, data, p, R, theta, dtheta, D0, b0):
             else:
                 val[:, k] = ez[:, 1]
                 grad[:, k, 3], grad[:, k, 5] = -ez[:, 2], ez[:, 0]
-        elif name == "symmetric":
-            n0 = cross([0.0, 0.0, 1.0], b0 / D0[:, None])
+        if self.sym is not None:
+            k, n0 = self.sym, self.n0
             h = 0.5 * theta
             c, s = np.cos(h), np.sin(h)
-            n = np.stack([c * n0[:, 0] - s * n0[:, 1], s * n0[:, 0] + c * n0[:, 1], n0[:, 2]], axis=1)
-            dn = 0.5 * np.stack([-n[:, 1], n[:, 0], np.zeros(J)], axis=1)
+            n = np.empty_like(n0)
+            n[:, 0], n[:, 1], n[:, 2] = c * n0[:, 0] - s * n0[:, 1], s * n0[:, 0] + c * n0[:, 1], n0[:, 2]
             val[:, k] = np.einsum("ji,ji->j", p, n) * inv
             grad[:, k, :3] = n * inv[:, None]
-            grad[:, k, 3:] = (np.einsum("ji,ji->j", p, dn) * inv)[:, None] * dtheta
-        elif name == "length":
-            d = np.linalg.norm(p, axis=1)
+            # d n / d theta = (-n_y, n_x, 0) / 2
+            grad[:, k, 3:] = (0.5 * (p[:, 1] * n[:, 0] - p[:, 0] * n[:, 1]) * inv)[:, None] * dtheta
+        if self.len is not None:
+            k = self.len
+            d = np.sqrt(np.einsum("ji,ji->j", p, p))
             val[:, k] = d * inv - 1.0
-            grad[:, k, :3] = p / (d * D0)[:, None]
-        if name in _FUNCTION:
-            f = data.function(_FUNCTION[name])
+            grad[:, k, :3] = p * (inv / d)[:, None]
+        for k, f in self.fun:
             val[:, k] -= f(theta)
             grad[:, k, 3:] -= f.derivative(theta)[:, None] * dtheta
-    return val, grad
+        return val, grad
+
+
+def evaluate(names, data, p, R, theta, dtheta, D0, b0):
+    """Values (J, m) and gradients (J, m, 6) with respect to ``(dp, omega)`` of the constraints
+    ``names`` for J joints sharing one database ``data``; ``theta`` (J,) and ``dtheta`` (J, 3)
+    from `intended_angle`, ``D0`` (J,), ``b0`` (J, 3) undeformed position of B."""
+    return ConstraintSet(names, data, D0, b0).evaluate(p, R, theta, dtheta)

@@ -113,12 +113,28 @@ class ReducedMechanism:
         cols = np.concatenate([self.frames.a[:, None] * 6 + np.arange(6), self.frames.b[:, None] * 6 + np.arange(6)],
                               axis=1)
         self._cols = cols  # (J, 12)
+        # step 1: each group's constraints, and where its (Jg, m_c, 12) gradients go in the
+        # Jacobian (m, 6 n_links); a joint's 12 columns are distinct (links a != b)
+        self._sets, self._jac_at, r0 = [], [], 0
+        for tpl, cons, idx in self.groups:
+            self._sets.append(constraints.ConstraintSet(cons, tpl.data, self.D0[idx], self.b0[idx]))
+            row = r0 + np.arange(len(idx) * len(cons)).reshape(len(idx), len(cons), 1)
+            self._jac_at.append((row * 6 * nL + cols[idx][:, None, :]).ravel())
+            r0 += len(idx) * len(cons)
+        self.n_equations = r0
         loads = problem.loads
         self.load_node = loads.node
         self.load_offset = _embed(loads.offset, dim)
         self.load_force = _embed(loads.force, dim)
         self.load_moment = loads.moment if dim == 3 else np.concatenate(
             [np.zeros((len(loads.node), 2)), loads.moment], axis=1)
+        # step 3: where the joints' wrenches on links b and a and the loads go in the residual, and
+        # each joint's 12 x 12 block and each offset load's 3 x 3 block in the flattened tangent
+        ld = self.load_node[:, None] * 6
+        self._r_at = np.concatenate([cols[:, 6:].ravel(), cols[:, :6].ravel(), (ld + np.arange(6)).ravel()])
+        lr = ld + np.arange(3, 6)
+        self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
+                                     (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])
         # characteristic length for scaling translations against rotations
         self.length = float(np.mean(self.D0))
 
@@ -148,26 +164,22 @@ class ReducedMechanism:
         p, R, geo = self.frames.relative(poses)
         Jrel = self.frames.relative_jacobian(geo)
         theta, dth = intended_angle(R)
-        vals, jac = [], []
-        m = 6 * self.n_links
-        for tpl, cons, idx in self.groups:
-            v, g = constraints.evaluate(cons, tpl.data, p[idx], R[idx], theta[idx], dth[idx], self.D0[idx],
-                                        self.b0[idx])
-            G = g @ Jrel[idx]  # (Jg, m_c, 12)
-            rows = np.zeros((len(idx), len(cons), m))
-            # a joint's 12 columns are distinct (links a != b): plain assignment, no accumulation
-            rows[np.arange(len(idx))[:, None, None], np.arange(len(cons))[None, :, None], self._cols[idx][:, None, :]] = G
+        vals = []
+        jac = np.zeros((self.n_equations, 6 * self.n_links))
+        for (_, _, idx), cs, at in zip(self.groups, self._sets, self._jac_at):
+            v, g = cs.evaluate(p[idx], R[idx], theta[idx], dth[idx])
+            jac.flat[at] = g @ Jrel[idx]  # (Jg, m_c, 12)
             vals.append(v.ravel())
-            jac.append(rows.reshape(-1, m))
-        return np.concatenate(vals), np.concatenate(jac), theta, p
+        return np.concatenate(vals), jac, theta, p
 
     # -- step 3: equilibrium with the condensed joints ----------------------------------------
     def equilibrium(self, poses: LinkPoses, K: np.ndarray, F_hat: np.ndarray, p_hat: np.ndarray,
-                    R_hat: np.ndarray, tangent: bool = True):
+                    R_hat: np.ndarray, tangent: bool | str = True):
         """Residual (6 n_links,) = joint wrenches on the links minus applied loads, and its
         Jacobian (6 n_links, 6 n_links). ``K`` (J, 6, 6), ``F_hat`` (J, 6): each joint's
         condensed stiffness on node B (node A held) about its near pose ``p_hat`` (J, 3),
-        ``R_hat`` (J, 3, 3), in the joint frame."""
+        ``R_hat`` (J, 3, 3), in the joint frame. ``tangent="deferred"`` returns a function that
+        computes the Jacobian when called (a converged Newton iterate never needs it)."""
         fr = self.frames
         p, Rrel, geo = fr.relative(poses)
         Q = Rrel @ np.swapaxes(R_hat, 1, 2)
@@ -177,39 +189,38 @@ class ReducedMechanism:
         f = np.einsum("jab,jb->ja", F, w[:, :3])
         mB = np.einsum("jab,jb->ja", F, w[:, 3:])
         rb, ra = geo["rb"], geo["ra"]
-        nL = self.n_links
-        r = np.zeros((nL, 6))
-        np.add.at(r, fr.b, np.concatenate([f, mB + cross(rb, f)], axis=1))
-        np.add.at(r, fr.a, -np.concatenate([f, mB + cross(ra, f)], axis=1))
         d = np.einsum("kab,kb->ka", poses.R[self.load_node], self.load_offset)
-        np.add.at(r, self.load_node, -np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)],
-                                                     axis=1))
+        parts = (f, mB + cross(rb, f), -f, -mB - cross(ra, f), -self.load_force,
+                 -self.load_moment - cross(d, self.load_force))
+        r = np.bincount(self._r_at, np.concatenate([np.concatenate(parts[:2], axis=1), np.concatenate(parts[2:4], axis=1),
+                                    np.concatenate(parts[4:], axis=1)]).ravel(),
+                        minlength=6 * self.n_links)
+
+        def jacobian():
+            Jrel = fr.relative_jacobian(geo)
+            trQ = np.trace(Q, axis1=1, axis2=2)
+            Jrel[:, 3:] = (0.5 * (trQ[:, None, None] * np.eye(3) - Q)) @ Jrel[:, 3:]
+            dw = K @ Jrel  # (J, 6, 12)
+            df = F @ dw[:, :3]
+            df[:, :, 3:6] -= skew(f)
+            dmB = F @ dw[:, 3:]
+            dmB[:, :, 3:6] -= skew(mB)
+            Srb, Sf = skew(rb), skew(f)
+            mb = dmB + Srb @ df
+            mb[:, :, 9:12] += Sf @ Srb
+            ma = -dmB - skew(ra) @ df  # + skew(f) d(ra), d(ra) = (-I, 0, I, -skew(rb))
+            ma[:, :, 0:3] -= Sf
+            ma[:, :, 6:9] += Sf
+            ma[:, :, 9:12] -= Sf @ Srb
+            blocks = np.concatenate([-df, ma, df, mb], axis=1)  # (J, 12, 12)
+            G = skew(self.load_force) @ skew(d)  # d(d x f)/dphi of loads at offset points
+            n = 6 * self.n_links
+            return np.bincount(self._K_at, np.concatenate([blocks.ravel(), -G.ravel()]),
+                               minlength=n * n).reshape(n, n)
+
         if not tangent:
-            return r.ravel(), None
-        Jrel = fr.relative_jacobian(geo)
-        trQ = np.trace(Q, axis1=1, axis2=2)
-        Jrel[:, 3:] = (0.5 * (trQ[:, None, None] * np.eye(3) - Q)) @ Jrel[:, 3:]
-        dw = K @ Jrel  # (J, 6, 12)
-        df = F @ dw[:, :3]
-        df[:, :, 3:6] -= skew(f)
-        dmB = F @ dw[:, 3:]
-        dmB[:, :, 3:6] -= skew(mB)
-        eye = np.eye(3)
-        dra = np.zeros((len(p), 3, 12))
-        dra[:, :, 0:3], dra[:, :, 6:9], dra[:, :, 9:12] = -eye, eye, -skew(rb)
-        Sf = skew(f)
-        mb = dmB + skew(rb) @ df
-        mb[:, :, 9:12] += Sf @ skew(rb)
-        ma = -dmB + Sf @ dra - skew(ra) @ df
-        blocks = np.zeros((len(p), 12, 12))
-        blocks[:, 0:3], blocks[:, 3:6], blocks[:, 6:9], blocks[:, 9:12] = -df, ma, df, mb
-        Kr = np.zeros((6 * nL, 6 * nL))
-        rows = self._cols[:, :, None]
-        np.add.at(Kr, (rows, self._cols[:, None, :]), blocks)
-        G = skew(self.load_force) @ skew(d)  # d(d x f)/dphi of loads at offset points
-        ld = self.load_node[:, None] * 6 + np.arange(3, 6)
-        np.add.at(Kr, (ld[:, :, None], ld[:, None, :]), -G)
-        return r.ravel(), Kr
+            return r, None
+        return r, (jacobian if tangent == "deferred" else jacobian())
 
     # -- step 4: back to the full model -----------------------------------------------------
     def fe_state(self, poses: LinkPoses, internal):

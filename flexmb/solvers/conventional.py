@@ -13,6 +13,7 @@ from typing import ClassVar
 
 import attrs
 import numpy as np
+from scipy.sparse.linalg import splu
 
 from .. import _validate as v
 from ..errors import ConvergenceError, ParameterError
@@ -23,20 +24,27 @@ from ..results import Solution
 __all__ = ["Conventional", "newton_steps", "is_stable"]
 
 
-def is_stable(K) -> bool | None:
-    """Positive definiteness of the symmetric part of ``K_ff`` (Cholesky); None above 3000 DOFs.
+def is_stable(K) -> bool:
+    """Positive definiteness of the symmetric part of ``K_ff`` from its inertia.
 
     At an equilibrium under dead loads K_ff is the Hessian of the potential energy restricted to
-    the free DOFs: positive definite means a stable equilibrium under the prescribed motion.
+    the free DOFs: positive definite means a stable equilibrium under the prescribed motion. A
+    sparse LU of the symmetric part with diagonal pivots only (SuperLU's symmetric mode) is an
+    ``L D L^T`` factorisation of a symmetric permutation, so the signs of the pivots give the
+    inertia (Sylvester's law); a dense Cholesky decides when SuperLU had to pivot off the diagonal.
     """
     n = K.shape[0]
     if n == 0:
         return True
-    if n > 3000:
-        return None
-    A = K.toarray()
+    A = (0.5 * (K + K.T)).tocsc()
     try:
-        np.linalg.cholesky(0.5 * (A + A.T))
+        lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    except RuntimeError:  # exactly singular: not positive definite
+        return False
+    if np.array_equal(lu.perm_r, lu.perm_c):
+        return bool(np.all(lu.U.diagonal() > 0.0))
+    try:
+        np.linalg.cholesky(A.toarray())
     except np.linalg.LinAlgError:
         return False
     return True

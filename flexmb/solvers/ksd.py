@@ -93,11 +93,16 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     c0, jac0, _, _ = red.constraint_equations(rest)
     rows = _independent_rows(red, jac0)
     free = red.free
-    poses, lam, dlam = rest, 0.0, 1.0
+    poses, lam, dlam, jac = rest, 0.0, 1.0, jac0
     iterations, history = 0, []
     while True:
         target = lam + dlam
         trial = red.with_prescribed(poses, target)
+        # linear predictor from the last solution: the free motion that keeps the constraints
+        # satisfied to first order under the prescribed increment (a prescribed rotation keeps its axis)
+        dz = _correction(red, jac[np.ix_(rows, free)], jac[np.ix_(rows, red.prescribed)] @ (dlam * red.values))
+        if dz is not None:
+            trial = trial.moved(dz)
         accepted, prev = False, np.inf
         for _ in range(max_iter):
             c, jac, theta, p = red.constraint_equations(trial)
@@ -125,7 +130,9 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                 raise ConvergenceError(
                     f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
                     f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
-    removed = np.setdiff1d(np.arange(len(c)), rows)
+    keep = np.zeros(len(c), dtype=bool)
+    keep[rows] = True
+    removed = np.flatnonzero(~keep)
     if len(removed) and np.abs(c[removed]).max() > 1e-6:
         k = removed[np.argmax(np.abs(c[removed]))]
         warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
@@ -267,16 +274,16 @@ class _KSD:
         """Step 3: Newton on the reduced mechanism; returns poses, converged, history, residual."""
         free = red.free
         history, prev = [], np.inf
-        r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat)
+        r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
         res = float(np.linalg.norm(r[free]))
         for _ in range(self.max_iter):
             if res < self.tol and history:
                 return poses, True, history, r
-            dz = _correction(red, Kr[np.ix_(free, free)], r[free])
+            dz = _correction(red, Kr()[np.ix_(free, free)], r[free])
             if dz is None:
                 break
             poses = poses.moved(dz)
-            r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat)
+            r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
             prev, res = res, float(np.linalg.norm(r[free]))
             history.append(res)
             if not np.isfinite(res) or res > self.divergence * prev:

@@ -19,13 +19,13 @@ from flexmb import fourbar_case as fc  # noqa: E402
 
 
 def main(quick: bool = False) -> str:
-    repeats = 3 if quick else 9
+    repeats = 3 if quick else 15
     rows = fc.speed_study(repeats=repeats)
     lines = [
         "## Four-bar: conventional method vs KSD (issue 4, Fig. 11)",
         "",
         f"Dwarshuis et al. (2020) Sec. 4.3 four-bar, d = 0.3 m; {machine()}. Median of {repeats} solves per method,",
-        "interleaved; each time is a whole `flexmb.solve` (compiling the model included; joint meshes and EOB",
+        "interleaved; each time is a whole `flexmb.solve` (compiling the model included; garbage collection paused as in timeit; joint meshes and EOB",
         "templates cached after a warm-up solve, as in an optimisation loop). Iterations: Newton corrections;",
         "KSD = step 1 (kinematics) + step 3 (reduced mechanism) + step 5 (full model).",
         "The paper (MATLAB): KSD-full about 5x and KSD-reduced about 20x faster at 4-5 elements per leaf.",
@@ -47,4 +47,4 @@ def main(quick: bool = False) -> str:
 
 
 if __name__ == "__main__":
-    run("fourbar", main, __doc__, "3 repetitions instead of 9")
+    run("fourbar", main, __doc__, "3 repetitions instead of 15")

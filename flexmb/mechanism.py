@@ -18,7 +18,7 @@ from .fe.model import BeamElements, FEModel
 from .joints._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint
 from .problem import PointLoads, StaticProblem
 from .registry import joint as make_joint
-from .rotations import expm_so3, rot2
+from .rotations import cross, expm_so3, rot2
 
 __all__ = ["Link", "Mechanism", "Placement", "Compiled"]
 
@@ -264,10 +264,13 @@ class Mechanism:
         dim = self.dim
         names = list(self.graph.nodes)
         link_node = {n: i for i, n in enumerate(names)}
-        node_x0 = [self.links[n].position for n in names]
-        pt_master = list(range(len(names)))
+        node_x0 = [np.asarray([self.links[n].position for n in names], dtype=float).reshape(-1, dim)]
+        n_nodes = len(names)
+        pt_master = [np.arange(n_nodes)]
         pt_x0 = list(node_x0)
+        n_points = n_nodes
         ends, sections, ny, owner, joint_elements, joint_nodes = [], [], [], [], {}, {}
+        n_elements = 0
         for j, (a, b, key, data) in enumerate(self.graph.edges(keys=True, data=True)):
             jt: Joint = data["joint"]
             side_a, side_b = data["sides"]
@@ -277,35 +280,37 @@ class Mechanism:
             mesh = _joint_mesh(key, jt, dim)
             pl: Placement = data["placement"]
             gx = pl.to_global(np.asarray(mesh.points, dtype=float))
-            idx = np.empty(len(gx), dtype=np.int64)
-            joint_nodes[key] = len(node_x0) + np.arange(np.count_nonzero(np.asarray(mesh.side) == INTERNAL))
-            for k, (x, s) in enumerate(zip(gx, mesh.side)):
-                if s == INTERNAL:
-                    master = len(node_x0)
-                    node_x0.append(x)
-                else:
-                    master = link_node[side_a if s == SIDE_A else side_b]
-                idx[k] = len(pt_x0)
-                pt_master.append(master)
-                pt_x0.append(x)
-            first = len(ends)
-            ends.extend(idx[np.asarray(mesh.elements)])
+            side = np.asarray(mesh.side)
+            inner = side == INTERNAL
+            n_int = int(np.count_nonzero(inner))
+            joint_nodes[key] = n_nodes + np.arange(n_int)
+            master = np.where(side == SIDE_A, link_node[side_a], link_node[side_b])
+            master[inner] = joint_nodes[key]
+            node_x0.append(gx[inner])
+            pt_master.append(master)
+            pt_x0.append(gx)
+            ends.append(n_points + np.asarray(mesh.elements, dtype=np.int64).reshape(-1, 2))
+            n_nodes += n_int
+            n_points += len(gx)
             sections.extend(mesh.sections)
-            owner.extend([j] * len(mesh.elements))
+            owner.append(np.full(len(mesh.elements), j))
             if dim == 3:
-                ny.extend(np.asarray(mesh.ny0) @ pl.rotation.T)
-            joint_elements[key] = np.arange(first, len(ends))
-        if not ends:
+                ny.append(np.asarray(mesh.ny0) @ pl.rotation.T)
+            joint_elements[key] = n_elements + np.arange(len(mesh.elements))
+            n_elements += len(mesh.elements)
+        if n_elements == 0:
             raise TopologyError("the mechanism has no joints with beam elements")
-        ends = np.array(ends)
-        pt_x0 = np.array(pt_x0)
+        ends = np.concatenate(ends)
+        pt_x0 = np.concatenate(pt_x0)
+        node_x0 = np.concatenate(node_x0)
+        owner = np.concatenate(owner)
         chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
         L0 = np.linalg.norm(chord, axis=1)
         if np.any(L0 <= 0):
             raise ModelError("a beam element has zero length")
         ex = chord / L0[:, None]
         if dim == 3:
-            ny = np.array(ny)
+            ny = np.concatenate(ny).reshape(-1, 3)
             # the cross-section axis must be perpendicular to the element: project, normalise
             ny = ny - np.einsum("ei,ei->e", ny, ex)[:, None] * ex
             norm = np.linalg.norm(ny, axis=1)
@@ -314,12 +319,12 @@ class Mechanism:
                 raise ModelError(f"joint {list(joint_elements)[owner[bad]]!r}: element {bad}'s "
                                  "ny0 is (nearly) parallel to its axis or zero; give the cross-section's local y axis")
             ny = ny / norm[:, None]
-            elements = BeamElements(ends, L0, local_stiffness_3d(sections, L0), tuple(sections), np.array(owner),
-                                    ny0=ny, nz0=np.cross(ex, ny))
+            elements = BeamElements(ends, L0, local_stiffness_3d(sections, L0), tuple(sections), owner,
+                                    ny0=ny, nz0=cross(ex, ny))
         else:
-            elements = BeamElements(ends, L0, local_stiffness_2d(sections, L0), tuple(sections), np.array(owner),
+            elements = BeamElements(ends, L0, local_stiffness_2d(sections, L0), tuple(sections), owner,
                                     alpha0=np.arctan2(ex[:, 1], ex[:, 0]))
-        model = FEModel(dim, np.array(node_x0), np.array(pt_master), pt_x0, elements)
+        model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements)
 
         pres, vals, loads = self._boundary(link_node)
         return Compiled(StaticProblem(model, pres, vals, loads), link_node, dict(self._points), joint_elements,

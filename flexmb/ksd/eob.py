@@ -29,6 +29,8 @@ from collections import deque
 
 import attrs
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from ..errors import ModelError
 from ..fe import beam2d, beam3d
@@ -166,6 +168,17 @@ class EOBTemplate:
                               axis=1)
         self.element_dofs = dofs
         self._kidx = (dofs[:, :, None] * (N * nd) + dofs[:, None, :]).ravel()
+        # internal nodes fall apart into chains (a cross flexure: one per leaf) that only the
+        # interface nodes couple: the Craig-Bampton solve is block diagonal, done per block size
+        inner = (self.p_node >= 2) & (self.q_node >= 2)
+        graph = sp.coo_array((np.ones(inner.sum()), (self.p_node[inner] - 2, self.q_node[inner] - 2)),
+                             shape=(n_int, n_int))
+        _, label = connected_components(graph, directed=False)
+        blocks = {}
+        for c in range(label.max() + 1 if n_int else 0):
+            nodes = np.flatnonzero(label == c)
+            blocks.setdefault(len(nodes), []).append((nodes[:, None] * nd + np.arange(nd)).ravel())
+        self._blocks = [np.array(v) for v in blocks.values()]  # (c, s) interior DOF indices
 
     def evaluate(self, theta: np.ndarray, b_position: np.ndarray) -> EOB:
         """EOBs of J joints at intended rotations ``theta`` (J,) [rad] with node B's near position
@@ -220,7 +233,10 @@ class EOBTemplate:
         b = 2 * nd
         if n > b:  # Craig-Bampton boundary modes, Eq. (2.5)
             rhs = np.concatenate([K_nodes[:, b:, :b], F_nodes[:, b:, None]], axis=2)
-            X = np.linalg.solve(K_nodes[:, b:, b:], rhs)
+            Kii = K_nodes[:, b:, b:]
+            X = np.empty_like(rhs)
+            for idx in self._blocks:
+                X[:, idx] = np.linalg.solve(Kii[:, idx[:, :, None], idx[:, None, :]], rhs[:, idx])
             K_T = K_nodes[:, :b, :b] - K_nodes[:, :b, b:] @ X[:, :, :b]
             F_T = F_nodes[:, :b] - np.einsum("jab,jb->ja", K_nodes[:, :b, b:], X[:, :, b])
             recover = np.concatenate([X[:, :, nd:b], X[:, :, b:]], axis=2)

@@ -70,6 +70,12 @@ class ReducedMechanism:
         link_of, comp = np.divmod(pres, nd)
         self.prescribed = link_of * 6 + act[comp]
         self.values = problem.values
+        link, comp = np.divmod(self.prescribed, 6)
+        tr = comp < 3
+        W = np.zeros((nL, 3))  # prescribed rotation vector of each link (all three or none, 3D)
+        W[link[~tr], comp[~tr] - 3] = self.values[~tr]
+        lr = np.unique(link[~tr])
+        self._moves = ((link[tr], comp[tr], self.values[tr]), (lr, W[lr]))
         is_free = np.zeros(6 * nL, dtype=bool)
         is_free[(np.arange(nL)[:, None] * 6 + act).ravel()] = True
         is_free[self.prescribed] = False
@@ -145,16 +151,11 @@ class ReducedMechanism:
     def with_prescribed(self, poses: LinkPoses, lam: float = 1.0) -> LinkPoses:
         """``poses`` with the prescribed components set to ``lam`` times their values (exactly)."""
         x, R, angle = poses.x.copy(), poses.R.copy(), poses.angle.copy()
-        link, comp = np.divmod(self.prescribed, 6)
-        rot = {}
-        for l, c, v in zip(link, comp, self.values):
-            if c < 3:
-                x[l, c] = self.X0[l, c] + lam * v
-            else:
-                rot.setdefault(l, np.zeros(3))[c - 3] = v
-        for l, w in rot.items():
-            R[l] = expm_so3(lam * w)
-            angle[l] = lam * w[2]
+        (lt, ct, vt), (lr, W) = self._moves
+        x[lt, ct] = self.X0[lt, ct] + lam * vt
+        if len(lr):
+            R[lr] = expm_so3(lam * W)
+            angle[lr] = lam * W[:, 2]
         return LinkPoses(x, R, angle)
 
     # -- step 1: kinematics -------------------------------------------------------------------
@@ -224,9 +225,10 @@ class ReducedMechanism:
 
     # -- step 4: back to the full model -----------------------------------------------------
     def fe_state(self, poses: LinkPoses, internal):
-        """The full model's `State`: link nodes from ``poses``, each joint's internal nodes from
-        ``internal[j] = (positions (n, dim), rotations)`` in its joint frame (angles [rad] in 2D,
-        matrices in 3D)."""
+        """The full model's `State`: link nodes from ``poses``; ``internal`` is a list of
+        ``(idx, x, rot)`` per group of joints sharing a mesh: joint indices (Jg,), internal node
+        positions (Jg, n, dim) and rotations in each joint's frame (angles [rad] (Jg, n) in 2D,
+        matrices (Jg, n, 3, 3) in 3D)."""
         from ..fe.model import State
 
         model = self.compiled.problem.model
@@ -241,15 +243,15 @@ class ReducedMechanism:
             rot = np.tile(np.eye(3), (model.n_nodes, 1, 1))
             rot[:nL] = poses.R
         oA, F = self.frames.frame_a(poses)
-        for j, (xl, Rl) in enumerate(internal):
-            nodes = self.joint_nodes[j]
-            if len(nodes) == 0:
+        for idx, xl, Rl in internal:
+            if xl.shape[1] == 0:
                 continue
-            pos[nodes] = (oA[j] + _embed(xl, dim) @ F[j].T)[:, :dim]
+            nodes = np.stack([self.joint_nodes[j] for j in idx])  # (Jg, n)
+            pos[nodes] = (oA[idx, None] + np.einsum("jab,jnb->jna", F[idx], _embed(xl, dim)))[..., :dim]
             if dim == 2:  # global rotation from rest = side-A link's angle + angle in the joint frame
-                rot[nodes] = poses.angle[self.frames.a[j]] + Rl
+                rot[nodes] = poses.angle[self.frames.a[idx]][:, None] + Rl
             else:
-                rot[nodes] = F[j] @ Rl @ self.frames.P[j].T
+                rot[nodes] = F[idx, None] @ Rl @ np.swapaxes(self.frames.P[idx], 1, 2)[:, None]
         return State(pos, rot)
 
     def reaction_vector(self, r_links: np.ndarray) -> np.ndarray:

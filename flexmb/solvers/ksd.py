@@ -16,6 +16,7 @@
 
 from __future__ import annotations
 
+import functools
 import time
 import warnings
 from typing import ClassVar
@@ -50,26 +51,36 @@ def _describe(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) ->
 def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
     """Rows of the constraint Jacobian at rest to keep (redundant ones removed, Sec. 2.2)."""
     free = red.free
-    scale = np.where(free % 6 < 3, 1.0 / red.length, 1.0)  # unknowns in D0 and rad
-    A = jac[:, free] / scale
-    n_free = len(free)
-    if n_free == 0:
+    if len(free) == 0:
         return np.zeros(0, dtype=np.int64)
-    if A.shape[0] == 0:
-        rank, null = 0, np.eye(n_free)[0]
-    else:
-        _, s, vt = np.linalg.svd(A)
-        rank = int(np.sum(s > 1e-9 * s[0])) if s.size and s[0] > 0 else 0
-        null = vt[rank] if rank < n_free else None
-    if rank < n_free:
+    scale = np.where(free % 6 < 3, 1.0 / red.length, 1.0)  # unknowns in D0 and rad
+    A = np.ascontiguousarray(jac[:, free] / scale)
+    rank, null, rows = _rank(A.tobytes(), A.shape)
+    if rank < len(free):
         raise TopologyError(
-            f"the mechanism is kinematically indeterminate for KSD ({n_free} unknown link coordinates, "
+            f"the mechanism is kinematically indeterminate for KSD ({len(free)} unknown link coordinates, "
             f"{rank} independent joint constraints): this motion is free: {_describe(red, free, null)}. "
             "Prescribe it (Mechanism.prescribe) or use method='conventional'")
-    if A.shape[0] == rank:  # nothing redundant
-        return np.arange(rank)
+    return rows
+
+
+@functools.lru_cache(maxsize=256)
+def _rank(data: bytes, shape: tuple):
+    """Rank, a null vector (or None) and the independent rows of ``A`` (m, n) by SVD and pivoted QR;
+    cached on the matrix's bytes: repeated solves of one mechanism decide once, identically."""
+    A = np.frombuffer(data).reshape(shape)
+    n_free = shape[1]
+    if shape[0] == 0:
+        return 0, np.eye(n_free)[0], np.zeros(0, dtype=np.int64)
+    _, s, vt = np.linalg.svd(A)
+    rank = int(np.sum(s > 1e-9 * s[0])) if s.size and s[0] > 0 else 0
+    null = vt[rank] if rank < n_free else None
+    if rank < n_free or shape[0] == rank:
+        return rank, null, np.arange(rank)
     _, _, piv = scipy.linalg.qr(A.T, pivoting=True, mode="economic")
-    return np.sort(piv[:rank])
+    rows = np.sort(piv[:rank])
+    rows.flags.writeable = False  # shared by the cache
+    return rank, null, rows
 
 
 def _correction(red: ReducedMechanism, A: np.ndarray, r: np.ndarray):
@@ -297,7 +308,7 @@ class _KSD:
         nd = len(emb)
         p, Rrel, _ = red.frames.relative(poses)
         xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
-        internal = [None] * len(red.joint_names)
+        internal = []
         for (tpl, _, idx), e in zip(red.groups, eobs):
             n_int = tpl.n_nodes - 2
             xi = -(np.einsum("jab,jb->ja", e.recover[:, :, :nd], xi_B[idx]) + e.recover[:, :, nd])
@@ -307,8 +318,7 @@ class _KSD:
                 rot = e.node_angle[:, 2:] + xi[..., 2]
             else:
                 rot = expm_so3(xi[..., 3:]) @ rz(e.node_angle[:, 2:])
-            for k, j in enumerate(idx):
-                internal[j] = (x[k], rot[k])
+            internal.append((idx, x, rot))
         return red.fe_state(poses, internal)
 
 

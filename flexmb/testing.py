@@ -7,7 +7,9 @@ import numpy as np
 from .fe.model import State
 from .problem import StaticProblem
 
-__all__ = ["finite_difference_tangent", "perturbed_state", "scaled_error"]
+__all__ = ["finite_difference_tangent", "perturbed_state", "scaled_error", "joint_mechanism", "check_rest",
+           "check_tangent", "check_rigid_motion", "check_frame_invariance", "check_reciprocity", "check_energy",
+           "check_strategies", "joints", "placements", "JointConformance"]
 
 
 def scaled_error(K: np.ndarray, Kfd: np.ndarray, diag_rows: np.ndarray, diag_cols: np.ndarray) -> float:
@@ -49,3 +51,317 @@ def perturbed_state(problem: StaticProblem, state: State, rng: np.random.Generat
     is_pos = (problem.free % model.ndof) < model.dim
     du[problem.free] = np.where(is_pos, displacement, rotation) * rng.standard_normal(len(problem.free))
     return model.apply_increment(state, du)
+
+
+# -- joint conformance suite (issue 6) -------------------------------------------------------
+#
+# Every check builds the smallest mechanism around one joint: link "A" fixed, link "B" free at the
+# joint's interface node B, the joint frame placed at ``origin`` with ``rotation``. Tolerances are
+# relative and named with their reason; a failed check raises AssertionError saying what broke.
+
+#: Central differences (step 1e-6 relative): truncation ~1e-12, cancellation ~eps/h ~ 1e-10.
+FD_TOLERANCE = 1e-6
+#: Quantities equal up to the roundoff of a Newton solve converged to ``tol`` 1e-10 relative.
+SOLVE_TOLERANCE = 1e-7
+
+
+def joint_mechanism(joint, dim: int, origin=None, rotation=None, *, motion: float = 0.0, force=None,
+                    moment=None):
+    """Link ``A`` fixed, link ``B`` at the joint's node B, ``joint`` between them placed at
+    ``origin`` [m] with ``rotation`` (2D angle, 3D rotation vector [rad]). ``motion`` [rad]
+    prescribes B's rotation about the joint's z axis (its intended motion; the rest of B is free);
+    ``force`` [N] / ``moment`` [N m] (global axes) load B."""
+    from .mechanism import Mechanism
+
+    origin = np.zeros(dim) if origin is None else np.asarray(origin, dtype=float)
+    Q = _rotation(dim, rotation)
+    m = Mechanism(dim=dim)
+    m.add_link("A", position=origin, fixed=True)
+    m.add_link("B", position=origin + Q @ np.asarray(joint.interface_b(dim), dtype=float))
+    m.add_joint("A", "B", joint, name="joint", origin=origin,
+                rotation=None if rotation is None else (float(rotation) if dim == 2 else np.asarray(rotation, float)))
+    if motion:
+        m.prescribe("B", rotation=motion if dim == 2 else motion * Q[:, 2])
+    if force is not None:
+        m.apply_force("B", force)
+    if moment is not None:
+        m.apply_moment("B", moment)
+    return m
+
+
+def _rotation(dim: int, rotation) -> np.ndarray:
+    from .rotations import expm_so3, rot2
+
+    if rotation is None:
+        return np.eye(dim)
+    return rot2(float(rotation)) if dim == 2 else expm_so3(np.asarray(rotation, dtype=float))
+
+
+def _solve(mechanism, **options):
+    from .solvers import solve
+
+    sol = solve(mechanism, **options)
+    assert sol.converged, f"conformance: the joint mechanism did not converge: {sol.message}"
+    return sol
+
+
+def _rest_compliance(joint, dim: int):
+    """Linear compliance of node B at rest (A fixed), (3, 3) in 2D / (6, 6) in 3D: forces [N] and
+    moments [N m] to displacements [m] and rotations [rad]; and the residual's roundoff floor [N]
+    (1e-14 of the largest stiffness times the joint size)."""
+    compiled = joint_mechanism(joint, dim).compile()
+    problem = compiled.problem
+    _, K, _, _ = problem.evaluate(problem.model.initial_state(), 0.0)
+    dofs = problem.model.node_dofs[compiled.link_node["B"]]
+    where = np.searchsorted(problem.free, dofs)
+    K = K.toarray()
+    return np.linalg.inv(K)[np.ix_(where, where)], 1e-14 * np.abs(K).max() * (float(np.ptp(problem.model.x0)) or 1.0)
+
+
+def check_rest(joint, dim: int) -> None:
+    """Zero residual at rest and a symmetric, positive definite tangent at rest (unloaded)."""
+    problem = joint_mechanism(joint, dim).compile().problem
+    r, K, _, _ = problem.evaluate(problem.model.initial_state(), 0.0)
+    K = K.toarray()
+    big = np.abs(K).max()
+    size = float(np.ptp(problem.model.x0)) or 1.0
+    # zero up to the roundoff of coordinates (~1e-16 x model size) times the stiffness
+    assert np.abs(r).max() <= 1e-13 * big * size, f"{joint.kind} {dim}D: residual at rest {np.abs(r).max():.3g}"
+    asym = np.abs(K - K.T).max()
+    assert asym <= 1e-12 * big, f"{joint.kind} {dim}D: tangent at rest not symmetric ({asym / big:.3g} of its largest entry)"
+    assert np.linalg.eigvalsh(0.5 * (K + K.T))[0] > 0, f"{joint.kind} {dim}D: tangent at rest not positive definite"
+
+
+def check_tangent(joint, dim: int, origin=None, rotation=None, *, motion: float = 0.3, seed: int = 0) -> float:
+    """Analytic tangent = central differences of the residual in a deformed configuration (the
+    solved intended motion ``motion``, then randomly perturbed); returns the scaled error."""
+    sol = _solve(joint_mechanism(joint, dim, origin, rotation, motion=motion))
+    problem = sol.compiled.problem
+    size = float(np.ptp(problem.model.x0)) or 1.0
+    state = perturbed_state(problem, sol.state, np.random.default_rng(seed), displacement=1e-3 * size,
+                            rotation=0.05)
+    K, Kfd = finite_difference_tangent(problem, state)
+    nf = problem.n_free
+    d = np.abs(np.diag(K[:, :nf]))
+    cols = np.concatenate([d, np.abs(K[:, nf:]).max(axis=0)]) if K.shape[1] > nf else d
+    err = scaled_error(K, Kfd, d, cols)
+    assert err <= FD_TOLERANCE, f"{joint.kind} {dim}D: tangent differs from central differences by {err:.3g} (scaled)"
+    return err
+
+
+def check_rigid_motion(joint, dim: int, translation, rotation) -> None:
+    """A rigid motion of the whole joint (every node moved and turned alike) stores no energy and
+    gives no internal force."""
+    problem = joint_mechanism(joint, dim).compile().problem
+    model = problem.model
+    Q = _rotation(dim, rotation)
+    x = model.x0 @ Q.T + np.asarray(translation, dtype=float)
+    if dim == 2:
+        rot = np.full(model.n_nodes, float(rotation))
+    else:
+        rot = np.broadcast_to(Q, (model.n_nodes, 3, 3)).copy()
+    from .fe.model import State
+
+    f = model.internal_force(State(x, rot))
+    _, K, _, _ = problem.evaluate(model.initial_state(), 0.0)
+    size = float(np.ptp(model.x0)) or 1.0
+    # roundoff of rotated coordinates: ~1e-15 x size, times the stiffness
+    scale = 1e-12 * np.abs(K.toarray()).max() * max(size, 1.0)
+    assert np.abs(f).max() <= scale, (f"{joint.kind} {dim}D: a rigid motion gives internal forces "
+                                      f"{np.abs(f).max():.3g} (allowed {scale:.3g})")
+
+
+def check_frame_invariance(joint, dim: int, origin, rotation, *, motion: float = 0.2, load=0.05,
+                           method: str = "conventional", **options) -> None:
+    """The mechanism placed at ``origin``/``rotation`` with its loads turned alike gives the turned
+    solution: node positions, the reaction wrench on A and the strain energy."""
+    Q = _rotation(dim, rotation)
+    C0, _ = _rest_compliance(joint, dim)
+    size = float(np.linalg.norm(joint.interface_b(dim))) or 1.0
+    rng = np.random.default_rng(7)
+    w = rng.standard_normal(len(C0))
+    w *= load * size / np.linalg.norm((C0 @ w)[:dim])  # moves B by ~ load x its size in linear theory
+    f_scale = np.abs(w).max()
+    f, mom = w[:dim], (w[dim] if dim == 2 else w[dim:])
+    ref = _solve(joint_mechanism(joint, dim, motion=motion, force=f, moment=mom), method=method, **options)
+    o = np.asarray(origin, dtype=float)
+    moved = _solve(joint_mechanism(joint, dim, o, rotation, motion=motion, force=Q @ f,
+                                   moment=mom if dim == 2 else Q @ mom), method=method, **options)
+    x_ref, x_mov = ref.node_positions(), moved.node_positions()
+    err = np.abs(x_ref @ Q.T + o - x_mov).max() / size
+    assert err <= SOLVE_TOLERANCE, f"{joint.kind} {dim}D {method}: positions not frame invariant ({err:.3g} of its size)"
+    w_ref, w_mov = ref.reaction("A"), moved.reaction("A")
+    turned = np.concatenate([Q @ w_ref[:dim], w_ref[dim:] if dim == 2 else Q @ w_ref[dim:]])
+    # the moment is about A's reference point, which moves with the frame: compare directly
+    wscale = max(np.abs(w_ref).max(), f_scale * size)
+    err_w = np.abs(turned - w_mov).max() / wscale
+    assert err_w <= SOLVE_TOLERANCE, f"{joint.kind} {dim}D {method}: reaction on A not frame invariant ({err_w:.3g})"
+    if method in ("conventional", "ksd-full"):
+        e_ref, e_mov = ref.strain_energy(), moved.strain_energy()
+        assert abs(e_ref - e_mov) <= SOLVE_TOLERANCE * max(abs(e_ref), 1e-300), (
+            f"{joint.kind} {dim}D {method}: strain energy {e_ref:.12g} vs {e_mov:.12g} after moving the frame")
+
+
+def _b_displacement(sol, dim):
+    x, R = sol.pose("B")
+    x0 = sol.compiled.problem.model.x0[sol.compiled.link_node["B"]]
+    if dim == 2:
+        return np.concatenate([x - x0, [R]])
+    from .rotations import logm_so3
+
+    return np.concatenate([x - x0, logm_so3(R)])
+
+
+def check_reciprocity(joint, dim: int, rotation=None) -> None:
+    """Maxwell-Betti for small loads on node B: displacement j under load i equals displacement i
+    under load j (the compliance is symmetric), from full non-linear solves."""
+    C0, floor = _rest_compliance(joint, dim)
+    n = len(C0)
+    size = float(np.linalg.norm(joint.interface_b(dim))) or 1.0
+    Q = _rotation(dim, rotation)
+    T = np.eye(n)
+    T[:dim, :dim] = Q
+    if dim == 3:
+        T[3:, 3:] = Q
+    C = np.empty((n, n))
+    for i in range(n):
+        # loads +-eps that move B by ~1e-5 of its size (or turn it 1e-5 rad); the central difference
+        # cancels the second-order (geometric) response, leaving O(1e-10)
+        eps = 1e-5 * (size if i < dim else 1.0) / C0[i, i]
+        u = []
+        for sign in (1.0, -1.0):
+            w = T[:, i] * sign * eps
+            sol = _solve(joint_mechanism(joint, dim, None, rotation, force=w[:dim],
+                                         moment=w[dim] if dim == 2 else w[dim:]), tol=max(1e-8 * eps, floor))
+            u.append(T.T @ _b_displacement(sol, dim))
+        C[:, i] = (u[0] - u[1]) / (2.0 * eps)
+    d = np.sqrt(np.abs(np.diag(C)))
+    err = np.abs((C - C.T) / np.outer(d, d)).max()
+    assert err <= 1e-4, f"{joint.kind} {dim}D: compliance not symmetric (Maxwell-Betti) by {err:.3g}"
+
+
+def check_energy(joint, dim: int, rotation=None, *, deflection: float = 0.1, steps: int = 16) -> None:
+    """A dead force on B swept from 0 to a value that would move B by ``deflection`` times its
+    size in linear theory: the work of the load (Simpson's rule over ``steps`` equal load steps)
+    equals the strain energy stored, as for any conservative joint."""
+    C0, floor = _rest_compliance(joint, dim)
+    size = float(np.linalg.norm(joint.interface_b(dim))) or 1.0
+    Q = _rotation(dim, rotation)
+    local = np.r_[0.3, 1.0, 0.2][:dim] / np.linalg.norm(np.r_[0.3, 1.0, 0.2][:dim])  # in the joint frame
+    F = Q @ (deflection * size / np.linalg.norm(C0[:dim, :dim] @ local) * local)
+    lam = np.linspace(0.0, 1.0, steps + 1)
+    u = np.zeros((steps + 1, dim))
+    energy = 0.0
+    for s, l in enumerate(lam[1:], start=1):
+        sol = _solve(joint_mechanism(joint, dim, None, rotation, force=l * F), tol=max(1e-9 * np.linalg.norm(F), floor))
+        u[s] = _b_displacement(sol, dim)[:dim]
+        energy = sol.strain_energy()
+    g = u @ F  # W = int lambda F . du = F . u(1) - int_0^1 F . u dlambda
+    simpson = (lam[1] - lam[0]) / 3.0 * (g[0] + g[-1] + 4.0 * g[1:-1:2].sum() + 2.0 * g[2:-1:2].sum())
+    work = g[-1] - simpson
+    err = abs(work - energy) / abs(energy)
+    assert err <= 1e-5, f"{joint.kind} {dim}D: work of the load {work:.9g} J vs strain energy {energy:.9g} J ({err:.3g})"
+
+
+def check_strategies(joint, dim: int, motion: float = 0.2) -> dict:
+    """Every registered strategy either solves the joint mechanism or raises the documented
+    `FlexmbError` (a joint without the model a strategy needs: `UnsupportedStrategyError`)."""
+    from .errors import FlexmbError, UnsupportedStrategyError
+    from .solvers import STRATEGIES, solve
+
+    out = {}
+    for name, cls in STRATEGIES.items():
+        m = joint_mechanism(joint, dim, motion=motion)
+        try:
+            out[name] = solve(m, method=name)
+        except UnsupportedStrategyError as exc:
+            can = set(getattr(cls, "needs", ())) <= joint.capabilities and dim in getattr(cls, "dims", (dim,))
+            assert not can, f"{joint.kind} {dim}D: {name} refused a joint that offers what it needs: {exc}"
+            out[name] = exc
+        except FlexmbError as exc:
+            out[name] = exc
+    return out
+
+
+# -- hypothesis strategies and the pytest base class ----------------------------------------
+
+
+def joints(cls):
+    """Hypothesis strategy of ``cls`` instances with the shape parameters of
+    ``cls.parameter_ranges`` drawn uniformly in their declared ranges (others at their defaults)."""
+    from hypothesis import strategies as st
+
+    ranges = getattr(cls, "parameter_ranges", {})
+    return st.fixed_dictionaries({k: st.floats(lo, hi, allow_nan=False) for k, (lo, hi) in ranges.items()}).map(
+        lambda params: cls(**params))
+
+
+def placements(dim: int):
+    """Hypothesis strategy of ``(origin [m], rotation)``: origins within 1 m, any rotation
+    (2D angle in (-pi, pi], 3D rotation vector of angle below pi)."""
+    from hypothesis import strategies as st
+
+    coord = st.floats(-1.0, 1.0, allow_nan=False)
+    origin = st.lists(coord, min_size=dim, max_size=dim).map(np.array)
+    if dim == 2:
+        return st.tuples(origin, st.floats(-np.pi, np.pi, allow_nan=False))
+    axis = st.lists(coord, min_size=3, max_size=3).filter(lambda v: np.linalg.norm(v) > 0.1)
+    rot = st.tuples(axis, st.floats(0.0, 3.0)).map(lambda a: np.asarray(a[0]) / np.linalg.norm(a[0]) * a[1])
+    return st.tuples(origin, rot)
+
+
+class JointConformance:
+    """Base class of a pytest test class that runs the conformance checks on one joint class::
+
+        class TestMyJoint(flexmb.testing.JointConformance):
+            joint_class = MyJoint
+
+    Hypothesis draws the shape parameters (``joint_class.parameter_ranges``), placements and
+    intended motions (within ``joint_class.motion_range`` [rad]); the number of examples per
+    test is a fifth of the active hypothesis profile's ``max_examples`` (at least 2).
+    """
+
+    joint_class: type | None = None
+
+    @staticmethod
+    def _settings():
+        from hypothesis import HealthCheck, settings
+
+        return settings(max_examples=max(2, settings.default.max_examples // 5), deadline=None,
+                        suppress_health_check=[HealthCheck.too_slow, HealthCheck.differing_executors])
+
+    def _run(self, body, *extra):
+        from hypothesis import given
+        from hypothesis import strategies as st
+
+        cls = self.joint_class
+        for dim in cls.dims:
+            motion = st.floats(-getattr(cls, "motion_range", 0.3), getattr(cls, "motion_range", 0.3))
+            def check(case):
+                body(case[0], case[1], *case[2:])
+
+            given(st.tuples(joints(cls), st.just(dim), placements(dim), motion, *extra))(self._settings()(check))()
+
+    def test_rest(self):
+        self._run(lambda j, dim, pl, mo: check_rest(j, dim))
+
+    def test_tangent_matches_finite_differences(self):
+        from hypothesis import strategies as st
+
+        self._run(lambda j, dim, pl, mo, seed: check_tangent(j, dim, pl[0], pl[1], motion=mo, seed=seed),
+                  st.integers(0, 2**16))
+
+    def test_rigid_motion_gives_no_force(self):
+        self._run(lambda j, dim, pl, mo: check_rigid_motion(j, dim, pl[0], pl[1]))
+
+    def test_frame_invariance(self):
+        self._run(lambda j, dim, pl, mo: check_frame_invariance(j, dim, pl[0], pl[1], motion=mo))
+
+    def test_maxwell_betti_reciprocity(self):
+        self._run(lambda j, dim, pl, mo: check_reciprocity(j, dim, pl[1]))
+
+    def test_work_equals_stored_energy(self):
+        self._run(lambda j, dim, pl, mo: check_energy(j, dim, pl[1]))
+
+    def test_every_strategy_solves_or_refuses_cleanly(self):
+        self._run(lambda j, dim, pl, mo: check_strategies(j, dim, motion=mo))

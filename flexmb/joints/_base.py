@@ -84,6 +84,11 @@ class Joint(abc.ABC):
 
     kind: ClassVar[str] = ""
     dims: ClassVar[tuple[int, ...]] = (2, 3)
+    #: Valid ranges ``{name: (low, high)}`` of shape parameters that `flexmb.testing` draws
+    #: from (parameters not listed keep their defaults; required parameters must be listed).
+    parameter_ranges: ClassVar[dict[str, tuple[float, float]]] = {}
+    #: Intended rotation [rad] up to which the joint is meant to work, for the conformance tests.
+    motion_range: ClassVar[float] = 0.3
 
     @property
     def capabilities(self) -> frozenset[str]:

@@ -50,6 +50,8 @@ class CrossFlexure(Joint):
     """
 
     kind: ClassVar[str] = "cross_flexure"
+    parameter_ranges: ClassVar[dict] = {"length": (0.05, 0.2), "angle": (0.4, 1.2), "thickness": (5e-4, 2e-3)}
+    motion_range: ClassVar[float] = 1.0
 
     length: float = 0.1
     angle: float = math.pi / 4

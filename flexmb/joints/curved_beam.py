@@ -62,6 +62,9 @@ class CurvedBeam(Joint):
 
     kind: ClassVar[str] = "curved_beam"
     dims: ClassVar[tuple[int, ...]] = (2,)
+    parameter_ranges: ClassVar[dict] = {"radius": (0.02, 0.1), "angle": (0.5, 3.0), "E": (1e9, 2e11), "width": (2e-3, 2e-2),
+                         "height": (2e-4, 2e-3)}
+    motion_range: ClassVar[float] = 0.3
 
     radius: float
     angle: float

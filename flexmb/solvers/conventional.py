@@ -103,6 +103,9 @@ class Conventional:
 
     name: ClassVar[str] = "conventional"
     capability: ClassVar[str] = "fe_model"
+    #: joint capabilities every joint must offer, and the mechanism dimensions handled
+    needs: ClassVar[tuple[str, ...]] = ("fe_model",)
+    dims: ClassVar[tuple[int, ...]] = (2, 3)
     tol: float = attrs.field(default=5e-7, validator=positive_float)
     max_iter: int = attrs.field(default=20, validator=positive_int)
     divergence: float = attrs.field(default=1e3, validator=above_one)

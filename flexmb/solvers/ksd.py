@@ -196,6 +196,9 @@ class _KSD:
     name: ClassVar[str] = ""
     full: ClassVar[bool] = False
     capability: ClassVar[str] = "fe_model"
+    #: joint capabilities every joint must offer, and the mechanism dimensions handled
+    needs: ClassVar[tuple[str, ...]] = ("fe_model", "database")
+    dims: ClassVar[tuple[int, ...]] = (2, 3)
     tol: float = attrs.field(default=5e-7, validator=positive_float)
     max_iter: int = attrs.field(default=20, validator=positive_int)
     kinematic_tol: float = attrs.field(default=1e-10, validator=positive_float)

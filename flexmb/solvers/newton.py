@@ -58,6 +58,9 @@ class Newton:
 
     name: ClassVar[str] = "newton"
     capability: ClassVar[str] = "closed_form"
+    #: joint capabilities every joint must offer, and the mechanism dimensions handled
+    needs: ClassVar[tuple[str, ...]] = ("closed_form",)
+    dims: ClassVar[tuple[int, ...]] = (2,)
     tangent: str = attrs.field(default="full", validator=_tangent_choice)
     tol: float = attrs.field(default=5e-7, validator=positive_float)
     max_iter: int = attrs.field(default=100, validator=positive_int)

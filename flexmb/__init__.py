@@ -1,6 +1,6 @@
 """flexmb: fast kinetostatics of flexure-based (compliant) mechanisms."""
 
-from . import models
+from . import models, testing
 from .errors import (
     ConvergenceError,
     FlexmbError,

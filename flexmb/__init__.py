@@ -41,6 +41,7 @@ __all__ = [
     "find_actuation",
     "joint",
     "models",
+    "testing",
     "rectangle",
     "register_joint",
     "solve",

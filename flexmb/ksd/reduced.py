@@ -191,11 +191,10 @@ class ReducedMechanism:
         mB = np.einsum("jab,jb->ja", F, w[:, 3:])
         rb, ra = geo["rb"], geo["ra"]
         d = np.einsum("kab,kb->ka", poses.R[self.load_node], self.load_offset)
-        parts = (f, mB + cross(rb, f), -f, -mB - cross(ra, f), -self.load_force,
-                 -self.load_moment - cross(d, self.load_force))
-        r = np.bincount(self._r_at, np.concatenate([np.concatenate(parts[:2], axis=1), np.concatenate(parts[2:4], axis=1),
-                                    np.concatenate(parts[4:], axis=1)]).ravel(),
-                        minlength=6 * self.n_links)
+        on_b = np.concatenate([f, mB + cross(rb, f)], axis=1)
+        on_a = np.concatenate([f, mB + cross(ra, f)], axis=1)
+        loads = np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)], axis=1)
+        r = np.bincount(self._r_at, np.concatenate([on_b, -on_a, -loads]).ravel(), minlength=6 * self.n_links)
 
         def jacobian():
             Jrel = fr.relative_jacobian(geo)

@@ -10,7 +10,7 @@ from .errors import (
     UnknownJointError,
     UnsupportedStrategyError,
 )
-from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring
+from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
 from .registry import available_joints, joint, register_joint
 from .results import Solution
@@ -28,6 +28,7 @@ __all__ = [
     "Joint",
     "JointMesh",
     "LeafSpring",
+    "ThreeXInfinity",
     "Link",
     "Mechanism",
     "ModelError",

@@ -72,3 +72,16 @@ def hashable(obj) -> bool:
     except TypeError:
         return False
     return True
+
+
+def leaf_joint(owner: str, joint, names) -> None:
+    """Checks shared by joints made of straight leaves: the parameters ``names`` positive, the
+    leaf ``angle`` in (0, pi/2) rad, ``elements_per_leaf`` >= 1 and slender leaves
+    (``thickness < length / 10``)."""
+    for name in names:
+        positive(owner, name, getattr(joint, name))
+    in_open_range(owner, "angle", joint.angle, 0.0, math.pi / 2, " rad")
+    integer(owner, "elements_per_leaf", joint.elements_per_leaf, 1)
+    if not joint.thickness < joint.length / 10:
+        raise ParameterError(f"{owner}: thickness={joint.thickness!r} m is not slender for length={joint.length!r} m "
+                             f"(valid range: thickness < length/10 = {joint.length / 10:g} m)")

@@ -100,7 +100,8 @@ def _train(args) -> int:
         for n in args.elements:
             params = dict(_parse_params(args.param))
             j = make_joint(args.kind, elements_per_leaf=n, **params) if n else make_joint(args.kind, **params)
-            data = database.train(j, dim, range_deg=(-args.range, args.range), step_deg=args.step)
+            data = database.train(j, dim, range_deg=None if args.range is None else (-args.range, args.range),
+                                  step_deg=args.step)
             path = database.save(data, out / database.file_name(j.kind, dim, data.key))
             res = ", ".join(f"{k} {f.max_residual:.1e}" for k, f in data.functions.items())
             print(f"{path}: {len(data.samples)} runs; max fit residuals: {res}, elements "
@@ -134,8 +135,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("kind", nargs="?", default="cross_flexure", help="joint kind (default: cross_flexure)")
     p.add_argument("--dim", type=int, nargs="+", default=[2, 3], choices=(2, 3))
     p.add_argument("--elements", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="elements per leaf")
-    p.add_argument("--range", type=float, default=75.0, help="intended rotation range +- [deg] (75)")
-    p.add_argument("--step", type=float, default=5.0, help="sampling step [deg] (5)")
+    p.add_argument("--range", type=float, default=None,
+                   help="intended rotation range +- [deg] (default: the joint's own, 75 for cross_flexure)")
+    p.add_argument("--step", type=float, default=None, help="sampling step [deg] (default: the joint's own, 5)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="joint shape parameter, repeatable (e.g. --param angle=0.6)")
     p.add_argument("--out", default=None, help="folder (default: the package's shipped data); pass it to "

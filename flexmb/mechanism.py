@@ -18,7 +18,7 @@ from .fe.model import BeamElements, FEModel
 from .joints._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint
 from .problem import PointLoads, StaticProblem
 from .registry import joint as make_joint
-from .rotations import cross, expm_so3, rot2
+from .rotations import chain_rotation, cross, expm_so3, logm_so3, rot2
 
 __all__ = ["Link", "Mechanism", "Placement", "Compiled"]
 
@@ -164,8 +164,12 @@ class Mechanism:
         """Prescribe displacements/rotations of a link (displacement control).
 
         Keywords: ``x``, ``y`` (and ``z`` in 3D) displacements [m]; ``rotation`` [rad]: an angle in
-        2D, a rotation vector (3,) in 3D (all three rotation components are then prescribed).
-        Unprescribed components are free. Repeated calls update the given components.
+        2D, a rotation vector (3,) in 3D (all three rotation components are then prescribed), or
+        in 3D a sequence (k, 3) of rotation vectors ``w_i`` whose product ``exp(w_1) ... exp(w_k)``
+        is the link's orientation: a serial chain of joint rotations about axes fixed in the
+        undeformed configuration (a manipulator link), which the load steps of the conventional
+        method follow as ``exp(lam w_1) ... exp(lam w_k)``. Unprescribed components are free.
+        Repeated calls update the given components.
         """
         lk = self.link(name)
         if lk.fixed:
@@ -179,7 +183,13 @@ class Mechanism:
             if val is None:
                 current.pop(key, None)
             elif key == "rotation" and self.dim == 3:
-                current[key] = v.vector(where, "rotation", val, 3)
+                chain = np.ndim(val) == 2 if not isinstance(val, str) else False
+                if chain:
+                    current[key] = np.array([v.vector(where, f"rotation[{i}]", w, 3) for i, w in enumerate(val)])
+                    if len(current[key]) == 0:
+                        raise ParameterError(f"{where}: rotation is an empty sequence of rotation vectors")
+                else:
+                    current[key] = v.vector(where, "rotation", val, 3)
             else:
                 current[key] = v.finite(where, key, val)
         self._prescribed[name] = current
@@ -281,12 +291,12 @@ class Mechanism:
             pl: Placement = data["placement"]
             gx = pl.to_global(np.asarray(mesh.points, dtype=float))
             side = np.asarray(mesh.side)
-            inner = side == INTERNAL
-            n_int = int(np.count_nonzero(inner))
-            joint_nodes[key] = n_nodes + np.arange(n_int)
             master = np.where(side == SIDE_A, link_node[side_a], link_node[side_b])
-            master[inner] = joint_nodes[key]
-            node_x0.append(gx[inner])
+            first, node_of = _internal_nodes(side, mesh.body)
+            n_int = len(first)
+            joint_nodes[key] = n_nodes + np.arange(n_int)
+            master[side == INTERNAL] = n_nodes + node_of
+            node_x0.append(gx[first])
             pt_master.append(master)
             pt_x0.append(gx)
             ends.append(n_points + np.asarray(mesh.elements, dtype=np.int64).reshape(-1, 2))
@@ -326,8 +336,8 @@ class Mechanism:
                                     alpha0=np.arctan2(ex[:, 1], ex[:, 0]))
         model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements)
 
-        pres, vals, loads = self._boundary(link_node)
-        return Compiled(StaticProblem(model, pres, vals, loads), link_node, dict(self._points), joint_elements,
+        pres, vals, loads, paths = self._boundary(link_node)
+        return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, dict(self._points), joint_elements,
                         self._actuation_row(loads), joint_nodes,
                         tuple((k, d["joint"], d["placement"], *d["sides"])
                               for _, _, k, d in self.graph.edges(keys=True, data=True)))
@@ -339,7 +349,7 @@ class Mechanism:
         """Prescribed DOFs (sorted), their values and the `PointLoads`, for links numbered by ``link_node``."""
         dim = self.dim
         ndof = 3 if dim == 2 else 6
-        pres, vals = [], []
+        pres, vals, paths = [], [], []
         comp = {"x": 0, "y": 1, "z": 2}
         for n, lk in self.links.items():
             base = link_node[n] * ndof
@@ -350,6 +360,9 @@ class Mechanism:
             for key, val in self._prescribed.get(n, {}).items():
                 if key == "rotation":
                     pres.extend(range(base + dim, base + ndof))
+                    if np.ndim(val) == 2:  # a chain of rotations: its product, and the path to it
+                        paths.append((np.arange(base + dim, base + ndof), np.array(val)))
+                        val = logm_so3(chain_rotation(val))
                     vals.extend(np.atleast_1d(val))
                 else:
                     pres.append(base + comp[key])
@@ -366,7 +379,7 @@ class Mechanism:
             force=np.array([f for *_, f, _ in rows]).reshape(-1, dim),
             moment=np.array([m for *_, m in rows]).reshape(-1, nrot),
         )
-        return np.array(pres, dtype=np.int64)[order], np.array(vals, dtype=float)[order], loads
+        return np.array(pres, dtype=np.int64)[order], np.array(vals, dtype=float)[order], loads, paths
 
     def _compile_closed_form(self) -> Compiled:
         """The links-only model of Cammarata et al. (2022): every joint a constant-stiffness flexure."""
@@ -395,7 +408,7 @@ class Mechanism:
             raise TopologyError("the mechanism has no joints")
         cols = [np.array(c) for c in zip(*rows)]
         flex = FlexureSet(*[c.astype(np.int64) if k < 2 else c for k, c in enumerate(cols)])
-        pres, vals, loads = self._boundary(link_node)
+        pres, vals, loads, _ = self._boundary(link_node)  # planar: no rotation chains
         problem = LinkageProblem(LinkageModel(x0, flex), pres, vals, loads)
         return Compiled(problem, link_node, dict(self._points), {}, self._actuation_row(loads))
 
@@ -420,6 +433,18 @@ def _joint_mesh(key: str, joint: Joint, dim: int):
         return _checked_mesh(key, joint, dim)  # repeat to name the joint in the error
 
 
+def _internal_nodes(side: np.ndarray, body) -> tuple[np.ndarray, np.ndarray]:
+    """FE nodes of a joint's internal points: the point index of every node (a free point, or the
+    first point of a rigid body; in mesh order) and the node of every internal point."""
+    inner = np.flatnonzero(side == INTERNAL)
+    b = np.full(len(side), -1) if body is None else np.asarray(body)
+    group = np.where(b[inner] >= 0, -1 - b[inner], np.arange(len(inner)))
+    _, first, inverse = np.unique(group, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), dtype=np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))
+    return inner[np.sort(first)], rank[inverse.ravel()]
+
+
 def _checked_mesh(key: str, joint: Joint, dim: int):
     """The joint's `JointMesh`, checked for shapes and indices (a plugin's mistakes named here)."""
     mesh = joint.mesh(dim)
@@ -429,6 +454,10 @@ def _checked_mesh(key: str, joint: Joint, dim: int):
         raise ModelError(f"{where}: mesh points must be a finite (n, {dim}) array, got shape {pts.shape}")
     if side.shape != (len(pts),) or not np.isin(side, (INTERNAL, SIDE_A, SIDE_B)).all():
         raise ModelError(f"{where}: mesh side must be ({len(pts)},) codes in (INTERNAL, SIDE_A, SIDE_B)")
+    if mesh.body is not None:
+        body = np.asarray(mesh.body)
+        if body.shape != (len(pts),) or body.dtype.kind not in "iu" or np.any(body[side != INTERNAL] >= 0):
+            raise ModelError(f"{where}: mesh body must be ({len(pts)},) ints, >= 0 only on INTERNAL points")
     if el.ndim != 2 or el.shape[1] != 2 or el.min(initial=0) < 0 or el.max(initial=0) >= len(pts):
         raise ModelError(f"{where}: mesh elements must be (E, 2) indices into its {len(pts)} points")
     if len(mesh.sections) != len(el):

@@ -11,10 +11,12 @@ from .errors import ParameterError
 from .joints.cross_flexure import CrossFlexure
 from .joints.curved_beam import CurvedBeam
 from .joints.leaf_spring import LeafSpring
+from .joints.three_x_infinity import ThreeXInfinity
 from .mechanism import Mechanism
 from .registry import joint_from_params
 
-__all__ = ["cantilever", "cross_flexure_pivot", "fourbar", "gripper"]
+__all__ = ["cantilever", "cross_flexure_pivot", "fourbar", "gripper", "manipulator", "manipulator_rotations",
+           "MANIPULATOR"]
 
 
 def cross_flexure_pivot(elements_per_leaf: int = 3, dim: int = 3, rotation: float = 0.0, **joint_params) -> Mechanism:
@@ -76,6 +78,107 @@ def fourbar(elements_per_leaf: int = 3, displacement: float = 0.0, moment: float
     if moment:
         m.apply_moment("top", moment if dim == 2 else (0.0, 0.0, moment))
     return m
+
+
+#: Link geometry of `manipulator` [m, rad]: a post of ``post`` above joint 1's node B up to joint
+#: 2, then link 2 of length ``arm2`` at ``angle2`` above the horizontal to joint 3, and link 3 of
+#: length ``arm3`` at ``angle3`` to the end point (flexmb's choice in the spirit of Fig. 13).
+MANIPULATOR = {"post": 0.15, "arm2": 0.30, "angle2": np.radians(30.0), "arm3": 0.25, "angle3": np.radians(-30.0)}
+MANIPULATOR_CASES = ("joint", "location")
+
+
+def manipulator_rotations(rotation: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Orientations (3, 3) of links 1-3 with all three joints turned by ``rotation`` [rad] and
+    no unintended motion: ``Rz(r)``, ``Rz(r) Ry(r)``, ``Rz(r) Ry(2 r)``."""
+    from .rotations import expm_so3
+
+    Rz, Ry = expm_so3(np.array([0.0, 0.0, rotation])), expm_so3(np.array([0.0, rotation, 0.0]))
+    return Rz, Rz @ Ry, Rz @ Ry @ Ry
+
+
+def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None = None, **joint_params) -> Mechanism:
+    """The spatial three-link manipulator of Dwarshuis et al. (2020), Sec. 4.4, Fig. 13, with
+    three `ThreeXInfinity` joints (``joint_params``; ``elements`` per leaf, default 3).
+
+    Link ``"ground"`` (fixed) holds joint ``"joint1"`` (axis global z, node A at the origin,
+    node B on the axis above it); link ``"link1"`` is a post of `MANIPULATOR` ``post`` up to
+    ``"joint2"``, whose axis is global y; ``"link2"`` runs ``arm2`` at ``angle2`` in the x-z
+    plane to ``"joint3"`` (axis global y) and ``"link3"`` ``arm3`` at ``angle3`` to the end
+    point, its reference point. Links 1 and 2 start at the B nodes of joints 1 and 2.
+
+    ``case="joint"``: the three joint rotations are prescribed to ``rotation`` [rad] by
+    prescribing the orientations of the links as chains of the joint rotations
+    (`Mechanism.prescribe`, `manipulator_rotations`), so every load step of the conventional
+    method keeps the joints untilted; the links' positions stay
+    free, so the reactions are moments only (the joint moments of the paper's joint case; under
+    pure moments the symmetric joints have no tilt, so holding the tilt costs no reaction).
+    ``case="location"``: the x, y, z position of the end point is prescribed to where the joint
+    case puts it (as Sec. 4.4; from the joints' trained kinematics, which the joint case's
+    equilibrium follows exactly), and its reactions are three forces.
+    ``rotation`` must lie in the joints' trained range, +-45 deg.
+    """
+    if case not in MANIPULATOR_CASES:
+        raise ParameterError(f"manipulator: case={case!r}; valid: {', '.join(MANIPULATOR_CASES)}")
+    limit = ThreeXInfinity.motion_range
+    v.finite("manipulator", "rotation", rotation)
+    if abs(rotation) > limit + 1e-12:
+        raise ParameterError(f"manipulator: rotation={rotation!r} rad ({np.degrees(rotation):.1f} deg) is outside "
+                             f"the range of the three_x_infinity joints, +-{np.degrees(limit):.0f} deg")
+    if elements is not None:
+        joint_params["elements_per_leaf"] = elements
+    joint = joint_from_params(ThreeXInfinity, **joint_params)
+    D0 = float(joint.interface_b(3)[2])
+    g = MANIPULATOR
+    ex, ey, ez = np.eye(3)
+    a2 = (D0 + g["post"]) * ez
+    b2 = a2 + D0 * ey
+    a3 = b2 + g["arm2"] * (np.cos(g["angle2"]) * ex + np.sin(g["angle2"]) * ez)
+    b3 = a3 + D0 * ey
+    end = b3 + g["arm3"] * (np.cos(g["angle3"]) * ex + np.sin(g["angle3"]) * ez)
+    m = Mechanism(dim=3)
+    m.add_link("ground", fixed=True)
+    m.add_link("link1", position=D0 * ez)
+    m.add_link("link2", position=b2)
+    m.add_link("link3", position=end)
+    y_axis = (-0.5 * np.pi, 0.0, 0.0)  # turns the joint's z axis onto global y
+    m.add_joint("ground", "link1", joint, name="joint1")
+    m.add_joint("link1", "link2", joint, name="joint2", origin=a2, rotation=y_axis)
+    m.add_joint("link2", "link3", joint, name="joint3", origin=a3, rotation=y_axis)
+    m.add_point("link3", "end", end)
+    R = manipulator_rotations(rotation)
+    if case == "joint":
+        z, y = np.array([0.0, 0.0, rotation]), np.array([0.0, rotation, 0.0])
+        m.prescribe("link1", rotation=z)
+        m.prescribe("link2", rotation=[z, y])
+        m.prescribe("link3", rotation=[z, 2 * y])
+    else:
+        m.prescribe("link3", **dict(zip("xyz", _joint_case_end_point(rotation, joint_params, R, (a2, a3), end) - end)))
+    return m
+
+
+def _joint_case_end_point(rotation, joint_params, R, origins, end) -> np.ndarray:
+    """Where the joint case puts the end point [m]: its KSD kinematics (joints turned by
+    ``rotation`` with their trained offsets, Sec. 2.1), which the joint case's equilibrium keeps
+    (no unintended load); rigid-link kinematics about the joint axes if the joint is untrained."""
+    from .errors import DatabaseError
+    from .ksd.reduced import ReducedMechanism
+    from .solvers.ksd import solve_kinematics
+
+    m = manipulator("joint", rotation, **joint_params)
+    try:
+        compiled = m.compile()
+        poses = solve_kinematics(ReducedMechanism(compiled))[0]
+    except DatabaseError:
+        return _end_point(R, origins, end)
+    return poses.x[compiled.link_node["link3"]]
+
+
+def _end_point(R, origins, end) -> np.ndarray:
+    """End point [m] with links 1-3 turned by ``R`` about the joint axes through nodes A."""
+    a2, a3 = origins
+    A2 = R[0] @ a2  # joint 1's axis passes through the origin
+    A3 = A2 + R[1] @ (a3 - a2)
+    return A3 + R[2] @ (end - a3)
 
 
 def fourbar_linear_force(displacement: float, elements_per_leaf: int = 3, height: float = 0.3,

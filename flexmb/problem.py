@@ -17,6 +17,7 @@ from scipy.sparse.linalg import spsolve
 
 from .fe.assembly import SparsePattern, scatter_add
 from .fe.model import FEModel, State
+from .rotations import chain_rotation, logm_so3
 
 __all__ = ["PointLoads", "BoundaryConditions", "StaticProblem"]
 
@@ -67,8 +68,12 @@ class StaticProblem(BoundaryConditions):
         The applied point loads at load factor 1.
     """
 
-    def __init__(self, model: FEModel, prescribed: np.ndarray, values: np.ndarray, loads: PointLoads):
+    def __init__(self, model: FEModel, prescribed: np.ndarray, values: np.ndarray, loads: PointLoads,
+                 rotation_paths=()):
         self.model = model
+        #: (rotation DOFs (3,), rotation vectors (k, 3)) of nodes whose prescribed orientation is a
+        #: chain ``exp(w_1) ... exp(w_k)``, followed as ``exp(lam w_1) ... exp(lam w_k)``
+        self.rotation_paths = tuple(rotation_paths)
         super().__init__(model.n_dofs, prescribed, values)
         n = model.n_dofs
         nf, npres = len(self.free), len(self.prescribed)
@@ -155,9 +160,15 @@ class StaticProblem(BoundaryConditions):
         ff, fp = self._patterns
         return r, ff.matrix(vals), fp.matrix(vals), sig
 
-    def prescribed_increment(self, dlam: float) -> np.ndarray:
-        """Increments of the prescribed DOFs for a load-factor step ``dlam``."""
-        return (dlam * self._motion_scale) * self.values
+    def prescribed_increment(self, dlam: float, lam: float = 0.0) -> np.ndarray:
+        """Increments of the prescribed DOFs for a load-factor step from ``lam`` to ``lam + dlam``
+        (the spin between the two orientations of a rotation chain, `rotation_paths`)."""
+        du = (dlam * self._motion_scale) * self.values
+        if self._motion_scale and self.rotation_paths:
+            for dofs, w in self.rotation_paths:
+                step = chain_rotation(w, lam + dlam) @ chain_rotation(w, lam).T
+                du[np.searchsorted(self.prescribed, dofs)] = logm_so3(step)
+        return du
 
     def full_increment(self, du_free: np.ndarray, du_pres: np.ndarray) -> np.ndarray:
         du = np.zeros(self.model.n_dofs)

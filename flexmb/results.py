@@ -129,6 +129,19 @@ class Solution:
             moment = np.sum(f[:, 3:] + cross(x, f[:, :3]), axis=0)
         return np.concatenate([force, moment])
 
+    def peak_stress(self, joint: str | None = None) -> np.ndarray:
+        """Peak normal stress [Pa] of every beam element (of ``joint`` only if given), axial plus
+        bending at the worse end (`flexmb.fe.stress.peak_normal_stress`)."""
+        from .fe.stress import peak_normal_stress
+
+        sigma = peak_normal_stress(self.compiled.problem.model, self.state)
+        if joint is None:
+            return sigma
+        try:
+            return sigma[self.compiled.joint_elements[joint]]
+        except KeyError:
+            raise ModelError(f"no joint named {joint!r}; joints: {', '.join(self.compiled.joint_elements)}") from None
+
     def strain_energy(self) -> float:
         """Elastic energy stored in all beam elements [J]."""
         return self.compiled.problem.model.strain_energy(self.state)

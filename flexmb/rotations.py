@@ -76,6 +76,14 @@ def logm_so3(R: np.ndarray) -> np.ndarray:
     return w
 
 
+def chain_rotation(w: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """``exp(scale w_1) exp(scale w_2) ... exp(scale w_k)`` of rotation vectors ``w`` (k, 3) [rad]."""
+    R = np.eye(3)
+    for Ri in expm_so3(scale * np.asarray(w, dtype=float)):
+        R = R @ Ri
+    return R
+
+
 def rot2(theta: np.ndarray) -> np.ndarray:
     """Planar rotation matrices, angles [rad] shape (...) -> (..., 2, 2)."""
     theta = np.asarray(theta, dtype=float)

@@ -48,6 +48,9 @@ class Section:
         Torsion constant [m^4].
     ky, kz
         Shear coefficients for shear along local y and z [-] (``inf`` = no shear deformation).
+    ymax, zmax
+        Distances of the extreme fibres from the centroid along local y and z [m], for bending
+        stresses (``None``: unknown, `flexmb.fe.stress` refuses).
     """
 
     E: float
@@ -58,6 +61,8 @@ class Section:
     It: float
     ky: float = 5.0 / 6.0
     kz: float = 5.0 / 6.0
+    ymax: float | None = None
+    zmax: float | None = None
 
     def __attrs_post_init__(self):
         for name in ("E", "G", "A", "Iy", "Iz", "It"):
@@ -90,4 +95,5 @@ def rectangle(width: float, thickness: float, E: float, G: float) -> Section:
             "check the units of the moduli"
         )
     k = shear_coefficient_rectangle(nu)
-    return Section(E=E, G=G, It=torsion_constant_rectangle(width, thickness), ky=k, kz=k, **props)
+    return Section(E=E, G=G, It=torsion_constant_rectangle(width, thickness), ky=k, kz=k,
+                   ymax=0.5 * float(thickness), zmax=0.5 * float(width), **props)

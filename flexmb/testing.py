@@ -256,20 +256,37 @@ def check_reciprocity(joint, dim: int, rotation=None) -> None:
 
 
 def check_energy(joint, dim: int, rotation=None, *, deflection: float = 0.1, steps: int = 16) -> None:
-    """A dead force on B swept from 0 to a value that would move B by ``deflection`` times its
-    size in linear theory: the work of the load (Simpson's rule over ``steps`` equal load steps)
-    equals the strain energy stored, as for any conservative joint."""
+    """A dead force on link B, at a lever of the joint's size from node B along the joint's x
+    axis (so it turns B about the joint axis also when B sits on that axis), swept from 0 to a
+    value that would move its point by ``deflection`` times the size in linear theory: the work
+    of the load (Simpson's rule over ``steps`` equal load steps) equals the strain energy
+    stored, as for any conservative joint."""
     C0, floor = _rest_compliance(joint, dim)
     size = float(np.linalg.norm(joint.interface_b(dim))) or 1.0
     Q = _rotation(dim, rotation)
+    arm = np.zeros(dim)
+    arm[0] = size  # joint frame
+    G = np.zeros((dim, len(C0)))  # point displacement from B's displacement and rotation
+    G[:, :dim] = np.eye(dim)
+    if dim == 2:
+        G[:, 2] = (-arm[1], arm[0])
+    else:
+        from .rotations import skew
+
+        G[:, 3:] = -skew(arm)
+    Cp = G @ C0 @ G.T
     local = np.r_[0.3, 1.0, 0.2][:dim] / np.linalg.norm(np.r_[0.3, 1.0, 0.2][:dim])  # in the joint frame
-    F = Q @ (deflection * size / np.linalg.norm(C0[:dim, :dim] @ local) * local)
+    F = Q @ (deflection * size / np.linalg.norm(Cp @ local) * local)
     lam = np.linspace(0.0, 1.0, steps + 1)
     u = np.zeros((steps + 1, dim))
     energy = 0.0
     for s, l in enumerate(lam[1:], start=1):
-        sol = _solve(joint_mechanism(joint, dim, None, rotation, force=l * F), tol=max(1e-9 * np.linalg.norm(F), floor))
-        u[s] = _b_displacement(sol, dim)[:dim]
+        m = joint_mechanism(joint, dim, None, rotation)
+        point = m.link("B").position + Q @ arm
+        m.add_point("B", "load", point)
+        m.apply_force("B", l * F, point=point)
+        sol = _solve(m, tol=max(1e-9 * np.linalg.norm(F) * max(size, 1.0), floor))
+        u[s] = sol.point("B", "load") - point
         energy = sol.strain_energy()
     g = u @ F  # W = int lambda F . du = F . u(1) - int_0^1 F . u dlambda
     simpson = (lam[1] - lam[0]) / 3.0 * (g[0] + g[-1] + 4.0 * g[1:-1:2].sum() + 2.0 * g[2:-1:2].sum())

@@ -1,6 +1,6 @@
 """Joint database files: a versioned JSON format with a checksum, and the shipped data.
 
-Format ``flexmb-joint-database`` version 1 (one file per joint kind, dimension and mesh)::
+Format ``flexmb-joint-database`` version 2 (one file per joint kind, dimension and mesh)::
 
     {"format": "flexmb-joint-database", "format_version": 1, "flexmb_version": "...",
      "kind": "cross_flexure", "dim": 3, "parameters": {...training joint...},
@@ -12,6 +12,9 @@ Format ``flexmb-joint-database`` version 1 (one file per joint kind, dimension a
      "nodes": {...same...}, "checksum": sha256 of everything else}
 
 Functions are dimensionless (positions over D0, the undeformed distance of the interface nodes).
+Element and internal-node orientations (Eq. 3.1) are angles [rad] in 2D and rotation vectors
+[rad] in 3D (Sec. 3.1), one row per element or node and component (element-major: e0x, e0y, e0z,
+e1x, ...). Version 1 stored 3D orientations as angles about z only; such files are refused.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ __all__ = ["FORMAT", "FORMAT_VERSION", "Polynomial", "JointData", "save", "load"
            "shipped"]
 
 FORMAT = "flexmb-joint-database"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 
 @attrs.frozen(eq=False)
@@ -133,7 +136,10 @@ def mesh_hash(joint, dim: int) -> str:
     mesh = joint.mesh(dim)
     D0 = float(np.linalg.norm(joint.interface_b(dim)))
     pts = np.round(np.asarray(mesh.points, float)[:, :2] / D0, 9) + 0.0
-    blob = json.dumps([pts.tolist(), np.asarray(mesh.side).tolist(), np.asarray(mesh.elements).tolist()])
+    parts = [pts.tolist(), np.asarray(mesh.side).tolist(), np.asarray(mesh.elements).tolist()]
+    if mesh.body is not None:
+        parts.append(np.asarray(mesh.body).tolist())
+    blob = json.dumps(parts)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 

@@ -19,7 +19,8 @@ from ..mechanism import Mechanism
 from ..rotations import logm_so3
 from .store import JointData, Polynomial, mesh_hash
 
-__all__ = ["TrainingRun", "simulate", "train", "DEFAULT_RANGE_DEG", "ELEMENT_POWERS", "CONSTRAINT_POWERS"]
+__all__ = ["TrainingRun", "simulate", "train", "DEFAULT_RANGE_DEG", "ELEMENT_POWERS", "CONSTRAINT_POWERS", "TRAINING",
+           "element_rotations"]
 
 DEFAULT_RANGE_DEG = (-75.0, 75.0)
 #: Element (and node) rotations as polynomials without constant term, Eq. (4.2) taken to fifth
@@ -29,6 +30,9 @@ ELEMENT_POWERS = (1, 2, 3, 4, 5)
 #: Positions of B (over D0) as full sixth-order polynomials; D/D0 - 1 even (Eq. 4.1).
 CONSTRAINT_POWERS = tuple(range(7))
 LENGTH_POWERS = (2, 4, 6)
+#: Default training settings; a joint overrides any of them in its ``training`` class attribute.
+TRAINING = {"range_deg": DEFAULT_RANGE_DEG, "step_deg": 5.0, "element_powers": ELEMENT_POWERS,
+            "constraint_powers": CONSTRAINT_POWERS, "length_powers": LENGTH_POWERS}
 
 
 @attrs.frozen(eq=False)
@@ -37,8 +41,8 @@ class TrainingRun:
 
     theta: np.ndarray
     b_position: np.ndarray  # (S, dim) position of node B in the joint frame [m]
-    element_rotation: np.ndarray  # (S, E) rotation of every element chord about z [rad]
-    node_rotation: np.ndarray  # (S, N) rotation of every internal node about z [rad]
+    element_rotation: np.ndarray  # (S, E) 2D chord angles, (S, E, 3) 3D rotation vectors [rad]
+    node_rotation: np.ndarray  # (S, N) 2D angles, (S, N, 3) 3D rotation vectors of the internal nodes [rad]
     moment: np.ndarray  # (S,) reaction moment about z on B [N m]
     max_unintended_reaction: float  # largest |reaction| in the held unintended DOFs (3D) [N, N m]
     wall_time: float
@@ -64,15 +68,10 @@ def simulate(joint, dim: int, theta) -> TrainingRun:
         except ConvergenceError as exc:
             raise DatabaseError(f"training {joint.kind}: the FE model did not converge at {np.degrees(a):.1f} deg: "
                                 f"{exc}") from None
-        p = sol.compiled.problem
-        pts = p.model.point_positions(sol.state)
-        ends = p.model.elements.ends
-        c = pts[ends[:, 1]] - pts[ends[:, 0]]
-        c0 = p.model.point_x0[ends[:, 1]] - p.model.point_x0[ends[:, 0]]
-        beta = np.arctan2(c0[:, 0] * c[:, 1] - c0[:, 1] * c[:, 0], np.einsum("ei,ei->e", c0[:, :2], c[:, :2]))
-        internal = slice(2, None)
-        rot = sol.state.rotations[internal]
-        node_rot = rot if dim == 2 else np.array([logm_so3(R)[2] for R in rot])
+        model = sol.compiled.problem.model
+        beta = element_rotations(model, sol.state)
+        rot = sol.state.rotations[2:]
+        node_rot = rot if dim == 2 else logm_so3(rot)
         reaction = sol.reaction("B")
         unintended = np.abs(reaction[[2, 3, 4]]).max() if dim == 3 else 0.0
         out.append((sol.pose("B")[0], beta, node_rot, reaction[-1], unintended))
@@ -81,22 +80,49 @@ def simulate(joint, dim: int, theta) -> TrainingRun:
                        time.perf_counter() - t0)
 
 
-def train(joint, dim: int, range_deg=DEFAULT_RANGE_DEG, step_deg: float = 5.0) -> JointData:
-    """Train the database of ``joint`` (a `Joint` with a FE model and a `database_key`) in ``dim``."""
+def element_rotations(model, state) -> np.ndarray:
+    """Orientation of every element from rest (Eq. 3.1), (E,) chord angles [rad] in 2D; (E, 3)
+    rotation vectors in 3D of the frame (chord, mean cross-section y axis of both ends made
+    perpendicular to it, their cross product) relative to that frame at rest (Sec. 3.1)."""
+    el = model.elements
+    ends = el.ends
+    pts = model.point_positions(state)
+    c = pts[ends[:, 1]] - pts[ends[:, 0]]
+    c0 = model.point_x0[ends[:, 1]] - model.point_x0[ends[:, 0]]
+    if model.dim == 2:
+        return np.arctan2(c0[:, 0] * c[:, 1] - c0[:, 1] * c[:, 0], np.einsum("ei,ei->e", c0, c))
+    R = state.rotations[model.point_master[ends]]  # (E, 2, 3, 3)
+    ex = c / np.linalg.norm(c, axis=1, keepdims=True)
+    ny = np.einsum("ekij,ej->ei", R, el.ny0)
+    ny -= np.einsum("ei,ei->e", ny, ex)[:, None] * ex
+    ny /= np.linalg.norm(ny, axis=1, keepdims=True)
+    frame = np.stack([ex, ny, np.cross(ex, ny)], axis=-1)
+    frame0 = np.stack([c0 / el.L0[:, None], el.ny0, el.nz0], axis=-1)
+    return logm_so3(frame @ np.swapaxes(frame0, 1, 2))
+
+
+def train(joint, dim: int, range_deg=None, step_deg: float | None = None) -> JointData:
+    """Train the database of ``joint`` (a `Joint` with a FE model and a `database_key`) in ``dim``.
+
+    The sampling (``range_deg``, ``step_deg``) and the polynomial orders default to the joint's
+    ``training`` settings (`TRAINING` where it sets none)."""
+    opt = {**TRAINING, **getattr(joint, "training", {})}
+    lo, hi = opt["range_deg"] if range_deg is None else range_deg
+    step_deg = opt["step_deg"] if step_deg is None else step_deg
     key = joint.database_key()
-    lo, hi = range_deg
     theta = np.radians(np.arange(lo, hi + 0.5 * step_deg, step_deg))
     run = simulate(joint, dim, theta)
     D0 = float(np.linalg.norm(joint.interface_b(dim)))
     pos = run.b_position / D0
-    functions = {name: Polynomial.fit(theta, pos[:, k], CONSTRAINT_POWERS)
+    functions = {name: Polynomial.fit(theta, pos[:, k], opt["constraint_powers"])
                  for k, name in enumerate(("x/D0", "y/D0", "z/D0")[:dim])}
-    functions["D/D0-1"] = Polynomial.fit(theta, np.linalg.norm(pos, axis=1) - 1.0, LENGTH_POWERS)
+    functions["D/D0-1"] = Polynomial.fit(theta, np.linalg.norm(pos, axis=1) - 1.0, opt["length_powers"])
+    S = len(theta)
     return JointData(kind=joint.kind, dim=dim, parameters=_plain(joint.describe()), key=key,
                      mesh_hash=mesh_hash(joint, dim), range=(float(theta[0]), float(theta[-1])), samples=theta,
                      length=D0, functions=functions,
-                     elements=Polynomial.fit(theta, run.element_rotation, ELEMENT_POWERS),
-                     nodes=Polynomial.fit(theta, run.node_rotation, ELEMENT_POWERS))
+                     elements=Polynomial.fit(theta, run.element_rotation.reshape(S, -1), opt["element_powers"]),
+                     nodes=Polynomial.fit(theta, run.node_rotation.reshape(S, -1), opt["element_powers"]))
 
 
 def _plain(d: dict) -> dict:

@@ -32,6 +32,10 @@ class JointMesh:
         One `flexmb.sections.Section` per element.
     ny0
         (E, 3) local y axis of each element's cross-section in the joint frame (3D only; ``None`` in 2D).
+    body
+        (n,) ints or ``None``: `INTERNAL` points with the same ``body >= 0`` form one rigid
+        intermediate body (exact rigid constraints, one FE node at the body's first point);
+        ``-1`` marks a point that is a node of its own. ``None``: every internal point is a node.
     """
 
     points: np.ndarray
@@ -39,6 +43,7 @@ class JointMesh:
     elements: np.ndarray
     sections: tuple
     ny0: np.ndarray | None = None
+    body: np.ndarray | None = None
 
 
 #: Wrench models of a constant-stiffness flexure (Cammarata et al. 2022): balance of the flexure in the
@@ -89,6 +94,9 @@ class Joint(abc.ABC):
     parameter_ranges: ClassVar[dict[str, tuple[float, float]]] = {}
     #: Intended rotation [rad] up to which the joint is meant to work, for the conformance tests.
     motion_range: ClassVar[float] = 0.3
+    #: Database training settings overriding `flexmb.database.TRAINING` (``range_deg``,
+    #: ``step_deg``, ``element_powers``, ``constraint_powers``, ``length_powers``).
+    training: ClassVar[dict] = {}
 
     @property
     def capabilities(self) -> frozenset[str]:

@@ -65,17 +65,9 @@ class CrossFlexure(Joint):
 
     def __attrs_post_init__(self):
         owner = "cross_flexure"
-        for name in ("length", "thickness", "width_inner", "width_outer", "E", "G"):
-            v.positive(owner, name, getattr(self, name))
-        v.in_open_range(owner, "angle", self.angle, 0.0, math.pi / 2, " rad")
-        v.integer(owner, "elements_per_leaf", self.elements_per_leaf, 1)
+        v.leaf_joint(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
         if v.finite(owner, "gap", self.gap) < 0:
             raise ParameterError(f"{owner}: gap={self.gap!r} m must be >= 0")
-        if not self.thickness < self.length / 10:
-            raise ParameterError(
-                f"{owner}: thickness={self.thickness!r} m is not slender for length={self.length!r} m "
-                f"(valid range: thickness < length/10 = {self.length / 10:g} m)"
-            )
         # derived quantities must be representable (extreme magnitudes overflow to inf or 0)
         for wname in ("width_inner", "width_outer"):
             try:

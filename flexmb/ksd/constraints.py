@@ -8,7 +8,8 @@ each is a dimensionless function of the relative pose ``(p, R_rel)`` of node B s
 ``x``, ``y``
     ``p_x / D0 - xbar(theta)``, ``p_y / D0 - ybar(theta)`` (Eq. 2.1).
 ``z``
-    ``p_z / D0``: no out-of-plane offset (Sec. 4.1, first constraint).
+    ``(p_z - b0_z) / D0``: no change of the offset along the axis (Sec. 4.1, first constraint;
+    ``b0`` the undeformed position of B, in the plane of A for the cross flexure).
 ``tilt_x``, ``tilt_y``
     x and y components of ``R_rel e_z``: no rotation about x and y (Sec. 4.1).
 ``symmetric``
@@ -60,6 +61,11 @@ class ConstraintSet:
         self.len = self.names.index("length") if "length" in self.names else None
         self.n0 = cross([0.0, 0.0, 1.0], np.asarray(b0, dtype=float) * inv[:, None])
         self.fun = [(k, data.function(_FUNCTION[n])) for k, n in enumerate(self.names) if n in _FUNCTION]
+        # offsets at rest of the rows linear in p: only z is held at its undeformed value
+        self.rest = np.zeros((J, m))
+        for k, c in self.lin:
+            if c == 2:
+                self.rest[:, k] = np.asarray(b0, dtype=float)[:, 2] * inv
         self.grad0 = np.zeros((J, m, 6))
         for k, c in self.lin:
             self.grad0[:, k, c] = inv
@@ -68,10 +74,10 @@ class ConstraintSet:
         """Values (J, m) and gradients (J, m, 6) with respect to ``(dp, omega)``; ``theta`` (J,)
         and ``dtheta`` (J, 3) from `intended_angle`."""
         inv = self.inv
-        val = np.empty((len(p), len(self.names)))
+        val = -self.rest
         grad = self.grad0.copy()
         for k, c in self.lin:
-            val[:, k] = p[:, c] * inv
+            val[:, k] += p[:, c] * inv
         for k, name in self.tilt:
             ez = R[:, :, 2]
             # d(R e_z) = omega x (R e_z): gradient of component c is (R e_z) x e_c

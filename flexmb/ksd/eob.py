@@ -3,7 +3,9 @@
 Everything is in the joint's own frame, relative to interface node A (the origin, held fixed):
 the joint's large rigid motion in a mechanism is the pose of that frame (`geometry.JointFrames`).
 
-1. Element orientations from the database, Eq. (3.1): chord rotations ``beta_k(theta)`` about z.
+1. Element orientations from the database, Eq. (3.1): in 2D the chord rotations ``beta_k(theta)``;
+   in 3D rotation vectors (Sec. 3.1: elements of a spatial joint turn about several axes), as
+   are the orientations of the internal nodes and rigid intermediate bodies.
 2. Near configuration, Eq. (3.2): every element rigidly rotated and undeformed, its two *markers*
    placed along chains of elements that start at node A (breadth-first tree over the nodes):
    ``x_q = x_p + R_k d_pq``. Where chains close a loop (at node B of a cross flexure) the markers
@@ -34,7 +36,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import ModelError
 from ..fe import beam2d, beam3d
-from ..rotations import rot2
+from ..rotations import expm_so3, logm_so3, rot2
 from .geometry import rz
 
 __all__ = ["EOBTemplate", "EOB", "lever"]
@@ -54,10 +56,6 @@ def lever(r: np.ndarray, dim: int) -> np.ndarray:
     return T
 
 
-def _rot(angle: np.ndarray, dim: int) -> np.ndarray:
-    return rot2(angle) if dim == 2 else rz(angle)
-
-
 @attrs.frozen(eq=False)
 class EOB:
     """Result of `EOBTemplate.evaluate` for J joints (leading axis J everywhere).
@@ -67,8 +65,8 @@ class EOB:
     ``F_hat_nodes`` (J, n) on the node DOFs (node A, node B, internal nodes); ``K_T``
     (J, 2nd, 2nd) and ``F_hat_T`` (J, 2nd) condensed on A and B (Eq. 2.5); ``recover``
     (J, n_i, nd + 1): ``q_i = -recover @ [q_B, 1]`` with node A held (Eq. 2.6).
-    Near configuration: ``node_position`` (J, N, dim), ``node_angle`` (J, N) [rad],
-    ``marker_position`` (J, E, 2, dim).
+    Near configuration: ``node_position`` (J, N, dim), ``node_rotation`` (J, N, dim, dim),
+    ``node_angle`` (J, N) [rad] (2D; ``None`` in 3D), ``marker_position`` (J, E, 2, dim).
     """
 
     K_all: np.ndarray
@@ -80,7 +78,8 @@ class EOB:
     F_hat_T: np.ndarray
     recover: np.ndarray
     node_position: np.ndarray
-    node_angle: np.ndarray
+    node_angle: np.ndarray | None
+    node_rotation: np.ndarray
     marker_position: np.ndarray
 
 
@@ -150,18 +149,18 @@ class EOBTemplate:
         perm = np.r_[nd:2 * nd, 0:nd]
         self.K0 = np.where(flip[:, None, None], K0[:, perm][:, :, perm], K0)
 
-        # internal nodes: x_n = x_root + R_root s_entry + sum over the path of R_k d_k (root A or B)
+        # internal nodes: x_n = x_root + sum over the path from the root (A or B) of the element
+        # steps R_p s_p + R_k d_k - R_q s_q (node to node through the element's markers)
         n_int = N - 2
         self.path = np.zeros((n_int, E))
         self.root = np.zeros(n_int, dtype=np.int64)
-        self.entry = np.zeros((n_int, dim))
         for n in range(2, N):
             v = n
             while v > 1:
                 k = parent[v]
                 self.path[n - 2, k] = 1.0
                 v = self.p_node[k]
-                self.root[n - 2], self.entry[n - 2] = v, self.s_p[k]
+            self.root[n - 2] = v
 
         # node DOFs of every element's (p, q) markers, flattened for assembly into K_nodes
         dofs = np.concatenate([self.p_node[:, None] * nd + np.arange(nd), self.q_node[:, None] * nd + np.arange(nd)],
@@ -186,27 +185,37 @@ class EOBTemplate:
         dim, nd, N, E = self.dim, self.nd, self.n_nodes, self.n_elements
         theta = np.asarray(theta, dtype=float)
         J = len(theta)
-        beta = self.data.elements(theta).reshape(J, E)
-        internal = self.data.nodes(theta).reshape(J, N - 2) if N > 2 else np.zeros((J, 0))
-        node_angle = np.concatenate([np.zeros((J, 1)), theta[:, None], internal], axis=1)
-        Re = _rot(beta, dim)  # (J, E, dim, dim)
-        Rn = _rot(node_angle, dim)  # (J, N, dim, dim)
+        if dim == 2:
+            beta = self.data.elements(theta).reshape(J, E)
+            internal = self.data.nodes(theta).reshape(J, N - 2) if N > 2 else np.zeros((J, 0))
+            node_angle = np.concatenate([np.zeros((J, 1)), theta[:, None], internal], axis=1)
+            Re, Rn = rot2(beta), rot2(node_angle)  # (J, E | N, 2, 2)
+        else:  # rotation vectors (Sec. 3.1: elements turning about several axes)
+            Re = expm_so3(self.data.elements(theta).reshape(J, E, 3))
+            Rn = np.empty((J, N, 3, 3))
+            Rn[:, 0], Rn[:, 1] = np.eye(3), rz(theta)
+            if N > 2:
+                Rn[:, 2:] = expm_so3(self.data.nodes(theta).reshape(J, N - 2, 3))
+            node_angle = None
         Rd = np.einsum("jeab,eb->jea", Re, self.d)
+        arm_p = np.einsum("jeab,eb->jea", Rn[:, self.p_node], self.s_p)
+        arm_q = np.einsum("jeab,eb->jea", Rn[:, self.q_node], self.s_q)
         x = np.zeros((J, N, dim))
         x[:, 1] = b_position
         if N > 2:
-            root = self.root
-            start = x[:, root] + np.einsum("jnab,nb->jna", Rn[:, root], self.entry)
-            x[:, 2:] = start + np.einsum("ne,jea->jna", self.path, Rd)
-        arm_p = np.einsum("jeab,eb->jea", Rn[:, self.p_node], self.s_p)
-        arm_q = np.einsum("jeab,eb->jea", Rn[:, self.q_node], self.s_q)
+            x[:, 2:] = x[:, self.root] + np.einsum("ne,jea->jna", self.path, arm_p + Rd - arm_q)
         mp = x[:, self.p_node] + arm_p
         mq = mp + Rd
         # q_hat: marker near pose minus where the nodes' near poses put the marker
         q_hat = np.zeros((J, E, 2 * nd))
         q_hat[:, :, nd:nd + dim] = mq - (x[:, self.q_node] + arm_q)
-        q_hat[:, :, nd - 1] = beta - node_angle[:, self.p_node]
-        q_hat[:, :, 2 * nd - 1] = beta - node_angle[:, self.q_node]
+        if dim == 2:
+            q_hat[:, :, nd - 1] = beta - node_angle[:, self.p_node]
+            q_hat[:, :, 2 * nd - 1] = beta - node_angle[:, self.q_node]
+        else:  # spins from the node's near orientation to the element's
+            Ret = np.swapaxes(Re, 2, 3)
+            q_hat[:, :, 3:6] = -logm_so3(Rn[:, self.p_node] @ Ret)
+            q_hat[:, :, 9:12] = -logm_so3(Rn[:, self.q_node] @ Ret)
 
         T = np.zeros((J, E, 2 * nd, 2 * nd))  # element rotation, per translation/rotation block
         for blk in (0, nd):
@@ -243,5 +252,5 @@ class EOBTemplate:
         else:
             K_T, F_T = K_nodes.copy(), F_nodes.copy()
             recover = np.zeros((J, 0, nd + 1))
-        return EOB(K_all, F_all, L, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle,
+        return EOB(K_all, F_all, L, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn,
                    np.stack([mp, mq], axis=2))

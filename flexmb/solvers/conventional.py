@@ -157,7 +157,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
     while True:
         target = lam + dlam
         trial = state
-        du_p = problem.prescribed_increment(dlam)
+        du_p = problem.prescribed_increment(dlam, lam)
         prev = first = np.inf
         accepted = False
         stalled = None

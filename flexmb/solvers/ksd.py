@@ -94,7 +94,7 @@ def _correction(red: ReducedMechanism, A: np.ndarray, r: np.ndarray):
     return dz
 
 
-def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30):
+def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5):
     """KSD step 1: link poses satisfying all joint constraints and the prescribed motion.
 
     Returns ``(poses, info)``; info has iterations, the equations kept/removed and the largest
@@ -118,15 +118,15 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
         for _ in range(max_iter):
             c, jac, theta, p = red.constraint_equations(trial)
             res = float(np.linalg.norm(c[rows])) if len(rows) else 0.0
-            if not np.isfinite(res) or res > 1e3 * prev:
-                break
+            if not np.isfinite(res) or res > prev:  # Newton must gain in every iteration, else cut the
+                break  # step: a large prescribed motion otherwise wanders onto another assembly branch
             if res < tol:
                 accepted = True
                 break
             prev = res
             dz = _correction(red, jac[np.ix_(rows, free)], c[rows])
-            if dz is None:
-                break
+            if dz is None or np.abs(dz.reshape(-1, 6)[:, 3:]).max() > max_rotation:
+                break  # a correction turning a link this far heads for another assembly branch: cut
             trial = trial.moved(dz)
             iterations += 1
             history.append(res)
@@ -160,7 +160,7 @@ def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool) -> None
     for tpl, _, idx in red.groups:
         lo, hi = tpl.data.range
         for j in idx:
-            if not lo - 1e-12 <= theta[j] <= hi + 1e-12:
+            if not lo - 1e-9 <= theta[j] <= hi + 1e-9:  # 1e-9 rad: the kinematic solve's roundoff
                 msg = (f"joint {red.joint_names[j]!r} ({tpl.data.kind}): intended rotation {np.degrees(theta[j]):.2f} "
                        f"deg is outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg")
                 if strict:
@@ -300,7 +300,8 @@ class _KSD:
             r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
             prev, res = res, float(np.linalg.norm(r[free]))
             history.append(res)
-            if not np.isfinite(res) or res > self.divergence * prev:
+            # as the conventional method: the divergence test starts after the first correction
+            if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
                 break
         return poses, res < self.tol, history, r
 
@@ -320,7 +321,7 @@ class _KSD:
             if dim == 2:
                 rot = e.node_angle[:, 2:] + xi[..., 2]
             else:
-                rot = expm_so3(xi[..., 3:]) @ rz(e.node_angle[:, 2:])
+                rot = expm_so3(xi[..., 3:]) @ e.node_rotation[:, 2:]
             internal.append((idx, x, rot))
         return red.fe_state(poses, internal)
 

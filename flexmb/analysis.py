@@ -1,0 +1,54 @@
+"""Characteristics of a single joint from its finite-element model: stiffness of node B relative
+to node A in every direction at a given intended rotation, and how well it supports the
+unintended directions."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import ConvergenceError
+from .ksd.geometry import rz
+
+__all__ = ["joint_stiffness", "support_ratios"]
+
+_DIRECTIONS = ("x", "y", "z", "tilt_x", "tilt_y", "rotation")
+
+
+def joint_stiffness(joint, rotation: float = 0.0):
+    """Tangent stiffness (6, 6) of a spatial joint's node B with node A clamped, in B's turned
+    frame (units N/m, N, N m/rad), at the intended rotation ``rotation`` [rad] about the joint's
+    z axis reached with the rest of B free (the FE model condensed onto B: internal nodes
+    eliminated). Returns ``(K, solution)``."""
+    from .solvers import solve
+    from .testing import joint_mechanism
+
+    sol = solve(joint_mechanism(joint, 3, motion=rotation))
+    if not sol.converged:
+        raise ConvergenceError(f"{joint.kind}: the FE model did not converge at {np.degrees(rotation):.1f} deg: "
+                               f"{sol.message}", sol)
+    problem = joint_mechanism(joint, 3).compile().problem  # same nodes, only link A held
+    K = problem.evaluate(sol.state, 0.0)[1].toarray()
+    b = np.searchsorted(problem.free, problem.model.node_dofs[sol.compiled.link_node["B"]])
+    i = np.setdiff1d(np.arange(len(problem.free)), b)
+    KB = K[np.ix_(b, b)] - K[np.ix_(b, i)] @ np.linalg.solve(K[np.ix_(i, i)], K[np.ix_(i, b)])
+    T = np.zeros((6, 6))
+    T[:3, :3] = T[3:, 3:] = rz(rotation)
+    return T.T @ KB @ T, sol
+
+
+def support_ratios(joint, rotation: float = 0.0) -> dict:
+    """Support stiffness of every unintended direction over the rotational stiffness at
+    ``rotation`` [rad].
+
+    Each direction's stiffness is ``1 / C_ii`` with ``C`` the compliance of `joint_stiffness`
+    (all other directions free, the intended rotation included). Translations are compared as
+    ``k D0^2`` [N m] with D0 the distance of the interface nodes (the joint's own length), tilts
+    directly [N m/rad]. Returns the five ratios, ``"k_rotation"`` [N m/rad] and the peak normal
+    stress ``"stress"`` [Pa] of the solution."""
+    K, sol = joint_stiffness(joint, rotation)
+    k = 1.0 / np.diag(np.linalg.inv(K))
+    D0 = float(np.linalg.norm(joint.interface_b(3)))
+    out = {name: float(k[i] * (D0 ** 2 if i < 3 else 1.0) / k[5]) for i, name in enumerate(_DIRECTIONS[:5])}
+    out["k_rotation"] = float(k[5])
+    out["stress"] = float(sol.peak_stress().max())
+    return out

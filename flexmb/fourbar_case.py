@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
-import gc
 import time
 
 import numpy as np
 
 from .models import fourbar, fourbar_linear_force
+from ._timing import interleaved
 from .solvers import solve
 
 __all__ = ["METHODS", "force_curve", "moment_study", "speed_study", "plot"]
@@ -61,21 +61,10 @@ def speed_study(elements=(1, 2, 3, 4, 5), displacement: float = 0.3, repeats: in
         m = fourbar(n, displacement=displacement)
         for method in METHODS:
             solve(m, method=method)  # warm-up: builds and caches the joint mesh/EOB template
-        times = {method: [] for method in METHODS}
-        sols = {}
-        for _ in range(repeats):
-            for method in METHODS:  # interleaved, so drifts of the machine hit all methods alike
-                gc.collect()
-                gc.disable()  # as timeit: a collection triggered by earlier garbage is not the solver's time
-                try:
-                    t = time.perf_counter()
-                    sols[method] = solve(m, method=method, raise_on_failure=True)
-                    times[method].append(time.perf_counter() - t)
-                finally:
-                    gc.enable()
-        base = float(np.median(times["conventional"]))
+        sols, times = interleaved(m, METHODS, repeats)
+        base = times["conventional"]
         for method in METHODS:
-            s, t = sols[method], float(np.median(times[method]))
+            s, t = sols[method], times[method]
             st = s.stages
             rows.append({"elements_per_leaf": n, "method": method, "iterations": s.iterations,
                          "kinematics": st.get("kinematics", {}).get("iterations", 0),

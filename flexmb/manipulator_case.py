@@ -4,12 +4,11 @@ all three joint rotations varied together, with iterations, times and KSD-reduce
 
 from __future__ import annotations
 
-import gc
-import time
 
 import numpy as np
 
 from .models import manipulator
+from ._timing import interleaved
 from .solvers import solve
 
 __all__ = ["METHODS", "joint_moments", "study", "errors"]
@@ -57,22 +56,11 @@ def study(rotations_deg=tuple(range(-45, 46, 5)), cases=("joint", "location"), r
             m = manipulator(case, np.radians(deg), elements=elements)
             for method in METHODS[1:]:
                 solve(m, method=method)  # warm-up: joint templates cached as in an optimisation loop
-            times = {k: [] for k in METHODS}
-            sols = {}
-            for _ in range(repeats):
-                for method in METHODS:
-                    gc.collect()
-                    gc.disable()
-                    try:
-                        t = time.perf_counter()
-                        sols[method] = solve(m, method=method, raise_on_failure=True)
-                        times[method].append(time.perf_counter() - t)
-                    finally:
-                        gc.enable()
-            base = float(np.median(times["conventional"]))
+            sols, times = interleaved(m, METHODS, repeats)
+            base = times["conventional"]
             err = errors(case, sols["ksd-reduced"], sols["conventional"])
             for method in METHODS:
-                s, t = sols[method], float(np.median(times[method]))
+                s, t = sols[method], times[method]
                 rows.append({"case": case, "rotation": deg, "method": method, "iterations": s.iterations,
                              "time": t, "speedup": base / t, "residual": float(s.residual_history[-1]),
                              "converged": s.converged, **({f"error_{k}": v for k, v in err.items()}

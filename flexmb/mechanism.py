@@ -183,8 +183,7 @@ class Mechanism:
             if val is None:
                 current.pop(key, None)
             elif key == "rotation" and self.dim == 3:
-                chain = np.ndim(val) == 2 if not isinstance(val, str) else False
-                if chain:
+                if np.ndim(val) == 2:  # a chain of rotation vectors
                     current[key] = np.array([v.vector(where, f"rotation[{i}]", w, 3) for i, w in enumerate(val)])
                     if len(current[key]) == 0:
                         raise ParameterError(f"{where}: rotation is an empty sequence of rotation vectors")

@@ -94,11 +94,6 @@ class ThreeXInfinity(Joint):
         for name in ("gap", "stage_gap"):
             if v.finite(owner, name, getattr(self, name)) < 0:
                 raise ParameterError(f"{owner}: {name}={getattr(self, name)!r} m must be >= 0")
-        for wname in ("width_inner", "width_outer"):
-            try:
-                rectangle(getattr(self, wname), self.thickness, self.E, self.G)
-            except ParameterError as exc:
-                raise ParameterError(f"{owner}: {wname}={getattr(self, wname)!r} m: {exc}") from None
         if not self.pitch > 0:
             raise ParameterError(f"{owner}: the stages must not coincide (pitch {self.pitch!r} m must be > 0)")
 

@@ -1,9 +1,11 @@
 """flexmb: fast kinetostatics of flexure-based (compliant) mechanisms."""
 
-from . import models, testing
+from . import export, models, plot, study, testing
 from .errors import (
     ConvergenceError,
+    DatabaseError,
     FlexmbError,
+    MissingExtraError,
     ModelError,
     ParameterError,
     TopologyError,
@@ -16,7 +18,9 @@ from .registry import available_joints, joint, register_joint
 from .results import Solution
 from .sections import Section, rectangle
 from .solvers import solve
-from .sweeps import find_actuation, sweep, tangent_stiffness
+from .study import grid, parameter_study
+from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
+from .table import Table, read_csv
 
 __version__ = "0.1.0"
 
@@ -31,14 +35,24 @@ __all__ = [
     "ThreeXInfinity",
     "Link",
     "Mechanism",
+    "MissingExtraError",
     "ModelError",
     "ParameterError",
     "Section",
     "Solution",
+    "SweepResult",
+    "Table",
     "TopologyError",
     "UnknownJointError",
     "UnsupportedStrategyError",
+    "DatabaseError",
     "available_joints",
+    "export",
+    "grid",
+    "parameter_study",
+    "plot",
+    "read_csv",
+    "study",
     "find_actuation",
     "joint",
     "models",

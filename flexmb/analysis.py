@@ -9,7 +9,7 @@ import numpy as np
 from .errors import ConvergenceError
 from .ksd.geometry import rz
 
-__all__ = ["joint_stiffness", "support_ratios"]
+__all__ = ["joint_stiffness", "support_ratios", "joint_properties"]
 
 _DIRECTIONS = ("x", "y", "z", "tilt_x", "tilt_y", "rotation")
 
@@ -52,3 +52,12 @@ def support_ratios(joint, rotation: float = 0.0) -> dict:
     out["k_rotation"] = float(k[5])
     out["stress"] = float(sol.peak_stress().max())
     return out
+
+
+def joint_properties(kind: str, rotation: float = 0.0, **params) -> dict:
+    """`support_ratios` of the registered joint ``kind`` built with shape ``params`` (SI units),
+    at the intended rotation ``rotation`` [rad]: one design of a parameter study
+    (`flexmb.study.parameter_study`), picklable as ``functools.partial(joint_properties, kind)``."""
+    from .registry import joint
+
+    return support_ratios(joint(kind, **params), rotation)

@@ -1,12 +1,16 @@
-"""The ``flexmb`` command: ``flexmb demo``, ``flexmb train``, ``flexmb joints``. Errors are one line (``--debug`` for a traceback).
+"""The ``flexmb`` command: ``demo``, ``solve``, ``run``, ``bench``, ``train``, ``joints``.
 
-Exit codes: 0 success, 1 a flexmb error (bad input, no convergence), 2 usage error.
+Errors are one line on stderr (``--debug`` for a traceback). Exit codes: 0 success, 1 a flexmb
+error (bad input, a solve that did not converge, a failed benchmark), 2 usage error.
 """
 
 from __future__ import annotations
 
 import argparse
 import inspect
+import json
+import runpy
+import subprocess
 import sys
 from pathlib import Path
 
@@ -109,18 +113,124 @@ def _train(args) -> int:
     return 0
 
 
-def _parse_params(items) -> list[tuple[str, object]]:
-    """``["angle=0.6", "gap=1e-3"]`` -> ``[("angle", 0.6), ("gap", 0.001)]`` (numbers where they parse)."""
+def _parse_params(items, flag: str = "--param") -> list[tuple[str, object]]:
+    """``["angle=0.6", "gap=1e-3", "w=0,0,1"]`` -> ``[("angle", 0.6), ("gap", 0.001), ("w", [0, 0, 1])]``
+    (numbers where they parse, comma-separated lists of numbers, else the text)."""
     out = []
     for item in items or ():
         key, sep, val = item.partition("=")
         if not sep or not key:
-            raise ParameterError(f"--param {item!r}: expected NAME=VALUE, e.g. --param angle=0.6")
-        try:
-            out.append((key, int(val) if val.lstrip("-").isdigit() else float(val)))
-        except ValueError:
-            out.append((key, val))
+            raise ParameterError(f"{flag} {item!r}: expected NAME=VALUE, e.g. {flag} angle=0.6")
+        out.append((key, [_number(x) for x in val.split(",")] if "," in val else _number(val)))
     return out
+
+
+def _number(text: str):
+    try:
+        return int(text) if text.strip().lstrip("-").isdigit() else float(text)
+    except ValueError:
+        return {"true": True, "false": False}.get(text.lower(), text)
+
+
+def _cases() -> dict:
+    """``flexmb solve`` cases: name -> (model builder, default method)."""
+    from . import models
+
+    return {"cross_flexure": (models.cross_flexure_pivot, "conventional"),
+            "cantilever": (models.cantilever, "conventional"),
+            "fourbar": (models.fourbar, "conventional"),
+            "gripper": (models.gripper, "newton"),
+            "manipulator": (models.manipulator, "conventional")}
+
+
+def _build(case: str, params: dict):
+    build, default = _cases()[case]
+    names = [n for n, p in inspect.signature(build).parameters.items() if p.kind is not p.VAR_KEYWORD]
+    try:
+        return build(**params), default
+    except TypeError as exc:
+        raise ParameterError(f"solve {case}: {exc}; its parameters: {', '.join(names)} (and the joint's shape "
+                             f"parameters where the model takes them)") from None
+
+
+def _solve(args) -> int:
+    from .solvers import solve
+
+    params = dict(_parse_params(args.param))
+    mechanism, default = _build(args.case, params)
+    method = args.method or default
+    sol = solve(mechanism, method=method, **dict(_parse_params(args.option, "--option")))
+    report = solution_report(sol, case=args.case, parameters=params)
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        print(f"{args.case} ({method}): {sol.message}; {sol.iterations} iterations, "
+              f"{sol.wall_time.get('total', float('nan')) * 1e3:.1f} ms")
+        for link, d in report["links"].items():
+            print(f"  {link}: position {np.array(d['position'])} m, rotation {np.array(d['rotation'])} rad, "
+                  f"reaction {np.array(d['reaction'])}")
+    if not sol.converged:
+        print(f"flexmb: error: {args.case} did not converge: {sol.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def solution_report(sol, **extra) -> dict:
+    """A JSON-ready summary of a `Solution`: status, iterations, wall times [s], and per link
+    the position [m], rotation (angle or rotation vector) [rad] and reaction wrench [N, N m]."""
+    links = {name: {"position": sol.pose(name)[0].tolist(), "rotation": sol.rotation_vector(name).tolist(),
+                    "reaction": sol.reaction(name).tolist()} for name in sol.compiled.link_node}
+    out = dict(extra)
+    out.update(method=sol.method, converged=bool(sol.converged), message=sol.message, iterations=int(sol.iterations),
+               load_factor=float(sol.load_factor), wall_time={k: float(v) for k, v in sol.wall_time.items()},
+               residual_history=[float(r) for r in sol.residual_history], links=links)
+    return out
+
+
+def _run(args) -> int:
+    path = Path(args.script)
+    if not path.suffix and not path.exists():  # a case name: examples/<name>.py in this folder
+        path = Path("examples") / f"{args.script}.py"
+    if not path.is_file():
+        raise ParameterError(f"run: no script {str(path)!r} (give a path, or an example name with an examples/ "
+                             f"folder in the current directory)")
+    argv = sys.argv
+    sys.argv = [str(path), *args.args]
+    try:
+        runpy.run_path(str(path), run_name="__main__")
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        sys.argv = argv
+    return 0
+
+
+def _bench(args) -> int:
+    folder = Path(args.root) / "benchmarks"
+    scripts = {p.stem.removeprefix("bench_"): p for p in sorted(folder.glob("bench_*.py"))}
+    if not scripts:
+        raise ParameterError(f"bench: no benchmarks/bench_*.py under {str(Path(args.root).resolve())!r}; run it in "
+                             f"a checkout of the flexmb repository (or pass --root)")
+    unknown = sorted(set(args.only or ()) - set(scripts))
+    if unknown:
+        raise ParameterError(f"bench: unknown benchmark(s) {', '.join(unknown)}; available: {', '.join(scripts)}")
+    if args.list:
+        print("\n".join(scripts))
+        return 0
+    failed = []
+    for name in args.only or scripts:
+        print(f"== {name} ==", flush=True)
+        code = subprocess.call([sys.executable, str(scripts[name]), *(["--quick"] if args.quick else [])])
+        if code:
+            failed.append(f"{name} (exit {code})")
+    if failed:
+        raise _BenchFailed(f"bench: failed: {', '.join(failed)}")
+    print(f"BENCHMARKS.md updated: {(Path(args.root) / 'BENCHMARKS.md').resolve()}")
+    return 0
+
+
+class _BenchFailed(FlexmbError):
+    """A benchmark script exited with an error."""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -145,6 +255,27 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(func=_train)
     p = sub.add_parser("joints", help="list the registered joint plugins and their parameters")
     p.set_defaults(func=_joints)
+    p = sub.add_parser("solve", help="solve a ready-made model and print (or --json) the result",
+                       description="Solve one of the ready-made models of flexmb.models. Exit code 1 when it does not "
+                                   "converge (the result is still printed).")
+    p.add_argument("case", choices=sorted(_cases()), help="the model (flexmb.models)")
+    p.add_argument("--method", default=None, help="solver strategy (default: conventional; newton for the gripper)")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="model parameter, repeatable (e.g. --param rotation=0.5 --param elements_per_leaf=4)")
+    p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                   help="solver option, repeatable (e.g. --option tol=1e-9)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=_solve)
+    p = sub.add_parser("run", help="run an example script (a path, or a name from ./examples)")
+    p.add_argument("script", help="e.g. examples/fourbar.py or fourbar")
+    p.add_argument("args", nargs=argparse.REMAINDER, help="arguments passed to the script")
+    p.set_defaults(func=_run)
+    p = sub.add_parser("bench", help="run the benchmarks/ scripts of a checkout and regenerate BENCHMARKS.md")
+    p.add_argument("--quick", action="store_true", help="the scripts' quick variants (fewer sizes and repeats)")
+    p.add_argument("--only", nargs="+", default=None, metavar="NAME", help="run only these (e.g. core fourbar)")
+    p.add_argument("--list", action="store_true", help="list the benchmarks and exit")
+    p.add_argument("--root", default=".", help="the checkout holding benchmarks/ (default: the current folder)")
+    p.set_defaults(func=_bench)
     args = parser.parse_args(argv)
     np.set_printoptions(precision=4, suppress=True)
     try:

@@ -11,6 +11,8 @@ __all__ = [
     "InvalidJointClassError",
     "UnsupportedStrategyError",
     "ConvergenceError",
+    "DatabaseError",
+    "MissingExtraError",
 ]
 
 
@@ -60,3 +62,20 @@ class DatabaseError(FlexmbError):
 
 class ExtrapolationWarning(UserWarning):
     """A joint database was queried outside its trained range (the polynomial is extrapolated)."""
+
+
+class MissingExtraError(FlexmbError, ImportError):
+    """An optional feature was used without its extra installed (the message names the
+    ``pip install 'flexmb[...]'`` command): plots need ``plot``, VTK export ``export``,
+    dask-distributed sweeps ``dask``."""
+
+
+def require(module: str, extra: str, feature: str):
+    """Import and return ``module``, or raise `MissingExtraError` naming ``extra``."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise MissingExtraError(f"{feature} needs {module.split('.')[0]}: "
+                                f"python -m pip install 'flexmb[{extra}]'") from exc

@@ -17,7 +17,7 @@ from scipy.sparse.linalg import spsolve
 
 from .fe.assembly import SparsePattern, scatter_add
 from .fe.model import FEModel, State
-from .rotations import chain_rotation, logm_so3
+from .rotations import chain_rotation, expm_so3, logm_so3
 
 __all__ = ["PointLoads", "BoundaryConditions", "StaticProblem"]
 
@@ -122,6 +122,38 @@ class StaticProblem(BoundaryConditions):
         equilibrium at load factor 0 and the step control can halve towards it (homotopy)."""
         out = self.with_loads(self.loads, start=self.loads)
         out._offset = functools.partial(self.residual, state, 1.0)  # needed only if a step is cut
+        return out
+
+    def with_motion(self, values: np.ndarray, start: State | None = None) -> StaticProblem:
+        """A copy with other prescribed ``values`` (same DOFs, totals from the undeformed state).
+
+        With ``start`` (an equilibrium under these loads), the load factor moves the prescribed
+        DOFs from ``start`` to ``values`` while the loads stay whole (a warm start along a motion
+        sweep); 3D orientations turn about the one axis of ``R_target R_start^T``.
+        """
+        out = copy.copy(self)
+        out.values = np.asarray(values, dtype=float)
+        out._offset = None
+        if start is None:
+            return out
+        m = self.model
+        node, comp = np.divmod(self.prescribed, m.ndof)
+        inc = out.values.copy()
+        tr = comp < m.dim
+        inc[tr] -= start.positions[node[tr], comp[tr]] - m.x0[node[tr], comp[tr]]
+        if m.dim == 2:
+            inc[~tr] -= start.rotations[node[~tr]]
+        else:
+            first = np.flatnonzero(comp == 3)  # a node's three rotation DOFs are prescribed together
+            blocks = first[:, None] + np.arange(3)
+            target = expm_so3(out.values[blocks])
+            for dofs, w in self.rotation_paths:
+                target[np.searchsorted(self.prescribed[first], dofs[0])] = chain_rotation(w, 1.0)
+            inc[blocks] = logm_so3(target @ start.rotations[node[first]].transpose(0, 2, 1))
+        out.values = inc
+        out.rotation_paths = ()
+        out._wrench0 = out._wrench
+        out._motion_scale = 1.0
         return out
 
     def external_force(self, state: State, lam: float = 1.0):

@@ -1,6 +1,8 @@
-"""Sweeps of the actuation force, and the tangent stiffness of a mechanism in its link DOFs."""
+"""Sweeps of an actuation force or a prescribed motion, and the tangent stiffness of a mechanism in its link DOFs."""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import attrs
 import numpy as np
@@ -12,8 +14,9 @@ from .errors import ModelError, ParameterError, UnsupportedStrategyError
 from .problem import PointLoads
 from .results import Solution
 from .solvers import make_strategy
+from .table import Table
 
-__all__ = ["sweep", "iter_sweep", "tangent_stiffness", "find_actuation", "STARTS"]
+__all__ = ["sweep", "iter_sweep", "SweepResult", "tangent_stiffness", "find_actuation", "STARTS"]
 
 STARTS = ("undeformed", "previous")
 
@@ -26,36 +29,126 @@ def _with_actuation(compiled, value: float):
     return PointLoads(ld.node, ld.offset, force, ld.moment)
 
 
-def sweep(mechanism, forces, *, method: str | object = "conventional", start: str = "previous", **options) -> list:
-    """Solve ``mechanism`` for each actuation force in ``forces`` [N] (`Mechanism.set_actuation`).
+def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
+          start: str = "previous", progress: bool | None = None, **options) -> SweepResult:
+    """Solve ``mechanism`` for each of ``values``: actuation forces [N] (`Mechanism.set_actuation`)
+    by default, or with ``motion=(link, component)`` the prescribed value of that component of a
+    link (``"x"``, ``"y"``, ``"z"`` [m]; ``"rotation"`` [rad], in 3D rotation vectors, shape
+    (n, 3)); the component must already be prescribed (`Mechanism.prescribe`).
 
     ``start="previous"`` starts each solve from the last converged solution (continuation, the
-    paper's Fig. 12 warm start; the conventional method then steps the load from the previous
-    value); ``"undeformed"`` starts every solve from the undeformed configuration. ``method``
-    and ``options`` as in `flexmb.solve`. The mechanism is compiled once and never modified.
-    Returns one `Solution` per force, in order; failed solves are kept (``converged=False``).
+    paper's Fig. 12 warm start; the conventional method then steps from the previous value to
+    the next); ``"undeformed"`` starts every solve from the undeformed configuration. The KSD
+    strategies always start from their own kinematic solution. ``method`` and ``options`` as in
+    `flexmb.solve`. ``progress``: a progress bar on stderr (tqdm; None = only on a terminal).
+    The mechanism is compiled once and never modified.
+
+    Returns a `SweepResult`: a sequence of one `Solution` per value, in order (failed solves are
+    kept, ``converged=False``), whose `SweepResult.table` gives the results as arrays and CSV.
     """
-    return list(iter_sweep(mechanism, forces, method=method, start=start, **options))
+    from tqdm.auto import tqdm
+
+    values, solutions = _plan(mechanism, values, motion, method, start, options)
+    bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
+               disable=None if progress is None else not progress)
+    return SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
 
 
-def iter_sweep(mechanism, forces, *, method: str | object = "conventional", start: str = "previous", **options):
-    """`sweep` as a generator: yields each `Solution` as soon as it is computed."""
+def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
+               start: str = "previous", **options):
+    """`sweep` as a generator: yields each `Solution` as soon as it is computed (the arguments
+    are checked at the call, before the first solve)."""
+    return _plan(mechanism, values, motion, method, start, options)[1]
+
+
+def _plan(mechanism, values, motion, method, start, options):
+    """Checked sweep values (n,) or (n, width) and the generator of their solutions."""
     if start not in STARTS:
         raise ParameterError(f"sweep: start={start!r}; valid: {', '.join(STARTS)}")
-    values = _forces("sweep", forces)
     strategy = make_strategy(method, options)
     if not hasattr(mechanism, "compile"):
         raise ModelError(f"sweep() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
+    if motion is None:
+        values = _forces("sweep", values)
+    else:
+        comps = _motion_dofs(mechanism, motion)
+        values = _motions(values, motion, len(comps))
     compiled = mechanism.compile(getattr(strategy, "capability", "fe_model"))
-    if compiled.actuation is None:
+    if motion is None and compiled.actuation is None:
         raise ModelError("sweep: the mechanism has no actuation; declare the swept force with "
-                         "Mechanism.set_actuation(link, direction)")
-    last = None  # the last converged solution
-    for value in values:
-        sol = _solve_at(strategy, compiled, float(value), last if start == "previous" else None)
-        if sol.converged:
-            last = sol
-        yield sol
+                         "Mechanism.set_actuation(link, direction), or sweep a prescribed motion with motion=(link, "
+                         "component)")
+    slots = None if motion is None else _prescribed_slots(compiled, motion, comps)
+    warm = start == "previous" and _warm_starts(strategy)
+
+    def solutions():
+        last = None  # the last converged solution
+        for value in values:
+            previous = last if warm else None
+            if slots is None:
+                sol = _solve_at(strategy, compiled, float(value), previous)
+            else:
+                vals = compiled.problem.values.copy()
+                vals[slots] = value
+                problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
+                sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+            if sol.converged:
+                last = sol
+            yield sol
+
+    return (values if slots is None or len(slots) > 1 else values[:, 0]), solutions()
+
+
+_COMPONENTS = {2: {"x": [0], "y": [1], "rotation": [2]}, 3: {"x": [0], "y": [1], "z": [2], "rotation": [3, 4, 5]}}
+
+
+def _motion_dofs(mechanism, motion) -> list[int]:
+    """Component indices of ``motion = (link, component)`` within a link's DOFs."""
+    comps = _COMPONENTS[mechanism.dim]
+    if (not isinstance(motion, tuple) or len(motion) != 2 or not all(isinstance(x, str) for x in motion)
+            or motion[1] not in comps):
+        raise ParameterError(f"sweep: motion={motion!r} must be a (link, component) tuple with component one of "
+                             f"{', '.join(comps)}")
+    if motion[0] not in mechanism.links:
+        raise ModelError(f"sweep: no link named {motion[0]!r}; links: {', '.join(mechanism.links)}")
+    return comps[motion[1]]
+
+
+def _motions(values, motion, width: int) -> np.ndarray:
+    try:
+        a = None if isinstance(values, (str, bytes)) else np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        a = None
+    shape = "(n,)" if width == 1 else f"(n, {width})"
+    if a is not None and width == 1 and a.ndim == 1:
+        a = a[:, None]
+    if a is None or a.ndim != 2 or a.shape[1] != width or len(a) == 0 or not np.all(np.isfinite(a)):
+        raise ParameterError(f"sweep: values of motion {motion!r} must be finite numbers of shape {shape}, got "
+                             f"{values!r}")
+    return a
+
+
+def _prescribed_slots(compiled, motion, comps) -> np.ndarray:
+    """Positions of the swept DOFs in ``compiled.problem.prescribed``."""
+    problem = compiled.problem
+    dofs = problem.model.node_dofs[compiled.link_node[motion[0]]][comps]
+    if not np.all(np.isin(dofs, problem.prescribed)):
+        raise ModelError(f"sweep: the {motion[1]} of link {motion[0]!r} is not prescribed; prescribe it first, "
+                         f"e.g. Mechanism.prescribe({motion[0]!r}, {motion[1]}=0.0)")
+    if any(np.isin(dofs, d).any() for d, _ in getattr(problem, "rotation_paths", ())):
+        raise ModelError(f"sweep: link {motion[0]!r} has a chain of rotations prescribed; sweep a single rotation "
+                         f"vector instead")
+    return np.searchsorted(problem.prescribed, dofs)
+
+
+def _warm_starts(strategy) -> bool:
+    """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies)."""
+    import inspect
+
+    try:
+        return "state" in inspect.signature(strategy.solve).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 def _forces(owner: str, forces) -> np.ndarray:
@@ -68,12 +161,89 @@ def _forces(owner: str, forces) -> np.ndarray:
     return values
 
 
+def _solve(strategy, compiled, previous=None):
+    if previous is None or not _warm_starts(strategy):
+        return strategy.solve(compiled)
+    return strategy.solve(compiled, state=previous.state)
+
+
 def _solve_at(strategy, compiled, value: float, previous=None):
     """Solve at actuation ``value``, from the converged ``previous`` solution if given."""
     # a load-stepping strategy steps the load from where ``previous`` was in equilibrium
     start = None if previous is None else previous.compiled.problem.loads
     problem = compiled.problem.with_loads(_with_actuation(compiled, value), start=start)
-    return strategy.solve(attrs.evolve(compiled, problem=problem), state=None if previous is None else previous.state)
+    return _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+
+
+class SweepResult(Sequence):
+    """The solutions of a `sweep` (a sequence: ``len``, indexing, iteration) with ``values``, the
+    swept quantity's name ``quantity`` (``"force"`` or ``"link.component"``) and `table`."""
+
+    def __init__(self, solutions: list, values: np.ndarray, quantity: str):
+        self.solutions, self.values, self.quantity = solutions, values, quantity
+
+    def __getitem__(self, i):
+        return self.solutions[i]
+
+    def __len__(self) -> int:
+        return len(self.solutions)
+
+    def __repr__(self) -> str:
+        ok = sum(s.converged for s in self.solutions)
+        return f"SweepResult({len(self)} solves of {self.quantity}, {ok} converged)"
+
+    @property
+    def converged(self) -> np.ndarray:
+        return np.array([s.converged for s in self.solutions])
+
+    def table(self, links=None, points=()) -> Table:
+        """Results as a `flexmb.table.Table` of 1-D arrays, one row per value.
+
+        Columns: the swept value(s) (``"force"`` [N], or e.g. ``"B.x"``, ``"B.rotation"``, 3D
+        rotations as ``"B.rotation_x"`` ...), ``converged``, ``iterations``, ``time`` [s]; for every
+        link in ``links`` (default: all) its position ``"<link>.x"`` ... [m], rotation
+        ``"<link>.rotation"`` (2D) or rotation vector ``"<link>.rotation_x"`` ... [rad], and for
+        links with a fixed or prescribed DOF the reaction ``"<link>.Fx"`` ... [N],
+        ``"<link>.Mz"`` ... [N m]; for every named point in ``points`` its position [m]. Write it
+        with ``.to_csv(path)``; ``pandas.DataFrame(result.table())`` makes a data frame.
+        """
+        sols = self.solutions
+        compiled = sols[0].compiled
+        dim = sols[0].dim
+        axes = "xyz"[:dim]
+        cols = {}
+        vals = self.values.reshape(len(sols), -1)
+        names = [self.quantity] if vals.shape[1] == 1 else [f"{self.quantity}_{a}" for a in "xyz"]
+        cols.update({n: vals[:, i] for i, n in enumerate(names)})
+        cols["converged"] = self.converged
+        cols["iterations"] = np.array([s.iterations for s in sols])
+        cols["time"] = np.array([s.wall_time.get("total", np.nan) for s in sols])
+        links = list(compiled.link_node) if links is None else list(links)
+        problem = compiled.problem
+        held = set(np.asarray(problem.prescribed) // problem.model.ndof)
+        for link in links:
+            pos = np.array([s.pose(link)[0] for s in sols])
+            rot = np.array([s.rotation_vector(link) for s in sols])
+            cols.update({f"{link}.{a}": pos[:, i] for i, a in enumerate(axes)})
+            if dim == 2:
+                cols[f"{link}.rotation"] = rot[:, 0]
+            else:
+                cols.update({f"{link}.rotation_{a}": rot[:, i] for i, a in enumerate(axes)})
+            if compiled.link_node[link] in held:
+                w = np.array([s.reaction(link) for s in sols])
+                labels = [f"F{a}" for a in axes] + (["Mz"] if dim == 2 else [f"M{a}" for a in axes])
+                cols.update({f"{link}.{n}": w[:, i] for i, n in enumerate(labels)})
+        for name in points:
+            owner = compiled.points.get(name, (None,))[0]
+            if owner is None:
+                raise ModelError(f"no point named {name!r}; points: {', '.join(compiled.points) or 'none'}")
+            xyz = np.array([s.point(owner, name) for s in sols])
+            cols.update({f"{name}.{a}": xyz[:, i] for i, a in enumerate(axes)})
+        return Table(cols)
+
+    def to_csv(self, path, links=None, points=()):
+        """``self.table(links, points).to_csv(path)``; returns the path."""
+        return self.table(links, points).to_csv(path)
 
 
 def tangent_stiffness(mechanism, solution=None, terms: bool = False, *, method: str | None = None):

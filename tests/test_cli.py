@@ -105,3 +105,79 @@ def test_fourbar_example_prints_figs_10_and_12(tmp_path, capsys):
     assert "F / F_lin" in out and "Fig. 12" in out
     c = res["curve3"]
     assert np.all(np.abs(c["ksd-reduced"] / c["conventional"] - 1) < 4e-3)
+
+
+# -- flexmb solve / run / bench ------------------------------------------------------------
+
+def test_solve_json_parses_and_carries_the_solution(capsys):
+    import json
+
+    import flexmb
+
+    assert cli.main(["solve", "cross_flexure", "--param", "rotation=0.5", "--param", "dim=2", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    ref = flexmb.solve(flexmb.models.cross_flexure_pivot(rotation=0.5, dim=2))
+    assert report["converged"] is True and report["case"] == "cross_flexure"
+    assert report["parameters"] == {"rotation": 0.5, "dim": 2}
+    assert report["iterations"] == ref.iterations
+    np.testing.assert_allclose(report["links"]["B"]["reaction"], ref.reaction("B"), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(report["links"]["B"]["position"], ref.pose("B")[0], rtol=0, atol=1e-15)
+
+
+def test_solve_with_another_method_and_a_solver_option(capsys):
+    import json
+
+    assert cli.main(["solve", "fourbar", "--method", "ksd-full", "--param", "displacement=0.05",
+                     "--param", "elements_per_leaf=1", "--option", "tol=1e-7", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["method"] == "ksd-full" and report["residual_history"][-1] < 1e-7
+
+
+def test_solve_that_does_not_converge_prints_the_result_and_exits_1(capsys):
+    import json
+
+    code = cli.main(["solve", "cross_flexure", "--param", "rotation=1.2", "--param", "dim=2",
+                     "--option", "max_iter=1", "--option", "min_step=0.5", "--json"])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert json.loads(captured.out)["converged"] is False
+    assert captured.err.startswith("flexmb: error: cross_flexure did not converge")
+
+
+def test_solve_with_an_unknown_parameter_names_it_in_one_line(capsys):
+    assert cli.main(["solve", "fourbar", "--param", "bogus=1"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "bogus" in err
+
+
+def test_solve_help_and_unknown_case_are_usage(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["solve", "--help"])
+    assert exc.value.code == 0 and "--json" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["solve", "no-such-case"])
+    assert exc.value.code == 2
+
+
+def test_run_executes_a_script_with_its_arguments(tmp_path, capsys):
+    script = tmp_path / "case.py"
+    script.write_text("import sys\nprint('args', sys.argv[1:])\nsys.exit(int(sys.argv[1]))\n")
+    assert cli.main(["run", str(script), "0"]) == 0
+    assert "args ['0']" in capsys.readouterr().out
+    assert cli.main(["run", str(script), "3"]) == 3
+    assert cli.main(["run", str(tmp_path / "missing.py")]) == 1
+    assert "no script" in capsys.readouterr().err
+
+
+def test_bench_lists_and_regenerates_benchmarks_md_in_a_checkout(tmp_path, capsys):
+    import shutil
+
+    shutil.copytree(ROOT / "benchmarks", tmp_path / "benchmarks")
+    assert cli.main(["bench", "--list", "--root", str(tmp_path)]) == 0
+    assert capsys.readouterr().out.split() == ["core", "fourbar", "gripper", "manipulator"]
+    assert cli.main(["bench", "--quick", "--only", "core", "--root", str(tmp_path)]) == 0
+    text = (tmp_path / "BENCHMARKS.md").read_text()
+    assert "<!-- begin core -->" in text and "<!-- begin fourbar -->" not in text
+    assert cli.main(["bench", "--only", "nope", "--root", str(tmp_path)]) == 1
+    assert cli.main(["bench", "--root", str(tmp_path / "empty")]) == 1
+    assert "no benchmarks/bench_*.py" in capsys.readouterr().err

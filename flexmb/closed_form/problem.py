@@ -96,6 +96,13 @@ class LinkageProblem(BoundaryConditions):
         out.set_loads(loads)
         return out
 
+    def with_motion(self, values: np.ndarray, start: State | None = None) -> LinkageProblem:
+        """A copy with other prescribed ``values``; ``start`` is accepted for the interface of
+        `flexmb.problem.StaticProblem.with_motion` and not needed (`prescribed_state` sets them)."""
+        out = copy.copy(self)
+        out.values = np.asarray(values, dtype=float)
+        return out
+
     def prescribed_state(self, state: State) -> State:
         """``state`` with the prescribed DOFs set to their values."""
         q = np.concatenate([state.positions - self.model.x0, state.rotations[:, None]], axis=1).ravel()

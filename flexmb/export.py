@@ -1,0 +1,326 @@
+"""Deformed configurations as VTK files for ParaView (optional extra ``export``: meshio).
+
+`to_meshio` turns a finite-element `Solution` into a `meshio.Mesh`; `write_vtk` writes one
+configuration (``.vtu``, XML unstructured grid, or legacy ``.vtk``); `write_series` writes a
+sweep as numbered ``.vtu`` files and a ParaView collection (``.pvd``) that plays them as
+time steps.
+
+Mesh layout
+-----------
+Points
+    Every point of the finite-element model, in the order of `Solution.node_positions`
+    (link reference points first, then each joint's points), in 3D coordinates [m]; planar
+    models get z = 0.
+Cells
+    Two blocks of ``"line"`` cells: first the beam elements, in the model's element order, then
+    the rigid connections, one line from the reference point of each rigid body (a link, or a
+    rigid intermediate body inside a joint such as `ThreeXInfinity`'s) to every other point
+    attached to it, so that connector blocks and link arms show as thin lines. Points that
+    coincide with their body's reference point get no line. The VTK formats do not keep
+    blocks, so a file read back holds one ``"line"`` block: the beams first, then the rigid
+    lines (tell them apart by ``kind``).
+Point data
+    ``"displacement"`` [m] (P, 3): current minus undeformed position, z = 0 in 2D;
+    ``"rotation"`` [rad] (P, 3): rotation vector of the body (FE node) the point is attached
+    to, relative to the undeformed configuration; ``(0, 0, angle)`` in 2D.
+Cell data
+    ``"kind"``: 0 beam element, 1 rigid connection; ``"joint"``: index of the joint owning the
+    cell (order of ``mesh.info["joints"]``, the order joints were added), -1 for the rigid
+    connections of links; ``"link"``: index of the link a rigid connection belongs to (order
+    of ``mesh.info["links"]``), -1 for beams and for rigid bodies inside joints;
+    ``"peak_stress"`` [Pa]: `Solution.peak_stress` for beams (NaN when a section lacks its
+    extreme-fibre distances), 0 for rigid connections.
+Field data
+    The solution's ``"converged"`` (1 or 0), ``"load_factor"`` and ``"iterations"``, and
+    ``"undeformed"`` (1 when the undeformed configuration was written); written into ``.vtu`` files
+    (ParaView's Information panel; meshio's VTK writers drop field data, so flexmb adds it), not
+    into legacy ``.vtk`` files. ``mesh.info`` (in memory only) also holds the method, the
+    solver message and the link and joint names.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import pathlib
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from .errors import ModelError, ParameterError, UnsupportedStrategyError, require
+from .fe.model import FEModel
+from .fe.stress import peak_normal_stress
+from .results import Solution
+from .rotations import logm_so3
+
+__all__ = ["to_meshio", "write_vtk", "write_series"]
+
+FEATURE = "flexmb.export"
+SUFFIXES = {".vtu": "vtu", ".vtk": "vtk"}  # suffix -> meshio file_format
+KIND_BEAM, KIND_RIGID = 0, 1
+
+
+def to_meshio(solution: Solution, *, undeformed: bool = False):
+    """The configuration of ``solution`` as a `meshio.Mesh` (layout: see the module docstring).
+
+    Parameters
+    ----------
+    solution
+        A finite-element solution (``method="conventional"``, ``"ksd-full"`` or
+        ``"ksd-reduced"``); a non-converged one gives the configuration at the load factor
+        reached (field data ``converged`` 0, ``load_factor`` < 1).
+    undeformed
+        Write the undeformed configuration instead: undeformed positions [m], zero
+        displacement, rotation and stress.
+
+    Returns
+    -------
+    meshio.Mesh
+        Points (P, 3) [m], two ``"line"`` cell blocks (beams, rigid connections), point, cell
+        and field data.
+
+    Raises
+    ------
+    MissingExtraError
+        meshio is not installed (``pip install 'flexmb[export]'``).
+    ParameterError
+        ``solution`` is not a `Solution`.
+    UnsupportedStrategyError
+        ``solution`` has no finite-element model (``method="newton"``).
+    """
+    meshio = require("meshio", "export", FEATURE)
+    model = _fe_model("to_meshio", solution)
+    state = model.initial_state() if undeformed else solution.state
+    P = len(model.point_master)
+
+    x = model.point_x0 if undeformed else model.point_positions(state)
+    disp = np.zeros((P, model.dim)) if undeformed else x - model.point_x0
+    if model.dim == 2:
+        rot = np.zeros((P, 3))
+        rot[:, 2] = state.rotations[model.point_master]
+    else:
+        rot = logm_so3(state.rotations)[model.point_master]
+
+    el = model.elements
+    E = len(el.L0)
+    try:
+        stress = peak_normal_stress(model, state)
+    except ModelError:  # a plugin's section without ymax / zmax: export the geometry anyway
+        stress = np.full(E, np.nan)
+
+    n_links = len(solution.compiled.link_node)
+    joint_names = list(solution.compiled.joint_elements)
+    rigid, master = _rigid_connections(model)
+    joint_of_node = np.full(model.n_nodes, -1)
+    for j, name in enumerate(joint_names):
+        joint_of_node[solution.compiled.joint_nodes.get(name, [])] = j
+    is_link = master < n_links
+
+    i32 = np.int32
+    cells = [("line", np.asarray(el.ends, dtype=np.int64))]
+    cell_data = {
+        "kind": [np.full(E, KIND_BEAM, dtype=i32)],
+        "joint": [np.asarray(el.owner, dtype=i32)],
+        "link": [np.full(E, -1, dtype=i32)],
+        "peak_stress": [np.asarray(stress, dtype=float)],
+    }
+    if len(rigid):  # an empty block would only confuse readers of cell_data
+        cells.append(("line", rigid))
+        R = len(rigid)
+        for key, value in (("kind", np.full(R, KIND_RIGID)), ("joint", joint_of_node[master]),
+                           ("link", np.where(is_link, master, -1)), ("peak_stress", np.zeros(R))):
+            cell_data[key].append(value.astype(float if key == "peak_stress" else i32))
+
+    return meshio.Mesh(
+        _pad3(x), cells,
+        point_data={"displacement": _pad3(disp), "rotation": rot},
+        cell_data=cell_data,
+        field_data={"converged": np.array([int(bool(solution.converged))], dtype=i32),
+                    "load_factor": np.array([float(solution.load_factor)]),
+                    "iterations": np.array([int(solution.iterations)], dtype=i32),
+                    "undeformed": np.array([int(bool(undeformed))], dtype=i32)},
+        info={"method": solution.method, "converged": bool(solution.converged), "undeformed": bool(undeformed),
+              "message": solution.message,
+              "links": sorted(solution.compiled.link_node, key=solution.compiled.link_node.get),
+              "joints": joint_names},
+    )
+
+
+def write_vtk(solution: Solution, path: str | os.PathLike, *, undeformed: bool = False) -> pathlib.Path:
+    """Write the configuration of ``solution`` to ``path`` for ParaView; returns ``path``.
+
+    Parameters
+    ----------
+    solution
+        A finite-element `Solution` (see `to_meshio`).
+    path
+        Output file; its suffix picks the format: ``.vtu`` (XML unstructured grid, compressed,
+        with field data) or ``.vtk`` (legacy binary). The directory must exist.
+    undeformed
+        Write the undeformed configuration (see `to_meshio`).
+
+    Raises
+    ------
+    ParameterError
+        ``path`` has another suffix, or ``solution`` is not a `Solution`.
+    UnsupportedStrategyError, MissingExtraError
+        As `to_meshio`.
+    """
+    require("meshio", "export", FEATURE)
+    path = _checked_path("write_vtk", path, SUFFIXES)
+    return _write(to_meshio(solution, undeformed=undeformed), path)
+
+
+def write_series(solutions: Iterable[Solution], path: str | os.PathLike, *,
+                 times: Sequence[float] | None = None) -> pathlib.Path:
+    """Write a sequence of solutions (a sweep) as a ParaView collection; returns ``path``.
+
+    Writes ``<stem>_0000.vtu``, ``<stem>_0001.vtu``, ... next to ``path`` (one per solution,
+    see `write_vtk`) and the collection ``path`` itself, a ``.pvd`` file listing them with their
+    time steps; open the ``.pvd`` in ParaView and step through the sweep with the time controls.
+
+    Parameters
+    ----------
+    solutions
+        Finite-element `Solution` objects, e.g. the result of `flexmb.sweep`; at least one.
+    path
+        The collection file, suffix ``.pvd``; its directory must exist.
+    times
+        Time step of each solution, e.g. the sweep's forces [N] or rotations [rad]; finite,
+        one per solution; default 0, 1, 2, ...
+
+    Raises
+    ------
+    ParameterError
+        No solutions, an item that is not a `Solution`, a suffix other than ``.pvd``, or
+        ``times`` of the wrong length or not finite.
+    UnsupportedStrategyError, MissingExtraError
+        As `to_meshio`.
+    """
+    require("meshio", "export", FEATURE)
+    path = _checked_path("write_series", path, {".pvd": None})
+    if isinstance(solutions, Solution):
+        raise ParameterError("write_series: solutions must be a sequence of Solution objects, got one "
+                             "Solution; use write_vtk for a single configuration")
+    try:
+        solutions = list(solutions)
+    except TypeError:
+        raise ParameterError(f"write_series: solutions must be a sequence of Solution objects, "
+                             f"got {type(solutions).__name__}") from None
+    if not solutions:
+        raise ParameterError("write_series: solutions is empty; give at least one Solution")
+    for i, s in enumerate(solutions):
+        _fe_model(f"write_series: solutions[{i}]", s)  # check all before writing any file
+    n = len(solutions)
+    if times is None:
+        times = list(range(n))
+    else:
+        try:
+            times = [float(t) for t in times]
+        except (TypeError, ValueError):
+            raise ParameterError(f"write_series: times must be a sequence of {n} numbers, got {times!r}") from None
+        if len(times) != n or not all(math.isfinite(t) for t in times):
+            raise ParameterError(f"write_series: times must hold {n} finite numbers (one per solution), "
+                                 f"got {len(times)}: {times!r}")
+
+    width = max(4, len(str(n - 1)))
+    root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
+    collection = ET.SubElement(root, "Collection")
+    for i, (s, t) in enumerate(zip(solutions, times)):
+        name = f"{path.stem}_{i:0{width}d}.vtu"
+        _write(to_meshio(s), path.with_name(name))
+        ET.SubElement(collection, "DataSet", timestep=repr(t), group="", part="0", file=name)
+    tree = ET.ElementTree(root)
+    ET.indent(tree)
+    tree.write(path, xml_declaration=True, encoding="utf-8")
+    return path
+
+
+# -- helpers -----------------------------------------------------------------------------------
+def _fe_model(where: str, solution) -> FEModel:
+    """The `FEModel` of ``solution``, or the error that says why there is none."""
+    if not isinstance(solution, Solution):
+        raise ParameterError(f"{where}: solution must be a flexmb Solution (from flexmb.solve), "
+                             f"got {type(solution).__name__}")
+    model = getattr(getattr(solution.compiled, "problem", None), "model", None)
+    if not isinstance(model, FEModel):
+        raise UnsupportedStrategyError(
+            f"{where}: export needs a finite-element solution, but method={solution.method!r} solved a "
+            "model without beam elements (the closed-form linkage of method='newton' has links only): "
+            "solve with method='conventional'")
+    return model
+
+
+def _checked_path(where: str, path, suffixes: dict) -> pathlib.Path:
+    try:
+        p = pathlib.Path(path)
+    except TypeError:
+        raise ParameterError(f"{where}: path must be a file path, got {type(path).__name__}") from None
+    if p.suffix.lower() not in suffixes:
+        raise ParameterError(f"{where}: path={str(p)!r} has suffix {p.suffix!r}; valid: {', '.join(suffixes)}")
+    return p
+
+
+def _write(mesh, path: pathlib.Path) -> pathlib.Path:
+    meshio = require("meshio", "export", FEATURE)
+    fmt = SUFFIXES[path.suffix.lower()]
+    meshio.write(path, mesh, file_format=fmt)
+    if fmt == "vtu":
+        _add_field_data(path, mesh)
+    return path
+
+
+def _add_field_data(path: pathlib.Path, mesh) -> None:
+    """Put ``mesh.field_data`` into the ``.vtu`` file meshio wrote (meshio 5.3 drops it) as
+    ASCII ``FieldData`` of the grid, where VTK readers (ParaView, meshio.read) look for it, and
+    a comment naming the solver."""
+    tree = ET.parse(path, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    root = tree.getroot()
+    grid = root.find("UnstructuredGrid")
+    if grid is None:  # not the layout this was written for: leave meshio's file as it is
+        return
+    fields = ET.Element("FieldData")
+    for name, value in mesh.field_data.items():
+        a = np.asarray(value).ravel()
+        vtk_type, fmt = ("Float64", repr) if a.dtype.kind == "f" else ("Int32", str)
+        arr = ET.SubElement(fields, "DataArray", type=vtk_type, Name=name, NumberOfTuples=str(a.size),
+                            format="ascii")
+        arr.text = " ".join(fmt(v.item()) for v in a)
+    fields.tail = "\n"
+    grid.insert(0, fields)
+    info = mesh.info
+    comment = ET.Comment(f"flexmb.export: method={info['method']}, converged={info['converged']}, "
+                         f"undeformed={info['undeformed']}")
+    comment.tail = "\n"
+    root.insert(0, comment)
+    tree.write(path, xml_declaration=True, encoding="utf-8")
+
+
+def _rigid_connections(model: FEModel) -> tuple[np.ndarray, np.ndarray]:
+    """Lines (R, 2) from each FE node's reference point to the other points rigidly attached to
+    it, and the node (R,) of each line.
+
+    A node's reference point is its attached point with the smallest undeformed offset (the
+    node itself: a link's reference point, or the first point of a joint's rigid body).
+    """
+    master = model.point_master
+    P = len(master)
+    offset = np.linalg.norm(model.point_offset, axis=1)
+    order = np.lexsort((np.arange(P), offset, master))  # by node, then offset, then index
+    first = np.unique(master[order], return_index=True)[1]
+    node_point = np.full(model.n_nodes, -1, dtype=np.int64)
+    node_point[master[order[first]]] = order[first]
+    # coincident points (a leaf clamped at the reference point) would give zero-length lines
+    scale = float(np.ptp(model.point_x0, axis=0).max()) if P > 1 else 0.0
+    tol = 1e-9 * (scale if scale > 0 else 1.0)
+    ref = node_point[master]
+    keep = (np.arange(P) != ref) & (np.linalg.norm(model.point_x0 - model.point_x0[ref], axis=1) > tol)
+    lines = np.stack([ref[keep], np.flatnonzero(keep)], axis=1).astype(np.int64)
+    return lines, master[keep]
+
+
+def _pad3(a: np.ndarray) -> np.ndarray:
+    """(n, 2) or (n, 3) -> (n, 3) float, z = 0 for planar models."""
+    a = np.asarray(a, dtype=float)
+    return a if a.shape[1] == 3 else np.concatenate([a, np.zeros((len(a), 3 - a.shape[1]))], axis=1)

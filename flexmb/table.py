@@ -1,0 +1,94 @@
+"""`Table`: named columns of equal length (1-D numpy arrays), the result format of sweeps and
+parameter studies; drops into numpy (``table["force"]``) and pandas (``pandas.DataFrame(table)``)
+and round-trips through CSV."""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ModelError, ParameterError
+
+__all__ = ["Table", "read_csv"]
+
+
+class Table(Mapping):
+    """Columns ``name -> 1-D array``, all of one length, in insertion order.
+
+    A read-only mapping: ``table["force"]`` is a numpy array, ``list(table)`` the column names,
+    ``len(table)`` their number and `n_rows` the number of rows.
+    """
+
+    def __init__(self, columns: Mapping):
+        self._columns = {}
+        n = None
+        for name, values in columns.items():
+            a = np.asarray(values)
+            if a.ndim != 1:
+                raise ParameterError(f"Table: column {name!r} must be one-dimensional, got shape {a.shape}")
+            if n is not None and len(a) != n:
+                raise ParameterError(f"Table: column {name!r} has {len(a)} rows, the others {n}")
+            n = len(a)
+            self._columns[str(name)] = a
+        self.n_rows = 0 if n is None else n
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self._columns[name]
+        except KeyError:
+            raise ModelError(f"no column {name!r}; columns: {', '.join(self._columns)}") from None
+
+    def __contains__(self, name) -> bool:
+        return name in self._columns
+
+    def __iter__(self):
+        return iter(self._columns)
+
+    def __len__(self) -> int:
+        return len(self._columns)
+
+    def __repr__(self) -> str:
+        return f"Table({self.n_rows} rows: {', '.join(self._columns)})"
+
+    def to_csv(self, path) -> Path:
+        """Write the columns to ``path`` (comma-separated, a header row of names, floats with 17
+        significant digits so `read_csv` gives the same numbers back). Returns the path."""
+        path = Path(path)
+        with path.open("w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(self._columns)
+            cols = [c.tolist() for c in self._columns.values()]
+            for row in zip(*cols):
+                w.writerow([repr(v) if isinstance(v, float) else v for v in row])
+        return path
+
+
+def read_csv(path) -> Table:
+    """Read a `Table.to_csv` file back: columns of integers, floats (``nan``/``inf`` included),
+    booleans or text, each as the narrowest of those that holds every entry."""
+    path = Path(path)
+    try:
+        with path.open(newline="") as f:
+            rows = list(csv.reader(f))
+    except OSError as exc:
+        raise ParameterError(f"read_csv: cannot read {str(path)!r}: {exc.strerror}") from None
+    if not rows:
+        raise ParameterError(f"read_csv: {str(path)!r} is empty (expected a header row)")
+    head, body = rows[0], rows[1:]
+    if any(len(r) != len(head) for r in body):
+        raise ParameterError(f"read_csv: {str(path)!r}: every row must have {len(head)} fields")
+    return Table({name: _parse([r[i] for r in body]) for i, name in enumerate(head)})
+
+
+def _parse(cells: list[str]) -> np.ndarray:
+    if cells and all(c in ("True", "False") for c in cells):
+        return np.array([c == "True" for c in cells])
+    for kind in (int, float):
+        try:
+            return np.array([kind(c) for c in cells], dtype=kind)
+        except ValueError:
+            pass
+    return np.array(cells, dtype=object)

@@ -4,13 +4,16 @@ Prints, for a single 3D cross flexure, the moment over M_lin (Eq. 4.3) of the fu
 the EOB with the default and four times wider outer leaves (the database belongs to the default
 joint), and the z displacement and scaled moment under a large force along z on node B.
 
-Run: python examples/eob_limits.py
+Run: python examples/eob_limits.py [--out figures]   (writes eob_limits.png with matplotlib)
 """
+
+import argparse
+from pathlib import Path
 
 from flexmb import eob_case as ec
 
 
-def main() -> dict:
+def main(out: Path | None = None) -> dict:
     w = ec.outer_width_study()
     print("Fig. 7b: M / M_lin, 2 el./leaf (database trained with w2 = 0.02 m)")
     print(f"{'deg':>4s}" + "".join(f"{'FE w2=' + str(k):>13s}{'EOB':>9s}{'diff':>8s}" for k in (0.02, 0.08)))
@@ -25,8 +28,23 @@ def main() -> dict:
         r = z[deg]
         for k, F in enumerate(z["forces"]):
             print(f"{deg:4.0f} {F:5.1f} {r['z_fe'][k]:9.5f} {r['z_eob'][k]:9.5f} {r['M_fe'][k]:8.4f} {r['M_eob'][k]:8.4f}")
+    if out is not None:
+        try:
+            from flexmb import plot
+
+            ax = None
+            for k in (0.02, 0.08):
+                ax = plot.plot_force_curve(w["degrees"], w[k]["fe"], reference=w[k]["eob"], label=f"FE, w2 = {k} m",
+                                           reference_label=f"EOB, w2 = {k} m", xlabel="rotation [deg]",
+                                           ylabel="M / M_lin (Eq. 4.3)", ax=ax)
+            ax.set_title("Fig. 7b: EOB of a database trained with w2 = 0.02 m")
+            print(f"\nfigure: {plot.save(ax, Path(out) / 'eob_limits.png')}")
+        except ImportError:
+            print("\n(no figure: install the plot extra)")
     return {"width": w, "z": z}
 
 
 if __name__ == "__main__":
-    main()
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="figures", help="folder for eob_limits.png (default: ./figures)")
+    main(Path(ap.parse_args().out))

@@ -38,29 +38,71 @@ def _demo(args) -> int:
     print(f"\nend-moment cantilever, 8 elements, 180 deg: tip error {err:.6e} L, closed form {pred:.6e} L, "
           f"{its} iterations")
     gripper = _demo_gripper(args.quick)
-    _demo_fourbar(args.quick)
+    fourbar_rows = _demo_fourbar(args.quick)
+    manipulator_rows = _demo_manipulator(args.quick)
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        demo.plot_cross_flexure(curves, reference, out / "cross_flexure.png")
-        from . import gripper_case as g
-
-        g.plot_comparison({"silicon": gripper}, out / "gripper_models.png")
-        print(f"\nfigures: {out / 'cross_flexure.png'}, {out / 'gripper_models.png'}")
+        written = _demo_figures(out, curves, reference, gripper, fourbar_rows, manipulator_rows)
+        print("\nfigures: " + ", ".join(str(p) for p in written))
     except ImportError:
         print("\n(no figures: install the plot extra, pip install 'flexmb[plot]')")
     return 0
 
 
-def _demo_fourbar(quick: bool) -> None:
+def _demo_figures(out: Path, curves, reference, gripper, fourbar_rows, manipulator_rows) -> list:
+    """The demo's PNG figures (needs matplotlib); returns their paths."""
+    from . import demo, models, plot
+    from . import gripper_case as g
+    from . import manipulator_case as mc
+    from .solvers import solve
+
+    paths = [out / "cross_flexure.png", out / "gripper_models.png"]
+    demo.plot_cross_flexure(curves, reference, paths[0])
+    g.plot_comparison({"silicon": gripper}, paths[1])
+    sol = solve(models.fourbar(elements_per_leaf=3, displacement=0.3), method="ksd-full")
+    ax = plot.plot_mechanism(sol)
+    ax.view_init(elev=65, azim=-90)  # nearly from above: the four-bar moves in its x-y plane
+    ax.set_title("Four-bar, d = 0.3 m (KSD-full)")
+    paths.append(plot.save(ax, out / "fourbar_shape.png"))
+    last = max(r["elements_per_leaf"] for r in fourbar_rows)
+    axes = plot.plot_strategies([r for r in fourbar_rows if r["elements_per_leaf"] == last])
+    axes[0].set_title(f"Four-bar, {last} el./leaf")
+    paths.append(plot.save(axes, out / "fourbar_strategies.png"))
+    sol = solve(models.manipulator("joint", np.radians(30.0)), method="ksd-full")
+    ax = plot.plot_mechanism(sol, labels=False)
+    ax.set_title("Manipulator of three three_x_infinity joints, 30 deg (KSD-full)")
+    paths.append(plot.save(ax, out / "manipulator_shape.png"))
+    mc.plot_study(manipulator_rows, out / "manipulator_fig15.png")
+    paths.append(out / "manipulator_fig15.png")
+    return paths
+
+
+def _demo_manipulator(quick: bool) -> list:
+    """The spatial manipulator of Dwarshuis et al. (2020), Sec. 4.4: conventional vs KSD (Fig. 15)."""
+    from . import manipulator_case as mc
+
+    degrees = (-45, 0, 45) if quick else (-45, -30, -15, 0, 15, 30, 45)
+    print("\nManipulator of three three_x_infinity joints, Dwarshuis et al. (2020) Sec. 4.4, joint case")
+    print(f"{'rotation':>8s} {'method':>13s} {'iterations':>11s} {'time [ms]':>10s} {'speed-up':>9s}")
+    rows = mc.study(degrees, cases=("joint",), repeats=1)
+    for r in rows:
+        print(f"{r['rotation']:7d}° {r['method']:>13s} {r['iterations']:11d} {r['time'] * 1e3:10.1f} "
+              f"{r['speedup']:8.1f}x")
+    return rows
+
+
+def _demo_fourbar(quick: bool) -> list:
     """The four-bar of Dwarshuis et al. (2020), Sec. 4.3: conventional method against KSD (Fig. 11)."""
     from . import fourbar_case as fc
 
     print("\nFour-bar of four cross flexures, Dwarshuis et al. (2020) Sec. 4.3, d = 0.3 m: conventional vs KSD")
     print(f"{'el./leaf':>8s} {'method':>13s} {'F [N]':>10s} {'iterations':>11s} {'time [ms]':>10s} {'speed-up':>9s}")
-    for r in fc.speed_study((1, 3) if quick else (1, 3, 5), repeats=1 if quick else 3):
+    rows = fc.speed_study((1, 3) if quick else (1, 3, 5), repeats=1 if quick else 3)
+    for r in rows:
         print(f"{r['elements_per_leaf']:8d} {r['method']:>13s} {r['force']:10.4f} {r['iterations']:11d} "
               f"{r['time'] * 1e3:10.1f} {r['speedup']:8.1f}x")
+    return rows
 
 
 def _demo_gripper(quick: bool) -> dict:

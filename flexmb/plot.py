@@ -30,7 +30,7 @@ import numpy as np
 from . import _validate as v
 from .errors import ModelError, ParameterError, require
 
-__all__ = ["plot_mechanism", "plot_force_curve", "plot_trajectory", "plot_strategies", "save"]
+__all__ = ["plot_mechanism", "plot_force_curve", "plot_trajectory", "plot_strategies", "plot_map", "save"]
 
 # Styles of the two configurations: the undeformed one recedes (light grey, dashed).
 _STYLE = {
@@ -473,6 +473,41 @@ def plot_strategies(records, ax=None):
         a.set_ylabel(ylabel)
     axes[1].set_yscale("log")
     return axes
+
+
+def plot_map(table, x: str, y: str, value: str, *, ax=None, label: str | None = None, log: bool = False):
+    """A map of ``table[value]`` over a full grid of two inputs (a `flexmb.study.grid` study).
+
+    ``table`` is a `flexmb.Table` (or mapping of 1-D arrays) with one row per grid point;
+    ``x``, ``y``, ``value`` name its columns. Drawn as coloured cells (``pcolormesh``,
+    ``gid="map"``) with a colour bar labelled ``label`` (default ``value``); ``log`` colours
+    by log10 of the value. Returns the axes.
+    """
+    owner = "plot_map"
+    mfig = _figure_module(owner)
+    if not isinstance(table, Mapping):
+        raise ParameterError(f"{owner}: table must be a flexmb.Table or a mapping of columns, got "
+                             f"{type(table).__name__}")
+    cols = {}
+    for name in (x, y, value):
+        if name not in table:
+            raise ParameterError(f"{owner}: no column {name!r}; columns: {', '.join(table)}")
+        cols[name] = _series(owner, name, table[name])
+    xs, ys = np.unique(cols[x]), np.unique(cols[y])
+    if len(cols[x]) != len(xs) * len(ys):
+        raise ParameterError(f"{owner}: {x!r} and {y!r} do not form a full grid ({len(cols[x])} rows for "
+                             f"{len(xs)} x {len(ys)} values)")
+    Z = np.full((len(ys), len(xs)), np.nan)
+    Z[np.searchsorted(ys, cols[y]), np.searchsorted(xs, cols[x])] = cols[value]
+    if np.isnan(Z).any():
+        raise ParameterError(f"{owner}: {x!r} and {y!r} do not form a full grid (repeated pairs)")
+    log = _flag(owner, "log", log)
+    ax = _axes(owner, mfig, ax, 2, (5.0, 4.0))
+    mesh = ax.pcolormesh(xs, ys, np.log10(Z) if log else Z, shading="nearest", gid="map")
+    ax.figure.colorbar(mesh, ax=ax, label=(f"log10 {label or value}" if log else label or value))
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
+    return ax
 
 
 def save(ax_or_fig, path, dpi: float = 120) -> Path:

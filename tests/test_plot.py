@@ -313,3 +313,38 @@ def test_plots_need_no_display_and_no_pyplot(tmp_path):
     env = {k: val for k, val in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "MPLBACKEND")}
     subprocess.run([sys.executable, "-c", code], check=True, env=env, cwd=os.getcwd(), timeout=60)
     assert (tmp_path / "fresh.png").stat().st_size > 10_000
+
+
+# -- maps of parameter studies -------------------------------------------------------------------
+
+def test_map_cells_hold_the_table_values_on_their_grid(tmp_path):
+    table = flexmb.Table({"t": [1.0, 1.0, 2.0, 2.0], "a": [0.1, 0.2, 0.1, 0.2], "k": [1.0, 2.0, 3.0, 4.0]})
+    ax = plot.plot_map(table, "t", "a", "k")
+    (mesh,) = _artists(ax, "map")
+    # rows are the y values (a), columns the x values (t)
+    np.testing.assert_array_equal(np.asarray(mesh.get_array()).reshape(2, 2), [[1.0, 3.0], [2.0, 4.0]])
+    assert plot.save(ax, tmp_path / "map.png").stat().st_size > 5_000
+
+
+def test_map_rejects_missing_columns_and_incomplete_grids():
+    with pytest.raises(ParameterError, match="no column 'z'"):
+        plot.plot_map({"t": [1.0], "a": [1.0]}, "t", "a", "z")
+    with pytest.raises(ParameterError, match="full grid"):
+        plot.plot_map({"t": [1.0, 2.0, 2.0], "a": [0.1, 0.2, 0.1], "k": [1.0, 2.0, 3.0]}, "t", "a", "k")
+
+
+def test_stiffness_map_example_writes_its_table_and_figure(tmp_path, capsys):
+    """examples/stiffness_map.py: a 3 x 3 study, serial and in a process pool, identical numbers."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "ex_stiffness_map", Path(__file__).resolve().parents[1] / "examples" / "stiffness_map.py")
+    ex = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ex)
+    res = ex.run(tmp_path, quick=True)
+    out = capsys.readouterr().out
+    assert out.count("identical to the serial run") == 2
+    back = flexmb.read_csv(tmp_path / "stiffness_map.csv")
+    np.testing.assert_array_equal(back["k_rotation"], res["results"]["serial"]["k_rotation"])
+    assert (tmp_path / "stiffness_map.png").stat().st_size > 10_000

@@ -1,0 +1,87 @@
+"""Parameter study: rotational stiffness and support of a cross flexure over leaf thickness x leaf angle.
+
+Every design is one `flexmb.analysis.joint_properties` call (the Table 1 cross flexure of
+Dwarshuis et al. 2020 with the thickness and the leaf angle changed, 3 elements per leaf, at
+20 deg of rotation): the rotational stiffness [N m/rad] condensed onto node B, the weakest
+support ratio of z and the two tilts (`flexmb.analysis.support_ratios`; x and y are left out:
+with the rotation free, a force at B turns the pivot about the leaves' crossing, D0/2 below B,
+so their ratio is about (D0 / (D0/2))^2 = 4 whatever the design) and the peak stress. The designs run in an embedded local process pool and, with
+``--dask``, on a dask.distributed LocalCluster (the same code drives a real cluster: pass
+``Client("scheduler-address").get_executor()``); both give the serial numbers exactly.
+
+Run: python examples/stiffness_map.py [--out figures] [--dask] [--quick]
+Writes stiffness_map.csv and stiffness_map.png to --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import time
+from pathlib import Path
+
+import numpy as np
+
+from flexmb.analysis import joint_properties
+from flexmb.study import grid, parameter_study
+
+DESIGN = functools.partial(joint_properties, "cross_flexure", rotation=np.radians(20.0), elements_per_leaf=3)
+
+
+def designs(quick: bool = False) -> list[dict]:
+    n = 3 if quick else 6
+    return grid(thickness=np.linspace(0.1e-3, 0.4e-3, n), angle=np.radians(np.linspace(20.0, 70.0, n)))
+
+
+def run(out: Path, quick: bool = False, use_dask: bool = False) -> dict:
+    cases = designs(quick)
+    results, times = {}, {}
+    runs = [("serial", "serial"), ("process pool", None)]
+    if use_dask:
+        from distributed import Client, LocalCluster
+
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=":0")
+        client = Client(cluster)
+        runs.append(("dask LocalCluster", client.get_executor()))
+    try:
+        for name, executor in runs:
+            t = time.perf_counter()
+            results[name] = parameter_study(DESIGN, cases, executor=executor)
+            times[name] = time.perf_counter() - t
+    finally:
+        if use_dask:
+            client.close()
+            cluster.close()
+    table = results["serial"]
+    support = np.min([table[k] for k in ("z", "tilt_x", "tilt_y")], axis=0)
+    print(f"{len(cases)} designs of the cross flexure at 20 deg (3 el./leaf):")
+    print(f"{'t [mm]':>7s} {'angle [deg]':>11s} {'k [N m/rad]':>12s} {'min support':>12s} {'stress [MPa]':>13s}")
+    for i in range(table.n_rows):
+        print(f"{table['thickness'][i] * 1e3:7.3f} {np.degrees(table['angle'][i]):11.1f} {table['k_rotation'][i]:12.5f}"
+              f" {support[i]:12.1f} {table['stress'][i] / 1e6:13.1f}")
+    for name, seconds in times.items():
+        same = all(np.array_equal(results[name][k], table[k]) for k in table)
+        print(f"{name:>18s}: {seconds:6.2f} s, numbers {'identical to' if same else 'DIFFERENT from'} the serial run")
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / "stiffness_map.csv")
+    try:
+        from flexmb import plot
+
+        ax = plot.plot_map(table, "thickness", "angle", "k_rotation", label="k_rotation [N m/rad]", log=True)
+        ax.set_xlabel("leaf thickness [m]")
+        ax.set_ylabel("leaf angle [rad]")
+        ax.set_title("Cross flexure at 20 deg: rotational stiffness")
+        plot.save(ax, out / "stiffness_map.png")
+        print(f"figure: {out / 'stiffness_map.png'}; table: {out / 'stiffness_map.csv'}")
+    except ImportError:
+        print("(no figure: install the plot extra)")
+    return {"results": results, "times": times}
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="figures")
+    ap.add_argument("--dask", action="store_true", help="also run on a dask.distributed LocalCluster")
+    ap.add_argument("--quick", action="store_true", help="a 3 x 3 grid instead of 6 x 6")
+    args = ap.parse_args()
+    run(Path(args.out), args.quick, args.dask)

@@ -40,6 +40,7 @@ class Placement:
     rotation: np.ndarray
 
     def to_global(self, local: np.ndarray) -> np.ndarray:
+        """Points (..., dim) [m] of the joint frame in global coordinates."""
         return self.origin + local @ self.rotation.T
 
 
@@ -86,13 +87,16 @@ class Mechanism:
     # -- building ----------------------------------------------------------------------------
     @property
     def links(self) -> dict[str, Link]:
+        """The links by name, in the order they were added."""
         return {n: d["link"] for n, d in self.graph.nodes(data=True)}
 
     @property
     def joints(self) -> dict[str, Joint]:
+        """The joints by name, in the order they were added."""
         return {k: d["joint"] for _, _, k, d in self.graph.edges(keys=True, data=True)}
 
     def link(self, name: str) -> Link:
+        """The `Link` called ``name`` (`ModelError` listing the links if there is none)."""
         try:
             return self.graph.nodes[name]["link"]
         except (KeyError, TypeError):
@@ -194,6 +198,7 @@ class Mechanism:
         self._prescribed[name] = current
 
     def prescribed(self, name: str) -> dict:
+        """A copy of the prescribed components of link ``name`` (``{"x": ..., "rotation": ...}``)."""
         return dict(self._prescribed.get(name, {}))
 
     def apply_force(self, name: str, force, point=None) -> None:

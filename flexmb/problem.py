@@ -48,6 +48,7 @@ class BoundaryConditions:
 
     @property
     def n_free(self) -> int:
+        """Number of free DOFs."""
         return len(self.free)
 
 
@@ -203,6 +204,7 @@ class StaticProblem(BoundaryConditions):
         return du
 
     def full_increment(self, du_free: np.ndarray, du_pres: np.ndarray) -> np.ndarray:
+        """The increment of every DOF from its free and prescribed parts."""
         du = np.zeros(self.model.n_dofs)
         du[self.free] = du_free
         du[self.prescribed] = du_pres

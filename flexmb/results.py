@@ -61,6 +61,7 @@ class Solution:
 
     @property
     def dim(self) -> int:
+        """2 (planar) or 3 (spatial)."""
         return self.compiled.problem.model.dim
 
     def _node(self, link: str) -> int:

@@ -48,7 +48,8 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
     if not callable(function):
         raise ParameterError(f"parameter_study: function must be callable, got {function!r}")
     if isinstance(designs, Mapping) or not all(isinstance(d, Mapping) for d in designs):
-        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
+        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. "
+                             "flexmb.study.grid(...)")
     designs = [dict(d) for d in designs]
     if not designs:
         raise ParameterError("parameter_study: designs is empty")

@@ -194,6 +194,7 @@ class SweepResult(Sequence):
 
     @property
     def converged(self) -> np.ndarray:
+        """Whether each solve converged, (n,) bool."""
         return np.array([s.converged for s in self.solutions])
 
     def table(self, links=None, points=()) -> Table:

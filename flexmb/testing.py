@@ -375,25 +375,32 @@ class JointConformance:
             given(st.tuples(joints(cls), st.just(dim), placements(dim), motion, *extra))(self._settings()(check))()
 
     def test_rest(self):
+        """`check_rest`: zero residual, symmetric positive definite tangent at rest."""
         self._run(lambda j, dim, pl, mo: check_rest(j, dim))
 
     def test_tangent_matches_finite_differences(self):
+        """`check_tangent`: analytic tangent = central differences in deformed states."""
         from hypothesis import strategies as st
 
         self._run(lambda j, dim, pl, mo, seed: check_tangent(j, dim, pl[0], pl[1], motion=mo, seed=seed),
                   st.integers(0, 2**16))
 
     def test_rigid_motion_gives_no_force(self):
+        """`check_rigid_motion`: a rigid motion of the whole joint gives no internal force."""
         self._run(lambda j, dim, pl, mo: check_rigid_motion(j, dim, pl[0], pl[1]))
 
     def test_frame_invariance(self):
+        """`check_frame_invariance`: a moved and turned mechanism gives the moved and turned solution."""
         self._run(lambda j, dim, pl, mo: check_frame_invariance(j, dim, pl[0], pl[1], motion=mo))
 
     def test_maxwell_betti_reciprocity(self):
+        """`check_reciprocity`: the small-load compliance is symmetric (Maxwell-Betti)."""
         self._run(lambda j, dim, pl, mo: check_reciprocity(j, dim, pl[1]))
 
     def test_work_equals_stored_energy(self):
+        """`check_energy`: the work of a load along its path equals the stored strain energy."""
         self._run(lambda j, dim, pl, mo: check_energy(j, dim, pl[1]))
 
     def test_every_strategy_solves_or_refuses_cleanly(self):
+        """`check_strategies`: every strategy solves the joint or raises its documented error."""
         self._run(lambda j, dim, pl, mo: check_strategies(j, dim, motion=mo))

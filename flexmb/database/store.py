@@ -51,6 +51,7 @@ class Polynomial:
         return (t[..., None] ** self.powers) @ np.asarray(self.coefficients).T
 
     def derivative(self, t) -> np.ndarray:
+        """d/dt of the polynomial at ``t`` (same shape as `__call__`)."""
         t = np.asarray(t, dtype=float)
         p = self.powers
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -58,6 +59,7 @@ class Polynomial:
         return basis @ np.asarray(self.coefficients).T
 
     def to_json(self) -> dict:
+        """The polynomial as a JSON-ready dict (powers, coefficients, max_residual)."""
         return {"powers": self.powers.tolist(), "coefficients": np.asarray(self.coefficients).tolist(),
                 "max_residual": self.max_residual}
 
@@ -107,12 +109,14 @@ class JointData:
             warnings.warn(msg + "; the fits are extrapolated", ExtrapolationWarning, stacklevel=3)
 
     def function(self, name: str) -> Polynomial:
+        """The fitted constraint function ``name`` (e.g. ``"x"``); `DatabaseError` naming those held if absent."""
         try:
             return self.functions[name]
         except KeyError:
             raise DatabaseError(f"{self.kind} database holds {sorted(self.functions)}, not {name!r}") from None
 
     def to_json(self) -> dict:
+        """The whole record as a JSON-ready dict (format name and version, joint, fits, checksum)."""
         from .. import __version__
 
         body = {"format": FORMAT, "format_version": FORMAT_VERSION, "flexmb_version": __version__,
@@ -144,6 +148,7 @@ def mesh_hash(joint, dim: int) -> str:
 
 
 def save(data: JointData, path) -> Path:
+    """Write ``data`` as JSON to ``path`` (format of `JointData.to_json`); returns the path."""
     path = Path(path)
     path.write_text(json.dumps(data.to_json(), indent=1, sort_keys=True) + "\n")
     return path
@@ -185,6 +190,7 @@ def data_path() -> Path:
 
 
 def file_name(kind: str, dim: int, key: dict) -> str:
+    """The file name of a database: ``<kind>-<dim>d-<key items>.json`` (keys sorted)."""
     parts = "-".join(f"{k}{_fmt(v)}" for k, v in sorted(key.items()))
     return f"{kind}-{dim}d-{parts}.json"
 

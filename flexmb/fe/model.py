@@ -32,6 +32,7 @@ class State:
     rotations: np.ndarray
 
     def copy(self) -> State:
+        """An independent copy (positions and rotations copied)."""
         return State(self.positions.copy(), self.rotations.copy())
 
 
@@ -76,10 +77,12 @@ class FEModel:
 
     # -- configuration -------------------------------------------------------------------
     def initial_state(self) -> State:
+        """The undeformed configuration: reference positions [m], zero rotations."""
         rot = np.zeros(self.n_nodes) if self.dim == 2 else np.tile(np.eye(3), (self.n_nodes, 1, 1))
         return State(self.x0.copy(), rot)
 
     def rotation_matrices(self, state: State) -> np.ndarray:
+        """Nodal rotation matrices (N, 2, 2) in 2D or (N, 3, 3) in 3D."""
         return rot2(state.rotations) if self.dim == 2 else state.rotations
 
     def offsets(self, state: State, master: np.ndarray, offset0: np.ndarray) -> np.ndarray:

@@ -100,6 +100,7 @@ class Joint(abc.ABC):
 
     @property
     def capabilities(self) -> frozenset[str]:
+        """What the joint offers the solvers: ``"fe_model"`` (a `mesh`), ``"closed_form"``, ``"database"``."""
         caps = set()
         if type(self).mesh is not Joint.mesh:
             caps.add("fe_model")

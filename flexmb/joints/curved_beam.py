@@ -94,6 +94,7 @@ class CurvedBeam(Joint):
 
     @property
     def shear_modulus(self) -> float:
+        """G in the model's units: ``G`` if given, else E / 2.6 (Poisson's ratio 0.3)."""
         return self.G if self.G is not None else self.E / 2.6
 
     @property

@@ -74,6 +74,7 @@ class LeafSpring(Joint):
         return b
 
     def cross_section(self) -> Section:
+        """The leaf's `Section`: ``section`` if given, else the ``width`` x ``thickness`` rectangle [m]."""
         return self.section or rectangle(self.width, self.thickness, self.E, self.G)
 
     def mesh(self, dim: int) -> JointMesh:

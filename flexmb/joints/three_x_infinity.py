@@ -104,6 +104,7 @@ class ThreeXInfinity(Joint):
 
     @property
     def flexible_elements(self) -> int:
+        """Number of beam elements: 3 leaves x ``stages`` x ``elements_per_leaf``."""
         return 3 * self.stages * self.elements_per_leaf
 
     def interface_b(self, dim: int) -> np.ndarray:

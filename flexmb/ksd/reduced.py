@@ -146,6 +146,7 @@ class ReducedMechanism:
 
     # -- poses ------------------------------------------------------------------------------
     def rest(self) -> LinkPoses:
+        """The links' undeformed poses (reference positions [m], identity rotations)."""
         return LinkPoses(self.X0.copy(), np.tile(np.eye(3), (self.n_links, 1, 1)), np.zeros(self.n_links))
 
     def with_prescribed(self, poses: LinkPoses, lam: float = 1.0) -> LinkPoses:

@@ -115,6 +115,7 @@ class Conventional:
     raise_on_failure: bool = attrs.field(default=False, validator=boolean)
 
     def solve(self, compiled, *, state: State | None = None) -> Solution:
+        """Equilibrium of ``compiled`` (a `Compiled` FE model), stepping from ``state`` (default undeformed)."""
         t0 = time.perf_counter()
         problem: StaticProblem = compiled.problem
         state = problem.model.initial_state() if state is None else state

@@ -36,6 +36,11 @@ def in_open_range(owner: str, name: str, value, lo: float, hi: float, unit: str 
     return v
 
 
+#: Largest element count per leaf / arc a joint accepts: far beyond converged meshes (the
+#: Table 1 cross flexure is within 0.1 % at 5) and small enough that the model fits in memory.
+MAX_ELEMENTS = 10_000
+
+
 def integer(owner: str, name: str, value, lo: int, hi: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ParameterError(f"{owner}: {name}={value!r} must be an integer")
@@ -65,6 +70,32 @@ def finite_model(owner: str, values: dict) -> None:
                              "check their magnitudes and units (SI: m, Pa)")
 
 
+def flag(owner: str, name: str, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ParameterError(f"{owner}: {name}={value!r} must be True or False")
+    return bool(value)
+
+
+def choice(owner: str, name: str, value, valid) -> str:
+    if not isinstance(value, str) or value not in valid:
+        raise ParameterError(f"{owner}: {name}={value!r}; valid: {', '.join(valid)}")
+    return value
+
+
+def computed(owner: str, what: str, fn):
+    """``fn()``, or a `ParameterError` when the parameters' magnitudes make it overflow, divide
+    by zero or come out non-finite (lengths or moduli in the wrong units, e.g. mm for m)."""
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        try:
+            out = fn()
+        except (OverflowError, ZeroDivisionError, np.linalg.LinAlgError):
+            out = None
+    if out is None or not np.all(np.isfinite(out)):
+        raise ParameterError(f"{owner}: the {what} is not finite for these parameters; check their magnitudes and "
+                             "units (SI: m, Pa)")
+    return out
+
+
 def hashable(obj) -> bool:
     """Whether ``obj`` can key a cache (joints are immutable values; a plugin's may not hash)."""
     try:
@@ -82,7 +113,7 @@ def leaf_joint(owner: str, joint, names, widths=("width_inner", "width_outer")) 
     for name in names:
         positive(owner, name, getattr(joint, name))
     in_open_range(owner, "angle", joint.angle, 0.0, math.pi / 2, " rad")
-    integer(owner, "elements_per_leaf", joint.elements_per_leaf, 1)
+    integer(owner, "elements_per_leaf", joint.elements_per_leaf, 1, MAX_ELEMENTS)
     if not joint.thickness < joint.length / 10:
         raise ParameterError(f"{owner}: thickness={joint.thickness!r} m is not slender for length={joint.length!r} m "
                              f"(valid range: thickness < length/10 = {joint.length / 10:g} m)")

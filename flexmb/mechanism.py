@@ -109,7 +109,7 @@ class Mechanism:
         if name in self.graph:
             raise ModelError(f"a link named {name!r} exists already")
         pos = np.zeros(self.dim) if position is None else v.vector(f"link {name!r}", "position", position, self.dim)
-        lk = Link(name, pos, bool(fixed))
+        lk = Link(name, pos, v.flag(f"link {name!r}", "fixed", fixed))
         self.graph.add_node(name, link=lk)
         return lk
 
@@ -249,6 +249,8 @@ class Mechanism:
     def add_point(self, link: str, name: str, position) -> None:
         """Name a point of a link (undeformed global position [m]), e.g. an end-effector."""
         lk = self.link(link)
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"point name must be a non-empty string, got {name!r}")
         self._points[name] = (link, v.vector(f"point {name!r}", "position", position, self.dim) - lk.position)
 
     # -- checks and compilation ---------------------------------------------------------------

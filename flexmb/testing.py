@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import attrs
 import numpy as np
 import scipy.sparse as sp
@@ -217,6 +219,35 @@ def check_frame_invariance(joint, dim: int, origin, rotation, *, motion: float =
             f"{joint.kind} {dim}D {method}: strain energy {e_ref:.12g} vs {e_mov:.12g} after moving the frame")
 
 
+def check_strategy_frame_invariance(joint, dim: int, origin, rotation, *, motion: float = 0.2) -> list:
+    """`check_frame_invariance` with every registered strategy other than the conventional one
+    that applies to the joint (it offers what the strategy ``needs``, in this dimension).
+
+    KSD is displacement controlled, so the intended rotation is at least 0.05 rad; strategies
+    that need a joint database use the joint class's defaults and are skipped when no data for
+    them is installed (`flexmb.database.shipped`). Returns the strategies checked.
+    """
+    from .database import shipped
+    from .errors import DatabaseError
+    from .solvers import STRATEGIES
+
+    motion = motion if abs(motion) >= 0.05 else math.copysign(0.05, motion)
+    checked = []
+    for name, cls in STRATEGIES.items():
+        needs = set(getattr(cls, "needs", ()))
+        if name == "conventional" or not needs <= joint.capabilities or dim not in getattr(cls, "dims", (dim,)):
+            continue
+        j = type(joint)() if "database" in needs else joint
+        if "database" in needs:
+            try:
+                shipped(j, dim)
+            except DatabaseError:
+                continue
+        check_frame_invariance(j, dim, origin, rotation, motion=motion, method=name)
+        checked.append(name)
+    return checked
+
+
 def _b_displacement(sol, dim):
     x, R = sol.pose("B")
     x0 = sol.compiled.problem.model.x0[sol.compiled.link_node["B"]]
@@ -392,6 +423,10 @@ class JointConformance:
     def test_frame_invariance(self):
         """`check_frame_invariance`: a moved and turned mechanism gives the moved and turned solution."""
         self._run(lambda j, dim, pl, mo: check_frame_invariance(j, dim, pl[0], pl[1], motion=mo))
+
+    def test_frame_invariance_of_every_strategy(self):
+        """`check_strategy_frame_invariance`: KSD and the closed-form Newton are frame invariant too."""
+        self._run(lambda j, dim, pl, mo: check_strategy_frame_invariance(j, dim, pl[0], pl[1], motion=mo))
 
     def test_maxwell_betti_reciprocity(self):
         """`check_reciprocity`: the small-load compliance is symmetric (Maxwell-Betti)."""

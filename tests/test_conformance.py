@@ -85,3 +85,23 @@ def test_suite_rejects_an_asymmetric_joint_stiffness(monkeypatch):
     _mutate(monkeypatch, beam2d, one_sided)
     with pytest.raises(AssertionError, match="not symmetric"):
         testing.check_rest(leaf, 2)
+
+
+def test_suite_rejects_a_ksd_wrench_left_in_the_joint_frame(monkeypatch):
+    """A mutant reduced mechanism that forgets to turn each joint's condensed wrench from the
+    joint frame to global axes (F = I in step 3): right when the joint frame is the global one,
+    wrong anywhere else, so KSD is not frame invariant and the strategy check rejects it."""
+    from flexmb.ksd.geometry import JointFrames
+
+    cross = flexmb.joint("cross_flexure")
+    where = (np.array([0.2, -0.1, 0.3]), np.array([0.3, 1.0, -0.4]))
+    assert testing.check_strategy_frame_invariance(cross, 3, *where) == ["ksd-reduced", "ksd-full"]
+    original = JointFrames.relative
+
+    def joint_frame_wrench(self, poses):
+        p, Rrel, geo = original(self, poses)
+        return p, Rrel, {**geo, "F": np.broadcast_to(np.eye(3), geo["F"].shape)}
+
+    monkeypatch.setattr(JointFrames, "relative", joint_frame_wrench)
+    with pytest.raises(AssertionError, match="ksd-reduced: positions not frame invariant"):
+        testing.check_strategy_frame_invariance(cross, 3, *where)

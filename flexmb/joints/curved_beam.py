@@ -82,9 +82,8 @@ class CurvedBeam(Joint):
         v.in_open_range(owner, "angle", self.angle, 0.0, 2 * math.pi, " rad")
         if self.G is not None:
             v.positive(owner, "G", self.G)
-        v.integer(owner, "elements", self.elements, 1)
-        if self.model not in FLEXURE_MODELS:
-            raise ParameterError(f"{owner}: model={self.model!r}; valid: {', '.join(FLEXURE_MODELS)}")
+        v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
+        v.choice(owner, "model", self.model, FLEXURE_MODELS)
         if not self.height < self.radius:
             raise ParameterError(f"{owner}: height={self.height!r} must be < radius={self.radius!r} (a slender arc)")
         try:
@@ -166,7 +165,7 @@ class CurvedBeam(Joint):
         Eq. 2 has no axial compliance), so below about 1e-3 rad K_f is too ill-conditioned to use
         and a `ParameterError` says so.
         """
-        C = self.compliance()
+        C = v.computed("curved_beam", "closed-form compliance (Eq. 2)", self.compliance)
         cond = np.linalg.cond(C)
         if not cond < 1e13:
             raise ParameterError(f"curved_beam: angle={self.angle!r} rad is too small for the bending-only closed form "

@@ -55,11 +55,10 @@ class LeafSpring(Joint):
         owner = "leaf_spring"
         for name in ("length", "width", "thickness", "E", "G"):
             v.positive(owner, name, getattr(self, name))
-        v.integer(owner, "elements", self.elements, 1)
+        v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
         if self.thickness >= self.length:
             raise ParameterError(f"{owner}: thickness={self.thickness!r} m must be < length={self.length!r} m")
-        if self.model not in FLEXURE_MODELS:
-            raise ParameterError(f"{owner}: model={self.model!r}; valid: {', '.join(FLEXURE_MODELS)}")
+        v.choice(owner, "model", self.model, FLEXURE_MODELS)
         if self.section is not None and not isinstance(self.section, Section):
             raise ParameterError(f"{owner}: section must be a flexmb.Section, got {type(self.section).__name__}")
         try:
@@ -99,4 +98,5 @@ class LeafSpring(Joint):
         """The leaf as a constant-stiffness flexure (planar only): end frame at B, not rotated."""
         if dim != 2:
             raise UnsupportedStrategyError("leaf_spring: the closed-form model is planar (dim=2) only")
-        return ClosedForm(np.linalg.inv(self.compliance()), self.interface_b(2), 0.0, self.model)
+        K = v.computed("leaf_spring", "closed-form stiffness", lambda: np.linalg.inv(self.compliance()))
+        return ClosedForm(K, self.interface_b(2), 0.0, self.model)

@@ -60,7 +60,7 @@ class ThreeXInfinity(Joint):
     stage_gap
         Clearance between successive stages along z [m] (2e-3).
     stages
-        Number of stages in series, 2 or more (3).
+        Number of stages in series, 2 to 100 (3).
     E, G
         Young's and shear modulus [Pa] (200e9, 76.9e9).
     elements_per_leaf
@@ -90,7 +90,7 @@ class ThreeXInfinity(Joint):
     def __attrs_post_init__(self):
         owner = "three_x_infinity"
         v.leaf_joint(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
-        v.integer(owner, "stages", self.stages, 2)
+        v.integer(owner, "stages", self.stages, 2, 100)
         for name in ("gap", "stage_gap"):
             if v.finite(owner, name, getattr(self, name)) < 0:
                 raise ParameterError(f"{owner}: {name}={getattr(self, name)!r} m must be >= 0")

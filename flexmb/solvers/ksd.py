@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import time
 import warnings
 from typing import ClassVar
@@ -25,7 +26,7 @@ import attrs
 import numpy as np
 import scipy.linalg
 
-from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, TopologyError
+from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError, TopologyError
 from ..ksd.geometry import ACTIVE, rz
 from ..ksd.reduced import ReducedMechanism
 from ..results import Solution
@@ -35,6 +36,12 @@ from .conventional import above_one, boolean, newton_steps, positive_float, posi
 __all__ = ["KSDReduced", "KSDFull", "solve_kinematics"]
 
 _COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
+
+
+def _folder_or_none(instance, attribute, value):
+    if value is not None and not isinstance(value, (str, os.PathLike)):
+        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} must be a folder path or None "
+                             "(the shipped data)")
 
 
 def _describe(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) -> str:
@@ -203,7 +210,7 @@ class _KSD:
     max_iter: int = attrs.field(default=20, validator=positive_int)
     kinematic_tol: float = attrs.field(default=1e-10, validator=positive_float)
     strict_range: bool = attrs.field(default=True, validator=boolean)
-    database: str | None = None
+    database: str | None = attrs.field(default=None, validator=_folder_or_none)
     divergence: float = attrs.field(default=1e3, validator=above_one)
     min_step: float = attrs.field(default=1e-5, validator=unit_interval)
     max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(positive_float))

@@ -1,0 +1,186 @@
+"""Fuzzing the public API with invalid values (issue 6, error-handling audit).
+
+Hypothesis throws junk — NaN, inf, negative, zero, huge and tiny numbers, wrong shapes, strings,
+None, arbitrary objects — at every joint constructor, every `Mechanism` builder method, the
+solver options and the solve itself. The contract checked everywhere: the call either works or
+raises a `flexmb.FlexmbError` subclass (never a bare numpy/scipy/Python error); a rejected call
+leaves the mechanism exactly as it was; a solve that reports convergence has finite numbers.
+"""
+
+import pickle
+
+import attrs
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import flexmb
+from flexmb import FlexmbError, models
+
+FUZZ = settings(deadline=None, database=None,  # examples and derandomisation: the active profile
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+
+numbers = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([0.0, -1.0, -0.0, 1e300, 1e-300,
+                                                                                     -1e-12, 2**63]),
+                    st.integers(-3, 3))
+junk = st.one_of(
+    numbers,
+    st.none(), st.booleans(), st.text(max_size=4), st.just(object()), st.just({"a": 1}),
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=5),
+    st.lists(st.lists(st.floats(-1, 1), min_size=2, max_size=2), min_size=1, max_size=3).map(np.array),
+    st.just(np.array([1.0, np.nan, 0.0])), st.just(np.zeros((2, 2, 2))), st.just(1 + 2j),
+)
+
+
+def _outcome(call):
+    """Run ``call``; return None or the FlexmbError; anything else fails the test."""
+    try:
+        call()
+    except FlexmbError as exc:
+        assert str(exc).strip(), "a FlexmbError without a message"
+        return exc
+    return None
+
+
+def _snapshot(m) -> bytes:
+    """Everything a Mechanism holds, as bytes (equal bytes: unchanged)."""
+    return pickle.dumps((list(m.graph.nodes(data=True)), list(m.graph.edges(keys=True, data=True)), m._loads,
+                         m._prescribed, m._points, m._actuation))
+
+
+# -- joint constructors, over every registered joint -------------------------------------------
+
+def _fields(kind):
+    cls = flexmb.available_joints()[kind]
+    return [(kind, f.name) for f in attrs.fields(cls)] if attrs.has(cls) else []
+
+
+def _required(cls) -> dict:
+    """Valid values of the parameters without a default: the middle of ``parameter_ranges``."""
+    return {f.name: sum(cls.parameter_ranges[f.name]) / 2 for f in attrs.fields(cls) if f.default is attrs.NOTHING}
+
+
+FIELDS = [kf for kind in sorted(flexmb.available_joints()) for kf in _fields(kind)]
+
+
+@pytest.mark.parametrize("kind, name", FIELDS, ids=[f"{k}.{n}" for k, n in FIELDS])
+@FUZZ
+@given(value=junk)
+def test_joint_parameter_junk_is_refused_or_gives_a_finite_model(kind, name, value):
+    """Every parameter of every registered joint: rejected with a FlexmbError that names it, or
+    accepted and then meshed to finite points (or refused there, as a FlexmbError)."""
+    cls = flexmb.available_joints()[kind]
+    joint = None
+
+    def build():
+        nonlocal joint
+        joint = cls(**{**_required(cls), name: value})
+
+    exc = _outcome(build)
+    if exc is not None:
+        assert name in str(exc) or kind in str(exc), f"{kind}({name}={value!r}): message does not name it: {exc}"
+        return
+    for dim in cls.dims:
+        if "fe_model" in joint.capabilities:
+            mesh = []
+            if _outcome(lambda: mesh.append(joint.mesh(dim))) is None:
+                assert np.all(np.isfinite(mesh[0].points)), f"{kind}({name}={value!r}): non-finite mesh in {dim}D"
+        if "closed_form" in joint.capabilities and dim == 2:
+            _outcome(lambda: joint.closed_form(dim))
+
+
+# -- the Mechanism builder ----------------------------------------------------------------------
+
+def _pivot():
+    return models.cross_flexure_pivot(elements_per_leaf=1, dim=3, rotation=0.2)
+
+
+CALLS = {
+    "add_link name": lambda m, x: m.add_link(x, position=(0.0, 0.0, 0.0)),
+    "add_link position": lambda m, x: m.add_link("C", position=x),
+    "add_link fixed": lambda m, x: m.add_link("C", fixed=x),
+    "add_joint joint": lambda m, x: m.add_joint("A", "B", x),
+    "add_joint origin": lambda m, x: m.add_joint("A", "B", "leaf_spring", origin=x),
+    "add_joint rotation": lambda m, x: m.add_joint("A", "B", "leaf_spring", rotation=x),
+    "add_joint parameter": lambda m, x: m.add_joint("A", "B", "leaf_spring", length=x),
+    "add_joint link": lambda m, x: m.add_joint(x, "B", "leaf_spring"),
+    "apply_force force": lambda m, x: m.apply_force("B", x),
+    "apply_force point": lambda m, x: m.apply_force("B", (1.0, 0.0, 0.0), point=x),
+    "apply_force link": lambda m, x: m.apply_force(x, (1.0, 0.0, 0.0)),
+    "apply_moment": lambda m, x: m.apply_moment("B", x),
+    "prescribe x": lambda m, x: m.prescribe("B", x=x),
+    "prescribe rotation": lambda m, x: m.prescribe("B", rotation=x),
+    "prescribe link": lambda m, x: m.prescribe(x, x=0.0),
+    "set_actuation direction": lambda m, x: m.set_actuation("B", x),
+    "set_actuation value": lambda m, x: m.set_actuation("B", (1.0, 0.0, 0.0), value=x),
+    "add_point position": lambda m, x: m.add_point("B", "p", x),
+    "add_point name": lambda m, x: m.add_point("B", x, (0.0, 0.0, 0.0)),
+    "fix": lambda m, x: m.fix(x),
+}
+
+
+@pytest.mark.parametrize("call", sorted(CALLS))
+@FUZZ
+@given(value=junk)
+def test_mechanism_builders_refuse_junk_and_leave_the_mechanism_unchanged(call, value):
+    m = _pivot()
+    before = _snapshot(m)
+    exc = _outcome(lambda: CALLS[call](m, value))
+    if exc is not None:
+        assert _snapshot(m) == before, f"{call}({value!r}) was refused but changed the mechanism"
+
+
+# -- solver options and the solve ----------------------------------------------------------------
+
+OPTIONS = ["tol", "max_iter", "divergence", "min_step", "initial_step", "max_rotation", "raise_on_failure",
+           "kinematic_tol", "strict_range", "tangent", "database"]
+
+
+@pytest.mark.parametrize("method", ["conventional", "ksd-reduced", "ksd-full"])
+@FUZZ
+@given(option=st.sampled_from(OPTIONS), value=junk)
+def test_solver_option_junk_is_refused_before_solving(method, option, value):
+    """A bad option value is a FlexmbError (ParameterError or UnsupportedStrategyError), and a
+    solve it does not stop either converges with finite numbers or says it did not."""
+    m = _pivot()
+    before = _snapshot(m)
+    sol = []
+    # a coarse smallest step bounds the work of options that make every step hard (max_iter=1:
+    # only the predictor can be accepted, and the default 1e-5 allows 1e5 steps, about a minute)
+    steps = {} if option == "min_step" or method == "ksd-reduced" else {"min_step": 0.01}
+    exc = _outcome(lambda: sol.append(flexmb.solve(m, method=method, **{**steps, option: value})))
+    assert _snapshot(m) == before
+    if exc is None and sol[0].converged:
+        assert np.all(np.isfinite(sol[0].node_positions())) and np.all(np.isfinite(sol[0].reaction("B")))
+
+
+@FUZZ
+@given(method=junk)
+def test_method_junk_is_refused(method):
+    assert isinstance(_outcome(lambda: flexmb.solve(_pivot(), method=method)), flexmb.UnsupportedStrategyError)
+
+
+@pytest.mark.parametrize("method", ["conventional", "ksd-reduced", "ksd-full"])
+@FUZZ
+@given(rotation=st.floats(-1e6, 1e6, allow_nan=False), force=st.floats(-1e9, 1e9, allow_nan=False))
+def test_any_finite_motion_and_load_solves_reports_failure_or_refuses(method, rotation, force):
+    """Extreme but finite input: a converged answer is finite, a failure is reported (flag and
+    message) or refused as a FlexmbError (e.g. a rotation outside the trained range); the
+    mechanism is never changed. Few solve steps so a hopeless case fails fast."""
+    m = models.cross_flexure_pivot(elements_per_leaf=1, dim=3, rotation=0.0)
+    m.prescribe("B", z=0.0, rotation=(0.0, 0.0, rotation))
+    m.apply_force("B", (force, 0.0, 0.0))
+    before = _snapshot(m)
+    sol = []
+    options = {"max_iter": 8} if method == "ksd-full" else {}
+    if method == "conventional":
+        options = {"max_iter": 8, "min_step": 0.05}
+    exc = _outcome(lambda: sol.append(flexmb.solve(m, method=method, **options)))
+    assert _snapshot(m) == before
+    if exc is None:
+        s = sol[0]
+        if s.converged:
+            assert np.all(np.isfinite(s.node_positions())) and np.all(np.isfinite(s.reaction("B")))
+        else:
+            assert s.message and len(s.residual_history) >= 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import itertools
 import os
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor, ProcessPoolExecutor
 
 import numpy as np
@@ -21,7 +21,10 @@ def grid(**axes) -> list[dict]:
     ``grid(thickness=[1e-4, 2e-4], angle=[0.6, 0.8])`` -> four dicts."""
     arrays = {}
     for name, values in axes.items():
-        a = np.atleast_1d(np.asarray(values, dtype=float)) if not isinstance(values, (str, bytes)) else None
+        try:
+            a = np.atleast_1d(np.asarray(values, dtype=float)) if not isinstance(values, (str, bytes)) else None
+        except (TypeError, ValueError):
+            a = None
         if a is None or a.ndim != 1 or len(a) == 0:
             raise ParameterError(f"grid: {name} must be a non-empty 1-D sequence of numbers, got {values!r}")
         arrays[name] = a
@@ -47,7 +50,8 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
 
     if not callable(function):
         raise ParameterError(f"parameter_study: function must be callable, got {function!r}")
-    if isinstance(designs, Mapping) or not all(isinstance(d, Mapping) for d in designs):
+    if (isinstance(designs, (Mapping, str, bytes)) or not isinstance(designs, Iterable)
+            or not all(isinstance(d, Mapping) for d in designs)):
         raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. "
                              "flexmb.study.grid(...)")
     designs = [dict(d) for d in designs]
@@ -55,7 +59,7 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
         raise ParameterError("parameter_study: designs is empty")
     bar = dict(total=len(designs), desc="designs", unit="design", leave=False,
                disable=None if progress is None else not progress)
-    if executor == "serial":
+    if isinstance(executor, str) and executor == "serial":
         results = [function(**d) for d in tqdm(designs, **bar)]
     elif executor is None:
         workers = max_workers or os.cpu_count() or 1

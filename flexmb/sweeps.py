@@ -63,8 +63,7 @@ def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, meth
 
 def _plan(mechanism, values, motion, method, start, options):
     """Checked sweep values (n,) or (n, width) and the generator of their solutions."""
-    if start not in STARTS:
-        raise ParameterError(f"sweep: start={start!r}; valid: {', '.join(STARTS)}")
+    v.choice("sweep", "start", start, STARTS)
     strategy = make_strategy(method, options)
     if not hasattr(mechanism, "compile"):
         raise ModelError(f"sweep() needs a flexmb.Mechanism, got {type(mechanism).__name__}")

@@ -5,6 +5,7 @@ and round-trips through CSV."""
 from __future__ import annotations
 
 import csv
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -56,31 +57,40 @@ class Table(Mapping):
     def to_csv(self, path) -> Path:
         """Write the columns to ``path`` (comma-separated, a header row of names, floats with 17
         significant digits so `read_csv` gives the same numbers back). Returns the path."""
-        path = Path(path)
-        with path.open("w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(self._columns)
-            cols = [c.tolist() for c in self._columns.values()]
-            for row in zip(*cols):
-                w.writerow([repr(v) if isinstance(v, float) else v for v in row])
+        path = _path("to_csv", path)
+        try:
+            with path.open("w", newline="") as f:
+                w = csv.writer(f)
+                w.writerow(self._columns)
+                cols = [c.tolist() for c in self._columns.values()]
+                for row in zip(*cols):
+                    w.writerow([repr(v) if isinstance(v, float) else v for v in row])
+        except OSError as exc:
+            raise ParameterError(f"to_csv: cannot write {str(path)!r}: {exc.strerror or exc}") from None
         return path
 
 
 def read_csv(path) -> Table:
     """Read a `Table.to_csv` file back: columns of integers, floats (``nan``/``inf`` included),
     booleans or text, each as the narrowest of those that holds every entry."""
-    path = Path(path)
+    path = _path("read_csv", path)
     try:
         with path.open(newline="") as f:
             rows = list(csv.reader(f))
     except OSError as exc:
-        raise ParameterError(f"read_csv: cannot read {str(path)!r}: {exc.strerror}") from None
+        raise ParameterError(f"read_csv: cannot read {str(path)!r}: {exc.strerror or exc}") from None
     if not rows:
         raise ParameterError(f"read_csv: {str(path)!r} is empty (expected a header row)")
     head, body = rows[0], rows[1:]
     if any(len(r) != len(head) for r in body):
         raise ParameterError(f"read_csv: {str(path)!r}: every row must have {len(head)} fields")
     return Table({name: _parse([r[i] for r in body]) for i, name in enumerate(head)})
+
+
+def _path(owner: str, path) -> Path:
+    if not isinstance(path, (str, os.PathLike)) or "\0" in str(path):
+        raise ParameterError(f"{owner}: path={path!r} must be a file path")
+    return Path(path)
 
 
 def _parse(cells: list[str]) -> np.ndarray:

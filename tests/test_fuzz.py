@@ -184,3 +184,42 @@ def test_any_finite_motion_and_load_solves_reports_failure_or_refuses(method, ro
             assert np.all(np.isfinite(s.node_positions())) and np.all(np.isfinite(s.reaction("B")))
         else:
             assert s.message and len(s.residual_history) >= 0
+
+
+# -- the workflow API: sweeps, studies, tables, plots, export --------------------------------------
+
+def _solved():
+    return flexmb.solve(models.cross_flexure_pivot(elements_per_leaf=1, dim=2, rotation=0.2))
+
+
+def _double(x):
+    return 2 * x
+
+
+WORKFLOW = {
+    "sweep values": lambda x: flexmb.sweep(models.cross_flexure_pivot(elements_per_leaf=1, dim=2), x,
+                                           motion=("B", "rotation"), max_iter=5),
+    "sweep motion": lambda x: flexmb.sweep(models.cross_flexure_pivot(elements_per_leaf=1, dim=2), [0.1], motion=x),
+    "sweep start": lambda x: flexmb.sweep(models.gripper(), [1.0], start=x, method="newton"),
+    "grid": lambda x: flexmb.grid(a=x),
+    "parameter_study designs": lambda x: flexmb.parameter_study(_double, x, executor="serial"),
+    "parameter_study executor": lambda x: flexmb.parameter_study(_double, [{"x": 1.0}], executor=x),
+    "Table": lambda x: flexmb.Table({"a": x, "b": [1.0]}),
+    "read_csv": lambda x: flexmb.read_csv(x),
+    "Table.to_csv": lambda x: flexmb.Table({"a": [1.0]}).to_csv(x),
+    "plot_force_curve": lambda x: flexmb.plot.plot_force_curve(x, [1.0, 2.0]),
+    "plot_mechanism": lambda x: flexmb.plot.plot_mechanism(x),
+    "plot_map": lambda x: flexmb.plot.plot_map(x, "a", "b", "c"),
+    "write_vtk path": lambda x: flexmb.export.write_vtk(_solved(), x),
+    "write_vtk solution": lambda x: flexmb.export.write_vtk(x, "out.vtu"),
+}
+
+
+@pytest.mark.parametrize("call", sorted(WORKFLOW))
+@FUZZ
+@given(value=junk)
+def test_workflow_functions_refuse_junk_with_flexmb_errors(call, value, tmp_path_factory, monkeypatch):
+    pytest.importorskip("matplotlib")
+    pytest.importorskip("meshio")
+    monkeypatch.chdir(tmp_path_factory.mktemp("fuzz"))
+    _outcome(lambda: WORKFLOW[call](value))

@@ -160,3 +160,14 @@ def test_study_rejects_bad_designs_and_executors():
         parameter_study(STIFFNESS, DESIGNS, executor="threads")
     with pytest.raises(ParameterError, match="names of inputs"):
         parameter_study(lambda k_rotation: {"k_rotation": 1.0}, [{"k_rotation": 1.0}], executor="serial")
+
+
+def test_progress_bar_shows_on_request_and_stays_quiet_off_a_terminal(capsys):
+    """tqdm writes to stderr; with progress=None it is disabled unless stderr is a terminal
+    (pytest's captured stderr is not)."""
+    flexmb.sweep(_pivot(2), ANGLES[:2], motion=("B", "rotation"))
+    assert capsys.readouterr().err == ""
+    flexmb.sweep(_pivot(2), ANGLES[:2], motion=("B", "rotation"), progress=True)
+    assert "sweep:" in capsys.readouterr().err  # tqdm, "0/2 [...]"; cleared when done (leave=False)
+    parameter_study(STIFFNESS, DESIGNS[:1], executor="serial", progress=True)
+    assert "designs:" in capsys.readouterr().err

@@ -83,12 +83,9 @@ def _demo_manipulator(quick: bool) -> list:
     from . import manipulator_case as mc
 
     degrees = (-45, 0, 45) if quick else (-45, -30, -15, 0, 15, 30, 45)
-    print("\nManipulator of three three_x_infinity joints, Dwarshuis et al. (2020) Sec. 4.4, joint case")
-    print(f"{'rotation':>8s} {'method':>13s} {'iterations':>11s} {'time [ms]':>10s} {'speed-up':>9s}")
     rows = mc.study(degrees, cases=("joint",), repeats=1)
-    for r in rows:
-        print(f"{r['rotation']:7d}° {r['method']:>13s} {r['iterations']:11d} {r['time'] * 1e3:10.1f} "
-              f"{r['speedup']:8.1f}x")
+    _speed_table("Manipulator of three three_x_infinity joints, Dwarshuis et al. (2020) Sec. 4.4, joint case",
+                 rows, "rotation", "deg")
     return rows
 
 
@@ -96,13 +93,21 @@ def _demo_fourbar(quick: bool) -> list:
     """The four-bar of Dwarshuis et al. (2020), Sec. 4.3: conventional method against KSD (Fig. 11)."""
     from . import fourbar_case as fc
 
-    print("\nFour-bar of four cross flexures, Dwarshuis et al. (2020) Sec. 4.3, d = 0.3 m: conventional vs KSD")
-    print(f"{'el./leaf':>8s} {'method':>13s} {'F [N]':>10s} {'iterations':>11s} {'time [ms]':>10s} {'speed-up':>9s}")
     rows = fc.speed_study((1, 3) if quick else (1, 3, 5), repeats=1 if quick else 3)
-    for r in rows:
-        print(f"{r['elements_per_leaf']:8d} {r['method']:>13s} {r['force']:10.4f} {r['iterations']:11d} "
-              f"{r['time'] * 1e3:10.1f} {r['speedup']:8.1f}x")
+    _speed_table("Four-bar of four cross flexures, Dwarshuis et al. (2020) Sec. 4.3, d = 0.3 m: conventional vs KSD",
+                 rows, "elements_per_leaf", "el./leaf", force=True)
     return rows
+
+
+def _speed_table(title: str, rows: list, key: str, label: str, force: bool = False) -> None:
+    """Print conventional-vs-KSD rows: the ``key`` column headed ``label``, the method, the
+    actuation force [N] if ``force``, iterations, wall time and speed-up."""
+    print(f"\n{title}")
+    print(f"{label:>8s} {'method':>13s}" + (f" {'F [N]':>10s}" if force else "")
+          + f" {'iterations':>11s} {'time [ms]':>10s} {'speed-up':>9s}")
+    for r in rows:
+        print(f"{r[key]:8d} {r['method']:>13s}" + (f" {r['force']:10.4f}" if force else "")
+              + f" {r['iterations']:11d} {r['time'] * 1e3:10.1f} {r['speedup']:8.1f}x")
 
 
 def _demo_gripper(quick: bool) -> dict:

@@ -74,12 +74,6 @@ def _axes(owner: str, mfig, ax, dim: int, figsize):
     return ax
 
 
-def _flag(owner: str, name: str, value) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise ParameterError(f"{owner}: {name}={value!r} must be True or False")
-    return bool(value)
-
-
 def _equal_3d(ax, pts: np.ndarray, had_data: bool) -> None:
     """Equal data ranges on the three axes and a cubic box: lengths read the same in x, y, z.
 
@@ -234,9 +228,9 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
     """
     owner = "plot_mechanism"
     mfig = _figure_module(owner)
-    undeformed = _flag(owner, "undeformed", undeformed)
-    deformed = _flag(owner, "deformed", deformed)
-    labels = _flag(owner, "labels", labels)
+    undeformed = v.flag(owner, "undeformed", undeformed)
+    deformed = v.flag(owner, "deformed", deformed)
+    labels = v.flag(owner, "labels", labels)
     compiled, state0, state = _geometry(owner, solution)
     if state is None:
         deformed = False
@@ -501,7 +495,7 @@ def plot_map(table, x: str, y: str, value: str, *, ax=None, label: str | None = 
     Z[np.searchsorted(ys, cols[y]), np.searchsorted(xs, cols[x])] = cols[value]
     if np.isnan(Z).any():
         raise ParameterError(f"{owner}: {x!r} and {y!r} do not form a full grid (repeated pairs)")
-    log = _flag(owner, "log", log)
+    log = v.flag(owner, "log", log)
     ax = _axes(owner, mfig, ax, 2, (5.0, 4.0))
     mesh = ax.pcolormesh(xs, ys, np.log10(Z) if log else Z, shading="nearest", gid="map")
     ax.figure.colorbar(mesh, ax=ax, label=(f"log10 {label or value}" if log else label or value))

@@ -64,8 +64,7 @@ def above_one(instance, attribute, value):
 
 
 def boolean(instance, attribute, value):
-    if not isinstance(value, (bool, np.bool_)):
-        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} must be True or False")
+    v.flag(type(instance).name, attribute.name, value)
 
 
 def unit_interval(instance, attribute, value):

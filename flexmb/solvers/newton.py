@@ -23,7 +23,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..closed_form.problem import LinkageProblem
-from ..errors import ConvergenceError, ParameterError
+from .. import _validate as v
+from ..errors import ConvergenceError
 from ..fe.model import State
 from ..results import Solution
 from .conventional import above_one, boolean, positive_float, positive_int
@@ -34,8 +35,7 @@ TANGENTS = ("full", "first-term", "constant")
 
 
 def _tangent_choice(instance, attribute, value):
-    if value not in TANGENTS:
-        raise ParameterError(f"newton: tangent={value!r}; valid: {', '.join(TANGENTS)}")
+    v.choice("newton", attribute.name, value, TANGENTS)
 
 
 @attrs.frozen(kw_only=True)

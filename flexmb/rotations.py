@@ -10,19 +10,20 @@ import numpy as np
 
 __all__ = ["skew", "unskew", "cross", "expm_so3", "logm_so3", "rot2"]
 
-# Below this angle the Rodrigues coefficients are evaluated by their Taylor series:
-# sin(t)/t and (1 - cos t)/t^2 lose all digits to cancellation near t = 0.
+# Below this angle logm_so3 takes t / sin(t) from its Taylor series.
 _SMALL = 1e-4
+_EYE = np.eye(3)
+#: ``w @ _SKEW`` is ``skew(w)`` flattened row by row
+_SKEW = np.zeros((3, 3, 3))
+_SKEW[0, 2, 1] = _SKEW[1, 0, 2] = _SKEW[2, 1, 0] = 1.0
+_SKEW[0, 1, 2] = _SKEW[1, 2, 0] = _SKEW[2, 0, 1] = -1.0
+_SKEW = _SKEW.reshape(3, 9)
 
 
 def skew(w: np.ndarray) -> np.ndarray:
     """Skew-symmetric matrix of vectors, shape (..., 3) -> (..., 3, 3): ``skew(a) @ b = a x b``."""
     w = np.asarray(w, dtype=float)
-    S = np.zeros(w.shape + (3,))
-    S[..., 0, 1], S[..., 0, 2] = -w[..., 2], w[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = w[..., 2], -w[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -w[..., 1], w[..., 0]
-    return S
+    return (w @ _SKEW).reshape(w.shape + (3,))
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -42,16 +43,18 @@ def unskew(S: np.ndarray) -> np.ndarray:
 
 
 def expm_so3(w: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``exp(skew(w))`` (Rodrigues), rotation vectors [rad] shape (..., 3)."""
+    """Rotation matrices ``exp(skew(w))``, rotation vectors [rad] shape (..., 3).
+
+    Rodrigues, ``cos t I + (sin t / t) skew(w) + (1 - cos t) / t^2 w w^T`` with ``t = |w|``;
+    ``(1 - cos t) / t^2 = (sin h / h)^2 / 2`` (``h = t / 2``) has no cancellation at small ``t``."""
     w = np.asarray(w, dtype=float)
-    t2 = np.einsum("...i,...i->...", w, w)
-    t = np.sqrt(t2)
-    small = t < _SMALL
-    ts = np.where(small, 1.0, t)
-    a = np.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, np.sin(ts) / ts)
-    b = np.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, (1.0 - np.cos(ts)) / ts**2)
-    K = skew(w)
-    return np.eye(3) + a[..., None, None] * K + b[..., None, None] * (K @ K)
+    t = np.maximum(np.sqrt(np.einsum("...i,...i->...", w, w)), 1e-300)  # sin(t)/t = 1 at t = 1e-300
+    h = 0.5 * t
+    s = np.sin(h) / h
+    R = (0.5 * s * s)[..., None, None] * (w[..., :, None] * w[..., None, :])
+    R += ((np.sin(t) / t)[..., None] * w @ _SKEW).reshape(R.shape)
+    R += np.cos(t)[..., None, None] * _EYE
+    return R
 
 
 def logm_so3(R: np.ndarray) -> np.ndarray:

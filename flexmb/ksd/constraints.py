@@ -30,6 +30,8 @@ __all__ = ["NAMES", "check_names", "ConstraintSet", "evaluate"]
 
 NAMES = ("x", "y", "z", "tilt_x", "tilt_y", "symmetric", "length")
 _FUNCTION = {"x": "x/D0", "y": "y/D0", "length": "D/D0-1"}
+#: (R e_z) @ _TILT[c] = (R e_z) x e_c, the gradient of tilt component c with respect to a spin
+_TILT = -np.array([[[0, 0, 0], [0, 0, 1], [0, -1, 0]], [[0, 0, -1], [0, 0, 0], [1, 0, 0]]], dtype=float)
 
 
 def check_names(where: str, names, dim: int) -> tuple[str, ...]:
@@ -48,64 +50,87 @@ def check_names(where: str, names, dim: int) -> tuple[str, ...]:
 class ConstraintSet:
     """The constraints ``names`` of J joints sharing one database ``data``: ``D0`` (J,) and
     ``b0`` (J, 3), the undeformed position of node B. Everything that does not depend on the
-    configuration is prepared once, so `evaluate` is a handful of array operations."""
+    configuration is prepared once, so `values` and `gradients` are a handful of array operations."""
 
     def __init__(self, names, data, D0, b0):
-        self.names = tuple(names)
-        J, m = len(D0), len(self.names)
+        self.names = names = tuple(names)
+        J, m = len(D0), len(names)
         self.inv = inv = 1.0 / np.asarray(D0, dtype=float)
-        # rows linear in p (x, y, z): constant gradient
-        self.lin = [(k, "xyz".index(n)) for k, n in enumerate(self.names) if n in ("x", "y", "z")]
-        self.tilt = [(k, n) for k, n in enumerate(self.names) if n in ("tilt_x", "tilt_y")]
-        self.sym = self.names.index("symmetric") if "symmetric" in self.names else None
-        self.len = self.names.index("length") if "length" in self.names else None
-        self.n0 = cross([0.0, 0.0, 1.0], np.asarray(b0, dtype=float) * inv[:, None])
-        self.fun = [(k, data.function(_FUNCTION[n])) for k, n in enumerate(self.names) if n in _FUNCTION]
-        # offsets at rest of the rows linear in p: only z is held at its undeformed value
-        self.rest = np.zeros((J, m))
-        for k, c in self.lin:
-            if c == 2:
-                self.rest[:, k] = np.asarray(b0, dtype=float)[:, 2] * inv
+        b0 = np.asarray(b0, dtype=float)
+        # rows linear in p (x, y, z): p_c / D0 minus their rest value (only z is held at its
+        # undeformed value, Sec. 4.1), constant gradient
+        lin = [(k, "xyz".index(n)) for k, n in enumerate(names) if n in ("x", "y", "z")]
+        self.lin, self.lin_c = (np.array(v, dtype=np.int64) for v in zip(*lin)) if lin else (None, None)
         self.grad0 = np.zeros((J, m, 6))
-        for k, c in self.lin:
-            self.grad0[:, k, c] = inv
+        if lin:
+            self.lin_rest = np.where(self.lin_c == 2, b0[:, 2:3], 0.0) * inv[:, None]
+            self.grad0[:, self.lin, self.lin_c] = inv[:, None]
+        # tilt rows: components c of R e_z; d(R e_z) = omega x (R e_z), so their gradient is
+        # (R e_z) x e_c = e_z-column @ _TILT[c]
+        tilt = [(k, n[-1] == "y") for k, n in enumerate(names) if n in ("tilt_x", "tilt_y")]
+        self.tilt, self.tilt_c = (np.array(v, dtype=np.int64) for v in zip(*tilt)) if tilt else (None, None)
+        if tilt:
+            self.tilt_map = np.concatenate([_TILT[c] for c in self.tilt_c], axis=1)  # (3, 3 n_tilt)
+        self.sym = names.index("symmetric") if "symmetric" in names else None
+        self.len = names.index("length") if "length" in names else None
+        self.n0 = n0 = cross([0.0, 0.0, 1.0], b0 * inv[:, None])
+        self.m0 = cross([0.0, 0.0, 1.0], n0)  # d n0 / d angle about z
+        # the trained functions of theta as one polynomial over the union of their powers
+        fun = [(k, data.function(_FUNCTION[n])) for k, n in enumerate(names) if n in _FUNCTION]
+        self.fun = np.array([k for k, _ in fun], dtype=np.int64)
+        if fun:
+            powers = np.unique(np.concatenate([f.powers for _, f in fun]))
+            coef = np.zeros((len(fun), len(powers)))
+            for i, (_, f) in enumerate(fun):
+                coef[i, np.searchsorted(powers, f.powers)] = np.asarray(f.coefficients, dtype=float).ravel()
+            self.powers, self.coef = powers, coef.T  # (P,), (P, n_fun)
+            self.dpowers, self.dcoef = np.maximum(powers - 1, 0), (coef * powers).T
+
+    def _symmetric_normal(self, theta):
+        """``n0`` turned by ``theta / 2`` about z, (J, 3)."""
+        h = 0.5 * theta[:, None]
+        return np.cos(h) * self.n0 + np.sin(h) * self.m0
+
+    def values(self, p, R, theta):
+        """Constraint values (J, m): ``p`` (J, 3) and ``R`` (J, 3, 3) the relative pose of node B,
+        ``theta`` (J,) the intended rotation from `intended_angle`."""
+        inv = self.inv
+        val = np.empty((len(inv), len(self.names)))
+        if self.lin is not None:
+            val[:, self.lin] = p[:, self.lin_c] * inv[:, None] - self.lin_rest
+        if self.tilt is not None:
+            val[:, self.tilt] = R[:, self.tilt_c, 2]
+        if self.sym is not None:
+            val[:, self.sym] = np.einsum("ji,ji->j", p, self._symmetric_normal(theta)) * inv
+        if self.len is not None:
+            val[:, self.len] = np.sqrt(np.einsum("ji,ji->j", p, p)) * inv - 1.0
+        if len(self.fun):
+            val[:, self.fun] -= (theta[:, None] ** self.powers) @ self.coef
+        return val
+
+    def gradients(self, p, R, theta, dtheta):
+        """Gradients (J, m, 6) of `values` with respect to ``(dp, omega)``; ``dtheta`` (J, 3) the
+        gradient of ``theta`` from `intended_angle`."""
+        inv = self.inv
+        grad = self.grad0.copy()
+        if self.tilt is not None:
+            grad[:, self.tilt, 3:] = (R[:, :, 2] @ self.tilt_map).reshape(len(inv), -1, 3)
+        if self.sym is not None:
+            n = self._symmetric_normal(theta)
+            grad[:, self.sym, :3] = n * inv[:, None]
+            # d n / d theta = (-n_y, n_x, 0) / 2
+            grad[:, self.sym, 3:] = (0.5 * (p[:, 1] * n[:, 0] - p[:, 0] * n[:, 1]) * inv)[:, None] * dtheta
+        if self.len is not None:
+            grad[:, self.len, :3] = p * (inv / np.sqrt(np.einsum("ji,ji->j", p, p)))[:, None]
+        if len(self.fun):
+            df = (theta[:, None] ** self.dpowers) @ self.dcoef  # (J, n_fun)
+            grad[:, self.fun, 3:] -= df[:, :, None] * dtheta[:, None, :]
+        return grad
 
     def evaluate(self, p, R, theta, dtheta):
         """Values (J, m) and gradients (J, m, 6) with respect to ``(dp, omega)``; ``theta`` (J,)
         and ``dtheta`` (J, 3) from `intended_angle`."""
-        inv = self.inv
-        val = -self.rest
-        grad = self.grad0.copy()
-        for k, c in self.lin:
-            val[:, k] += p[:, c] * inv
-        for k, name in self.tilt:
-            ez = R[:, :, 2]
-            # d(R e_z) = omega x (R e_z): gradient of component c is (R e_z) x e_c
-            if name == "tilt_x":
-                val[:, k] = ez[:, 0]
-                grad[:, k, 4], grad[:, k, 5] = ez[:, 2], -ez[:, 1]
-            else:
-                val[:, k] = ez[:, 1]
-                grad[:, k, 3], grad[:, k, 5] = -ez[:, 2], ez[:, 0]
-        if self.sym is not None:
-            k, n0 = self.sym, self.n0
-            h = 0.5 * theta
-            c, s = np.cos(h), np.sin(h)
-            n = np.empty_like(n0)
-            n[:, 0], n[:, 1], n[:, 2] = c * n0[:, 0] - s * n0[:, 1], s * n0[:, 0] + c * n0[:, 1], n0[:, 2]
-            val[:, k] = np.einsum("ji,ji->j", p, n) * inv
-            grad[:, k, :3] = n * inv[:, None]
-            # d n / d theta = (-n_y, n_x, 0) / 2
-            grad[:, k, 3:] = (0.5 * (p[:, 1] * n[:, 0] - p[:, 0] * n[:, 1]) * inv)[:, None] * dtheta
-        if self.len is not None:
-            k = self.len
-            d = np.sqrt(np.einsum("ji,ji->j", p, p))
-            val[:, k] = d * inv - 1.0
-            grad[:, k, :3] = p * (inv / d)[:, None]
-        for k, f in self.fun:
-            val[:, k] -= f(theta)
-            grad[:, k, 3:] -= f.derivative(theta)[:, None] * dtheta
-        return val, grad
+        return self.values(p, R, theta), self.gradients(p, R, theta, dtheta)
 
 
 def evaluate(names, data, p, R, theta, dtheta, D0, b0):

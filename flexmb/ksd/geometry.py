@@ -25,6 +25,19 @@ __all__ = ["ACTIVE", "LinkPoses", "JointFrames", "rz", "intended_angle"]
 ACTIVE = {2: np.array([0, 1, 5]), 3: np.arange(6)}
 
 
+def _angle_map() -> np.ndarray:
+    """(9, 8): flattened ``R @ map`` = (s, c, ds_x, ds_y, ds_z, dc_x, dc_y, dc_z) of `intended_angle`."""
+    terms = [{3: 1, 1: -1}, {0: 1, 4: 1}, {6: -1}, {7: -1}, {0: 1, 4: 1}, {7: -1}, {6: 1}, {1: 1, 3: -1}]
+    out = np.zeros((9, 8))
+    for col, entries in enumerate(terms):
+        for k, v in entries.items():
+            out[k, col] = v
+    return out
+
+
+_ANGLE = _angle_map()
+
+
 def rz(angle: np.ndarray) -> np.ndarray:
     """Rotation matrices about z, angles [rad] (...) -> (..., 3, 3)."""
     angle = np.asarray(angle, dtype=float)
@@ -38,11 +51,9 @@ def intended_angle(R: np.ndarray):
     """Rotation about z of ``R`` (..., 3, 3) [rad] and its gradient with respect to a spin
     ``omega`` (``dR = skew(omega) R``), shape (..., 3). Exact for any tilt (atan2 of the
     in-plane block)."""
-    s = R[..., 1, 0] - R[..., 0, 1]
-    c = R[..., 0, 0] + R[..., 1, 1]
-    # s and c along skew(e_k) R, k = x, y, z (rows of skew(e_k) written out)
-    ds = np.stack([-R[..., 2, 0], -R[..., 2, 1], R[..., 0, 0] + R[..., 1, 1]], axis=-1)
-    dc = np.stack([-R[..., 2, 1], R[..., 2, 0], R[..., 0, 1] - R[..., 1, 0]], axis=-1)
+    # s = R10 - R01, c = R00 + R11 and their variations along skew(e_k) R, k = x, y, z
+    sc = (R.reshape(R.shape[:-2] + (9,)) @ _ANGLE).swapaxes(-1, 0)
+    s, c, ds, dc = sc[0], sc[1], sc[2:5].swapaxes(-1, 0), sc[5:8].swapaxes(-1, 0)
     n = s * s + c * c
     return np.arctan2(s, c), (c[..., None] * ds - s[..., None] * dc) / n[..., None]
 

@@ -160,19 +160,27 @@ class ReducedMechanism:
         return LinkPoses(x, R, angle)
 
     # -- step 1: kinematics -------------------------------------------------------------------
-    def constraint_equations(self, poses: LinkPoses):
+    def constraint_equations(self, poses: LinkPoses, jacobian: bool | str = True):
         """Values (m,) and Jacobian (m, 6 n_links) of all joints' kinematic constraints; the
-        intended rotations ``theta`` (J,) and relative positions ``p`` (J, 3)."""
-        p, R, geo = self.frames.relative(poses)
-        Jrel = self.frames.relative_jacobian(geo)
+        intended rotations ``theta`` (J,) and relative positions ``p`` (J, 3).
+        ``jacobian="deferred"`` returns a function that computes the Jacobian when called (a
+        converged iterate never needs it); False returns None."""
+        fr = self.frames
+        p, R, geo = fr.relative(poses)
         theta, dth = intended_angle(R)
-        vals = []
-        jac = np.zeros((self.n_equations, 6 * self.n_links))
-        for (_, _, idx), cs, at in zip(self.groups, self._sets, self._jac_at):
-            v, g = cs.evaluate(p[idx], R[idx], theta[idx], dth[idx])
-            jac.flat[at] = g @ Jrel[idx]  # (Jg, m_c, 12)
-            vals.append(v.ravel())
-        return np.concatenate(vals), jac, theta, p
+        vals = np.concatenate([cs.values(p[idx], R[idx], theta[idx]).ravel()
+                               for (_, _, idx), cs in zip(self.groups, self._sets)])
+
+        def jac():
+            Jrel = fr.relative_jacobian(geo)
+            out = np.zeros((self.n_equations, 6 * self.n_links))
+            for (_, _, idx), cs, at in zip(self.groups, self._sets, self._jac_at):
+                out.flat[at] = cs.gradients(p[idx], R[idx], theta[idx], dth[idx]) @ Jrel[idx]  # (Jg, m_c, 12)
+            return out
+
+        if not jacobian:
+            return vals, None, theta, p
+        return vals, (jac if jacobian == "deferred" else jac()), theta, p
 
     # -- step 3: equilibrium with the condensed joints ----------------------------------------
     def equilibrium(self, poses: LinkPoses, K: np.ndarray, F_hat: np.ndarray, p_hat: np.ndarray,

@@ -108,22 +108,23 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     residual of the removed (redundant) equations at the solution.
     """
     rest = red.rest()
-    c0, jac0, _, _ = red.constraint_equations(rest)
+    _, jac0, _, _ = red.constraint_equations(rest)  # jac0: at the last accepted poses, for the predictor
     rows = _independent_rows(red, jac0)
     free = red.free
-    poses, lam, dlam, jac = rest, 0.0, 1.0, jac0
+    at_free, at_pres = np.ix_(rows, free), np.ix_(rows, red.prescribed)
+    poses, lam, dlam = rest, 0.0, 1.0
     iterations, history = 0, []
     while True:
         target = lam + dlam
         trial = red.with_prescribed(poses, target)
         # linear predictor from the last solution: the free motion that keeps the constraints
         # satisfied to first order under the prescribed increment (a prescribed rotation keeps its axis)
-        dz = _correction(red, jac[np.ix_(rows, free)], jac[np.ix_(rows, red.prescribed)] @ (dlam * red.values))
+        dz = _correction(red, jac0[at_free], jac0[at_pres] @ (dlam * red.values))
         if dz is not None:
             trial = trial.moved(dz)
         accepted, prev = False, np.inf
         for _ in range(max_iter):
-            c, jac, theta, p = red.constraint_equations(trial)
+            c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred")
             res = float(np.linalg.norm(c[rows])) if len(rows) else 0.0
             if not np.isfinite(res) or res > prev:  # Newton must gain in every iteration, else cut the
                 break  # step: a large prescribed motion otherwise wanders onto another assembly branch
@@ -131,7 +132,8 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                 accepted = True
                 break
             prev = res
-            dz = _correction(red, jac[np.ix_(rows, free)], c[rows])
+            jac = jac_at()
+            dz = _correction(red, jac[at_free], c[rows])
             if dz is None or np.abs(dz.reshape(-1, 6)[:, 3:]).max() > max_rotation:
                 break  # a correction turning a link this far heads for another assembly branch: cut
             trial = trial.moved(dz)
@@ -142,6 +144,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
             if lam >= 1.0 - 1e-14:
                 break
             dlam = min(2.0 * dlam, 1.0 - lam)
+            jac0 = jac_at()
         else:
             dlam *= 0.5
             if dlam < 1e-4:

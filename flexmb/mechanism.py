@@ -295,25 +295,24 @@ class Mechanism:
                     f"joint {key!r} ({jt.kind}) does not offer {capability!r}; it offers {sorted(jt.capabilities)}")
             mesh = _joint_mesh(key, jt, dim)
             pl: Placement = data["placement"]
-            gx = pl.to_global(np.asarray(mesh.points, dtype=float))
-            side = np.asarray(mesh.side)
-            master = np.where(side == SIDE_A, link_node[side_a], link_node[side_b])
-            first, node_of = _internal_nodes(side, mesh.body)
-            n_int = len(first)
+            gx = pl.to_global(mesh.points)
+            master = np.where(mesh.on_a, link_node[side_a], link_node[side_b])
+            n_int = len(mesh.first)
             joint_nodes[key] = n_nodes + np.arange(n_int)
-            master[side == INTERNAL] = n_nodes + node_of
-            node_x0.append(gx[first])
+            master[mesh.internal] = n_nodes + mesh.node_of
+            node_x0.append(gx[mesh.first])
             pt_master.append(master)
             pt_x0.append(gx)
-            ends.append(n_points + np.asarray(mesh.elements, dtype=np.int64).reshape(-1, 2))
+            ends.append(n_points + mesh.elements)
             n_nodes += n_int
             n_points += len(gx)
             sections.extend(mesh.sections)
-            owner.append(np.full(len(mesh.elements), j))
+            n_el = len(mesh.elements)
+            owner.append(np.full(n_el, j))
             if dim == 3:
-                ny.append(np.asarray(mesh.ny0) @ pl.rotation.T)
-            joint_elements[key] = n_elements + np.arange(len(mesh.elements))
-            n_elements += len(mesh.elements)
+                ny.append(mesh.ny0 @ pl.rotation.T)
+            joint_elements[key] = n_elements + np.arange(n_el)
+            n_elements += n_el
         if n_elements == 0:
             raise TopologyError("the mechanism has no joints with beam elements")
         ends = np.concatenate(ends)
@@ -423,12 +422,27 @@ class Mechanism:
                 f"joints={[f'{k}: {a}-{b}' for a, b, k in self.graph.edges(keys=True)]})")
 
 
+@attrs.frozen(eq=False)
+class _Mesh:
+    """A checked `JointMesh` as arrays, with what compiling needs of it that does not depend on
+    where the joint sits: the points on side A, the internal points and their FE nodes."""
+
+    points: np.ndarray  # (n, dim) float
+    elements: np.ndarray  # (E, 2) int64
+    sections: tuple
+    ny0: np.ndarray | None  # (E, 3) float in 3D
+    on_a: np.ndarray  # (n,) bool
+    internal: np.ndarray  # (n,) bool
+    first: np.ndarray  # point index of every internal FE node
+    node_of: np.ndarray  # internal FE node of every internal point
+
+
 @functools.lru_cache(maxsize=256)
-def _cached_mesh(joint: Joint, dim: int):
+def _cached_mesh(joint: Joint, dim: int) -> _Mesh:
     return _checked_mesh("?", joint, dim)
 
 
-def _joint_mesh(key: str, joint: Joint, dim: int):
+def _joint_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     """The joint's checked mesh; cached per joint value (joints are immutable), so a mechanism of
     identical joints and repeated solves build it once."""
     if not v.hashable(joint):
@@ -451,7 +465,7 @@ def _internal_nodes(side: np.ndarray, body) -> tuple[np.ndarray, np.ndarray]:
     return inner[np.sort(first)], rank[inverse.ravel()]
 
 
-def _checked_mesh(key: str, joint: Joint, dim: int):
+def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     """The joint's `JointMesh`, checked for shapes and indices (a plugin's mistakes named here)."""
     mesh = joint.mesh(dim)
     where = f"joint {key!r} ({joint.kind})"
@@ -470,7 +484,10 @@ def _checked_mesh(key: str, joint: Joint, dim: int):
         raise ModelError(f"{where}: {len(mesh.sections)} sections for {len(el)} elements")
     if dim == 3 and (mesh.ny0 is None or np.shape(mesh.ny0) != (len(el), 3)):
         raise ModelError(f"{where}: a 3D mesh needs ny0 of shape ({len(el)}, 3)")
-    return mesh
+    first, node_of = _internal_nodes(side, mesh.body)
+    return _Mesh(pts, el.astype(np.int64), tuple(mesh.sections),
+                 None if dim == 2 else np.asarray(mesh.ny0, dtype=float), side == SIDE_A, side == INTERNAL,
+                 first, node_of)
 
 
 def _checked_closed_form(key: str, joint: Joint) -> ClosedForm:

@@ -11,7 +11,7 @@ import numpy as np
 from . import _validate as v
 from .errors import ParameterError
 
-__all__ = ["Section", "rectangle", "torsion_constant_rectangle", "shear_coefficient_rectangle"]
+__all__ = ["Section", "rectangle", "properties", "torsion_constant_rectangle", "shear_coefficient_rectangle"]
 
 
 def torsion_constant_rectangle(width: float, thickness: float, terms: int = 50) -> float:
@@ -97,3 +97,12 @@ def rectangle(width: float, thickness: float, E: float, G: float) -> Section:
     k = shear_coefficient_rectangle(nu)
     return Section(E=E, G=G, It=torsion_constant_rectangle(width, thickness), ky=k, kz=k,
                    ymax=0.5 * float(thickness), zmax=0.5 * float(width), **props)
+
+
+def properties(sections, names) -> np.ndarray:
+    """The named properties (e.g. ``("E", "A")``) of a sequence of sections as a (len(names), n)
+    float array; each distinct section object is read once (a mesh repeats a few sections)."""
+    distinct = {}
+    code = [distinct.setdefault(id(s), (len(distinct), s))[0] for s in sections]
+    table = np.array([[getattr(s, n) for n in names] for _, s in distinct.values()], dtype=float)
+    return table.reshape(-1, len(names))[code].T

@@ -15,14 +15,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..sections import properties
+
 __all__ = ["local_stiffness", "internal_force_and_tangent"]
 
 
 def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     """Local stiffness ``S`` (E, 3, 3): ``EA/L0`` and the in-plane bending block of Eq. (A.15) with ``Iz``."""
     L0 = np.asarray(L0, dtype=float)
-    get = lambda name: np.array([getattr(s, name) for s in sections], dtype=float)  # noqa: E731
-    E, G, A, Iz, ky = (get(n) for n in ("E", "G", "A", "Iz", "ky"))
+    E, G, A, Iz, ky = properties(sections, ("E", "G", "A", "Iz", "ky"))
     phi = 12.0 * E * Iz / (ky * G * A * L0**2)
     c = E * Iz / ((1.0 + phi) * L0**3)
     S = np.zeros((len(L0), 3, 3))

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..rotations import cross, skew
+from ..sections import properties
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent"]
 
@@ -31,8 +32,7 @@ def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     ``sections`` is a sequence of `flexmb.sections.Section`, one per element; ``L0`` [m] (E,).
     """
     L0 = np.asarray(L0, dtype=float)
-    get = lambda name: np.array([getattr(s, name) for s in sections], dtype=float)  # noqa: E731
-    E, G, A, Iy, Iz, It, ky, kz = (get(n) for n in ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
+    E, G, A, Iy, Iz, It, ky, kz = properties(sections, ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
     S = np.zeros((len(L0), 6, 6))
     S[:, 0, 0] = E * A / L0
     S[:, 1, 1] = G * It / L0**3

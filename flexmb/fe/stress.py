@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
+from ..sections import properties
 
 __all__ = ["peak_normal_stress"]
 
@@ -23,13 +24,13 @@ def peak_normal_stress(model, state) -> np.ndarray:
     if any(y is None or (model.dim == 3 and z is None) for y, z in fibre):
         raise ModelError("peak stress needs the extreme-fibre distances ymax, zmax of every section "
                          "(flexmb.sections.rectangle sets them)")
-    get = lambda name: np.array([getattr(s, name) for s in el.sections], dtype=float)  # noqa: E731
-    ymax, A, Iz = get("ymax"), get("A"), get("Iz")
+    ymax, A, Iz, *zy = properties(el.sections, ("ymax", "A", "Iz") + (("zmax", "Iy") if model.dim == 3 else ()))
     sig = model.element_response(state, tangent=False)[3]
     axial = np.abs(sig[:, 0]) / A
     L0 = el.L0[:, None]
     if model.dim == 2:
         return axial + np.abs(L0 * sig[:, 1:3]).max(axis=1) * ymax / Iz
     My, Mz = L0 * sig[:, 2:4], L0 * sig[:, 4:6]  # ends p, q
-    bend = np.abs(My) * (get("zmax") / get("Iy"))[:, None] + np.abs(Mz) * (ymax / Iz)[:, None]
+    zmax, Iy = zy
+    bend = np.abs(My) * (zmax / Iy)[:, None] + np.abs(Mz) * (ymax / Iz)[:, None]
     return axial + bend.max(axis=1)

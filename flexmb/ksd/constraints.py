@@ -21,6 +21,8 @@ each is a dimensionless function of the relative pose ``(p, R_rel)`` of node B s
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..errors import ModelError
@@ -45,6 +47,18 @@ def check_names(where: str, names, dim: int) -> tuple[str, ...]:
     if dim == 2 and set(names) & {"z", "tilt_x", "tilt_y"}:
         raise ModelError(f"{where}: constraints z, tilt_x, tilt_y have no meaning in a planar mechanism")
     return names
+
+
+@functools.lru_cache(maxsize=256)
+def _stacked(data, functions: tuple[str, ...]):
+    """The trained ``functions`` of ``data`` as one polynomial over the union of their powers:
+    powers (P,), coefficients (P, n), and the same for the derivative."""
+    polys = [data.function(f) for f in functions]
+    powers = np.unique(np.concatenate([f.powers for f in polys]))
+    coef = np.zeros((len(polys), len(powers)))
+    for i, f in enumerate(polys):
+        coef[i, np.searchsorted(powers, f.powers)] = np.asarray(f.coefficients, dtype=float).ravel()
+    return powers, coef.T, np.maximum(powers - 1, 0), (coef * powers).T
 
 
 class ConstraintSet:
@@ -75,16 +89,10 @@ class ConstraintSet:
         self.len = names.index("length") if "length" in names else None
         self.n0 = n0 = cross([0.0, 0.0, 1.0], b0 * inv[:, None])
         self.m0 = cross([0.0, 0.0, 1.0], n0)  # d n0 / d angle about z
-        # the trained functions of theta as one polynomial over the union of their powers
-        fun = [(k, data.function(_FUNCTION[n])) for k, n in enumerate(names) if n in _FUNCTION]
-        self.fun = np.array([k for k, _ in fun], dtype=np.int64)
+        fun = [k for k, n in enumerate(names) if n in _FUNCTION]
+        self.fun = np.array(fun, dtype=np.int64)
         if fun:
-            powers = np.unique(np.concatenate([f.powers for _, f in fun]))
-            coef = np.zeros((len(fun), len(powers)))
-            for i, (_, f) in enumerate(fun):
-                coef[i, np.searchsorted(powers, f.powers)] = np.asarray(f.coefficients, dtype=float).ravel()
-            self.powers, self.coef = powers, coef.T  # (P,), (P, n_fun)
-            self.dpowers, self.dcoef = np.maximum(powers - 1, 0), (coef * powers).T
+            self.powers, self.coef, self.dpowers, self.dcoef = _stacked(data, tuple(_FUNCTION[names[k]] for k in fun))
 
     def _symmetric_normal(self, theta):
         """``n0`` turned by ``theta / 2`` about z, (J, 3)."""

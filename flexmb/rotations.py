@@ -10,14 +10,14 @@ import numpy as np
 
 __all__ = ["skew", "unskew", "cross", "expm_so3", "logm_so3", "rot2"]
 
-# Below this angle logm_so3 takes t / sin(t) from its Taylor series.
-_SMALL = 1e-4
 _EYE = np.eye(3)
 #: ``w @ _SKEW`` is ``skew(w)`` flattened row by row
 _SKEW = np.zeros((3, 3, 3))
 _SKEW[0, 2, 1] = _SKEW[1, 0, 2] = _SKEW[2, 1, 0] = 1.0
 _SKEW[0, 1, 2] = _SKEW[1, 2, 0] = _SKEW[2, 0, 1] = -1.0
 _SKEW = _SKEW.reshape(3, 9)
+#: ``R.reshape(9) @ _TRACE_AXIAL`` = (trace R, twice the axial vector of R's skew part)
+_TRACE_AXIAL = np.concatenate([_EYE.reshape(9, 1), _SKEW.T], axis=1)
 
 
 def skew(w: np.ndarray) -> np.ndarray:
@@ -29,17 +29,13 @@ def skew(w: np.ndarray) -> np.ndarray:
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a x b`` for arrays of 3-vectors (...,3), broadcast; np.cross's generic path is ~10x slower
     on the small batches of the Newton loop."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
-                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
-                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+    return (skew(a) @ np.asarray(b, dtype=float)[..., None])[..., 0]
 
 
 def unskew(S: np.ndarray) -> np.ndarray:
     """Axial vector of the skew part of ``S``, shape (..., 3, 3) -> (..., 3)."""
-    return 0.5 * np.stack(
-        [S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]], axis=-1
-    )
+    S = np.asarray(S, dtype=float)
+    return 0.5 * (S.reshape(S.shape[:-2] + (9,)) @ _SKEW.T)
 
 
 def expm_so3(w: np.ndarray) -> np.ndarray:
@@ -60,14 +56,13 @@ def expm_so3(w: np.ndarray) -> np.ndarray:
 def logm_so3(R: np.ndarray) -> np.ndarray:
     """Rotation vectors [rad] of rotation matrices, shape (..., 3, 3) -> (..., 3), angle in [0, pi]."""
     R = np.asarray(R, dtype=float)
-    c = np.clip(0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0), -1.0, 1.0)
-    t = np.arccos(c)
-    v = unskew(R)  # = sin(t) * axis
-    s = np.sin(t)
-    small = t < _SMALL
+    tv = R.reshape(R.shape[:-2] + (9,)) @ _TRACE_AXIAL
+    c = 0.5 * (tv[..., 0] - 1.0)  # cos(t)
+    v = 0.5 * tv[..., 1:]  # sin(t) * axis
+    s = np.sqrt(np.einsum("...i,...i->...", v, v))
+    t = np.arctan2(s, c)  # accurate at every angle, unlike arccos(c) near 0
+    w = (t / np.where(s > 0.0, s, 1.0))[..., None] * v
     near_pi = t > np.pi - 1e-3
-    factor = np.where(small, 1.0 + t * t / 6.0, t / np.where(small | (s == 0), 1.0, s))
-    w = factor[..., None] * v
     if np.any(near_pi):
         # sin(t) -> 0 at pi: take the axis from the symmetric part, R + I = 2 n n^T (1 - cos t) + ...
         B = 0.5 * (R + np.swapaxes(R, -1, -2)) - c[..., None, None] * np.eye(3)

@@ -137,7 +137,8 @@ class ReducedMechanism:
         # step 3: where the joints' wrenches on links b and a and the loads go in the residual, and
         # each joint's 12 x 12 block and each offset load's 3 x 3 block in the flattened tangent
         ld = self.load_node[:, None] * 6
-        self._r_at = np.concatenate([cols[:, 6:].ravel(), cols[:, :6].ravel(), (ld + np.arange(6)).ravel()])
+        self._r_at = np.concatenate([cols[:, 6:], cols[:, :6]], axis=1).ravel()  # per joint: on b, on a
+        self._r_at = np.concatenate([self._r_at, (ld + np.arange(6)).ravel()])
         lr = ld + np.arange(3, 6)
         self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
                                      (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])
@@ -194,16 +195,16 @@ class ReducedMechanism:
         p, Rrel, geo = fr.relative(poses)
         Q = Rrel @ np.swapaxes(R_hat, 1, 2)
         xi = np.concatenate([p - p_hat, unskew(Q)], axis=1)
-        w = np.einsum("jab,jb->ja", K, xi) + F_hat
+        w = (K @ xi[..., None])[..., 0] + F_hat
         F = geo["F"]
-        f = np.einsum("jab,jb->ja", F, w[:, :3])
-        mB = np.einsum("jab,jb->ja", F, w[:, 3:])
+        fm = F @ w.reshape(-1, 2, 3).swapaxes(1, 2)  # (J, 3, 2): force and moment on B in global axes
+        f, mB = fm[..., 0], fm[..., 1]
         rb, ra = geo["rb"], geo["ra"]
-        d = np.einsum("kab,kb->ka", poses.R[self.load_node], self.load_offset)
-        on_b = np.concatenate([f, mB + cross(rb, f)], axis=1)
-        on_a = np.concatenate([f, mB + cross(ra, f)], axis=1)
+        m = mB[:, None] + cross(np.stack([rb, ra], axis=1), f[:, None])  # about links b and a
+        d = (poses.R[self.load_node] @ self.load_offset[..., None])[..., 0]
+        on_links = np.concatenate([f, m[:, 0], -f, -m[:, 1]], axis=1)  # on b, on a
         loads = np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)], axis=1)
-        r = np.bincount(self._r_at, np.concatenate([on_b, -on_a, -loads]).ravel(), minlength=6 * self.n_links)
+        r = np.bincount(self._r_at, np.concatenate([on_links.ravel(), -loads.ravel()]), minlength=6 * self.n_links)
 
         def jacobian():
             Jrel = fr.relative_jacobian(geo)

@@ -297,13 +297,14 @@ class _KSD:
     def _reduced(self, red, poses, K, Fh, p_hat, R_hat):
         """Step 3: Newton on the reduced mechanism; returns poses, converged, history, residual."""
         free = red.free
+        at_free = np.ix_(free, free)
         history, prev = [], np.inf
         r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
         res = float(np.linalg.norm(r[free]))
         for _ in range(self.max_iter):
             if res < self.tol and history:
                 return poses, True, history, r
-            dz = _correction(red, Kr()[np.ix_(free, free)], r[free])
+            dz = _correction(red, Kr()[at_free], r[free])
             if dz is None:
                 break
             poses = poses.moved(dz)

@@ -36,7 +36,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import ModelError
 from ..fe import beam2d, beam3d
-from ..rotations import expm_so3, logm_so3, rot2
+from ..rotations import expm_so3, logm_so3, rot2, skew
 from .geometry import rz
 
 __all__ = ["EOBTemplate", "EOB", "lever"]
@@ -49,10 +49,8 @@ def lever(r: np.ndarray, dim: int) -> np.ndarray:
     T[..., range(nd), range(nd)] = 1.0
     if dim == 2:
         T[..., 0, 2], T[..., 1, 2] = -r[..., 1], r[..., 0]
-    else:
-        T[..., 0, 4], T[..., 0, 5] = r[..., 2], -r[..., 1]
-        T[..., 1, 3], T[..., 1, 5] = -r[..., 2], r[..., 0]
-        T[..., 2, 3], T[..., 2, 4] = r[..., 1], -r[..., 0]
+    else:  # dx_point = dx - r x dphi
+        T[..., :3, 3:] = -skew(r)
     return T
 
 
@@ -145,6 +143,7 @@ class EOBTemplate:
         self.p_point, self.q_point = pq[:, 0], pq[:, 1]
         self.p_node, self.q_node = master[self.p_point], master[self.q_point]
         self.s_p, self.s_q = offset[self.p_point], offset[self.q_point]
+        self.pq_node, self.s_pq = np.stack([self.p_node, self.q_node], axis=1), np.stack([self.s_p, self.s_q], axis=1)
         self.d = model.point_x0[self.q_point] - model.point_x0[self.p_point]
         perm = np.r_[nd:2 * nd, 0:nd]
         self.K0 = np.where(flip[:, None, None], K0[:, perm][:, :, perm], K0)
@@ -197,9 +196,10 @@ class EOBTemplate:
             if N > 2:
                 Rn[:, 2:] = expm_so3(self.data.nodes(theta).reshape(J, N - 2, 3))
             node_angle = None
-        Rd = np.einsum("jeab,eb->jea", Re, self.d)
-        arm_p = np.einsum("jeab,eb->jea", Rn[:, self.p_node], self.s_p)
-        arm_q = np.einsum("jeab,eb->jea", Rn[:, self.q_node], self.s_q)
+        Rd = (Re @ self.d[..., None])[..., 0]
+        Rpq = Rn[:, self.pq_node]  # (J, E, 2, dim, dim): near rotations of each element's nodes p, q
+        arm = (Rpq @ self.s_pq[..., None])[..., 0]
+        arm_p, arm_q = arm[:, :, 0], arm[:, :, 1]
         x = np.zeros((J, N, dim))
         x[:, 1] = b_position
         if N > 2:
@@ -207,15 +207,13 @@ class EOBTemplate:
         mp = x[:, self.p_node] + arm_p
         mq = mp + Rd
         # q_hat: marker near pose minus where the nodes' near poses put the marker
-        q_hat = np.zeros((J, E, 2 * nd))
-        q_hat[:, :, nd:nd + dim] = mq - (x[:, self.q_node] + arm_q)
+        q_hat = np.zeros((J, E, 2, nd))
+        q_hat[:, :, 1, :dim] = mq - (x[:, self.q_node] + arm_q)
         if dim == 2:
-            q_hat[:, :, nd - 1] = beta - node_angle[:, self.p_node]
-            q_hat[:, :, 2 * nd - 1] = beta - node_angle[:, self.q_node]
+            q_hat[..., nd - 1] = beta[:, :, None] - node_angle[:, self.pq_node]
         else:  # spins from the node's near orientation to the element's
-            Ret = np.swapaxes(Re, 2, 3)
-            q_hat[:, :, 3:6] = -logm_so3(Rn[:, self.p_node] @ Ret)
-            q_hat[:, :, 9:12] = -logm_so3(Rn[:, self.q_node] @ Ret)
+            q_hat[..., 3:] = -logm_so3(Rpq @ np.swapaxes(Re, 2, 3)[:, :, None])
+        q_hat = q_hat.reshape(J, E, 2 * nd)
 
         T = np.zeros((J, E, 2 * nd, 2 * nd))  # element rotation, per translation/rotation block
         for blk in (0, nd):
@@ -227,8 +225,8 @@ class EOBTemplate:
         K_all = T @ self.K0 @ np.swapaxes(T, 2, 3)
         F_all = -np.einsum("jeab,jeb->jea", K_all, q_hat)
         L = np.zeros((J, E, 2 * nd, 2 * nd))
-        L[:, :, :nd, :nd] = lever(arm_p, dim)
-        L[:, :, nd:, nd:] = lever(arm_q, dim)
+        lv = lever(arm, dim)
+        L[:, :, :nd, :nd], L[:, :, nd:, nd:] = lv[:, :, 0], lv[:, :, 1]
         Lt = np.swapaxes(L, 2, 3)
         Ke = Lt @ K_all @ L
         Fe = np.einsum("jeab,jeb->jea", Lt, F_all)

@@ -84,6 +84,12 @@ class JointFrames:
     s_a: np.ndarray
     s_b: np.ndarray
     P: np.ndarray
+    _ab: np.ndarray = attrs.field(init=False, repr=False)
+    _s_ab: np.ndarray = attrs.field(init=False, repr=False)
+
+    def __attrs_post_init__(self):
+        object.__setattr__(self, "_ab", np.concatenate([self.a, self.b]))
+        object.__setattr__(self, "_s_ab", np.concatenate([self.s_a, self.s_b]))
 
     def frame_a(self, poses: LinkPoses):
         """Current joint frames: origins ``o_A`` (J, 3) and axes ``F`` (J, 3, 3)."""
@@ -92,22 +98,25 @@ class JointFrames:
 
     def relative(self, poses: LinkPoses):
         """``p`` (J, 3), ``R_rel`` (J, 3, 3) and ``dict`` of intermediate vectors."""
-        oA, F = self.frame_a(poses)
-        Rb = poses.R[self.b]
-        rb = np.einsum("jik,jk->ji", Rb, self.s_b)  # o_B - x_b
-        oB = poses.x[self.b] + rb
-        Ft = np.swapaxes(F, 1, 2)
-        p = np.einsum("jik,jk->ji", Ft, oB - oA)
-        return p, Ft @ Rb @ self.P, {"F": F, "Ft": Ft, "oA": oA, "oB": oB, "rb": rb, "ra": oB - poses.x[self.a]}
+        Rab = poses.R[self._ab]  # (2J, 3, 3): links a, then links b
+        xab = poses.x[self._ab]
+        arm = (Rab @ self._s_ab[..., None])[..., 0]
+        n = len(self.a)
+        o = xab + arm
+        oA, oB = o[:n], o[n:]
+        F = Rab[:n] @ self.P
+        Ft = F.swapaxes(1, 2)
+        p = (Ft @ (oB - oA)[..., None])[..., 0]
+        return p, Ft @ Rab[n:] @ self.P, {"F": F, "Ft": Ft, "oA": oA, "oB": oB, "rb": arm[n:], "ra": oB - xab[:n]}
 
     def relative_jacobian(self, geo: dict) -> np.ndarray:
         """``d(p, omega) / d(dx_a, dphi_a, dx_b, dphi_b)``, shape (J, 6, 12)."""
         Ft = geo["Ft"]
+        mFt = -Ft
+        arms = Ft[:, None] @ skew(np.stack([geo["ra"], -geo["rb"]], axis=1))  # (J, 2, 3, 3)
         J = np.zeros((len(Ft), 6, 12))
-        J[:, :3, 0:3] = -Ft
-        J[:, :3, 3:6] = Ft @ skew(geo["ra"])
-        J[:, :3, 6:9] = Ft
-        J[:, :3, 9:12] = -Ft @ skew(geo["rb"])
-        J[:, 3:, 3:6] = -Ft
-        J[:, 3:, 9:12] = Ft
+        J[:, :3, 0:3] = J[:, 3:, 3:6] = mFt
+        J[:, :3, 6:9] = J[:, 3:, 9:12] = Ft
+        J[:, :3, 3:6] = arms[:, 0]
+        J[:, :3, 9:12] = arms[:, 1]
         return J

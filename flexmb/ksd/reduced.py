@@ -24,6 +24,8 @@ from .geometry import ACTIVE, JointFrames, LinkPoses, intended_angle
 
 __all__ = ["ReducedMechanism", "template"]
 
+_EYE = np.eye(3)
+
 
 @functools.lru_cache(maxsize=64)
 def _cached_template(joint, dim: int, folder: str, stamp: int) -> EOBTemplate:
@@ -113,6 +115,8 @@ class ReducedMechanism:
         self.b0 = np.array(b0)
         self.D0 = np.linalg.norm(self.b0, axis=1)
         self.groups = [(tpl, cons, np.array(idx)) for tpl, cons, idx in groups.values()]
+        # how to take a group's joints from per-joint arrays (all of them: a view, not a copy)
+        self._take = [slice(None)] if len(self.groups) == 1 else [idx for _, _, idx in self.groups]
         self.joint_nodes = [compiled.joint_nodes[k] for k in names]
         # equation rows: (joint, constraint) per group, in group order
         self.rows = [(names[j], c) for tpl, cons, idx in self.groups for j in idx for c in cons]
@@ -148,7 +152,7 @@ class ReducedMechanism:
     # -- poses ------------------------------------------------------------------------------
     def rest(self) -> LinkPoses:
         """The links' undeformed poses (reference positions [m], identity rotations)."""
-        return LinkPoses(self.X0.copy(), np.tile(np.eye(3), (self.n_links, 1, 1)), np.zeros(self.n_links))
+        return LinkPoses(self.X0.copy(), np.broadcast_to(_EYE, (self.n_links, 3, 3)).copy(), np.zeros(self.n_links))
 
     def with_prescribed(self, poses: LinkPoses, lam: float = 1.0) -> LinkPoses:
         """``poses`` with the prescribed components set to ``lam`` times their values (exactly)."""
@@ -169,13 +173,12 @@ class ReducedMechanism:
         fr = self.frames
         p, R, geo = fr.relative(poses)
         theta, dth = intended_angle(R)
-        vals = np.concatenate([cs.values(p[idx], R[idx], theta[idx]).ravel()
-                               for (_, _, idx), cs in zip(self.groups, self._sets)])
+        vals = np.concatenate([cs.values(p[idx], R[idx], theta[idx]).ravel() for idx, cs in zip(self._take, self._sets)])
 
         def jac():
             Jrel = fr.relative_jacobian(geo)
             out = np.zeros((self.n_equations, 6 * self.n_links))
-            for (_, _, idx), cs, at in zip(self.groups, self._sets, self._jac_at):
+            for idx, cs, at in zip(self._take, self._sets, self._jac_at):
                 out.flat[at] = cs.gradients(p[idx], R[idx], theta[idx], dth[idx]) @ Jrel[idx]  # (Jg, m_c, 12)
             return out
 
@@ -208,8 +211,8 @@ class ReducedMechanism:
 
         def jacobian():
             Jrel = fr.relative_jacobian(geo)
-            trQ = np.trace(Q, axis1=1, axis2=2)
-            Jrel[:, 3:] = (0.5 * (trQ[:, None, None] * np.eye(3) - Q)) @ Jrel[:, 3:]
+            trQ = Q[:, 0, 0] + Q[:, 1, 1] + Q[:, 2, 2]
+            Jrel[:, 3:] = (0.5 * (trQ[:, None, None] * _EYE - Q)) @ Jrel[:, 3:]
             dw = K @ Jrel  # (J, 6, 12)
             df = F @ dw[:, :3]
             df[:, :, 3:6] -= skew(f)

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import functools
+import math
 import os
 import time
 import warnings
@@ -25,6 +26,7 @@ from typing import ClassVar
 import attrs
 import numpy as np
 import scipy.linalg
+from scipy.linalg import lapack
 
 from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError, TopologyError
 from ..ksd.geometry import ACTIVE, rz
@@ -35,6 +37,7 @@ from .conventional import above_one, boolean, newton_steps, positive_float, posi
 
 __all__ = ["KSDReduced", "KSDFull", "solve_kinematics"]
 
+_gesv = lapack.get_lapack_funcs("gesv", (np.zeros(1),))
 _COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
 
 
@@ -90,14 +93,19 @@ def _rank(data: bytes, shape: tuple):
     return rank, null, rows
 
 
+def _norm(v: np.ndarray) -> float:
+    """2-norm of a vector (np.linalg.norm's checks cost more than the arithmetic here)."""
+    return math.sqrt(float(v @ v))
+
+
 def _correction(red: ReducedMechanism, A: np.ndarray, r: np.ndarray):
     """Newton correction of the free link coordinates, ``A dz_free = -r``, as increments (6 per
     link); None when ``A`` is singular."""
-    dz = np.zeros(6 * red.n_links)
-    try:
-        dz[red.free] = np.linalg.solve(A, -r)
-    except np.linalg.LinAlgError:
+    *_, x, info = _gesv(A, -r)  # LAPACK directly: np.linalg.solve's wrapper costs more than this solve
+    if info != 0:
         return None
+    dz = np.zeros(6 * red.n_links)
+    dz[red.free] = x
     return dz
 
 
@@ -125,7 +133,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
         accepted, prev = False, np.inf
         for _ in range(max_iter):
             c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred")
-            res = float(np.linalg.norm(c[rows])) if len(rows) else 0.0
+            res = _norm(c[rows])
             if not np.isfinite(res) or res > prev:  # Newton must gain in every iteration, else cut the
                 break  # step: a large prescribed motion otherwise wanders onto another assembly branch
             if res < tol:
@@ -300,7 +308,7 @@ class _KSD:
         at_free = np.ix_(free, free)
         history, prev = [], np.inf
         r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
-        res = float(np.linalg.norm(r[free]))
+        res = _norm(r[free])
         for _ in range(self.max_iter):
             if res < self.tol and history:
                 return poses, True, history, r
@@ -309,7 +317,7 @@ class _KSD:
                 break
             poses = poses.moved(dz)
             r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
-            prev, res = res, float(np.linalg.norm(r[free]))
+            prev, res = res, _norm(r[free])
             history.append(res)
             # as the conventional method: the divergence test starts after the first correction
             if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):

@@ -261,14 +261,18 @@ class Mechanism:
         fixed = [n for n, lk in self.links.items() if lk.fixed]
         if not fixed:
             raise TopologyError("the mechanism has no fixed link; fix one with add_link(..., fixed=True) or fix()")
-        grounded = set()
-        for f in fixed:
-            grounded |= nx.node_connected_component(self.graph, f)
-        loose = [n for n in self.graph.nodes if n not in grounded]
+        adj = self.graph.adj  # a plain search: networkx's dispatching costs more than the search
+        grounded, stack = set(fixed), list(fixed)
+        while stack:
+            for nb in adj[stack.pop()]:
+                if nb not in grounded:
+                    grounded.add(nb)
+                    stack.append(nb)
+        loose = [n for n in adj if n not in grounded]
         if loose:
             raise TopologyError(f"links {loose} are not connected to a fixed link through joints")
-        for n in self.graph.nodes:
-            if self.graph.degree(n) == 0 and not self.links[n].fixed:
+        for n, nbrs in adj.items():
+            if not nbrs and not self.links[n].fixed:
                 raise TopologyError(f"link {n!r} has no joint")
 
     def compile(self, capability: str = "fe_model") -> Compiled:
@@ -308,7 +312,7 @@ class Mechanism:
             n_points += len(gx)
             sections.extend(mesh.sections)
             n_el = len(mesh.elements)
-            owner.append(np.full(n_el, j))
+            owner.append(np.zeros(n_el, dtype=np.int64) + j)
             if dim == 3:
                 ny.append(mesh.ny0 @ pl.rotation.T)
             joint_elements[key] = n_elements + np.arange(n_el)

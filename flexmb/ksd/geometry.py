@@ -113,7 +113,7 @@ class JointFrames:
         """``d(p, omega) / d(dx_a, dphi_a, dx_b, dphi_b)``, shape (J, 6, 12)."""
         Ft = geo["Ft"]
         mFt = -Ft
-        arms = Ft[:, None] @ skew(np.stack([geo["ra"], -geo["rb"]], axis=1))  # (J, 2, 3, 3)
+        arms = Ft[:, None] @ skew(np.concatenate([geo["ra"][:, None], -geo["rb"][:, None]], axis=1))  # (J, 2, 3, 3)
         J = np.zeros((len(Ft), 6, 12))
         J[:, :3, 0:3] = J[:, 3:, 3:6] = mFt
         J[:, :3, 6:9] = J[:, 3:, 9:12] = Ft

@@ -10,7 +10,7 @@ the joint in its current geometry, so the joint wrenches balance exactly, as in 
 from __future__ import annotations
 
 import functools
-from pathlib import Path
+import os
 
 import numpy as np
 
@@ -38,8 +38,10 @@ def template(joint, dim: int, folder=None) -> EOBTemplate:
     if "database" not in joint.capabilities:
         raise UnsupportedStrategyError(
             f"joint kind {joint.kind!r} has no joint database (KSD needs one); it offers {sorted(joint.capabilities)}")
-    path = Path(folder) / file_name(joint.kind, dim, joint.database_key())
-    stamp = path.stat().st_mtime_ns if path.exists() else -1
+    try:
+        stamp = os.stat(os.path.join(folder, file_name(joint.kind, dim, joint.database_key()))).st_mtime_ns
+    except OSError:
+        stamp = -1
     if not hashable(joint):  # a plugin joint that is not a value: no caching
         return EOBTemplate(joint, dim, shipped(joint, dim, folder))
     return _cached_template(joint, dim, folder, stamp)
@@ -89,7 +91,7 @@ class ReducedMechanism:
         names, a, b, s_a, s_b, P, b0, groups, seen = [], [], [], [], [], [], [], {}, {}
         for key, jt, pl, side_a, side_b in compiled.joints:
             la, lb = compiled.link_node[side_a], compiled.link_node[side_b]
-            Pm = np.eye(3)
+            Pm = _EYE.copy()
             Pm[:dim, :dim] = pl.rotation
             bj = _embed(jt.interface_b(dim), dim)
             origin = _embed(pl.origin, dim)
@@ -147,12 +149,12 @@ class ReducedMechanism:
         self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
                                      (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])
         # characteristic length for scaling translations against rotations
-        self.length = float(np.mean(self.D0))
+        self.length = float(self.D0.sum()) / len(self.D0)
 
     # -- poses ------------------------------------------------------------------------------
     def rest(self) -> LinkPoses:
         """The links' undeformed poses (reference positions [m], identity rotations)."""
-        return LinkPoses(self.X0.copy(), np.broadcast_to(_EYE, (self.n_links, 3, 3)).copy(), np.zeros(self.n_links))
+        return LinkPoses(self.X0.copy(), np.repeat(_EYE[None], self.n_links, axis=0), np.zeros(self.n_links))
 
     def with_prescribed(self, poses: LinkPoses, lam: float = 1.0) -> LinkPoses:
         """``poses`` with the prescribed components set to ``lam`` times their values (exactly)."""
@@ -203,7 +205,7 @@ class ReducedMechanism:
         fm = F @ w.reshape(-1, 2, 3).swapaxes(1, 2)  # (J, 3, 2): force and moment on B in global axes
         f, mB = fm[..., 0], fm[..., 1]
         rb, ra = geo["rb"], geo["ra"]
-        m = mB[:, None] + cross(np.stack([rb, ra], axis=1), f[:, None])  # about links b and a
+        m = mB[:, None] + cross(np.concatenate([rb[:, None], ra[:, None]], axis=1), f[:, None])  # about b and a
         d = (poses.R[self.load_node] @ self.load_offset[..., None])[..., 0]
         on_links = np.concatenate([f, m[:, 0], -f, -m[:, 1]], axis=1)  # on b, on a
         loads = np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)], axis=1)
@@ -252,7 +254,7 @@ class ReducedMechanism:
             rot = np.zeros(model.n_nodes)
             rot[:nL] = poses.angle  # accumulated, not wrapped: the FE state's angles may exceed pi
         else:
-            rot = np.tile(np.eye(3), (model.n_nodes, 1, 1))
+            rot = np.repeat(_EYE[None], model.n_nodes, axis=0)
             rot[:nL] = poses.R
         oA, F = self.frames.frame_a(poses)
         for idx, xl, Rl in internal:

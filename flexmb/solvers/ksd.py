@@ -119,7 +119,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     _, jac0, _, _ = red.constraint_equations(rest)  # jac0: at the last accepted poses, for the predictor
     rows = _independent_rows(red, jac0)
     free = red.free
-    at_free, at_pres = np.ix_(rows, free), np.ix_(rows, red.prescribed)
+    at_free, at_pres = (rows[:, None], free), (rows[:, None], red.prescribed)
     poses, lam, dlam = rest, 0.0, 1.0
     iterations, history = 0, []
     while True:
@@ -253,8 +253,8 @@ class _KSD:
         eobs = []
         for tpl, _, idx in red.groups:
             e = tpl.evaluate(theta[idx], p_hat[idx, :dim])
-            K[np.ix_(idx, emb, emb)] = e.K_T[:, nd:, nd:]
-            Fh[np.ix_(idx, emb)] = e.F_hat_T[:, nd:]
+            K[idx[:, None, None], emb[:, None], emb] = e.K_T[:, nd:, nd:]
+            Fh[idx[:, None], emb] = e.F_hat_T[:, nd:]
             eobs.append(e)
         R_hat = rz(theta)
         t = lap("eob", t)
@@ -305,7 +305,7 @@ class _KSD:
     def _reduced(self, red, poses, K, Fh, p_hat, R_hat):
         """Step 3: Newton on the reduced mechanism; returns poses, converged, history, residual."""
         free = red.free
-        at_free = np.ix_(free, free)
+        at_free = (free[:, None], free)
         history, prev = [], np.inf
         r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
         res = _norm(r[free])

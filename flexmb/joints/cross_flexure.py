@@ -16,7 +16,7 @@ from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
 __all__ = ["CrossFlexure"]
 
 
-@attrs.frozen(kw_only=True)
+@attrs.frozen(kw_only=True, cache_hash=True)
 class CrossFlexure(Joint):
     """Cross-flexure pivot [``cross_flexure``].
 

@@ -16,7 +16,7 @@ from ._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint, 
 __all__ = ["CurvedBeam"]
 
 
-@attrs.frozen(kw_only=True)
+@attrs.frozen(kw_only=True, cache_hash=True)
 class CurvedBeam(Joint):
     """Circular curved-beam flexure [``curved_beam``], planar mechanisms only.
 

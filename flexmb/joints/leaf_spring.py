@@ -15,7 +15,7 @@ from ._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint, 
 __all__ = ["LeafSpring"]
 
 
-@attrs.frozen(kw_only=True)
+@attrs.frozen(kw_only=True, cache_hash=True)
 class LeafSpring(Joint):
     """Straight leaf spring [``leaf_spring``] from node A (origin) to node B at ``(length, 0[, 0])``.
 

@@ -26,7 +26,7 @@ from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
 __all__ = ["ThreeXInfinity"]
 
 
-@attrs.frozen(kw_only=True)
+@attrs.frozen(kw_only=True, cache_hash=True)
 class ThreeXInfinity(Joint):
     """Stacked cross-flexure hinge [``three_x_infinity``] for +-45 deg about its z axis.
 

@@ -32,6 +32,12 @@ def _cached_template(joint, dim: int, folder: str, stamp: int) -> EOBTemplate:
     return EOBTemplate(joint, dim, shipped(joint, dim, folder))
 
 
+@functools.lru_cache(maxsize=256)
+def _constraint_set(tpl: EOBTemplate, names: tuple, D0: bytes, b0: bytes) -> constraints.ConstraintSet:
+    """The `ConstraintSet` of joints with one template (their ``D0`` and ``b0`` as bytes), built once."""
+    return constraints.ConstraintSet(names, tpl.data, np.frombuffer(D0), np.frombuffer(b0).reshape(-1, 3))
+
+
 def template(joint, dim: int, folder=None) -> EOBTemplate:
     """The joint's `EOBTemplate` with its database (cached per joint value and database file)."""
     folder = str(folder or data_path())
@@ -129,7 +135,7 @@ class ReducedMechanism:
         # Jacobian (m, 6 n_links); a joint's 12 columns are distinct (links a != b)
         self._sets, self._jac_at, r0 = [], [], 0
         for tpl, cons, idx in self.groups:
-            self._sets.append(constraints.ConstraintSet(cons, tpl.data, self.D0[idx], self.b0[idx]))
+            self._sets.append(_constraint_set(tpl, cons, self.D0[idx].tobytes(), self.b0[idx].tobytes()))
             row = r0 + np.arange(len(idx) * len(cons)).reshape(len(idx), len(cons), 1)
             self._jac_at.append((row * 6 * nL + cols[idx][:, None, :]).ravel())
             r0 += len(idx) * len(cons)
@@ -167,15 +173,17 @@ class ReducedMechanism:
         return LinkPoses(x, R, angle)
 
     # -- step 1: kinematics -------------------------------------------------------------------
-    def constraint_equations(self, poses: LinkPoses, jacobian: bool | str = True):
+    def constraint_equations(self, poses: LinkPoses, jacobian: bool | str = True, values: bool = True):
         """Values (m,) and Jacobian (m, 6 n_links) of all joints' kinematic constraints; the
         intended rotations ``theta`` (J,) and relative positions ``p`` (J, 3).
         ``jacobian="deferred"`` returns a function that computes the Jacobian when called (a
-        converged iterate never needs it); False returns None."""
+        converged iterate never needs it); False returns None. ``values=False`` returns None
+        for the values."""
         fr = self.frames
         p, R, geo = fr.relative(poses)
         theta, dth = intended_angle(R)
-        vals = np.concatenate([cs.values(p[idx], R[idx], theta[idx]).ravel() for idx, cs in zip(self._take, self._sets)])
+        vals = None if not values else np.concatenate(
+            [cs.values(p[idx], R[idx], theta[idx]).ravel() for idx, cs in zip(self._take, self._sets)])
 
         def jac():
             Jrel = fr.relative_jacobian(geo)

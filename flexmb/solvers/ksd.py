@@ -116,7 +116,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     residual of the removed (redundant) equations at the solution.
     """
     rest = red.rest()
-    _, jac0, _, _ = red.constraint_equations(rest)  # jac0: at the last accepted poses, for the predictor
+    _, jac0, _, _ = red.constraint_equations(rest, values=False)  # jac0: at the last accepted poses (predictor)
     rows = _independent_rows(red, jac0)
     free = red.free
     at_free, at_pres = (rows[:, None], free), (rows[:, None], red.prescribed)

@@ -17,6 +17,7 @@ import numpy as np
 from .._validate import hashable
 from ..database.store import data_path, file_name, shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
+from ..fe.model import State
 from ..rotations import cross, expm_so3, skew, unskew
 from . import constraints
 from .eob import EOBTemplate
@@ -251,8 +252,6 @@ class ReducedMechanism:
         ``(idx, x, rot)`` per group of joints sharing a mesh: joint indices (Jg,), internal node
         positions (Jg, n, dim) and rotations in each joint's frame (angles [rad] (Jg, n) in 2D,
         matrices (Jg, n, 3, 3) in 3D)."""
-        from ..fe.model import State
-
         model = self.compiled.problem.model
         dim = self.dim
         pos = model.x0.copy()
@@ -268,7 +267,7 @@ class ReducedMechanism:
         for idx, xl, Rl in internal:
             if xl.shape[1] == 0:
                 continue
-            nodes = np.stack([self.joint_nodes[j] for j in idx])  # (Jg, n)
+            nodes = np.array([self.joint_nodes[j] for j in idx])  # (Jg, n)
             pos[nodes] = (oA[idx, None] + np.einsum("jab,jnb->jna", F[idx], _embed(xl, dim)))[..., :dim]
             if dim == 2:  # global rotation from rest = side-A link's angle + angle in the joint frame
                 rot[nodes] = poses.angle[self.frames.a[idx]][:, None] + Rl

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from flexmb.fe import beam2d, beam3d
 from flexmb.rotations import expm_so3
-from flexmb.sections import rectangle
+from flexmb.sections import properties, rectangle
 from tolerances import FD_TANGENT
 
 SECTION = rectangle(0.02, 1e-3, 200e9, 76.9e9)  # a Table 1 outer leaf
@@ -155,3 +155,13 @@ def test_2d_element_is_the_planar_restriction_of_the_3d_element(seed):
                                np.tile([0, 0, 1.0], (n, 1)), L, S3)
     np.testing.assert_allclose(F3[:, [0, 1, 5, 6, 7, 11]], F2, rtol=1e-9, atol=1e-9 * np.abs(F2).max())
     np.testing.assert_allclose(F3[:, [2, 3, 4, 8, 9, 10]], 0, atol=1e-9 * np.abs(F2).max())
+
+
+def test_section_properties_follow_the_element_order():
+    """Each distinct section is read once; the table has one column per element, in order."""
+    other = rectangle(0.01, 2e-3, 70e9, 26e9)
+    E, A, Iz = properties([SECTION, other, SECTION, other, other], ("E", "A", "Iz"))
+    np.testing.assert_array_equal(E, [200e9, 70e9, 200e9, 70e9, 70e9])
+    np.testing.assert_array_equal(A, [SECTION.A, other.A, SECTION.A, other.A, other.A])
+    np.testing.assert_array_equal(Iz, [SECTION.Iz, other.Iz, SECTION.Iz, other.Iz, other.Iz])
+    assert properties([], ("E",)).shape == (1, 0)

@@ -3,6 +3,7 @@ conventional, the four-bar, over-constrained and indeterminate mechanisms, datab
 
 import warnings
 
+import attrs
 import numpy as np
 import pytest
 
@@ -208,14 +209,33 @@ def _fd(f, poses, red, h=1e-7):
     return np.array(cols).T
 
 
+def _two_kinds(dim):
+    """The four-bar with thicker upper flexures: two joint values, so two constraint groups."""
+    m = flexmb.models.fourbar(2, displacement=0.1, dim=dim)
+    thick = attrs.evolve(m.graph.edges["left", "top", "top_left"]["joint"], thickness=1.5e-3)
+    for link, name in (("left", "top_left"), ("right", "top_right")):
+        m.graph.edges[link, "top", name]["joint"] = thick
+    red = ReducedMechanism(m.compile())
+    assert len(red.groups) == 2
+    return red
+
+
 @pytest.mark.parametrize("dim", [2, 3])
-def test_constraint_jacobian_is_the_finite_difference_one(dim):
-    red = _reduced(dim)
+@pytest.mark.parametrize("build", [_reduced, _two_kinds])
+def test_constraint_jacobian_is_the_finite_difference_one(dim, build):
+    red = build(dim)
     poses = _random_poses(red, np.random.default_rng(1))
     c, J, _, _ = red.constraint_equations(poses)
     Jfd = _fd(lambda p: red.constraint_equations(p)[0], poses, red)
     act = (np.arange(red.n_links)[:, None] * 6 + red.active).ravel()
     assert np.max(np.abs(J[:, act] - Jfd[:, act])) < 1e-7 * np.abs(J).max()
+    # the deferred and the values-free forms give the same Jacobian
+    c2, jac, _, _ = red.constraint_equations(poses, jacobian="deferred")
+    none, J3, _, _ = red.constraint_equations(poses, values=False)
+    np.testing.assert_array_equal(c2, c)
+    np.testing.assert_array_equal(jac(), J)
+    np.testing.assert_array_equal(J3, J)
+    assert none is None
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -382,3 +402,19 @@ def test_inconsistent_redundant_constraints_warn_and_ksd_full_still_converges():
     with pytest.warns(RuntimeWarning):
         far = flexmb.solve(_parallel_pivots(0.02), method="ksd-full")
     assert far.converged and far.stable  # a stable equilibrium (the conventional one is unstable)
+
+
+def test_speed_study_reports_single_and_steady_ratios_from_one_run():
+    """Fig. 11 rows: both timings per method, each speed-up against the conventional time of the
+    same timing (so the conventional rows read 1x)."""
+    from flexmb import fourbar_case
+
+    rows = fourbar_case.speed_study((1,), repeats=1)
+    assert [r["method"] for r in rows] == list(fourbar_case.METHODS)
+    for r in rows:
+        assert r["time"] > 0 and r["time_steady"] > 0
+    conv = rows[0]
+    assert conv["speedup"] == 1.0 and conv["speedup_steady"] == 1.0
+    for r in rows[1:]:
+        assert r["speedup"] == conv["time"] / r["time"]
+        assert r["speedup_steady"] == conv["time_steady"] / r["time_steady"]

@@ -2,9 +2,10 @@
 
 The four-bar of Sec. 4.3 (four 3D cross flexures of Table 1, W = 0.4 m, H = 0.3 m) with the
 upper link displaced by d = 0.3 m, for 1-5 elements per leaf: iterations (KSD split into step 1,
-step 3 on the reduced mechanism and step 5 on the full model), median wall time of repeated
-solves measured interleaved in one run, and the speed-up over the conventional method. Every
-solve stops at a residual norm below 5e-7 (N and N m), as the paper.
+step 3 on the reduced mechanism and step 5 on the full model), median wall times measured
+interleaved in one run (single solves, and the steady state of consecutive solves with one
+method), and the speed-ups over the conventional method. Every solve stops at a residual norm
+below 5e-7 (N and N m), as the paper.
 Writes the "fourbar" section of BENCHMARKS.md. Run: python benchmarks/bench_fourbar.py [--quick]
 """
 

@@ -150,8 +150,8 @@ class ReducedMechanism:
         # step 3: where the joints' wrenches on links b and a and the loads go in the residual, and
         # each joint's 12 x 12 block and each offset load's 3 x 3 block in the flattened tangent
         ld = self.load_node[:, None] * 6
-        self._r_at = np.concatenate([cols[:, 6:], cols[:, :6]], axis=1).ravel()  # per joint: on b, on a
-        self._r_at = np.concatenate([self._r_at, (ld + np.arange(6)).ravel()])
+        self._r_at = np.concatenate([np.concatenate([cols[:, 6:], cols[:, :6]], axis=1).ravel(),  # per joint: b, a
+                                     (ld + np.arange(6)).ravel()])
         lr = ld + np.arange(3, 6)
         self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
                                      (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])

@@ -161,7 +161,8 @@ class Mechanism:
         if r.shape == (3, 3):
             if not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:
                 raise ParameterError(f"{where}: rotation matrix is not a proper rotation")
-            return r
+            u, _, vt = np.linalg.svd(r)  # the nearest exact rotation: meshes are turned with it
+            return u @ vt
         return expm_so3(v.vector(where, "rotation", rotation, 3))
 
     def prescribe(self, name: str, **motion) -> None:
@@ -289,7 +290,8 @@ class Mechanism:
         pt_master = [np.arange(n_nodes)]
         pt_x0 = list(node_x0)
         n_points = n_nodes
-        ends, sections, ny, owner, joint_elements, joint_nodes = [], [], [], [], {}, {}
+        ends, sections, L0, S, ny, nz, owner = [], [], [], [], [], [], []
+        joint_elements, joint_nodes = {}, {}
         n_elements = 0
         for j, (a, b, key, data) in enumerate(self.graph.edges(keys=True, data=True)):
             jt: Joint = data["joint"]
@@ -311,10 +313,13 @@ class Mechanism:
             n_nodes += n_int
             n_points += len(gx)
             sections.extend(mesh.sections)
+            L0.append(mesh.L0)
+            S.append(mesh.S)
             n_el = len(mesh.elements)
             owner.append(np.zeros(n_el, dtype=np.int64) + j)
             if dim == 3:
                 ny.append(mesh.ny0 @ pl.rotation.T)
+                nz.append(mesh.nz0 @ pl.rotation.T)
             joint_elements[key] = n_elements + np.arange(n_el)
             n_elements += n_el
         if n_elements == 0:
@@ -323,26 +328,12 @@ class Mechanism:
         pt_x0 = np.concatenate(pt_x0)
         node_x0 = np.concatenate(node_x0)
         owner = np.concatenate(owner)
-        chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
-        L0 = np.linalg.norm(chord, axis=1)
-        if np.any(L0 <= 0):
-            raise ModelError("a beam element has zero length")
-        ex = chord / L0[:, None]
+        L0, S = np.concatenate(L0), np.concatenate(S)
         if dim == 3:
-            ny = np.concatenate(ny).reshape(-1, 3)
-            # the cross-section axis must be perpendicular to the element: project, normalise
-            ny = ny - np.einsum("ei,ei->e", ny, ex)[:, None] * ex
-            norm = np.linalg.norm(ny, axis=1)
-            if np.any(~(norm > 1e-6)):
-                bad = int(np.flatnonzero(~(norm > 1e-6))[0])
-                raise ModelError(f"joint {list(joint_elements)[owner[bad]]!r}: element {bad}'s "
-                                 "ny0 is (nearly) parallel to its axis or zero; give the cross-section's local y axis")
-            ny = ny / norm[:, None]
-            elements = BeamElements(ends, L0, local_stiffness_3d(sections, L0), tuple(sections), owner,
-                                    ny0=ny, nz0=cross(ex, ny))
+            elements = BeamElements(ends, L0, S, tuple(sections), owner, ny0=np.concatenate(ny), nz0=np.concatenate(nz))
         else:
-            elements = BeamElements(ends, L0, local_stiffness_2d(sections, L0), tuple(sections), owner,
-                                    alpha0=np.arctan2(ex[:, 1], ex[:, 0]))
+            chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
+            elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]))
         model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements)
 
         pres, vals, loads, paths = self._boundary(link_node)
@@ -434,7 +425,10 @@ class _Mesh:
     points: np.ndarray  # (n, dim) float
     elements: np.ndarray  # (E, 2) int64
     sections: tuple
-    ny0: np.ndarray | None  # (E, 3) float in 3D
+    ny0: np.ndarray | None  # (E, 3) float in 3D: the cross-section's y axis, perpendicular to the element
+    nz0: np.ndarray | None  # (E, 3) float in 3D: element axis x ny0
+    L0: np.ndarray  # (E,) element lengths [m]
+    S: np.ndarray  # (E, 6, 6) or (E, 3, 3) local stiffness
     on_a: np.ndarray  # (n,) bool
     internal: np.ndarray  # (n,) bool
     first: np.ndarray  # point index of every internal FE node
@@ -489,8 +483,24 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     if dim == 3 and (mesh.ny0 is None or np.shape(mesh.ny0) != (len(el), 3)):
         raise ModelError(f"{where}: a 3D mesh needs ny0 of shape ({len(el)}, 3)")
     first, node_of = _internal_nodes(side, mesh.body)
-    return _Mesh(pts, el.astype(np.int64), tuple(mesh.sections),
-                 None if dim == 2 else np.asarray(mesh.ny0, dtype=float), side == SIDE_A, side == INTERNAL,
+    chord = pts[el[:, 1]] - pts[el[:, 0]]
+    L0 = np.linalg.norm(chord, axis=1)
+    if np.any(~(L0 > 0)):
+        raise ModelError(f"{where}: beam element {int(np.flatnonzero(~(L0 > 0))[0])} has zero length")
+    ny = nz = None
+    if dim == 3:
+        # the cross-section axis must be perpendicular to the element: project, normalise
+        ex = chord / L0[:, None]
+        ny = np.asarray(mesh.ny0, dtype=float)
+        ny = ny - np.einsum("ei,ei->e", ny, ex)[:, None] * ex
+        norm = np.linalg.norm(ny, axis=1)
+        if np.any(~(norm > 1e-6)):
+            raise ModelError(f"{where}: element {int(np.flatnonzero(~(norm > 1e-6))[0])}'s ny0 is (nearly) parallel "
+                             "to its axis or zero; give the cross-section's local y axis")
+        ny = ny / norm[:, None]
+        nz = cross(ex, ny)
+    S = (local_stiffness_3d if dim == 3 else local_stiffness_2d)(mesh.sections, L0)
+    return _Mesh(pts, el.astype(np.int64), tuple(mesh.sections), ny, nz, L0, S, side == SIDE_A, side == INTERNAL,
                  first, node_of)
 
 

@@ -434,6 +434,21 @@ def test_non_rotation_matrix_is_rejected_naming_the_joint():
         m.add_joint("A", "B", "cross_flexure", name="j", rotation=2.0 * np.eye(3))
 
 
+def test_rotation_matrix_within_the_tolerance_is_made_an_exact_rotation():
+    """A matrix orthonormal to 1e-9 is accepted as its nearest rotation (polar factor), so the
+    joint's element frames turned with it stay orthonormal to rounding."""
+    from flexmb.rotations import expm_so3
+
+    R = expm_so3(np.array([0.3, -0.2, 0.5]))
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B")
+    m.add_joint("A", "B", "cross_flexure", name="j", rotation=R + 4e-10 * np.eye(3))
+    P = m.graph.edges["A", "B", "j"]["placement"].rotation
+    assert np.abs(P.T @ P - np.eye(3)).max() < 1e-15
+    assert np.abs(P - R).max() < 1e-9
+
+
 @pytest.mark.parametrize(
     "call",
     [
@@ -617,3 +632,22 @@ def test_plugin_mesh_with_cross_section_axis_along_the_element_is_refused():
     m.add_joint("A", "B", Bad(), name="bad")
     with pytest.raises(flexmb.ModelError, match="'bad'.*ny0"):
         flexmb.solve(m)
+
+
+def test_plugin_mesh_with_a_zero_length_element_is_refused_naming_joint_and_element():
+    import attrs
+
+    class Bad(flexmb.LeafSpring):
+        def mesh(self, dim):
+            mesh = super().mesh(dim)
+            el = np.array(mesh.elements)
+            el[1, 1] = el[1, 0]  # element 1 from a point to itself
+            return attrs.evolve(mesh, elements=el)
+
+    for dim in (2, 3):
+        m = flexmb.Mechanism(dim=dim)
+        m.add_link("A", fixed=True)
+        m.add_link("B", position=(0.1, 0, 0)[:dim])
+        m.add_joint("A", "B", Bad(), name="bad")
+        with pytest.raises(flexmb.ModelError, match="'bad'.*element 1 has zero length"):
+            flexmb.solve(m)

@@ -113,6 +113,24 @@ def test_eob_stiffness_is_the_fe_tangent_at_rest(dim, n):
     assert np.abs(eob.F_hat_T).max() < 1e-9  # no virtual force at rest (Eq. 3.8 with q_hat = 0)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_eob_condensed_with_node_a_held_is_the_b_block_of_the_full_condensation(dim):
+    """Eq. (2.5) with node A held: the Schur complement onto B of K_nodes without A's rows and
+    columns is the BB block of the Schur complement onto (A, B); the same for F_hat_T and the
+    recovery of the internal nodes (Eq. 2.6). At 50 deg with node B off its near position."""
+    j = flexmb.CrossFlexure(elements_per_leaf=4)
+    tpl = template(j, dim)
+    theta = np.radians([50.0, -20.0])
+    b = j.interface_b(dim)[None] * np.array([[0.97], [1.01]])
+    full, held = tpl.evaluate(theta, b), tpl.evaluate(theta, b, held_a=True)
+    nd = 3 if dim == 2 else 6
+    scale = np.abs(full.K_T[:, nd:, nd:]).max()
+    assert held.K_T.shape == (2, nd, nd)
+    assert np.abs(held.K_T - full.K_T[:, nd:, nd:]).max() < 1e-12 * scale
+    assert np.abs(held.F_hat_T - full.F_hat_T[:, nd:]).max() < 1e-12 * np.abs(full.F_hat_T).max()
+    assert np.abs(held.recover - full.recover).max() < 1e-12 * np.abs(full.recover).max()
+
+
 def _material_only(monkeypatch):
     """Replace the planar element tangent by its material part D^T S D (D by central differences of
     the deformations): the FE tangent without the stress (geometric) terms."""

@@ -39,6 +39,8 @@ from ..fe import beam2d, beam3d
 from ..rotations import expm_so3, logm_so3, rot2, skew
 from .geometry import rz
 
+_EYE = np.eye(3)
+
 __all__ = ["EOBTemplate", "EOB", "lever"]
 
 
@@ -61,7 +63,8 @@ class EOB:
     ``K_all`` (J, E, 2nd, 2nd), ``F_hat_all`` (J, E, 2nd) in marker DOFs (markers p, q of each
     element); ``L`` (J, E, 2nd, 2nd) node-to-marker blocks; ``K_nodes`` (J, n, n) and
     ``F_hat_nodes`` (J, n) on the node DOFs (node A, node B, internal nodes); ``K_T``
-    (J, 2nd, 2nd) and ``F_hat_T`` (J, 2nd) condensed on A and B (Eq. 2.5); ``recover``
+    (J, 2nd, 2nd) and ``F_hat_T`` (J, 2nd) condensed on A and B (Eq. 2.5), or on B alone
+    ((J, nd, nd), (J, nd)) when evaluated with node A held; ``recover``
     (J, n_i, nd + 1): ``q_i = -recover @ [q_B, 1]`` with node A held (Eq. 2.6).
     Near configuration: ``node_position`` (J, N, dim), ``node_rotation`` (J, N, dim, dim),
     ``node_angle`` (J, N) [rad] (2D; ``None`` in 3D), ``marker_position`` (J, E, 2, dim).
@@ -177,24 +180,34 @@ class EOBTemplate:
             nodes = np.flatnonzero(label == c)
             blocks.setdefault(len(nodes), []).append((nodes[:, None] * nd + np.arange(nd)).ravel())
         self._blocks = [np.array(v) for v in blocks.values()]  # (c, s) interior DOF indices
+        # element and internal-node orientations as one polynomial over the union of their powers
+        polys = (data.elements, data.nodes) if N > 2 else (data.elements,)
+        powers = np.unique(np.concatenate([f.powers for f in polys]))
+        coef = [np.zeros((np.atleast_2d(f.coefficients).shape[0], len(powers))) for f in polys]
+        for c, f in zip(coef, polys):
+            c[:, np.searchsorted(powers, f.powers)] = np.atleast_2d(f.coefficients)
+        self._powers, self._coef = powers, np.concatenate(coef).T  # (P,), (P, n_orient)
 
-    def evaluate(self, theta: np.ndarray, b_position: np.ndarray) -> EOB:
+    def evaluate(self, theta: np.ndarray, b_position: np.ndarray, *, held_a: bool = False) -> EOB:
         """EOBs of J joints at intended rotations ``theta`` (J,) [rad] with node B's near position
-        ``b_position`` (J, dim) [m] in the joint frame (from the kinematic step)."""
+        ``b_position`` (J, dim) [m] in the joint frame (from the kinematic step).
+
+        ``held_a=True`` condenses with node A held (its displacement zero, as in KSD step 3,
+        Eq. 2.4): ``K_T`` (J, nd, nd) and ``F_hat_T`` (J, nd) are then node B's blocks only, and
+        the Craig-Bampton solve has nd + 1 right-hand sides instead of 2 nd + 1."""
         dim, nd, N, E = self.dim, self.nd, self.n_nodes, self.n_elements
         theta = np.asarray(theta, dtype=float)
         J = len(theta)
+        orient = (theta[:, None] ** self._powers) @ self._coef  # Eq. (3.1): elements, then internal nodes
         if dim == 2:
-            beta = self.data.elements(theta).reshape(J, E)
-            internal = self.data.nodes(theta).reshape(J, N - 2) if N > 2 else np.zeros((J, 0))
-            node_angle = np.concatenate([np.zeros((J, 1)), theta[:, None], internal], axis=1)
+            beta = orient[:, :E]
+            node_angle = np.concatenate([np.zeros((J, 1)), theta[:, None], orient[:, E:]], axis=1)
             Re, Rn = rot2(beta), rot2(node_angle)  # (J, E | N, 2, 2)
         else:  # rotation vectors (Sec. 3.1: elements turning about several axes)
-            Re = expm_so3(self.data.elements(theta).reshape(J, E, 3))
+            R = expm_so3(orient.reshape(J, E + N - 2, 3))
+            Re = R[:, :E]
             Rn = np.empty((J, N, 3, 3))
-            Rn[:, 0], Rn[:, 1] = np.eye(3), rz(theta)
-            if N > 2:
-                Rn[:, 2:] = expm_so3(self.data.nodes(theta).reshape(J, N - 2, 3))
+            Rn[:, 0], Rn[:, 1], Rn[:, 2:] = _EYE, rz(theta), R[:, E:]
             node_angle = None
         Rd = (Re @ self.d[..., None])[..., 0]
         Rpq = Rn[:, self.pq_node]  # (J, E, 2, dim, dim): near rotations of each element's nodes p, q
@@ -204,8 +217,9 @@ class EOBTemplate:
         x[:, 1] = b_position
         if N > 2:
             x[:, 2:] = x[:, self.root] + np.einsum("ne,jea->jna", self.path, arm_p + Rd - arm_q)
-        mp = x[:, self.p_node] + arm_p
-        mq = mp + Rd
+        markers = np.empty((J, E, 2, dim))
+        markers[:, :, 0] = mp = x[:, self.p_node] + arm_p
+        markers[:, :, 1] = mq = mp + Rd
         # q_hat: marker near pose minus where the nodes' near poses put the marker
         q_hat = np.zeros((J, E, 2, nd))
         q_hat[:, :, 1, :dim] = mq - (x[:, self.q_node] + arm_q)
@@ -238,17 +252,18 @@ class EOBTemplate:
         F_nodes = np.bincount(fidx, weights=Fe.ravel(), minlength=J * n).reshape(J, n)
 
         b = 2 * nd
-        if n > b:  # Craig-Bampton boundary modes, Eq. (2.5)
-            rhs = np.concatenate([K_nodes[:, b:, :b], F_nodes[:, b:, None]], axis=2)
+        cols = slice(nd, b) if held_a else slice(0, b)  # the boundary DOFs condensed on
+        if n > b:  # Craig-Bampton boundary modes, Eq. (2.5); node B's columns and F last
+            rhs = np.concatenate([K_nodes[:, b:, cols], F_nodes[:, b:, None]], axis=2)
             Kii = K_nodes[:, b:, b:]
             X = np.empty_like(rhs)
             for idx in self._blocks:
                 X[:, idx] = np.linalg.solve(Kii[:, idx[:, :, None], idx[:, None, :]], rhs[:, idx])
-            K_T = K_nodes[:, :b, :b] - K_nodes[:, :b, b:] @ X[:, :, :b]
-            F_T = F_nodes[:, :b] - np.einsum("jab,jb->ja", K_nodes[:, :b, b:], X[:, :, b])
-            recover = np.concatenate([X[:, :, nd:b], X[:, :, b:]], axis=2)
+            K_Tb = K_nodes[:, cols, b:]
+            K_T = K_nodes[:, cols, cols] - K_Tb @ X[:, :, :-1]
+            F_T = F_nodes[:, cols] - (K_Tb @ X[:, :, -1:])[..., 0]
+            recover = X[:, :, -(nd + 1):]
         else:
-            K_T, F_T = K_nodes.copy(), F_nodes.copy()
+            K_T, F_T = K_nodes[:, cols, cols].copy(), F_nodes[:, cols].copy()
             recover = np.zeros((J, 0, nd + 1))
-        return EOB(K_all, F_all, L, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn,
-                   np.stack([mp, mq], axis=2))
+        return EOB(K_all, F_all, L, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn, markers)

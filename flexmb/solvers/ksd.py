@@ -246,15 +246,14 @@ class _KSD:
 
         dim = red.dim
         emb = ACTIVE[dim]
-        nd = len(emb)
         J = len(red.joint_names)
         K = np.zeros((J, 6, 6))
         Fh = np.zeros((J, 6))
         eobs = []
         for tpl, _, idx in red.groups:
-            e = tpl.evaluate(theta[idx], p_hat[idx, :dim])
-            K[idx[:, None, None], emb[:, None], emb] = e.K_T[:, nd:, nd:]
-            Fh[idx[:, None], emb] = e.F_hat_T[:, nd:]
+            e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
+            K[idx[:, None, None], emb[:, None], emb] = e.K_T
+            Fh[idx[:, None], emb] = e.F_hat_T
             eobs.append(e)
         R_hat = rz(theta)
         t = lap("eob", t)

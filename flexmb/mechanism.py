@@ -257,9 +257,12 @@ class Mechanism:
     # -- checks and compilation ---------------------------------------------------------------
     def check(self) -> None:
         """Raise a `TopologyError` unless the mechanism is grounded and connected."""
-        if self.graph.number_of_nodes() == 0:
+        self._check(self.links)
+
+    def _check(self, links: dict) -> None:
+        if not links:
             raise TopologyError("the mechanism has no links")
-        fixed = [n for n, lk in self.links.items() if lk.fixed]
+        fixed = [n for n, lk in links.items() if lk.fixed]
         if not fixed:
             raise TopologyError("the mechanism has no fixed link; fix one with add_link(..., fixed=True) or fix()")
         adj = self.graph.adj  # a plain search: networkx's dispatching costs more than the search
@@ -273,19 +276,20 @@ class Mechanism:
         if loose:
             raise TopologyError(f"links {loose} are not connected to a fixed link through joints")
         for n, nbrs in adj.items():
-            if not nbrs and not self.links[n].fixed:
+            if not nbrs and not links[n].fixed:
                 raise TopologyError(f"link {n!r} has no joint")
 
     def compile(self, capability: str = "fe_model") -> Compiled:
         """Build the full finite-element `StaticProblem` of the mechanism (``"fe_model"``) or the
         links-only closed-form `LinkageProblem` (``"closed_form"``, planar)."""
-        self.check()
+        links = self.links
+        self._check(links)
         if capability == "closed_form":
             return self._compile_closed_form()
         dim = self.dim
-        names = list(self.graph.nodes)
+        names = list(links)
         link_node = {n: i for i, n in enumerate(names)}
-        node_x0 = [np.asarray([self.links[n].position for n in names], dtype=float).reshape(-1, dim)]
+        node_x0 = [np.array([lk.position for lk in links.values()], dtype=float).reshape(-1, dim)]
         n_nodes = len(names)
         pt_master = [np.arange(n_nodes)]
         pt_x0 = list(node_x0)
@@ -336,7 +340,7 @@ class Mechanism:
             elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]))
         model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements)
 
-        pres, vals, loads, paths = self._boundary(link_node)
+        pres, vals, loads, paths = self._boundary(link_node, links)
         return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, dict(self._points), joint_elements,
                         self._actuation_row(loads), joint_nodes,
                         tuple((k, d["joint"], d["placement"], *d["sides"])
@@ -345,13 +349,14 @@ class Mechanism:
     def _actuation_row(self, loads: PointLoads) -> tuple | None:
         return None if self._actuation is None else (len(loads.node) - 1, self._actuation[2].copy())
 
-    def _boundary(self, link_node: dict):
+    def _boundary(self, link_node: dict, links: dict | None = None):
         """Prescribed DOFs (sorted), their values and the `PointLoads`, for links numbered by ``link_node``."""
+        links = self.links if links is None else links
         dim = self.dim
         ndof = 3 if dim == 2 else 6
         pres, vals, paths = [], [], []
         comp = {"x": 0, "y": 1, "z": 2}
-        for n, lk in self.links.items():
+        for n, lk in links.items():
             base = link_node[n] * ndof
             if lk.fixed:
                 pres.extend(range(base, base + ndof))
@@ -367,6 +372,7 @@ class Mechanism:
                 else:
                     pres.append(base + comp[key])
                     vals.append(val)
+        pres = np.array(pres, dtype=np.int64)
         order = np.argsort(pres)
         nrot = ndof - dim
         rows = list(self._loads)
@@ -379,7 +385,7 @@ class Mechanism:
             force=np.array([f for *_, f, _ in rows]).reshape(-1, dim),
             moment=np.array([m for *_, m in rows]).reshape(-1, nrot),
         )
-        return np.array(pres, dtype=np.int64)[order], np.array(vals, dtype=float)[order], loads, paths
+        return pres[order], np.array(vals, dtype=float)[order], loads, paths
 
     def _compile_closed_form(self) -> Compiled:
         """The links-only model of Cammarata et al. (2022): every joint a constant-stiffness flexure."""

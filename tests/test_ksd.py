@@ -131,6 +131,25 @@ def test_eob_condensed_with_node_a_held_is_the_b_block_of_the_full_condensation(
     assert np.abs(held.recover - full.recover).max() < 1e-12 * np.abs(full.recover).max()
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_eob_node_terms_are_the_assembled_element_terms(dim):
+    """Eq. (3.11): K_nodes = sum over elements of L^T K_all L and F_hat_nodes = sum of
+    L^T F_hat_all with F_hat_all = -K_all q_hat_all (Eq. 3.8), assembled here element by element
+    from the record's K_all, L and F_hat_all (at 40 deg, node B off its near position)."""
+    j = flexmb.CrossFlexure(elements_per_leaf=3)
+    tpl = template(j, dim)
+    eob = tpl.evaluate(np.radians([40.0]), j.interface_b(dim)[None] * 0.98)
+    n = tpl.n_nodes * tpl.nd
+    K, F = np.zeros((n, n)), np.zeros(n)
+    for e, dofs in enumerate(tpl.element_dofs):
+        L, Ka = eob.L[0, e], eob.K_all[0, e]
+        K[np.ix_(dofs, dofs)] += L.T @ Ka @ L
+        F[dofs] += L.T @ eob.F_hat_all[0, e]
+    assert np.allclose(eob.F_hat_all, -(eob.K_all @ eob.q_hat[..., None])[..., 0], rtol=0, atol=0)
+    assert np.abs(K - eob.K_nodes[0]).max() < 1e-12 * np.abs(K).max()
+    assert np.abs(F - eob.F_hat_nodes[0]).max() < 1e-12 * np.abs(F).max()
+
+
 def _material_only(monkeypatch):
     """Replace the planar element tangent by its material part D^T S D (D by central differences of
     the deformations): the FE tangent without the stress (geometric) terms."""

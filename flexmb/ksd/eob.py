@@ -56,6 +56,14 @@ def lever(r: np.ndarray, dim: int) -> np.ndarray:
     return T
 
 
+def _block_diagonal(blocks: np.ndarray) -> np.ndarray:
+    """``(..., 2, nd, nd)`` -> ``(..., 2 nd, 2 nd)``: the two blocks on the diagonal."""
+    nd = blocks.shape[-1]
+    out = np.zeros(blocks.shape[:-3] + (2 * nd, 2 * nd))
+    out[..., :nd, :nd], out[..., nd:, nd:] = blocks[..., 0, :, :], blocks[..., 1, :, :]
+    return out
+
+
 @attrs.frozen(eq=False)
 class EOB:
     """Result of `EOBTemplate.evaluate` for J joints (leading axis J everywhere).
@@ -68,11 +76,14 @@ class EOB:
     (J, n_i, nd + 1): ``q_i = -recover @ [q_B, 1]`` with node A held (Eq. 2.6).
     Near configuration: ``node_position`` (J, N, dim), ``node_rotation`` (J, N, dim, dim),
     ``node_angle`` (J, N) [rad] (2D; ``None`` in 3D), ``marker_position`` (J, E, 2, dim).
+    ``K_all``, ``F_hat_all`` and ``L`` are formed when read (the nodes' terms need only their
+    products, Eq. 3.11).
     """
 
-    K_all: np.ndarray
-    F_hat_all: np.ndarray
-    L: np.ndarray
+    rotation: np.ndarray  # (J, E, nd, nd): element rotation of one marker's DOFs
+    K0: np.ndarray  # (E, 2nd, 2nd): material stiffness in the undeformed orientation
+    q_hat: np.ndarray  # (J, E, 2nd): Eq. (3.8)
+    lever: np.ndarray  # (J, E, 2, nd, nd): node-to-marker blocks
     K_nodes: np.ndarray
     F_hat_nodes: np.ndarray
     K_T: np.ndarray
@@ -82,6 +93,22 @@ class EOB:
     node_angle: np.ndarray | None
     node_rotation: np.ndarray
     marker_position: np.ndarray
+
+    @property
+    def K_all(self) -> np.ndarray:
+        """Element stiffness in the near configuration, ``T K0 T^T`` (Eqs. 3.3-3.4)."""
+        T = _block_diagonal(np.stack([self.rotation, self.rotation], axis=2))
+        return T @ self.K0 @ np.swapaxes(T, -1, -2)
+
+    @property
+    def F_hat_all(self) -> np.ndarray:
+        """``-K_all q_hat_all`` (Eq. 3.8)."""
+        return -(self.K_all @ self.q_hat[..., None])[..., 0]
+
+    @property
+    def L(self) -> np.ndarray:
+        """Node-to-marker increments per element (Eq. 3.9)."""
+        return _block_diagonal(self.lever)
 
 
 class EOBTemplate:
@@ -180,6 +207,9 @@ class EOBTemplate:
             nodes = np.flatnonzero(label == c)
             blocks.setdefault(len(nodes), []).append((nodes[:, None] * nd + np.arange(nd)).ravel())
         self._blocks = [np.array(v) for v in blocks.values()]  # (c, s) interior DOF indices
+        n, b = N * nd, 2 * nd
+        self._block_at = [((b + i)[:, :, None] * n + (b + i)[:, None, :]) for i in self._blocks]  # in K_nodes (n * n)
+        self._scatter_at = {}
         # element and internal-node orientations as one polynomial over the union of their powers
         polys = (data.elements, data.nodes) if N > 2 else (data.elements,)
         powers = np.unique(np.concatenate([f.powers for f in polys]))
@@ -229,36 +259,33 @@ class EOBTemplate:
             q_hat[..., 3:] = -logm_so3(Rpq @ np.swapaxes(Re, 2, 3)[:, :, None])
         q_hat = q_hat.reshape(J, E, 2 * nd)
 
-        T = np.zeros((J, E, 2 * nd, 2 * nd))  # element rotation, per translation/rotation block
-        for blk in (0, nd):
-            T[:, :, blk:blk + dim, blk:blk + dim] = Re
-            if dim == 2:
-                T[:, :, blk + 2, blk + 2] = 1.0
-            else:
-                T[:, :, blk + 3:blk + 6, blk + 3:blk + 6] = Re
-        K_all = T @ self.K0 @ np.swapaxes(T, 2, 3)
-        F_all = -np.einsum("jeab,jeb->jea", K_all, q_hat)
-        L = np.zeros((J, E, 2 * nd, 2 * nd))
-        lv = lever(arm, dim)
-        L[:, :, :nd, :nd], L[:, :, nd:, nd:] = lv[:, :, 0], lv[:, :, 1]
-        Lt = np.swapaxes(L, 2, 3)
-        Ke = Lt @ K_all @ L
-        Fe = np.einsum("jeab,jeb->jea", Lt, F_all)
+        Tb = np.zeros((J, E, nd, nd))  # element rotation of one marker's (translation, rotation) DOFs
+        Tb[..., :dim, :dim] = Re
+        if dim == 2:
+            Tb[..., 2, 2] = 1.0
+        else:
+            Tb[..., 3:, 3:] = Re
+        lv = lever(arm, dim)  # (J, E, 2, nd, nd)
+        # with T = diag(Tb, Tb): K_all = T K0 T^T, F_hat_all = -K_all q_hat (Eq. 3.8); the nodes see
+        # L^T K_all L = M K0 M^T and L^T F_hat_all = -M K0 T^T q_hat, M = L^T T (Eq. 3.11)
+        M = _block_diagonal(np.swapaxes(lv, -1, -2) @ Tb[:, :, None])
+        Ke = M @ self.K0 @ np.swapaxes(M, 2, 3)
+        local_q = np.swapaxes(Tb, 2, 3)[:, :, None] @ q_hat.reshape(J, E, 2, nd, 1)
+        Fe = -(M @ (self.K0 @ local_q.reshape(J, E, 2 * nd, 1)))[..., 0]
 
         n = N * nd
-        flat = (self._kidx[None, :] + (np.arange(J) * n * n)[:, None]).ravel()
+        flat, fidx = self._scatter(J)
         K_nodes = np.bincount(flat, weights=Ke.ravel(), minlength=J * n * n).reshape(J, n, n)
-        fidx = (self.element_dofs.ravel()[None, :] + (np.arange(J) * n)[:, None]).ravel()
         F_nodes = np.bincount(fidx, weights=Fe.ravel(), minlength=J * n).reshape(J, n)
 
         b = 2 * nd
         cols = slice(nd, b) if held_a else slice(0, b)  # the boundary DOFs condensed on
         if n > b:  # Craig-Bampton boundary modes, Eq. (2.5); node B's columns and F last
             rhs = np.concatenate([K_nodes[:, b:, cols], F_nodes[:, b:, None]], axis=2)
-            Kii = K_nodes[:, b:, b:]
             X = np.empty_like(rhs)
-            for idx in self._blocks:
-                X[:, idx] = np.linalg.solve(Kii[:, idx[:, :, None], idx[:, None, :]], rhs[:, idx])
+            K_flat = K_nodes.reshape(J, n * n)
+            for idx, at in zip(self._blocks, self._block_at):
+                X[:, idx] = np.linalg.solve(K_flat[:, at], rhs[:, idx])
             K_Tb = K_nodes[:, cols, b:]
             K_T = K_nodes[:, cols, cols] - K_Tb @ X[:, :, :-1]
             F_T = F_nodes[:, cols] - (K_Tb @ X[:, :, -1:])[..., 0]
@@ -266,4 +293,14 @@ class EOBTemplate:
         else:
             K_T, F_T = K_nodes[:, cols, cols].copy(), F_nodes[:, cols].copy()
             recover = np.zeros((J, 0, nd + 1))
-        return EOB(K_all, F_all, L, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn, markers)
+        return EOB(Tb, self.K0, q_hat, lv, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn, markers)
+
+    def _scatter(self, J: int):
+        """Flat indices of J joints' element blocks in K_nodes (J, n, n) and F_nodes (J, n)."""
+        try:
+            return self._scatter_at[J]
+        except KeyError:
+            n = self.n_nodes * self.nd
+            out = ((self._kidx[None, :] + (np.arange(J) * n * n)[:, None]).ravel(),
+                   (self.element_dofs.ravel()[None, :] + (np.arange(J) * n)[:, None]).ravel())
+            return self._scatter_at.setdefault(J, out)

@@ -225,14 +225,14 @@ class ReducedMechanism:
             trQ = Q[:, 0, 0] + Q[:, 1, 1] + Q[:, 2, 2]
             Jrel[:, 3:] = (0.5 * (trQ[:, None, None] * _EYE - Q)) @ Jrel[:, 3:]
             dw = K @ Jrel  # (J, 6, 12)
+            Sf, SmB, Srb, Sra = np.moveaxis(skew(np.stack([f, mB, rb, ra], axis=1)), 1, 0)
             df = F @ dw[:, :3]
-            df[:, :, 3:6] -= skew(f)
+            df[:, :, 3:6] -= Sf
             dmB = F @ dw[:, 3:]
-            dmB[:, :, 3:6] -= skew(mB)
-            Srb, Sf = skew(rb), skew(f)
+            dmB[:, :, 3:6] -= SmB
             mb = dmB + Srb @ df
             mb[:, :, 9:12] += Sf @ Srb
-            ma = -dmB - skew(ra) @ df  # + skew(f) d(ra), d(ra) = (-I, 0, I, -skew(rb))
+            ma = -dmB - Sra @ df  # + skew(f) d(ra), d(ra) = (-I, 0, I, -skew(rb))
             ma[:, :, 0:3] -= Sf
             ma[:, :, 6:9] += Sf
             ma[:, :, 9:12] -= Sf @ Srb

@@ -87,9 +87,12 @@ class JointFrames:
     _ab: np.ndarray = attrs.field(init=False, repr=False)
     _s_ab: np.ndarray = attrs.field(init=False, repr=False)
 
+    _P2: np.ndarray = attrs.field(init=False, repr=False)
+
     def __attrs_post_init__(self):
         object.__setattr__(self, "_ab", np.concatenate([self.a, self.b]))
-        object.__setattr__(self, "_s_ab", np.concatenate([self.s_a, self.s_b]))
+        object.__setattr__(self, "_s_ab", np.concatenate([self.s_a, self.s_b])[..., None])
+        object.__setattr__(self, "_P2", np.concatenate([self.P, self.P]))
 
     def frame_a(self, poses: LinkPoses):
         """Current joint frames: origins ``o_A`` (J, 3) and axes ``F`` (J, 3, 3)."""
@@ -97,17 +100,19 @@ class JointFrames:
         return poses.x[self.a] + np.einsum("jik,jk->ji", Ra, self.s_a), Ra @ self.P
 
     def relative(self, poses: LinkPoses):
-        """``p`` (J, 3), ``R_rel`` (J, 3, 3) and ``dict`` of intermediate vectors."""
+        """``p`` (J, 3), ``R_rel`` (J, 3, 3) and ``dict`` of intermediate vectors: the frame axes
+        ``F`` and ``Ft = F^T`` (J, 3, 3), node B's arms ``rb`` from link b and ``ra`` from link a (J, 3)."""
         Rab = poses.R[self._ab]  # (2J, 3, 3): links a, then links b
         xab = poses.x[self._ab]
-        arm = (Rab @ self._s_ab[..., None])[..., 0]
+        arm = (Rab @ self._s_ab)[..., 0]
         n = len(self.a)
         o = xab + arm
-        oA, oB = o[:n], o[n:]
-        F = Rab[:n] @ self.P
+        RP = Rab @ self._P2  # F = R_a P, then R_b P
+        F = RP[:n]
         Ft = F.swapaxes(1, 2)
-        p = (Ft @ (oB - oA)[..., None])[..., 0]
-        return p, Ft @ Rab[n:] @ self.P, {"F": F, "Ft": Ft, "oA": oA, "oB": oB, "rb": arm[n:], "ra": oB - xab[:n]}
+        oB = o[n:]
+        p = ((oB - o[:n])[:, None, :] @ F)[:, 0]
+        return p, Ft @ RP[n:], {"F": F, "Ft": Ft, "rb": arm[n:], "ra": oB - xab[:n]}
 
     def relative_jacobian(self, geo: dict) -> np.ndarray:
         """``d(p, omega) / d(dx_a, dphi_a, dx_b, dphi_b)``, shape (J, 6, 12)."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import attrs
 import numpy as np
 
-from .errors import ModelError
+from .errors import ModelError, UnsupportedStrategyError
 from .fe.model import State
 from .rotations import cross, logm_so3
 
@@ -135,7 +135,12 @@ class Solution:
         bending at the worse end (`flexmb.fe.stress.peak_normal_stress`)."""
         from .fe.stress import peak_normal_stress
 
-        sigma = peak_normal_stress(self.compiled.problem.model, self.state)
+        model = self.compiled.problem.model
+        if not hasattr(model, "elements"):
+            raise UnsupportedStrategyError(
+                f"peak_stress needs beam elements: this solution comes from method {self.method!r}, whose "
+                "closed-form model has none; solve with method='conventional' for stresses")
+        sigma = peak_normal_stress(model, self.state)
         if joint is None:
             return sigma
         try:

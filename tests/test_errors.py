@@ -651,3 +651,11 @@ def test_plugin_mesh_with_a_zero_length_element_is_refused_naming_joint_and_elem
         m.add_joint("A", "B", Bad(), name="bad")
         with pytest.raises(flexmb.ModelError, match="'bad'.*element 1 has zero length"):
             flexmb.solve(m)
+
+
+def test_peak_stress_of_a_closed_form_solution_is_refused_naming_the_method():
+    """The closed-form model (method='newton') has no beam elements, so no stresses: a flexmb
+    error that says so and names the method that has them, not an AttributeError."""
+    sol = flexmb.solve(flexmb.models.gripper(force=10.0), method="newton")
+    with pytest.raises(flexmb.UnsupportedStrategyError, match="'newton'.*conventional"):
+        sol.peak_stress()

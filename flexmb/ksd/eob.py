@@ -39,9 +39,9 @@ from ..fe import beam2d, beam3d
 from ..rotations import expm_so3, logm_so3, rot2, skew
 from .geometry import rz
 
-_EYE = np.eye(3)
-
 __all__ = ["EOBTemplate", "EOB", "lever"]
+
+_EYE = np.eye(3)
 
 
 def lever(r: np.ndarray, dim: int) -> np.ndarray:

@@ -86,7 +86,6 @@ class JointFrames:
     P: np.ndarray
     _ab: np.ndarray = attrs.field(init=False, repr=False)
     _s_ab: np.ndarray = attrs.field(init=False, repr=False)
-
     _P2: np.ndarray = attrs.field(init=False, repr=False)
 
     def __attrs_post_init__(self):

@@ -44,12 +44,13 @@ def expm_so3(w: np.ndarray) -> np.ndarray:
     Rodrigues, ``cos t I + (sin t / t) skew(w) + (1 - cos t) / t^2 w w^T`` with ``t = |w|``;
     ``(1 - cos t) / t^2 = (sin h / h)^2 / 2`` (``h = t / 2``) has no cancellation at small ``t``."""
     w = np.asarray(w, dtype=float)
-    t = np.maximum(np.sqrt(np.einsum("...i,...i->...", w, w)), 1e-300)  # sin(t)/t = 1 at t = 1e-300
+    row = w[..., None, :]
+    t = np.maximum(np.sqrt(row @ w[..., :, None])[..., 0], 1e-300)  # (..., 1); sin(t)/t = 1 at t = 1e-300
     h = 0.5 * t
     s = np.sin(h) / h
-    R = (0.5 * s * s)[..., None, None] * (w[..., :, None] * w[..., None, :])
-    R += ((np.sin(t) / t)[..., None] * w @ _SKEW).reshape(R.shape)
-    R += np.cos(t)[..., None, None] * _EYE
+    R = ((0.5 * s * s) * w)[..., :, None] * row
+    R += ((np.sin(t) / t) * w @ _SKEW).reshape(R.shape)
+    R += np.cos(t)[..., None] * _EYE
     return R
 
 

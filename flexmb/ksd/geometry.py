@@ -21,6 +21,8 @@ from ..rotations import expm_so3, skew
 
 __all__ = ["ACTIVE", "LinkPoses", "JointFrames", "rz", "intended_angle"]
 
+_EYE = np.eye(3)
+
 #: Increment components a link uses: planar (x, y, spin z) or spatial (all six).
 ACTIVE = {2: np.array([0, 1, 5]), 3: np.arange(6)}
 
@@ -36,6 +38,20 @@ def _angle_map() -> np.ndarray:
 
 
 _ANGLE = _angle_map()
+
+
+def _relative_maps():
+    """``[ra, rb] @ arms + const`` (flattened (6, 12)) = ``[[-I, skew(ra), I, -skew(rb)], [0, -I, 0, I]]``."""
+    const = np.zeros((6, 12))
+    const[:3, 0:3] = const[3:, 3:6] = -_EYE
+    const[:3, 6:9] = const[3:, 9:12] = _EYE
+    arms = np.zeros((6, 6, 12))
+    arms[:3, :3, 3:6] = skew(_EYE)
+    arms[3:, :3, 9:12] = -skew(_EYE)
+    return arms.reshape(6, 72), const.ravel()
+
+
+_ARMS, _JREL0 = _relative_maps()
 
 
 def rz(angle: np.ndarray) -> np.ndarray:
@@ -101,8 +117,8 @@ class JointFrames:
     def relative(self, poses: LinkPoses):
         """``p`` (J, 3), ``R_rel`` (J, 3, 3) and ``dict`` of intermediate vectors: the frame axes
         ``F`` and ``Ft = F^T`` (J, 3, 3), node B's arms ``rb`` from link b and ``ra`` from link a (J, 3)."""
-        Rab = poses.R[self._ab]  # (2J, 3, 3): links a, then links b
-        xab = poses.x[self._ab]
+        Rab = poses.R.take(self._ab, axis=0)  # (2J, 3, 3): links a, then links b (take: cheaper than [])
+        xab = poses.x.take(self._ab, axis=0)
         arm = (Rab @ self._s_ab)[..., 0]
         n = len(self.a)
         o = xab + arm
@@ -114,13 +130,8 @@ class JointFrames:
         return p, Ft @ RP[n:], {"F": F, "Ft": Ft, "rb": arm[n:], "ra": oB - xab[:n]}
 
     def relative_jacobian(self, geo: dict) -> np.ndarray:
-        """``d(p, omega) / d(dx_a, dphi_a, dx_b, dphi_b)``, shape (J, 6, 12)."""
+        """``d(p, omega) / d(dx_a, dphi_a, dx_b, dphi_b)``, shape (J, 6, 12): ``diag(F^T, F^T)`` times
+        ``[[-I, skew(ra), I, -skew(rb)], [0, -I, 0, I]]``."""
         Ft = geo["Ft"]
-        mFt = -Ft
-        arms = Ft[:, None] @ skew(np.concatenate([geo["ra"][:, None], -geo["rb"][:, None]], axis=1))  # (J, 2, 3, 3)
-        J = np.zeros((len(Ft), 6, 12))
-        J[:, :3, 0:3] = J[:, 3:, 3:6] = mFt
-        J[:, :3, 6:9] = J[:, 3:, 9:12] = Ft
-        J[:, :3, 3:6] = arms[:, 0]
-        J[:, :3, 9:12] = arms[:, 1]
-        return J
+        C = np.concatenate([geo["ra"], geo["rb"]], axis=1) @ _ARMS + _JREL0
+        return (Ft[:, None] @ C.reshape(-1, 2, 3, 12)).reshape(-1, 6, 12)

@@ -26,6 +26,8 @@ from .geometry import ACTIVE, JointFrames, LinkPoses, intended_angle
 __all__ = ["ReducedMechanism", "template"]
 
 _EYE = np.eye(3)
+#: ``Q.reshape(9) @ _DUNSKEW`` = ``0.5 (trace(Q) I - Q)`` flattened, d unskew(Q) / d omega (dQ = skew(omega) Q)
+_DUNSKEW = 0.5 * (np.outer(_EYE.ravel(), _EYE.ravel()) - np.eye(9))
 
 
 @functools.lru_cache(maxsize=64)
@@ -95,13 +97,8 @@ class ReducedMechanism:
         self.fe_dofs = (np.arange(nL)[:, None] * nd + np.arange(nd)).ravel()
         self.emb_dofs = (np.arange(nL)[:, None] * 6 + act).ravel()
 
-        names, a, b, s_a, s_b, P, b0, groups, seen = [], [], [], [], [], [], [], {}, {}
+        names, a, b, rot, b0, origin, groups, seen = [], [], [], [], [], [], {}, {}
         for key, jt, pl, side_a, side_b in compiled.joints:
-            la, lb = compiled.link_node[side_a], compiled.link_node[side_b]
-            Pm = _EYE.copy()
-            Pm[:dim, :dim] = pl.rotation
-            bj = _embed(jt.interface_b(dim), dim)
-            origin = _embed(pl.origin, dim)
             try:
                 tpl = seen[jt] if hashable(jt) and jt in seen else template(jt, dim, folder)
             except DatabaseError as exc:
@@ -111,18 +108,21 @@ class ReducedMechanism:
             cons = constraints.check_names(f"joint {key!r} ({jt.kind})", jt.kinematic_constraints(dim), dim)
             groups.setdefault(id(tpl), (tpl, cons, []))[2].append(len(names))
             names.append(key)
-            a.append(la)
-            b.append(lb)
-            s_a.append(origin - self.X0[la])
-            s_b.append(origin + Pm @ bj - self.X0[lb])
-            P.append(Pm)
-            b0.append(bj)
+            a.append(compiled.link_node[side_a])
+            b.append(compiled.link_node[side_b])
+            rot.append(pl.rotation)
+            b0.append(jt.interface_b(dim))
+            origin.append(pl.origin)
         if not names:
             raise ModelError("the mechanism has no joints")
         self.joint_names = names
-        self.frames = JointFrames(np.array(a), np.array(b), np.array(s_a), np.array(s_b), np.array(P))
-        self.b0 = np.array(b0)
-        self.D0 = np.linalg.norm(self.b0, axis=1)
+        a, b = np.array(a), np.array(b)
+        P = np.repeat(_EYE[None], len(names), axis=0)
+        P[:, :dim, :dim] = rot
+        self.b0 = _embed(np.array(b0), dim)
+        origin = _embed(np.array(origin), dim)
+        self.frames = JointFrames(a, b, origin - self.X0[a], origin + (P @ self.b0[..., None])[..., 0] - self.X0[b], P)
+        self.D0 = np.sqrt((self.b0 * self.b0).sum(axis=1))
         self.groups = [(tpl, cons, np.array(idx)) for tpl, cons, idx in groups.values()]
         # how to take a group's joints from per-joint arrays (all of them: a view, not a copy)
         self._take = [slice(None)] if len(self.groups) == 1 else [idx for _, _, idx in self.groups]
@@ -183,14 +183,17 @@ class ReducedMechanism:
         fr = self.frames
         p, R, geo = fr.relative(poses)
         theta, dth = intended_angle(R)
-        vals = None if not values else np.concatenate(
-            [cs.values(p[idx], R[idx], theta[idx]).ravel() for idx, cs in zip(self._take, self._sets)])
+        parts = [cs.evaluate(p[idx], R[idx], theta[idx], dth[idx], deferred=True)
+                 for idx, cs in zip(self._take, self._sets)]
+        vals = None if not values else (parts[0][0].ravel() if len(parts) == 1 else
+                                        np.concatenate([v.ravel() for v, _ in parts]))
 
         def jac():
             Jrel = fr.relative_jacobian(geo)
             out = np.zeros((self.n_equations, 6 * self.n_links))
-            for idx, cs, at in zip(self._take, self._sets, self._jac_at):
-                out.flat[at] = cs.gradients(p[idx], R[idx], theta[idx], dth[idx]) @ Jrel[idx]  # (Jg, m_c, 12)
+            flat = out.reshape(-1)
+            for idx, (_, gradients), at in zip(self._take, parts, self._jac_at):
+                flat[at] = (gradients() @ Jrel[idx]).ravel()  # (Jg, m_c, 12)
             return out
 
         if not jacobian:
@@ -210,37 +213,38 @@ class ReducedMechanism:
         Q = Rrel @ np.swapaxes(R_hat, 1, 2)
         xi = np.concatenate([p - p_hat, unskew(Q)], axis=1)
         w = (K @ xi[..., None])[..., 0] + F_hat
-        F = geo["F"]
-        fm = F @ w.reshape(-1, 2, 3).swapaxes(1, 2)  # (J, 3, 2): force and moment on B in global axes
-        f, mB = fm[..., 0], fm[..., 1]
-        rb, ra = geo["rb"], geo["ra"]
-        m = mB[:, None] + cross(np.concatenate([rb[:, None], ra[:, None]], axis=1), f[:, None])  # about b and a
-        d = (poses.R[self.load_node] @ self.load_offset[..., None])[..., 0]
+        fm = (geo["F"][:, None] @ w.reshape(-1, 2, 3, 1))[..., 0]  # (J, 2, 3): force and moment on B in global axes
+        S = skew(np.concatenate([fm, geo["rb"][:, None], geo["ra"][:, None]], axis=1))  # of f, mB, rb, ra
+        f = fm[:, 0]
+        m = fm[:, 1:] + (S[:, 2:] @ fm[:, :1, :, None])[..., 0]  # (J, 2, 3): moments about b and a
         on_links = np.concatenate([f, m[:, 0], -f, -m[:, 1]], axis=1)  # on b, on a
-        loads = np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)], axis=1)
+        offset = self.load_offset.any()
+        if offset:
+            d = (poses.R[self.load_node] @ self.load_offset[..., None])[..., 0]
+            loads = np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)], axis=1)
+        else:
+            loads = np.concatenate([self.load_force, self.load_moment], axis=1)
         r = np.bincount(self._r_at, np.concatenate([on_links.ravel(), -loads.ravel()]), minlength=6 * self.n_links)
 
         def jacobian():
             Jrel = fr.relative_jacobian(geo)
-            trQ = Q[:, 0, 0] + Q[:, 1, 1] + Q[:, 2, 2]
-            Jrel[:, 3:] = (0.5 * (trQ[:, None, None] * _EYE - Q)) @ Jrel[:, 3:]
+            Jrel[:, 3:] = (Q.reshape(-1, 1, 9) @ _DUNSKEW).reshape(-1, 3, 3) @ Jrel[:, 3:]
             dw = K @ Jrel  # (J, 6, 12)
-            Sf, SmB, Srb, Sra = np.moveaxis(skew(np.stack([f, mB, rb, ra], axis=1)), 1, 0)
-            df = F @ dw[:, :3]
-            df[:, :, 3:6] -= Sf
-            dmB = F @ dw[:, 3:]
-            dmB[:, :, 3:6] -= SmB
-            mb = dmB + Srb @ df
-            mb[:, :, 9:12] += Sf @ Srb
-            ma = -dmB - Sra @ df  # + skew(f) d(ra), d(ra) = (-I, 0, I, -skew(rb))
-            ma[:, :, 0:3] -= Sf
-            ma[:, :, 6:9] += Sf
-            ma[:, :, 9:12] -= Sf @ Srb
-            blocks = np.concatenate([-df, ma, df, mb], axis=1)  # (J, 12, 12)
-            G = skew(self.load_force) @ skew(d)  # d(d x f)/dphi of loads at offset points
+            D = geo["F"][:, None] @ dw.reshape(-1, 2, 3, 12)  # d(f, mB)
+            D[..., 3:6] -= S[:, :2]  # F turns with link a
+            # d(mB + r x f) = dmB + skew(r) df - skew(f) dr about b and a, with
+            # d(rb) = (0, 0, 0, -skew(rb)) and d(ra) = (-I, 0, I, -skew(rb))
+            dm = D[:, 1:] + S[:, 2:] @ D[:, :1]
+            dm[..., 9:12] += (S[:, 0] @ S[:, 2])[:, None]
+            dm[:, 1, :, 0:3] += S[:, 0]
+            dm[:, 1, :, 6:9] -= S[:, 0]
+            blocks = np.concatenate([-D[:, 0], -dm[:, 1], D[:, 0], dm[:, 0]], axis=1)  # (J, 12, 12): on a, on b
+            entries = blocks.ravel()
+            if offset:
+                G = skew(self.load_force) @ skew(d)  # d(d x f)/dphi of loads at offset points
+                entries = np.concatenate([entries, -G.ravel()])
             n = 6 * self.n_links
-            return np.bincount(self._K_at, np.concatenate([blocks.ravel(), -G.ravel()]),
-                               minlength=n * n).reshape(n, n)
+            return np.bincount(self._K_at[:entries.size], entries, minlength=n * n).reshape(n, n)
 
         if not tangent:
             return r, None

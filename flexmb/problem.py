@@ -177,14 +177,16 @@ class StaticProblem(BoundaryConditions):
         """``f_int - f_ext(lam)`` on all DOFs (N * ndof,)."""
         return self.model.internal_force(state) - self.external_force(state, lam)[0]
 
-    def evaluate(self, state: State, lam: float, tangent: bool = True):
+    def evaluate(self, state: State, lam: float, tangent: bool = True, geometric_stress=None):
         """Residual on all DOFs and, if asked, the tangent blocks ``K_ff`` and ``K_fp`` (CSR).
 
         Returns ``(r, K_ff, K_fp, sigma)``; ``r`` contains NaN when an element left its valid
         range (a relative rotation of 90 degrees or more within one 3D element).
+        ``geometric_stress``: a function of the elements' stresses returning those of the
+        geometric stiffness, if not their own (`FEModel.element_response`).
         """
         m = self.model
-        Fe, Ke, _, sig = m.element_response(state, tangent=tangent)
+        Fe, Ke, _, sig = m.element_response(state, tangent=tangent, geometric_stress=geometric_stress)
         f_ext, G = self.external_force(state, lam)
         r = scatter_add(m.element_dofs, Fe, m.n_dofs) - f_ext
         if not tangent:

@@ -115,6 +115,32 @@ def test_3d_small_displacement_stiffness_is_the_timoshenko_beam_matrix():
     np.testing.assert_allclose(tip[3, 3], L0 / (s.G * s.It), rtol=1e-12)
 
 
+def _second_difference(value, perturb, n_dofs, h1=1e-6, h2=1e-5):
+    """(E, n, n): central differences of the central-difference gradient of ``value(cfg)`` (E,),
+    ``perturb(cfg, dq)`` moving a configuration by increments ``dq`` (E, n) (spins for rotations)."""
+    def gradient(cfg):
+        return np.stack([(value(perturb(cfg, h1 * np.eye(n_dofs)[j] * np.ones((3, 1))))
+                          - value(perturb(cfg, -h1 * np.eye(n_dofs)[j] * np.ones((3, 1))))) / (2 * h1)
+                         for j in range(n_dofs)], axis=1)
+    return lambda cfg: np.stack([(gradient(perturb(cfg, h2 * np.eye(n_dofs)[j] * np.ones((3, 1))))
+                                  - gradient(perturb(cfg, -h2 * np.eye(n_dofs)[j] * np.ones((3, 1))))) / (2 * h2)
+                                 for j in range(n_dofs)], axis=2)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_3d_geometric_stiffness_of_given_stresses_is_the_second_derivative_of_the_deformations(seed):
+    """``geometric_stress``: K with stresses sigma + w in its geometric part is the element tangent
+    plus sum_i w_i d2 e_i / dq2 (Appendix A: K = D^T S D + sum_i sigma_i dD_i/dq), the second
+    derivative taken by central differences of w . e along the spin update."""
+    cfg = _config3d(seed)
+    w = np.random.default_rng(seed + 100).normal(scale=1e3, size=(3, 6))
+    K = beam3d.internal_force_and_tangent(*cfg)[1]
+    Kw = beam3d.internal_force_and_tangent(*cfg, geometric_stress=lambda sigma: sigma + w)[1]
+    Kfd = _second_difference(lambda c: np.einsum("ei,ei->e", beam3d.deformations(*c[:7]), w), _perturb3d, 12)(cfg)
+    assert np.abs(Kw - K - Kfd).max() <= FD_TANGENT * np.abs(Kfd).max()
+    np.testing.assert_array_equal(beam3d.internal_force_and_tangent(*cfg, geometric_stress=lambda sigma: sigma)[1], K)
+
+
 def _config2d(seed, n=3):
     rng = np.random.default_rng(seed)
     a0 = rng.uniform(-np.pi, np.pi, n)
@@ -138,6 +164,25 @@ def test_2d_tangent_matches_central_differences_in_deformed_configurations(seed)
                     for j in range(6)], axis=2)
     assert np.abs(K - Kfd).max() <= FD_TANGENT * np.abs(K).max()
     np.testing.assert_allclose(K, np.swapaxes(K, 1, 2), rtol=0, atol=1e-12 * np.abs(K).max())
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_2d_geometric_stiffness_of_given_stresses_is_the_second_derivative_of_the_deformations(seed):
+    """As the 3D test: K with sigma + w in its geometric part = K + sum_i w_i d2 e_i / dq2."""
+    xp, xq, tp, tq, a0, L, S = _config2d(seed)
+    w = np.random.default_rng(seed + 100).normal(scale=1e3, size=(3, 3))
+
+    def perturb(c, dq):
+        return (c[0] + dq[:, 0:2], c[1] + dq[:, 3:5], c[2] + dq[:, 2], c[3] + dq[:, 5])
+
+    def work(c):
+        e = beam2d.internal_force_and_tangent(*c, a0, L, S, tangent=False)[2]
+        return np.einsum("ei,ei->e", e, w)
+
+    K = beam2d.internal_force_and_tangent(xp, xq, tp, tq, a0, L, S)[1]
+    Kw = beam2d.internal_force_and_tangent(xp, xq, tp, tq, a0, L, S, geometric_stress=lambda sigma: sigma + w)[1]
+    Kfd = _second_difference(work, perturb, 6)((xp, xq, tp, tq))
+    assert np.abs(Kw - K - Kfd).max() <= FD_TANGENT * np.abs(Kfd).max()
 
 
 @pytest.mark.parametrize("seed", range(5))

@@ -37,11 +37,13 @@ def _wrap(a):
     return np.arctan2(np.sin(a), np.cos(a))
 
 
-def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool = True):
+def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool = True, geometric_stress=None):
     """Internal forces ``F`` (E, 6) and tangent ``K`` (E, 6, 6) of planar co-rotational beams.
 
     ``xp, xq`` node positions [m] (E, 2); ``thp, thq`` node rotations since the undeformed state
-    [rad] (E,); ``alpha0`` undeformed element angle [rad] (E,); ``L0`` [m]; ``S`` (E, 3, 3).
+    [rad] (E,); ``alpha0`` undeformed element angle [rad] (E,); ``L0`` [m]; ``S`` (E, 3, 3);
+    ``geometric_stress``: a function of the elements' ``sigma`` (E, 3) returning the stresses of
+    the geometric part of ``K`` (None: ``sigma``).
     Returns ``F, K, e, sigma`` (``K`` None when ``tangent`` is False).
     """
     L = xq - xp
@@ -70,7 +72,8 @@ def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool
     K = np.swapaxes(D, 1, 2) @ (S @ D)
     Hl = np.einsum("ei,ej->eij", m, m) / l[:, None, None]  # d2|L|/dL2
     Hb = -(np.einsum("ei,ej->eij", n, m) + np.einsum("ei,ej->eij", m, n)) / (l * l)[:, None, None]  # d2beta/dL2
-    Hr = sigma[:, 0, None, None] * Hl + ((sigma[:, 1] - sigma[:, 2]) * L0)[:, None, None] * Hb
+    sg = sigma if geometric_stress is None else geometric_stress(sigma)
+    Hr = sg[:, 0, None, None] * Hl + ((sg[:, 1] - sg[:, 2]) * L0)[:, None, None] * Hb
     K[:, 0:2, 0:2] += Hr
     K[:, 3:5, 3:5] += Hr
     K[:, 0:2, 3:5] -= Hr

@@ -83,7 +83,7 @@ def _outer(a, b):
     return a[:, :, None] * b[:, None, :]
 
 
-def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool = True):
+def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool = True, geometric_stress=None):
     """Internal nodal forces ``F`` (E, 12) and tangent ``K`` (E, 12, 12) of a batch of elements.
 
     Parameters
@@ -98,6 +98,9 @@ def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool
         Undeformed length [m], shape (E,).
     S
         Local stiffness from `local_stiffness`, shape (E, 6, 6).
+    geometric_stress
+        A function of the elements' generalised stresses ``sigma`` (E, 6) returning those of the
+        geometric part of ``K`` (``K = D^T S D + sum_i sigma_g,i dD_i/dq``); None: ``sigma``.
 
     Returns
     -------
@@ -107,10 +110,10 @@ def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool
         from the chord, or the end sections twisted 90 degrees or more apart) are NaN.
     """
     with np.errstate(divide="ignore", invalid="ignore"):  # invalid states come out as NaN rows
-        return _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent)
+        return _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress)
 
 
-def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent):
+def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress=None):
     nE = len(L0)
     l, nl, pyv, pzv, qyv, qzv = _vectors(xp, xq, Rp, Rq, ny0, nz0)
     P = _EYE - _outer(nl, nl)
@@ -194,8 +197,9 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent):
     if not tangent:
         return F, None, e, sigma
     K = np.swapaxes(Dm, 1, 2) @ (S @ Dm)
+    sg = sigma if geometric_stress is None else geometric_stress(sigma)
     for i in range(6):
-        K += sigma[:, i, None, None] * H[i]
+        K += sg[:, i, None, None] * H[i]
     return F, K, e, sigma
 
 

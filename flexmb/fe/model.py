@@ -126,11 +126,12 @@ class FEModel:
             T[:, 0:3, 3:6] = -skew(d)
         return T
 
-    def element_response(self, state: State, tangent: bool = True):
+    def element_response(self, state: State, tangent: bool = True, geometric_stress=None):
         """Element forces and tangents in master-node DOFs.
 
         Returns ``F`` (E, 2 ndof), ``K`` (E, 2 ndof, 2 ndof) or None, deformations ``e`` and
-        generalised stresses ``sigma`` of every element.
+        generalised stresses ``sigma`` of every element. ``geometric_stress``: a function of
+        ``sigma`` returning the stresses of the beams' geometric stiffness, if not their own.
         """
         el = self.elements
         m = self.point_master[el.ends]  # (E, 2)
@@ -140,11 +141,13 @@ class FEModel:
         if self.dim == 2:
             th = state.rotations[m]
             F, K, e, sig = beam2d.internal_force_and_tangent(
-                x[:, 0], x[:, 1], th[:, 0], th[:, 1], el.alpha0, el.L0, el.S, tangent=tangent)
+                x[:, 0], x[:, 1], th[:, 0], th[:, 1], el.alpha0, el.L0, el.S, tangent=tangent,
+                geometric_stress=geometric_stress)
         else:
             R = state.rotations[m]
             F, K, e, sig = beam3d.internal_force_and_tangent(
-                x[:, 0], x[:, 1], R[:, 0], R[:, 1], el.ny0, el.nz0, el.L0, el.S, tangent=tangent)
+                x[:, 0], x[:, 1], R[:, 0], R[:, 1], el.ny0, el.nz0, el.L0, el.S, tangent=tangent,
+                geometric_stress=geometric_stress)
         nE, nd, nr = len(el.L0), self.ndof, self.nrot
         Fm, G = self.transfer(F.reshape(2 * nE, nd), d)
         Fm = Fm.reshape(nE, 2 * nd)

@@ -177,6 +177,9 @@ class EOBTemplate:
         self.d = model.point_x0[self.q_point] - model.point_x0[self.p_point]
         perm = np.r_[nd:2 * nd, 0:nd]
         self.K0 = np.where(flip[:, None, None], K0[:, perm][:, :, perm], K0)
+        # d . (force on marker q) of K0: an element's axial force from its local displacements
+        self._axial_row = np.einsum("ea,eab->eb", self.d / np.linalg.norm(self.d, axis=1)[:, None],
+                                    self.K0[:, nd:nd + dim])
 
         # internal nodes: x_n = x_root + sum over the path from the root (A or B) of the element
         # steps R_p s_p + R_k d_k - R_q s_q (node to node through the element's markers)
@@ -294,6 +297,15 @@ class EOBTemplate:
             K_T, F_T = K_nodes[:, cols, cols].copy(), F_nodes[:, cols].copy()
             recover = np.zeros((J, 0, nd + 1))
         return EOB(Tb, self.K0, q_hat, lv, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn, markers)
+
+    def axial_force(self, eob: EOB, q: np.ndarray) -> np.ndarray:
+        """Axial force [N] (J, E) of every element of the EOBs' linear model, tension positive, at
+        node displacements ``q`` (J, N nd) from the near poses (node A first; spins): the element
+        forces ``F_all = K_all (L q - q_hat_all)`` (Eqs. 3.8-3.11) along each element's axis."""
+        J, E, nd = len(q), self.n_elements, self.nd
+        marker = eob.lever @ q[:, self.element_dofs].reshape(J, E, 2, nd, 1) - eob.q_hat.reshape(J, E, 2, nd, 1)
+        local = np.swapaxes(eob.rotation, 2, 3)[:, :, None] @ marker  # element axes at rest (K0's)
+        return np.einsum("eb,jeb->je", self._axial_row, local.reshape(J, E, 2 * nd))
 
     def _scatter(self, J: int):
         """Flat indices of J joints' element blocks in K_nodes (J, n, n) and F_nodes (J, n)."""

@@ -134,8 +134,12 @@ def _largest_rotation(model, du: np.ndarray) -> float:
 
 
 def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: int, divergence: float,
-                 min_step: float, initial_step: float, lam0: float = 0.0, max_rotation: float | None = 1.0) -> dict:
-    """Drive ``problem`` from ``state`` at load factor ``lam0`` to 1 (Fig. 18); returns Solution fields."""
+                 min_step: float, initial_step: float, lam0: float = 0.0, max_rotation: float | None = 1.0,
+                 first_geometric_stress=None) -> dict:
+    """Drive ``problem`` from ``state`` at load factor ``lam0`` to 1 (Fig. 18); returns Solution fields.
+
+    ``first_geometric_stress``: the geometric-stiffness stresses of the first tangent only
+    (`StaticProblem.evaluate`), where ``state``'s own are known to be off (KSD step 5)."""
     history: list[float] = []
     times = {"assemble": 0.0, "solve": 0.0}
     lam, dlam = lam0, min(initial_step, 1.0 - lam0)
@@ -163,7 +167,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
         stalled = None
         for it in range(max_iter + 1):
             t = time.perf_counter()
-            r, Kff, Kfp, _ = problem.evaluate(trial, target, tangent=True)
+            r, Kff, Kfp, _ = problem.evaluate(trial, target, tangent=True, geometric_stress=first_geometric_stress)
+            first_geometric_stress = None
             times["assemble"] += time.perf_counter() - t
             rf = r[free]
             if it == 0:

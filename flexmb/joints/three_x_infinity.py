@@ -21,6 +21,7 @@ import numpy as np
 from .. import _validate as v
 from ..errors import ParameterError
 from ..sections import rectangle
+from ._leaves import check_leaves
 from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
 
 __all__ = ["ThreeXInfinity"]
@@ -89,7 +90,7 @@ class ThreeXInfinity(Joint):
 
     def __attrs_post_init__(self):
         owner = "three_x_infinity"
-        v.leaf_joint(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
+        check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
         v.integer(owner, "stages", self.stages, 2, 100)
         for name in ("gap", "stage_gap"):
             if v.finite(owner, name, getattr(self, name)) < 0:

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import jit
 from ..sections import properties
 
-__all__ = ["local_stiffness", "internal_force_and_tangent"]
+__all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "internal_force_and_tangent"]
 
 
 def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
@@ -38,6 +39,17 @@ def _wrap(a):
 
 
 def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool = True, geometric_stress=None):
+    """Internal forces, tangent, deformations and stresses of a batch of elements: the compiled
+    kernel (`flexmb.fe.beam2d_jit`) when `flexmb.jit.enabled`, else
+    `numpy_internal_force_and_tangent` (its docstring has the arguments); equal to 1e-12."""
+    if jit.enabled():
+        from . import beam2d_jit  # imports numba: on first use, not with flexmb
+
+        return beam2d_jit.internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, tangent, geometric_stress)
+    return numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, tangent=tangent, geometric_stress=geometric_stress)
+
+
+def numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool = True, geometric_stress=None):
     """Internal forces ``F`` (E, 6) and tangent ``K`` (E, 6, 6) of planar co-rotational beams.
 
     ``xp, xq`` node positions [m] (E, 2); ``thp, thq`` node rotations since the undeformed state

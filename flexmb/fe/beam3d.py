@@ -17,10 +17,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import jit
 from ..rotations import cross, skew
 from ..sections import properties
 
-__all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent"]
+__all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent",
+           "numpy_internal_force_and_tangent"]
 
 _RP, _PP, _RQ, _PQ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 _EYE = np.eye(3)
@@ -84,6 +86,17 @@ def _outer(a, b):
 
 
 def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool = True, geometric_stress=None):
+    """Internal forces, tangent, deformations and stresses of a batch of elements: the compiled
+    kernel (`flexmb.fe.beam3d_jit`) when `flexmb.jit.enabled`, else
+    `numpy_internal_force_and_tangent` (its docstring has the arguments); equal to 1e-12."""
+    if jit.enabled():
+        from . import beam3d_jit  # imports numba: on first use, not with flexmb
+
+        return beam3d_jit.internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress)
+    return numpy_internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent=tangent, geometric_stress=geometric_stress)
+
+
+def numpy_internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent: bool = True, geometric_stress=None):
     """Internal nodal forces ``F`` (E, 12) and tangent ``K`` (E, 12, 12) of a batch of elements.
 
     Parameters

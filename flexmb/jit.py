@@ -1,0 +1,60 @@
+"""Compiled kernels: numba when it is installed and wanted, the numpy code otherwise.
+
+``FLEXMB_KERNELS`` chooses: ``auto`` (default: numba if importable), ``numba`` (required: an
+import failure is an error) or ``numpy`` (never compile). The choice is read once, at import;
+`use` switches it in a running session (tests compare both paths on every kernel).
+
+numba is an optional extra (``pip install "flexmb[fast]"``): it compiles the element loops to
+machine code, and its ~40 MB with llvmlite are not forced on a user who solves a few small
+mechanisms. Compiled code is cached on disk (``cache=True``): the first import on a machine
+compiles, later sessions load.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+
+from .errors import MissingExtraError, ParameterError
+
+__all__ = ["enabled", "use", "njit", "CHOICES"]
+
+CHOICES = ("auto", "numba", "numpy")
+
+# numba is optional, and imported only when a kernel module is (about 1 s): `import flexmb` stays light
+_AVAILABLE = importlib.util.find_spec("numba") is not None
+
+
+def _resolve(choice: str) -> bool:
+    if choice not in CHOICES:
+        raise ParameterError(f"FLEXMB_KERNELS={choice!r}; valid: {', '.join(CHOICES)}")
+    if choice == "numba" and not _AVAILABLE:
+        raise MissingExtraError("FLEXMB_KERNELS=numba but numba is not installed: pip install 'flexmb[fast]'")
+    return choice != "numpy" and _AVAILABLE
+
+
+_enabled = _resolve(os.environ.get("FLEXMB_KERNELS", "auto").strip().lower() or "auto")
+
+
+def enabled() -> bool:
+    """Whether the compiled kernels run (numba importable and not switched off)."""
+    return _enabled
+
+
+def use(choice: str) -> bool:
+    """Switch the kernels for this session: ``"auto"``, ``"numba"`` or ``"numpy"``; returns the
+    previous state (True: compiled)."""
+    global _enabled
+    previous, _enabled = _enabled, _resolve(choice)
+    return previous
+
+
+def njit(fn):
+    """``numba.njit`` with the options every kernel uses (on-disk cache, numpy's floating-point
+    errors: NaN and inf instead of exceptions, as the numpy path gives); ``fn`` unchanged
+    without numba."""
+    if not _AVAILABLE:  # pragma: no cover - the numpy path is used then
+        return fn
+    import numba
+
+    return numba.njit(cache=True, error_model="numpy", fastmath=False)(fn)

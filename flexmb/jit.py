@@ -15,9 +15,11 @@ from __future__ import annotations
 import importlib.util
 import os
 
+import numpy as np
+
 from .errors import MissingExtraError, ParameterError
 
-__all__ = ["enabled", "use", "njit", "CHOICES"]
+__all__ = ["enabled", "use", "njit", "run", "CHOICES"]
 
 CHOICES = ("auto", "numba", "numpy")
 
@@ -58,3 +60,20 @@ def njit(fn):
     import numba
 
     return numba.njit(cache=True, error_model="numpy", fastmath=False)(fn)
+
+
+def run(kernel, arrays, n_dofs: int, n_modes: int, tangent: bool, geometric_stress):
+    """Call a compiled beam kernel on ``arrays`` (the element batch, E first): returns ``F``
+    (E, n_dofs), ``K`` (E, n_dofs, n_dofs) or None, ``e`` and ``sigma`` (E, n_modes). With a
+    ``geometric_stress`` function the kernel runs twice: the geometric stresses depend on sigma."""
+    nE = len(arrays[-2])  # L0
+    args = [np.ascontiguousarray(a, dtype=float) for a in arrays]
+    F, e, sigma = np.empty((nE, n_dofs)), np.empty((nE, n_modes)), np.empty((nE, n_modes))
+    K = np.empty((nE if tangent else 1, n_dofs, n_dofs))
+    if tangent and geometric_stress is not None:
+        kernel(*args, False, False, sigma, F, K, e, sigma)
+        sg = np.ascontiguousarray(geometric_stress(sigma.copy()), dtype=float)
+        kernel(*args, True, True, sg, F, K, e, sigma)
+    else:
+        kernel(*args, tangent, False, sigma, F, K, e, sigma)
+    return F, (K if tangent else None), e, sigma

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import njit
+from ..jit import njit, run
 
 __all__ = ["internal_force_and_tangent"]
 
@@ -70,14 +70,4 @@ def _kernel(xp, xq, thp, thq, alpha0, L0, S, tangent, sg_given, sg_in, F, K, e_o
 
 def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, tangent=True, geometric_stress=None):
     """`flexmb.fe.beam2d.internal_force_and_tangent`, compiled: same arguments and results."""
-    nE = len(L0)
-    args = [np.ascontiguousarray(a, dtype=float) for a in (xp, xq, thp, thq, alpha0, L0, S)]
-    F, e, sigma = np.empty((nE, 6)), np.empty((nE, 3)), np.empty((nE, 3))
-    K = np.empty((nE if tangent else 1, 6, 6))
-    if tangent and geometric_stress is not None:  # the geometric stresses are a function of sigma
-        _kernel(*args, False, False, sigma, F, K, e, sigma)
-        sg = np.ascontiguousarray(geometric_stress(sigma.copy()), dtype=float)
-        _kernel(*args, True, True, sg, F, K, e, sigma)
-    else:
-        _kernel(*args, tangent, False, sigma, F, K, e, sigma)
-    return F, (K if tangent else None), e, sigma
+    return run(_kernel, (xp, xq, thp, thq, alpha0, L0, S), 6, 3, tangent, geometric_stress)

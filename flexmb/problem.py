@@ -13,10 +13,10 @@ import functools
 import attrs
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import spsolve
 
 from .fe.assembly import SparsePattern, scatter_add
 from .fe.model import FEModel, State
+from .linear import TangentSolver
 from .rotations import chain_rotation, expm_so3, logm_so3
 
 __all__ = ["PointLoads", "BoundaryConditions", "StaticProblem"]
@@ -213,8 +213,11 @@ class StaticProblem(BoundaryConditions):
         return du
 
     def solve_linear(self, K: sp.csr_array, rhs: np.ndarray) -> np.ndarray:
-        """Solve ``K x = rhs`` (dense LAPACK below 220 unknowns, where SuperLU's overhead dominates;
-        medians measured: crossover ~200 unknowns on a 3D cross flexure, ~230 on the four-bar)."""
-        if K.shape[0] < 220:
-            return np.linalg.solve(K.toarray(), rhs)
-        return spsolve(K.tocsc(), rhs)
+        """Solve ``K x = rhs`` with `flexmb.linear.TangentSolver` (dense LAPACK below 220 unknowns;
+        above, an LDL^T whose analysis is reused across the pattern's solves, refined to an exact
+        solve, or SuperLU). Copies made by `with_loads` / `with_motion` share the analysis."""
+        return self._tangent_solver.solve(K, rhs)
+
+    @functools.cached_property
+    def _tangent_solver(self) -> TangentSolver:
+        return TangentSolver()

@@ -26,7 +26,7 @@ LAYERS = [
                              "flexmb.fe.beam3d_jit", "flexmb.fe.assembly",
                              "flexmb.fe.model", "flexmb.fe.stress", "flexmb.closed_form.flexures", "flexmb.joints",
                              "flexmb.joints.*", "flexmb.registry", "flexmb.reference"]),
-    ("problems", ["flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),
+    ("problems", ["flexmb.linear", "flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),
     ("builders", ["flexmb.boundary", "flexmb.fe.build", "flexmb.closed_form", "flexmb.closed_form.build"]),
     ("mechanism", ["flexmb.mechanism"]),
     ("results and joint data", ["flexmb.results", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),

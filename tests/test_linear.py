@@ -1,0 +1,88 @@
+"""`flexmb.linear.TangentSolver`: every path gives the exact solution of the true (non-symmetric)
+K, the analysis is reused per pattern, and the fallback catches what the LDL^T path cannot do
+(issue 21 item 2)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import flexmb
+from flexmb import linear
+
+needs_qdldl = pytest.mark.skipif(not linear.available()["qdldl"], reason="qdldl not installed")
+
+
+def _banded(n, rng, asym=0.0, shift=4.0):
+    """A symmetric banded SPD matrix (bandwidth 6, like a beam chain) plus ``asym`` times a skew part."""
+    A = sp.random(n, n, density=0.0, random_state=0, format="lil")
+    for k in range(-6, 7):
+        d = rng.normal(size=n - abs(k))
+        A.setdiag(d, k)
+    A = A.tocsr()
+    S = A + A.T + sp.eye(n) * (shift + 2 * np.abs(A).sum(axis=1).max())
+    W = (A - A.T) * asym
+    return sp.csr_matrix(S + W), S
+
+
+def _backward_error(K, x, b):
+    return np.abs(b - K @ x).max() / (np.abs(K.data).max() * np.abs(x).max() + np.abs(b).max())
+
+
+@needs_qdldl
+@pytest.mark.parametrize("asym", [0.0, 1e-4, 1e-2])
+def test_ldl_path_solves_the_true_matrix(asym):
+    rng = np.random.default_rng(1)
+    K, S = _banded(600, rng, asym)
+    W = K - S
+    solver = linear.TangentSolver()
+    for k in range(3):  # same pattern, new numbers: the analysis is reused
+        K = sp.csr_matrix(S * (1.0 + 0.1 * k) + W * (1.0 - 0.2 * k))
+        K.sort_indices()
+        b = rng.normal(size=600)
+        x = solver.solve(K, b)
+        assert _backward_error(K, x, b) < 1e-13  # exact to refinement tolerance (linear.REFINE_TOL)
+    assert solver.stats["ldl"] == 3 and solver.stats["superlu"] == 0
+    # a symmetric K needs no refinement; a near-symmetric one a few triangular solves per solve
+    assert solver.stats["refinements"] == 0 if asym == 0 else 0 < solver.stats["refinements"] <= 3 * 5
+
+
+@needs_qdldl
+def test_indefinite_symmetric_part_falls_back_to_superlu():
+    # K = skew + tiny symmetric: its symmetric part is nearly singular, refinement cannot converge
+    rng = np.random.default_rng(2)
+    n = 400
+    A = sp.random(n, n, density=0.02, random_state=3, format="csr") + sp.eye(n, k=1)
+    K = sp.csr_matrix(A - A.T + 1e-9 * sp.eye(n) + 5.0 * (sp.eye(n, k=1) - sp.eye(n, k=-1)))
+    K.sort_indices()
+    b = rng.normal(size=n)
+    solver = linear.TangentSolver()
+    x = solver.solve(K, b)
+    assert np.abs(K @ x - b).max() < 1e-8 * np.abs(b).max() * np.abs(K.data).max() * np.abs(x).max()
+    assert solver.stats["fallbacks"] == 1 and solver.stats["superlu"] == 1
+
+
+def test_small_systems_are_dense_and_exact():
+    rng = np.random.default_rng(4)
+    K, _ = _banded(50, rng, 1e-3)
+    b = rng.normal(size=50)
+    solver = linear.TangentSolver()
+    assert _backward_error(K, solver.solve(K, b), b) < 1e-14
+    assert solver.stats["dense"] == 1
+
+
+@needs_qdldl
+def test_whole_solves_are_the_same_with_and_without_the_ldl_path(monkeypatch):
+    # a case no paper has: a 3D cantilever of 100 elements (600 unknowns) under a large oblique tip load
+    def solve():
+        m = flexmb.models.cantilever(dim=3, elements=100)
+        m.apply_force("tip", (0.0, 60.0, -160.0))
+        return flexmb.solve(m)
+
+    with_ldl = solve()
+    monkeypatch.setattr(linear, "_HAVE_QDLDL", False)
+    without = solve()
+    assert with_ldl.converged and without.converged and with_ldl.iterations == without.iterations > 6
+    x0 = without.node_positions()
+    assert np.abs(with_ldl.node_positions() - x0).max() <= 1e-10 * np.abs(x0).max()

@@ -14,6 +14,7 @@ from .errors import (
 )
 from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
+from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
 from .results import Solution
 from .sections import Section, rectangle
@@ -35,6 +36,7 @@ __all__ = [
     "ThreeXInfinity",
     "Link",
     "Mechanism",
+    "Modes",
     "MissingExtraError",
     "ModelError",
     "ParameterError",
@@ -56,6 +58,7 @@ __all__ = [
     "find_actuation",
     "joint",
     "models",
+    "modes",
     "testing",
     "rectangle",
     "register_joint",

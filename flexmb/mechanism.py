@@ -14,6 +14,7 @@ from .fe.beam2d import local_stiffness as local_stiffness_2d
 from .fe.beam3d import local_stiffness as local_stiffness_3d
 from .closed_form.flexures import FlexureSet
 from .closed_form.problem import LinkageModel, LinkageProblem
+from .fe.mass import RigidMasses
 from .fe.model import BeamElements, FEModel
 from .joints._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint
 from .problem import PointLoads, StaticProblem
@@ -25,11 +26,19 @@ __all__ = ["Link", "Mechanism", "Placement", "Compiled"]
 
 @attrs.frozen(eq=False)
 class Link:
-    """A rigid link: a graph node. ``position`` [m] is its reference point in the undeformed state."""
+    """A rigid link: a graph node. ``position`` [m] is its reference point in the undeformed state.
+
+    ``mass`` [kg], ``inertia`` about the centre of mass [kg m^2] ((3, 3) in 3D, a scalar about z
+    in 2D) and ``center`` [m] (the centre of mass's offset from the reference point), all in the
+    link's frame: global axes in the undeformed configuration, turning with the link.
+    """
 
     name: str
     position: np.ndarray
     fixed: bool = False
+    mass: float = 0.0
+    inertia: np.ndarray | float = 0.0
+    center: np.ndarray | None = None
 
 
 @attrs.frozen(eq=False)
@@ -55,6 +64,7 @@ class Compiled:
     actuation: tuple | None = None  # (row of the actuation in problem.loads, unit direction)
     joint_nodes: dict = attrs.field(factory=dict)  # joint name -> FE node indices of its internal nodes
     joints: tuple = ()  # (name, joint, placement, side A link, side B link) at compile time
+    fixed: tuple = ()  # names of the fixed links (the ground)
 
 
 class Mechanism:
@@ -102,14 +112,22 @@ class Mechanism:
         except (KeyError, TypeError):
             raise ModelError(f"no link named {name!r}; links: {', '.join(map(repr, self.graph.nodes)) or 'none'}") from None
 
-    def add_link(self, name: str, position=None, *, fixed: bool = False) -> Link:
-        """Add a rigid link with reference point ``position`` [m] (default: the origin)."""
+    def add_link(self, name: str, position=None, *, fixed: bool = False, mass: float = 0.0, inertia=None,
+                 center=None) -> Link:
+        """Add a rigid link with reference point ``position`` [m] (default: the origin).
+
+        ``mass`` [kg] >= 0, ``inertia`` [kg m^2] about the centre of mass (3D: a symmetric positive
+        semi-definite (3, 3) tensor whose principal moments satisfy the triangle inequality; 2D:
+        a scalar >= 0 about z; default 0) and ``center`` [m], the centre of mass relative to
+        ``position`` (default: ``position``), in the link's frame (global axes, undeformed).
+        """
         if not isinstance(name, str) or not name:
             raise ModelError(f"link name must be a non-empty string, got {name!r}")
         if name in self.graph:
             raise ModelError(f"a link named {name!r} exists already")
         pos = np.zeros(self.dim) if position is None else v.vector(f"link {name!r}", "position", position, self.dim)
-        lk = Link(name, pos, v.flag(f"link {name!r}", "fixed", fixed))
+        lk = Link(name, pos, v.flag(f"link {name!r}", "fixed", fixed),
+                  *v.rigid_body(f"link {name!r}", mass, inertia, center, self.dim))
         self.graph.add_node(name, link=lk)
         return lk
 
@@ -338,13 +356,15 @@ class Mechanism:
         else:
             chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
             elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]))
-        model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements)
+        rigid = RigidMasses.of_bodies([(link_node[n], lk.mass, lk.inertia, lk.center) for n, lk in links.items()], dim)
+        model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements, rigid_masses=rigid)
 
         pres, vals, loads, paths = self._boundary(link_node, links)
         return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, dict(self._points), joint_elements,
                         self._actuation_row(loads), joint_nodes,
                         tuple((k, d["joint"], d["placement"], *d["sides"])
-                              for _, _, k, d in self.graph.edges(keys=True, data=True)))
+                              for _, _, k, d in self.graph.edges(keys=True, data=True)),
+                        tuple(n for n, lk in links.items() if lk.fixed))
 
     def _actuation_row(self, loads: PointLoads) -> tuple | None:
         return None if self._actuation is None else (len(loads.node) - 1, self._actuation[2].copy())

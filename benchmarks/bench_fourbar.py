@@ -16,7 +16,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _report import machine, run  # noqa: E402
-from flexmb import fourbar_case as fc  # noqa: E402
+from flexmb.studies import fourbar as fc  # noqa: E402
 
 
 def main(quick: bool = False) -> str:

@@ -17,7 +17,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import flexmb  # noqa: E402
 from _report import machine, median_time, run  # noqa: E402
-from flexmb import gripper_case as g  # noqa: E402
+from flexmb.studies import gripper as g  # noqa: E402
 
 FORCES = 138  # -60 ... closing force in ~1 uN steps
 

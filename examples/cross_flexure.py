@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from flexmb.demo import cross_flexure_curve, cross_flexure_reference, cross_flexure_table, plot_cross_flexure
+from flexmb.studies.demo import cross_flexure_curve, cross_flexure_reference, cross_flexure_table, plot_cross_flexure
 
 ELEMENTS = (1, 2, 3, 4, 5)
 

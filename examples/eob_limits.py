@@ -10,7 +10,7 @@ Run: python examples/eob_limits.py [--out figures]   (writes eob_limits.png with
 import argparse
 from pathlib import Path
 
-from flexmb import eob_case as ec
+from flexmb.studies import eob as ec
 
 
 def main(out: Path | None = None) -> dict:

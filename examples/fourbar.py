@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmb import fourbar_case as fc
+from flexmb.studies import fourbar as fc
 
 
 def main(out: Path, quick: bool = False) -> dict:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmb import gripper_case as g
+from flexmb.studies import gripper as g
 
 LABELS = ("x2", "y2", "th2", "x3", "y3", "th3", "x4", "y4", "th4")
 

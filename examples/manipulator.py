@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import flexmb
-from flexmb import manipulator_case as mc
+from flexmb.studies import manipulator as mc
 from flexmb.analysis import support_ratios
 
 joint = flexmb.ThreeXInfinity()

@@ -22,8 +22,8 @@ from .solvers import solve
 from .study import grid, parameter_study
 from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
 from .table import Table, read_csv
+from ._version import __version__  # noqa: F401 (flexmb.__version__)
 
-__version__ = "0.1.0"
 
 __all__ = [
     "ConvergenceError",

@@ -143,23 +143,3 @@ def hashable(obj) -> bool:
     except TypeError:
         return False
     return True
-
-
-def leaf_joint(owner: str, joint, names, widths=("width_inner", "width_outer")) -> None:
-    """Checks shared by joints made of straight leaves: the parameters ``names`` positive, the
-    leaf ``angle`` in (0, pi/2) rad, ``elements_per_leaf`` >= 1, slender leaves
-    (``thickness < length / 10``) and representable rectangular sections of the ``widths``."""
-    from .sections import rectangle  # sections uses these validators
-    for name in names:
-        positive(owner, name, getattr(joint, name))
-    in_open_range(owner, "angle", joint.angle, 0.0, math.pi / 2, " rad")
-    integer(owner, "elements_per_leaf", joint.elements_per_leaf, 1, MAX_ELEMENTS)
-    if not joint.thickness < joint.length / 10:
-        raise ParameterError(f"{owner}: thickness={joint.thickness!r} m is not slender for length={joint.length!r} m "
-                             f"(valid range: thickness < length/10 = {joint.length / 10:g} m)")
-    for wname in widths:  # derived quantities must be representable (extreme magnitudes overflow)
-        try:
-            rectangle(getattr(joint, wname), joint.thickness, joint.E, joint.G)
-        except ParameterError as exc:
-            raise ParameterError(f"{owner}: {wname}={getattr(joint, wname)!r} m, thickness={joint.thickness!r} m, "
-                                 f"E={joint.E!r} Pa, G={joint.G!r} Pa: {exc}") from None

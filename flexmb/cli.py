@@ -21,7 +21,7 @@ from .errors import FlexmbError, ParameterError
 
 
 def _demo(args) -> int:
-    from . import demo
+    from .studies import demo
 
     print("flexmb demo 1: cross-flexure pivot of Dwarshuis et al. (2020), Table 1, full model, conventional method")
     print("M / M_lin with M_lin = 2 E I theta / L (Eq. 4.3); reference: inextensible elastica (Wittrick 1948)\n")
@@ -52,9 +52,10 @@ def _demo(args) -> int:
 
 def _demo_figures(out: Path, curves, reference, gripper, fourbar_rows, manipulator_rows) -> list:
     """The demo's PNG figures (needs matplotlib); returns their paths."""
-    from . import demo, models, plot
-    from . import gripper_case as g
-    from . import manipulator_case as mc
+    from . import models, plot
+    from .studies import demo
+    from .studies import gripper as g
+    from .studies import manipulator as mc
     from .solvers import solve
 
     paths = [out / "cross_flexure.png", out / "gripper_models.png"]
@@ -80,7 +81,7 @@ def _demo_figures(out: Path, curves, reference, gripper, fourbar_rows, manipulat
 
 def _demo_manipulator(quick: bool) -> list:
     """The spatial manipulator of Dwarshuis et al. (2020), Sec. 4.4: conventional vs KSD (Fig. 15)."""
-    from . import manipulator_case as mc
+    from .studies import manipulator as mc
 
     degrees = (-45, 0, 45) if quick else (-45, -30, -15, 0, 15, 30, 45)
     rows = mc.study(degrees, cases=("joint",), repeats=1)
@@ -91,7 +92,7 @@ def _demo_manipulator(quick: bool) -> list:
 
 def _demo_fourbar(quick: bool) -> list:
     """The four-bar of Dwarshuis et al. (2020), Sec. 4.3: conventional method against KSD (Fig. 11)."""
-    from . import fourbar_case as fc
+    from .studies import fourbar as fc
 
     rows = fc.speed_study((1, 3) if quick else (1, 3, 5), repeats=1 if quick else 3)
     _speed_table("Four-bar of four cross flexures, Dwarshuis et al. (2020) Sec. 4.3, d = 0.3 m: conventional vs KSD",
@@ -112,7 +113,7 @@ def _speed_table(title: str, rows: list, key: str, label: str, force: bool = Fal
 
 def _demo_gripper(quick: bool) -> dict:
     """The gripper of Cammarata et al. (2022): closing forces and strategy timings; returns the sweeps."""
-    from . import gripper_case as g
+    from .studies import gripper as g
 
     print("\nMEMS gripper with curved beams, Cammarata et al. (2022) Table 1, silicon, mm and uN")
     print(f"{'model':26s} {'closing F_2y [uN]':>18s} {'sweep -60..close':>17s} {'iterations':>11s}")

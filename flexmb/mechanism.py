@@ -2,26 +2,25 @@
 
 from __future__ import annotations
 
-import functools
 
 import attrs
 import networkx as nx
 import numpy as np
 
 from . import _validate as v
+from .closed_form import build as closed_form_build
+from .compiled import Compiled
 from .errors import ModelError, ParameterError, TopologyError, UnsupportedStrategyError
-from .fe.beam2d import local_stiffness as local_stiffness_2d
-from .fe.beam3d import local_stiffness as local_stiffness_3d
-from .closed_form.flexures import FlexureSet
-from .closed_form.problem import LinkageModel, LinkageProblem
-from .fe.mass import RigidMasses
-from .fe.model import BeamElements, FEModel
-from .joints._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint
-from .problem import PointLoads, StaticProblem
+from .fe import build as fe_build
+from .joints._base import Joint
 from .registry import joint as make_joint
-from .rotations import chain_rotation, cross, expm_so3, logm_so3, rot2
+from .rotations import expm_so3, rot2
 
-__all__ = ["Link", "Mechanism", "Placement", "Compiled"]
+__all__ = ["Link", "Mechanism", "Placement", "Compiled", "BUILDERS"]
+
+# The model builders by the capability a strategy asks for (`Strategy.capability`); each lives
+# beside its model and reads the mechanism's data through its public accessors.
+BUILDERS = {fe_build.CAPABILITY: fe_build.build, closed_form_build.CAPABILITY: closed_form_build.build}
 
 
 @attrs.frozen(eq=False)
@@ -51,20 +50,6 @@ class Placement:
     def to_global(self, local: np.ndarray) -> np.ndarray:
         """Points (..., dim) [m] of the joint frame in global coordinates."""
         return self.origin + local @ self.rotation.T
-
-
-@attrs.frozen(eq=False)
-class Compiled:
-    """A mechanism turned into a `StaticProblem`, with the maps back to links and points."""
-
-    problem: StaticProblem
-    link_node: dict
-    points: dict  # named points: name -> (link, offset)
-    joint_elements: dict  # joint name -> element indices
-    actuation: tuple | None = None  # (row of the actuation in problem.loads, unit direction)
-    joint_nodes: dict = attrs.field(factory=dict)  # joint name -> FE node indices of its internal nodes
-    joints: tuple = ()  # (name, joint, placement, side A link, side B link) at compile time
-    fixed: tuple = ()  # names of the fixed links (the ground)
 
 
 class Mechanism:
@@ -265,6 +250,17 @@ class Mechanism:
         link, offset, d, val = self._actuation
         return {"link": link, "offset": offset.copy(), "direction": d.copy(), "value": val}
 
+    @property
+    def points(self) -> dict:
+        """The named points: name -> (link, offset [m] from the link's reference point, a copy)."""
+        return {name: (link, offset.copy()) for name, (link, offset) in self._points.items()}
+
+    @property
+    def loads(self) -> tuple:
+        """The applied dead loads in the order given: (link, offset [m] of the point from the
+        link's reference point, force [N], moment [N m]), global axes, copies."""
+        return tuple((link, o.copy(), f.copy(), m.copy()) for link, o, f, m in self._loads)
+
     def add_point(self, link: str, name: str, position) -> None:
         """Name a point of a link (undeformed global position [m]), e.g. an end-effector."""
         lk = self.link(link)
@@ -273,11 +269,10 @@ class Mechanism:
         self._points[name] = (link, v.vector(f"point {name!r}", "position", position, self.dim) - lk.position)
 
     # -- checks and compilation ---------------------------------------------------------------
-    def check(self) -> None:
-        """Raise a `TopologyError` unless the mechanism is grounded and connected."""
-        self._check(self.links)
-
-    def _check(self, links: dict) -> None:
+    def check(self, links: dict | None = None) -> None:
+        """Raise a `TopologyError` unless the mechanism is grounded and connected (``links``: the
+        `links` mapping when the caller has it already)."""
+        links = self.links if links is None else links
         if not links:
             raise TopologyError("the mechanism has no links")
         fixed = [n for n, lk in links.items() if lk.fixed]
@@ -298,247 +293,16 @@ class Mechanism:
                 raise TopologyError(f"link {n!r} has no joint")
 
     def compile(self, capability: str = "fe_model") -> Compiled:
-        """Build the full finite-element `StaticProblem` of the mechanism (``"fe_model"``) or the
-        links-only closed-form `LinkageProblem` (``"closed_form"``, planar)."""
-        links = self.links
-        self._check(links)
-        if capability == "closed_form":
-            return self._compile_closed_form()
-        dim = self.dim
-        names = list(links)
-        link_node = {n: i for i, n in enumerate(names)}
-        node_x0 = [np.array([lk.position for lk in links.values()], dtype=float).reshape(-1, dim)]
-        n_nodes = len(names)
-        pt_master = [np.arange(n_nodes)]
-        pt_x0 = list(node_x0)
-        n_points = n_nodes
-        ends, sections, L0, S, ny, nz, owner = [], [], [], [], [], [], []
-        joint_elements, joint_nodes = {}, {}
-        n_elements = 0
-        for j, (a, b, key, data) in enumerate(self.graph.edges(keys=True, data=True)):
-            jt: Joint = data["joint"]
-            side_a, side_b = data["sides"]
-            if capability not in jt.capabilities:
-                raise UnsupportedStrategyError(
-                    f"joint {key!r} ({jt.kind}) does not offer {capability!r}; it offers {sorted(jt.capabilities)}")
-            mesh = _joint_mesh(key, jt, dim)
-            pl: Placement = data["placement"]
-            gx = pl.to_global(mesh.points)
-            master = np.where(mesh.on_a, link_node[side_a], link_node[side_b])
-            n_int = len(mesh.first)
-            joint_nodes[key] = n_nodes + np.arange(n_int)
-            master[mesh.internal] = n_nodes + mesh.node_of
-            node_x0.append(gx[mesh.first])
-            pt_master.append(master)
-            pt_x0.append(gx)
-            ends.append(n_points + mesh.elements)
-            n_nodes += n_int
-            n_points += len(gx)
-            sections.extend(mesh.sections)
-            L0.append(mesh.L0)
-            S.append(mesh.S)
-            n_el = len(mesh.elements)
-            owner.append(np.zeros(n_el, dtype=np.int64) + j)
-            if dim == 3:
-                ny.append(mesh.ny0 @ pl.rotation.T)
-                nz.append(mesh.nz0 @ pl.rotation.T)
-            joint_elements[key] = n_elements + np.arange(n_el)
-            n_elements += n_el
-        if n_elements == 0:
-            raise TopologyError("the mechanism has no joints with beam elements")
-        ends = np.concatenate(ends)
-        pt_x0 = np.concatenate(pt_x0)
-        node_x0 = np.concatenate(node_x0)
-        owner = np.concatenate(owner)
-        L0, S = np.concatenate(L0), np.concatenate(S)
-        if dim == 3:
-            elements = BeamElements(ends, L0, S, tuple(sections), owner, ny0=np.concatenate(ny), nz0=np.concatenate(nz))
-        else:
-            chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
-            elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]))
-        rigid = RigidMasses.of_bodies([(link_node[n], lk.mass, lk.inertia, lk.center) for n, lk in links.items()], dim)
-        model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements, rigid_masses=rigid)
-
-        pres, vals, loads, paths = self._boundary(link_node, links)
-        return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, dict(self._points), joint_elements,
-                        self._actuation_row(loads), joint_nodes,
-                        tuple((k, d["joint"], d["placement"], *d["sides"])
-                              for _, _, k, d in self.graph.edges(keys=True, data=True)),
-                        tuple(n for n, lk in links.items() if lk.fixed))
-
-    def _actuation_row(self, loads: PointLoads) -> tuple | None:
-        return None if self._actuation is None else (len(loads.node) - 1, self._actuation[2].copy())
-
-    def _boundary(self, link_node: dict, links: dict | None = None):
-        """Prescribed DOFs (sorted), their values and the `PointLoads`, for links numbered by ``link_node``."""
-        links = self.links if links is None else links
-        dim = self.dim
-        ndof = 3 if dim == 2 else 6
-        pres, vals, paths = [], [], []
-        comp = {"x": 0, "y": 1, "z": 2}
-        for n, lk in links.items():
-            base = link_node[n] * ndof
-            if lk.fixed:
-                pres.extend(range(base, base + ndof))
-                vals.extend([0.0] * ndof)
-                continue
-            for key, val in self._prescribed.get(n, {}).items():
-                if key == "rotation":
-                    pres.extend(range(base + dim, base + ndof))
-                    if np.ndim(val) == 2:  # a chain of rotations: its product, and the path to it
-                        paths.append((np.arange(base + dim, base + ndof), np.array(val)))
-                        val = logm_so3(chain_rotation(val))
-                    vals.extend(np.atleast_1d(val))
-                else:
-                    pres.append(base + comp[key])
-                    vals.append(val)
-        pres = np.array(pres, dtype=np.int64)
-        order = np.argsort(pres)
-        nrot = ndof - dim
-        rows = list(self._loads)
-        if self._actuation is not None:  # the last row, so that sweeps can replace it
-            link, offset, d, val = self._actuation
-            rows.append((link, offset, val * d, np.zeros(nrot)))
-        loads = PointLoads(
-            node=np.array([link_node[n] for n, *_ in rows], dtype=np.int64),
-            offset=np.array([o for _, o, _, _ in rows]).reshape(-1, dim),
-            force=np.array([f for *_, f, _ in rows]).reshape(-1, dim),
-            moment=np.array([m for *_, m in rows]).reshape(-1, nrot),
-        )
-        return pres[order], np.array(vals, dtype=float)[order], loads, paths
-
-    def _compile_closed_form(self) -> Compiled:
-        """The links-only model of Cammarata et al. (2022): every joint a constant-stiffness flexure."""
-        if self.dim != 2:
-            raise UnsupportedStrategyError("the closed-form (method='newton') model is planar: use a dim=2 mechanism")
-        names = list(self.graph.nodes)
-        link_node = {n: i for i, n in enumerate(names)}
-        x0 = np.array([self.links[n].position for n in names]).reshape(-1, 2)
-        rows = []
-        for a, b, key, data in self.graph.edges(keys=True, data=True):
-            jt: Joint = data["joint"]
-            if "closed_form" not in jt.capabilities:
-                raise UnsupportedStrategyError(
-                    f"joint {key!r} ({jt.kind}) has no closed-form model (method='newton'); it offers "
-                    f"{sorted(jt.capabilities)}: use method='conventional'")
-            cf = _checked_closed_form(key, jt)
-            side_a, side_b = data["sides"]
-            pl: Placement = data["placement"]
-            ia, ib = link_node[side_a], link_node[side_b]
-            end = pl.to_global(cf.end)
-            B_j = pl.rotation @ rot2(cf.end_angle)
-            rows.append((ia, ib, pl.origin - x0[ia], end - x0[ib], pl.rotation, B_j, rot2(cf.end_angle),
-                         rot2(cf.end_angle).T @ cf.end, pl.rotation @ cf.end, cf.stiffness,
-                         cf.model == "partial-nonlinear"))
-        if not rows:
-            raise TopologyError("the mechanism has no joints")
-        cols = [np.array(c) for c in zip(*rows)]
-        flex = FlexureSet(*[c.astype(np.int64) if k < 2 else c for k, c in enumerate(cols)])
-        pres, vals, loads, _ = self._boundary(link_node)  # planar: no rotation chains
-        problem = LinkageProblem(LinkageModel(x0, flex), pres, vals, loads)
-        return Compiled(problem, link_node, dict(self._points), {}, self._actuation_row(loads))
+        """The problem a strategy solves, from the builder of ``capability``: the full
+        finite-element `StaticProblem` (``"fe_model"``, `flexmb.fe.build`) or the links-only
+        closed-form `LinkageProblem` (``"closed_form"``, planar, `flexmb.closed_form.build`)."""
+        try:
+            builder = BUILDERS[capability]
+        except (KeyError, TypeError):
+            raise UnsupportedStrategyError(
+                f"no model builder for capability {capability!r}; builders: {', '.join(BUILDERS)}") from None
+        return builder(self)
 
     def __repr__(self) -> str:
         return (f"Mechanism(dim={self.dim}, links={list(self.graph.nodes)}, "
                 f"joints={[f'{k}: {a}-{b}' for a, b, k in self.graph.edges(keys=True)]})")
-
-
-@attrs.frozen(eq=False)
-class _Mesh:
-    """A checked `JointMesh` as arrays, with what compiling needs of it that does not depend on
-    where the joint sits: the points on side A, the internal points and their FE nodes."""
-
-    points: np.ndarray  # (n, dim) float
-    elements: np.ndarray  # (E, 2) int64
-    sections: tuple
-    ny0: np.ndarray | None  # (E, 3) float in 3D: the cross-section's y axis, perpendicular to the element
-    nz0: np.ndarray | None  # (E, 3) float in 3D: element axis x ny0
-    L0: np.ndarray  # (E,) element lengths [m]
-    S: np.ndarray  # (E, 6, 6) or (E, 3, 3) local stiffness
-    on_a: np.ndarray  # (n,) bool
-    internal: np.ndarray  # (n,) bool
-    first: np.ndarray  # point index of every internal FE node
-    node_of: np.ndarray  # internal FE node of every internal point
-
-
-@functools.lru_cache(maxsize=256)
-def _cached_mesh(joint: Joint, dim: int) -> _Mesh:
-    return _checked_mesh("?", joint, dim)
-
-
-def _joint_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
-    """The joint's checked mesh; cached per joint value (joints are immutable), so a mechanism of
-    identical joints and repeated solves build it once."""
-    if not v.hashable(joint):
-        return _checked_mesh(key, joint, dim)
-    try:
-        return _cached_mesh(joint, dim)
-    except ModelError:
-        return _checked_mesh(key, joint, dim)  # repeat to name the joint in the error
-
-
-def _internal_nodes(side: np.ndarray, body) -> tuple[np.ndarray, np.ndarray]:
-    """FE nodes of a joint's internal points: the point index of every node (a free point, or the
-    first point of a rigid body; in mesh order) and the node of every internal point."""
-    inner = np.flatnonzero(side == INTERNAL)
-    b = np.full(len(side), -1) if body is None else np.asarray(body)
-    group = np.where(b[inner] >= 0, -1 - b[inner], np.arange(len(inner)))
-    _, first, inverse = np.unique(group, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), dtype=np.int64)
-    rank[np.argsort(first)] = np.arange(len(first))
-    return inner[np.sort(first)], rank[inverse.ravel()]
-
-
-def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
-    """The joint's `JointMesh`, checked for shapes and indices (a plugin's mistakes named here)."""
-    mesh = joint.mesh(dim)
-    where = f"joint {key!r} ({joint.kind})"
-    pts, side, el = np.asarray(mesh.points, dtype=float), np.asarray(mesh.side), np.asarray(mesh.elements)
-    if pts.ndim != 2 or pts.shape[1] != dim or not np.all(np.isfinite(pts)):
-        raise ModelError(f"{where}: mesh points must be a finite (n, {dim}) array, got shape {pts.shape}")
-    if side.shape != (len(pts),) or not np.isin(side, (INTERNAL, SIDE_A, SIDE_B)).all():
-        raise ModelError(f"{where}: mesh side must be ({len(pts)},) codes in (INTERNAL, SIDE_A, SIDE_B)")
-    if mesh.body is not None:
-        body = np.asarray(mesh.body)
-        if body.shape != (len(pts),) or body.dtype.kind not in "iu" or np.any(body[side != INTERNAL] >= 0):
-            raise ModelError(f"{where}: mesh body must be ({len(pts)},) ints, >= 0 only on INTERNAL points")
-    if el.ndim != 2 or el.shape[1] != 2 or el.min(initial=0) < 0 or el.max(initial=0) >= len(pts):
-        raise ModelError(f"{where}: mesh elements must be (E, 2) indices into its {len(pts)} points")
-    if len(mesh.sections) != len(el):
-        raise ModelError(f"{where}: {len(mesh.sections)} sections for {len(el)} elements")
-    if dim == 3 and (mesh.ny0 is None or np.shape(mesh.ny0) != (len(el), 3)):
-        raise ModelError(f"{where}: a 3D mesh needs ny0 of shape ({len(el)}, 3)")
-    first, node_of = _internal_nodes(side, mesh.body)
-    chord = pts[el[:, 1]] - pts[el[:, 0]]
-    L0 = np.linalg.norm(chord, axis=1)
-    if np.any(~(L0 > 0)):
-        raise ModelError(f"{where}: beam element {int(np.flatnonzero(~(L0 > 0))[0])} has zero length")
-    ny = nz = None
-    if dim == 3:
-        # the cross-section axis must be perpendicular to the element: project, normalise
-        ex = chord / L0[:, None]
-        ny = np.asarray(mesh.ny0, dtype=float)
-        ny = ny - np.einsum("ei,ei->e", ny, ex)[:, None] * ex
-        norm = np.linalg.norm(ny, axis=1)
-        if np.any(~(norm > 1e-6)):
-            raise ModelError(f"{where}: element {int(np.flatnonzero(~(norm > 1e-6))[0])}'s ny0 is (nearly) parallel "
-                             "to its axis or zero; give the cross-section's local y axis")
-        ny = ny / norm[:, None]
-        nz = cross(ex, ny)
-    S = (local_stiffness_3d if dim == 3 else local_stiffness_2d)(mesh.sections, L0)
-    return _Mesh(pts, el.astype(np.int64), tuple(mesh.sections), ny, nz, L0, S, side == SIDE_A, side == INTERNAL,
-                 first, node_of)
-
-
-def _checked_closed_form(key: str, joint: Joint) -> ClosedForm:
-    """The joint's `ClosedForm`, checked (a plugin's mistakes named here)."""
-    cf = joint.closed_form(2)
-    where = f"joint {key!r} ({joint.kind})"
-    K = np.asarray(cf.stiffness, dtype=float)
-    if K.shape != (3, 3) or not np.all(np.isfinite(K)):
-        raise ModelError(f"{where}: closed-form stiffness must be a finite (3, 3) array, got shape {K.shape}")
-    if np.shape(cf.end) != (2,) or not np.all(np.isfinite(cf.end)) or not np.isfinite(cf.end_angle):
-        raise ModelError(f"{where}: closed-form end must be a finite (2,) position and a finite angle")
-    if cf.model not in FLEXURE_MODELS:
-        raise ModelError(f"{where}: closed-form model {cf.model!r}; valid: {', '.join(FLEXURE_MODELS)}")
-    return ClosedForm(K, np.asarray(cf.end, dtype=float), float(cf.end_angle), cf.model)

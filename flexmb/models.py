@@ -6,14 +6,16 @@ import attrs
 import numpy as np
 
 from . import _validate as v
-
-from .errors import ParameterError
+from .errors import DatabaseError, ParameterError
 from .joints.cross_flexure import CrossFlexure
 from .joints.curved_beam import CurvedBeam
 from .joints.leaf_spring import LeafSpring
 from .joints.three_x_infinity import ThreeXInfinity
+from .ksd.kinematics import solve_kinematics
+from .ksd.reduced import ReducedMechanism
 from .mechanism import Mechanism
 from .registry import joint_from_params
+from .rotations import expm_so3
 
 __all__ = ["cantilever", "cross_flexure_pivot", "fourbar", "gripper", "manipulator", "manipulator_rotations",
            "MANIPULATOR"]
@@ -90,7 +92,6 @@ MANIPULATOR_CASES = ("joint", "location")
 def manipulator_rotations(rotation: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Orientations (3, 3) of links 1-3 with all three joints turned by ``rotation`` [rad] and
     no unintended motion: ``Rz(r)``, ``Rz(r) Ry(r)``, ``Rz(r) Ry(2 r)``."""
-    from .rotations import expm_so3
 
     Rz, Ry = expm_so3(np.array([0.0, 0.0, rotation])), expm_so3(np.array([0.0, rotation, 0.0]))
     return Rz, Rz @ Ry, Rz @ Ry @ Ry
@@ -160,10 +161,6 @@ def _joint_case_end_point(rotation, joint_params, R, origins, end) -> np.ndarray
     """Where the joint case puts the end point [m]: its KSD kinematics (joints turned by
     ``rotation`` with their trained offsets, Sec. 2.1), which the joint case's equilibrium keeps
     (no unintended load); rigid-link kinematics about the joint axes if the joint is untrained."""
-    from .errors import DatabaseError
-    from .ksd.reduced import ReducedMechanism
-    from .solvers.ksd import solve_kinematics
-
     m = manipulator("joint", rotation, **joint_params)
     try:
         compiled = m.compile()
@@ -236,6 +233,8 @@ def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: 
     (``method="newton"``); ``elements`` is the number of beam elements per arc in flexmb's fully
     non-linear finite-element model (``method="conventional"``). ``width`` and ``height`` [mm]
     replace Table 1's cross-section b = 0.025, h = 0.005 (the cross-section study, Fig. 10).
+    Masses are in g (the unit consistent with mm, uN and s): the arcs' densities in g/mm^3
+    (`GRIPPER_DENSITIES`), so `flexmb.modes` gives frequencies in Hz.
     """
     if not isinstance(material, str) or material not in GRIPPER_MATERIALS:
         raise ParameterError(f"gripper: material={material!r}; valid: {sorted(GRIPPER_MATERIALS)}")

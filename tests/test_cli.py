@@ -30,12 +30,12 @@ def test_joints_lists_the_shipped_plugins(capsys):
 
 
 def test_errors_are_one_line_with_exit_code_1(monkeypatch, capsys):
-    import flexmb.demo
+    import flexmb.studies.demo
 
     def broken(*a, **k):
         flexmb.models.cross_flexure_pivot(rotation=float("nan"))
 
-    monkeypatch.setattr(flexmb.demo, "cross_flexure_curve", broken)
+    monkeypatch.setattr(flexmb.studies.demo, "cross_flexure_curve", broken)
     assert cli.main(["demo", "--quick"]) == 1
     err = capsys.readouterr().err
     assert err.startswith("flexmb: error:") and err.count("\n") == 1 and "rotation" in err

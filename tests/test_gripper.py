@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import flexmb
-from flexmb import gripper_case as g
+from flexmb.studies import gripper as g
 
 EE = ("body3", "end_effector")
 

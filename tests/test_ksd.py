@@ -371,7 +371,7 @@ def test_eob_limit_wider_outer_leaves():
     than the EOB's (its element rotations are the default joint's). Measured at 75 deg, 2 el./leaf:
     FE 0.6493 -> 0.6321, EOB 0.6493 -> 0.6395 (+1.18 %); with the default widths the EOB is the FE
     curve (1.0e-5 measured; the 5e-5 bound of test_eob_moment_rotation_is_the_fe_curve)."""
-    from flexmb import eob_case as ec
+    from flexmb.studies import eob as ec
 
     w = ec.outer_width_study(2, degrees=(45, 75))
     np.testing.assert_allclose(w[0.02]["eob"], w[0.02]["fe"], rtol=5e-5)
@@ -386,7 +386,7 @@ def test_eob_limit_large_force_along_z():
     """Fig. 8: the EOB follows the z displacement under a large z force (within 3 % at F = 4,
     Eq. 4.5) but its moment hardly changes (linear unintended deformation), while the full model's
     drops (measured at 75 deg, 4 el./leaf: 0.8134 -> 0.7863, -3.3 %)."""
-    from flexmb import eob_case as ec
+    from flexmb.studies import eob as ec
 
     z = ec.z_force_study(4, degrees=(75,), forces=(0.0, 4.0))[75]
     assert abs(z["z_eob"][1] / z["z_fe"][1] - 1) < 0.03
@@ -445,7 +445,7 @@ def test_inconsistent_redundant_constraints_warn_and_ksd_full_still_converges():
 def test_speed_study_reports_single_and_steady_ratios_from_one_run():
     """Fig. 11 rows: both timings per method, each speed-up against the conventional time of the
     same timing (so the conventional rows read 1x)."""
-    from flexmb import fourbar_case
+    from flexmb.studies import fourbar as fourbar_case
 
     rows = fourbar_case.speed_study((1,), repeats=1)
     assert [r["method"] for r in rows] == list(fourbar_case.METHODS)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import flexmb
-from flexmb import manipulator_case as mc
+from flexmb.studies import manipulator as mc
 from flexmb.errors import DatabaseError, FlexmbError, ParameterError
 from flexmb.models import manipulator, manipulator_rotations
 

@@ -39,6 +39,7 @@ class LinkageModel:
         self.flexures = flexures
 
     def initial_state(self) -> State:
+        """The undeformed configuration: reference positions [m] of the links, zero rotations."""
         return State(self.x0.copy(), np.zeros(self.n_nodes))
 
     def offsets(self, state: State, master: np.ndarray, offset0: np.ndarray) -> np.ndarray:
@@ -53,6 +54,7 @@ class LinkageModel:
         return np.concatenate([state.positions, ends])
 
     def apply_increment(self, state: State, du: np.ndarray) -> State:
+        """New state after link increments ``du`` (3 per link: x, y [m], theta [rad]; planar, so they add)."""
         du = du.reshape(self.n_nodes, 3)
         return State(state.positions + du[:, :2], state.rotations + du[:, 2])
 
@@ -81,6 +83,7 @@ class LinkageProblem(BoundaryConditions):
         self.set_loads(loads)
 
     def set_loads(self, loads: PointLoads) -> None:
+        """Replace the dead loads (a sweep varies them) and the DOF maps that scatter them."""
         self.loads = loads
         nd = self.model.node_dofs
         self._load_dofs = nd[loads.node].ravel()

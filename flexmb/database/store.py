@@ -29,6 +29,7 @@ from pathlib import Path
 import attrs
 import numpy as np
 
+from .._version import __version__
 from ..errors import DatabaseError, ExtrapolationWarning
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "Polynomial", "JointData", "save", "load", "mesh_hash", "data_path",
@@ -117,7 +118,6 @@ class JointData:
 
     def to_json(self) -> dict:
         """The whole record as a JSON-ready dict (format name and version, joint, fits, checksum)."""
-        from .. import __version__
 
         body = {"format": FORMAT, "format_version": FORMAT_VERSION, "flexmb_version": __version__,
                 "kind": self.kind, "dim": self.dim, "parameters": self.parameters, "key": self.key,

@@ -11,6 +11,7 @@ import numpy as np
 from .. import _validate as v
 from ..errors import ParameterError
 from ..sections import rectangle
+from ._leaves import check_leaves
 from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
 
 __all__ = ["CrossFlexure"]
@@ -68,7 +69,7 @@ class CrossFlexure(Joint):
 
     def __attrs_post_init__(self):
         owner = "cross_flexure"
-        v.leaf_joint(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
+        check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
         v.nonnegative(owner, "density", self.density)
         if v.finite(owner, "gap", self.gap) < 0:
             raise ParameterError(f"{owner}: gap={self.gap!r} m must be >= 0")

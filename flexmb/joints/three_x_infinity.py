@@ -21,6 +21,7 @@ import numpy as np
 from .. import _validate as v
 from ..errors import ParameterError
 from ..sections import rectangle
+from ._leaves import check_leaves
 from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
 
 __all__ = ["ThreeXInfinity"]
@@ -95,7 +96,7 @@ class ThreeXInfinity(Joint):
 
     def __attrs_post_init__(self):
         owner = "three_x_infinity"
-        v.leaf_joint(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
+        check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
         v.integer(owner, "stages", self.stages, 2, 100)
         v.nonnegative(owner, "density", self.density)
         for name in ("gap", "stage_gap"):

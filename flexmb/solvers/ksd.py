@@ -20,8 +20,6 @@
 
 from __future__ import annotations
 
-import functools
-import math
 import os
 import time
 import warnings
@@ -29,153 +27,21 @@ from typing import ClassVar
 
 import attrs
 import numpy as np
-import scipy.linalg
-from scipy.linalg import lapack
 
-from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError, TopologyError
+from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError
 from ..ksd.geometry import ACTIVE, rz
+from ..ksd.kinematics import _correction, _norm, solve_kinematics
 from ..ksd.reduced import ReducedMechanism
 from ..results import Solution
 from ..rotations import expm_so3, unskew
 from .conventional import above_one, boolean, newton_steps, positive_float, positive_int, unit_interval
 
-__all__ = ["KSDReduced", "KSDFull", "solve_kinematics"]
-
-_gesv = lapack.get_lapack_funcs("gesv", (np.zeros(1),))
-_COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
-
+__all__ = ["KSDReduced", "KSDFull", "solve_kinematics"]  # solve_kinematics: flexmb.ksd.kinematics, re-exported
 
 def _folder_or_none(instance, attribute, value):
     if value is not None and not isinstance(value, (str, os.PathLike)):
         raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} must be a folder path or None "
                              "(the shipped data)")
-
-
-def _describe(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) -> str:
-    names = list(red.compiled.link_node)
-    big = np.flatnonzero(np.abs(vector) > 0.2 * np.abs(vector).max())
-    parts = []
-    for k in big:
-        link, comp = divmod(int(columns[k]), 6)
-        label = "rotation" if (red.dim == 2 and comp == 5) else _COMPONENTS[comp]
-        parts.append(f"link {names[link]!r} {label} ({vector[k]:+.2f})")
-    return ", ".join(parts)
-
-
-def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
-    """Rows of the constraint Jacobian at rest to keep (redundant ones removed, Sec. 2.2)."""
-    free = red.free
-    if len(free) == 0:
-        return np.zeros(0, dtype=np.int64)
-    scale = np.where(free % 6 < 3, 1.0 / red.length, 1.0)  # unknowns in D0 and rad
-    A = np.ascontiguousarray(jac[:, free] / scale)
-    rank, null, rows = _rank(A.tobytes(), A.shape)
-    if rank < len(free):
-        raise TopologyError(
-            f"the mechanism is kinematically indeterminate for KSD ({len(free)} unknown link coordinates, "
-            f"{rank} independent joint constraints): this motion is free: {_describe(red, free, null)}. "
-            "Prescribe it (Mechanism.prescribe) or use method='conventional'")
-    return rows
-
-
-@functools.lru_cache(maxsize=256)
-def _rank(data: bytes, shape: tuple):
-    """Rank, a null vector (or None) and the independent rows of ``A`` (m, n) by SVD and pivoted QR;
-    cached on the matrix's bytes: repeated solves of one mechanism decide once, identically."""
-    A = np.frombuffer(data).reshape(shape)
-    n_free = shape[1]
-    if shape[0] == 0:
-        return 0, np.eye(n_free)[0], np.zeros(0, dtype=np.int64)
-    _, s, vt = np.linalg.svd(A)
-    rank = int(np.sum(s > 1e-9 * s[0])) if s.size and s[0] > 0 else 0
-    null = vt[rank] if rank < n_free else None
-    if rank < n_free or shape[0] == rank:
-        return rank, null, np.arange(rank)
-    _, _, piv = scipy.linalg.qr(A.T, pivoting=True, mode="economic")
-    rows = np.sort(piv[:rank])
-    rows.flags.writeable = False  # shared by the cache
-    return rank, null, rows
-
-
-def _norm(v: np.ndarray) -> float:
-    """2-norm of a vector (np.linalg.norm's checks cost more than the arithmetic here)."""
-    return math.sqrt(float(v @ v))
-
-
-def _correction(red: ReducedMechanism, A: np.ndarray, r: np.ndarray):
-    """Newton correction of the free link coordinates, ``A dz_free = -r``, as increments (6 per
-    link); None when ``A`` is singular."""
-    *_, x, info = _gesv(A, -r)  # LAPACK directly: np.linalg.solve's wrapper costs more than this solve
-    if info != 0:
-        return None
-    dz = np.zeros(6 * red.n_links)
-    dz[red.free] = x
-    return dz
-
-
-def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5):
-    """KSD step 1: link poses satisfying all joint constraints and the prescribed motion.
-
-    Returns ``(poses, info)``; info has iterations, the equations kept/removed and the largest
-    residual of the removed (redundant) equations at the solution.
-    """
-    rest = red.rest()
-    _, jac0, _, _ = red.constraint_equations(rest, values=False)  # jac0: at the last accepted poses (predictor)
-    rows = _independent_rows(red, jac0)
-    free = red.free
-    at_free, at_pres = (rows[:, None], free), (rows[:, None], red.prescribed)
-    poses, lam, dlam = rest, 0.0, 1.0
-    iterations, history = 0, []
-    while True:
-        target = lam + dlam
-        trial = red.with_prescribed(poses, target)
-        # linear predictor from the last solution: the free motion that keeps the constraints
-        # satisfied to first order under the prescribed increment (a prescribed rotation keeps its axis)
-        dz = _correction(red, jac0[at_free], jac0[at_pres] @ (dlam * red.values))
-        if dz is not None:
-            trial = trial.moved(dz)
-        accepted, prev = False, np.inf
-        for _ in range(max_iter):
-            c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred")
-            res = _norm(c[rows])
-            if not np.isfinite(res) or res > prev:  # Newton must gain in every iteration, else cut the
-                break  # step: a large prescribed motion otherwise wanders onto another assembly branch
-            if res < tol:
-                accepted = True
-                break
-            prev = res
-            jac = jac_at()
-            dz = _correction(red, jac[at_free], c[rows])
-            if dz is None or np.abs(dz.reshape(-1, 6)[:, 3:]).max() > max_rotation:
-                break  # a correction turning a link this far heads for another assembly branch: cut
-            trial = trial.moved(dz)
-            iterations += 1
-            history.append(res)
-        if accepted:
-            poses, lam = trial, target
-            if lam >= 1.0 - 1e-14:
-                break
-            dlam = min(2.0 * dlam, 1.0 - lam)
-            jac0 = jac_at()
-        else:
-            dlam *= 0.5
-            if dlam < 1e-4:
-                raise ConvergenceError(
-                    f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
-                    f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
-    keep = np.zeros(len(c), dtype=bool)
-    keep[rows] = True
-    removed = np.flatnonzero(~keep)
-    if len(removed) and np.abs(c[removed]).max() > 1e-6:
-        k = removed[np.argmax(np.abs(c[removed]))]
-        warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
-                      f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
-                      "rad); the kinematic start and KSD-reduced are approximate there (KSD-full is not affected)",
-                      RuntimeWarning, stacklevel=3)
-    info = {"iterations": iterations, "residual": res, "equations": len(c), "removed": len(removed),
-            "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
-            "removed_equations": [red.rows[k] for k in removed], "history": history}
-    return poses, theta, p, info
 
 
 def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool) -> None:

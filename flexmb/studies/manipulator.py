@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .models import manipulator
+from ..models import manipulator
 from ._timing import interleaved
-from .solvers import solve
+from ..solvers import solve
 
 __all__ = ["METHODS", "joint_moments", "study", "errors"]
 
@@ -76,7 +76,7 @@ def plot_joint(joint, path, rotation: float = 0.0) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .testing import joint_mechanism
+    from ..testing import joint_mechanism
 
     sol = solve(joint_mechanism(joint, 3, motion=rotation))
     pts = sol.node_positions()[len(sol.compiled.link_node):]

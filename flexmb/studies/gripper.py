@@ -12,9 +12,9 @@ import time
 
 import numpy as np
 
-from . import models
-from .solvers import solve
-from .sweeps import find_actuation, sweep, tangent_stiffness
+from .. import models
+from ..solvers import solve
+from ..sweeps import find_actuation, sweep, tangent_stiffness
 
 __all__ = ["MODELS", "STRATEGIES", "FE_OPTIONS", "closing_force", "opening_closing", "stiffness_tables",
            "strategy_study", "cross_section_study", "plot_workspace", "plot_comparison", "plot_strategies",

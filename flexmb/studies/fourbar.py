@@ -7,9 +7,9 @@ import time
 
 import numpy as np
 
-from .models import fourbar, fourbar_linear_force
+from ..models import fourbar, fourbar_linear_force
 from ._timing import interleaved
-from .solvers import solve
+from ..solvers import solve
 
 __all__ = ["METHODS", "force_curve", "moment_study", "speed_study", "plot"]
 
@@ -57,7 +57,7 @@ def speed_study(elements=(1, 2, 3, 4, 5), displacement: float = 0.3, repeats: in
     of ``repeats`` solves (joint templates cached after the first call, as in an optimisation
     loop) and the speed-up over the conventional method measured in the same run: ``time`` for
     single solves interleaved between the methods, ``time_steady`` for the steady state of
-    consecutive solves of one method (`flexmb._timing.interleaved`)."""
+    consecutive solves of one method (`flexmb.studies._timing.interleaved`)."""
     rows = []
     for n in elements:
         m = fourbar(n, displacement=displacement)

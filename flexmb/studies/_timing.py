@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from .solvers import solve
+from ..solvers import solve
 
 
 def interleaved(mechanism, methods, repeats: int, consecutive: int = 1) -> tuple[dict, dict]:

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .joints.cross_flexure import CrossFlexure
-from .mechanism import Mechanism
-from .solvers import solve
+from ..joints.cross_flexure import CrossFlexure
+from ..mechanism import Mechanism
+from ..solvers import solve
 
 __all__ = ["pivot", "outer_width_study", "z_force_study"]
 

@@ -13,9 +13,9 @@ import time
 
 import numpy as np
 
-from . import models
-from .reference import cross_spring_pivot
-from .solvers import solve
+from .. import models
+from ..reference import cross_spring_pivot
+from ..solvers import solve
 
 __all__ = ["ANGLES_DEG", "cross_flexure_curve", "cross_flexure_reference", "cross_flexure_table",
            "plot_cross_flexure", "cantilever_circle_check"]

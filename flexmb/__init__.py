@@ -14,6 +14,7 @@ from .errors import (
 )
 from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
+from .linearised import buckling, compliance
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
 from .results import Solution
@@ -49,6 +50,8 @@ __all__ = [
     "UnsupportedStrategyError",
     "DatabaseError",
     "available_joints",
+    "buckling",
+    "compliance",
     "export",
     "grid",
     "parameter_study",

@@ -37,7 +37,7 @@ from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStr
 from .fe.assembly import SparsePattern
 from .fe.mass import mass_matrix
 
-__all__ = ["Modes", "modes", "stiffness_and_mass", "DENSE_BELOW"]
+__all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", "solvable_problem", "DENSE_BELOW"]
 
 #: Free DOFs below which `modes` solves the dense eigenproblem (all eigenvalues, LAPACK); at and
 #: above, sparse shift-invert Lanczos/Arnoldi (``eigsh``/``eigs``).
@@ -89,18 +89,29 @@ def _full_pattern(model, loads):
     return SparsePattern(rows, cols, (model.n_dofs, model.n_dofs))
 
 
-def stiffness_and_mass(solution) -> tuple[sp.csr_array, sp.csr_array]:
-    """Tangent stiffness and mass on *all* DOFs (N ndof, N ndof) at a converged FE solution (see
-    the module notes: dead loads at the solution's load factor, mass at the deformed state)."""
-    problem = _problem(solution)
+def full_tangent(solution, element_tangent=None, with_loads: bool = True) -> sp.csr_array:
+    """The tangent on *all* DOFs (N ndof, N ndof) at a converged FE solution: the elements' (or
+    ``element_tangent``, (E, 2 ndof, 2 ndof) in master DOFs) and, ``with_loads``, the dead loads'
+    stiffness at the solution's load factor."""
+    problem = solvable_problem(solution)
     model, state = problem.model, solution.state
-    _, Ke, _, _ = model.element_response(state, tangent=True)
+    Ke = model.element_response(state, tangent=True)[1] if element_tangent is None else element_tangent
     _, G = problem.external_force(state, solution.load_factor)
-    K = _full_pattern(model, problem.loads).matrix(np.concatenate([Ke.ravel(), (-G).ravel()]))
-    return K, mass_matrix(model, state, model.rigid_masses)
+    G = -G if with_loads else np.zeros_like(G)
+    return _full_pattern(model, problem.loads).matrix(np.concatenate([Ke.ravel(), G.ravel()]))
 
 
-def _problem(solution):
+def stiffness_and_mass(solution) -> tuple[sp.csr_array, sp.csr_array]:
+    """Tangent stiffness (`full_tangent`) and mass on *all* DOFs (N ndof, N ndof) at a converged
+    FE solution (see the module notes: dead loads, mass at the deformed state)."""
+    model = solvable_problem(solution).model
+    return full_tangent(solution), mass_matrix(model, solution.state, model.rigid_masses)
+
+
+def solvable_problem(solution):
+    """The solution's `StaticProblem`, if the solution is a converged full FE equilibrium
+    (`UnsupportedStrategyError` for KSD-reduced and closed-form solutions, `ConvergenceError`
+    for an unconverged one)."""
     if solution.method == "ksd-reduced":
         raise UnsupportedStrategyError("modes need the full FE equilibrium: solve with method='ksd-full' or "
                                        "'conventional' (KSD-reduced's internal nodes are first-order only)")
@@ -115,7 +126,8 @@ def _problem(solution):
     return problem
 
 
-def _held(solution, held) -> np.ndarray:
+def held_dofs(solution, held) -> np.ndarray:
+    """Sorted global DOF indices that ``held`` (as in `modes`) holds."""
     compiled = solution.compiled
     problem, model = compiled.problem, compiled.problem.model
     fixed = [compiled.link_node[name] for name in compiled.fixed]
@@ -172,10 +184,10 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     solution, `ParameterError` for ``n`` outside [1, free DOFs - 1], `ModelError` naming a free
     DOF without mass.
     """
-    problem = _problem(solution)
+    problem = solvable_problem(solution)
     compiled, model = solution.compiled, problem.model
-    held_dofs = _held(solution, held)
-    free = np.setdiff1d(np.arange(model.n_dofs), held_dofs)
+    held_idx = held_dofs(solution, held)
+    free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
     nf = len(free)
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:
         raise ParameterError(f"modes: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, {nf}, "
@@ -209,7 +221,7 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     shapes = full.reshape(n, model.n_nodes, model.ndof)
     freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
     link_shapes = {link: shapes[:, node].copy() for link, node in compiled.link_node.items()}
-    return Modes(freq, lam, shapes, link_shapes, held_dofs, symmetric, solver)
+    return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, solver)
 
 
 def _dense(K, M, n, symmetric, compiled, free):

@@ -51,7 +51,7 @@ def buckling(solution, n: int = 1, held="prescribed") -> np.ndarray:
     """
     problem = solvable_problem(solution)
     model = problem.model
-    held_idx = held_dofs(solution, held)
+    held_idx = held_dofs(solution, held, "buckling")
     free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
     nf = len(free)
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:

@@ -126,8 +126,8 @@ def solvable_problem(solution):
     return problem
 
 
-def held_dofs(solution, held) -> np.ndarray:
-    """Sorted global DOF indices that ``held`` (as in `modes`) holds."""
+def held_dofs(solution, held, owner: str = "modes") -> np.ndarray:
+    """Sorted global DOF indices that ``held`` (as in `modes`) holds; errors name ``owner``."""
     compiled = solution.compiled
     problem, model = compiled.problem, compiled.problem.model
     fixed = [compiled.link_node[name] for name in compiled.fixed]
@@ -139,25 +139,30 @@ def held_dofs(solution, held) -> np.ndarray:
             return np.unique(ground)
         if held == "floating":
             return np.zeros(0, dtype=np.int64)
-        raise ParameterError(f"modes: held={held!r}; valid: 'prescribed', 'none', 'floating' or a sequence of "
+        raise ParameterError(f"{owner}: held={held!r}; valid: 'prescribed', 'none', 'floating' or a sequence of "
                              "links and (link, component) pairs")
     comps = _COMPONENTS[model.dim]
     out = [ground]
     try:
         items = list(held)
     except TypeError:
-        raise ParameterError(f"modes: held={held!r} is not a string or a sequence") from None
+        raise ParameterError(f"{owner}: held={held!r} is not a string or a sequence") from None
     for item in items:
-        link, which = (item, None) if isinstance(item, str) else tuple(item) + (None,) * (2 - len(tuple(item)))
-        if link not in compiled.link_node:
-            raise ModelError(f"modes: held names no link {link!r}; links: {', '.join(compiled.link_node)}")
+        if isinstance(item, str):
+            link, which = item, None
+        elif isinstance(item, (tuple, list)) and len(item) == 2:
+            link, which = item
+        else:
+            raise ParameterError(f"{owner}: held item {item!r} is neither a link name nor a (link, component) pair")
+        if not isinstance(link, str) or link not in compiled.link_node:
+            raise ModelError(f"{owner}: held names no link {link!r}; links: {', '.join(compiled.link_node)}")
         dofs = model.node_dofs[compiled.link_node[link]]
         if which is None:
             out.append(dofs)
         elif which in comps:
             out.append(dofs[list(comps[which])])
         else:
-            raise ParameterError(f"modes: held component {which!r} of link {link!r}; valid: {', '.join(comps)}")
+            raise ParameterError(f"{owner}: held component {which!r} of link {link!r}; valid: {', '.join(comps)}")
     return np.unique(np.concatenate(out).astype(np.int64))
 
 
@@ -206,7 +211,7 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     tol = max(10.0 * solution.tolerance, 1e-11 * abs(K).max())
     symmetric = bool(asym <= tol)
     if nf < DENSE_BELOW:
-        lam, vec = _dense(K.toarray(), M.toarray(), n, symmetric, compiled, free)
+        lam, vec = _dense(K.toarray(), M.toarray(), n, symmetric)
         solver = "dense"
     else:
         lam, vec = _sparse(K, M, n, symmetric)
@@ -224,7 +229,7 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, solver)
 
 
-def _dense(K, M, n, symmetric, compiled, free):
+def _dense(K, M, n, symmetric):
     try:
         np.linalg.cholesky(M)
     except np.linalg.LinAlgError:

@@ -483,6 +483,10 @@ def test_modes_refuse_bad_requests():
         flexmb.modes(sol, held=[("tip", "rz")])  # a 2D link has "rotation"
     with pytest.raises(flexmb.ModelError, match="no link 'nope'"):
         flexmb.modes(sol, held=["nope"])
+    with pytest.raises(flexmb.ParameterError, match="neither a link name nor"):
+        flexmb.modes(sol, held=[("tip", "x", "y")])
+    with pytest.raises(flexmb.ParameterError, match="buckling: held"):
+        flexmb.buckling(sol, held="all")
     mech = _leaf_mechanism(2, 8, length=0.1, thickness=1e-3)
     mech.apply_moment("tip", 2 * np.pi * 200e9 * 0.01 * 1e-9 / 12 / 0.1)  # a full circle
     from flexmb.solvers.conventional import Conventional

@@ -143,3 +143,16 @@ def test_linearised_properties_refuse_bad_input():
         flexmb.buckling(sol, n=6)
     with pytest.raises(flexmb.UnsupportedStrategyError):
         flexmb.buckling(flexmb.solve(flexmb.models.gripper(), method="newton"))
+
+
+def test_sparse_buckling_equals_dense(monkeypatch):
+    """Above `DENSE_BELOW` free DOFs `buckling` uses Lanczos (``eigsh``, K_m as the metric): the
+    same multipliers as the dense solver."""
+    import flexmb.linearised as linearised
+
+    s = flexmb.rectangle(0.01, 1e-3, **STEEL)
+    sol = flexmb.solve(_column(3, 45, 0.3 * _euler(s, 1.0, 0.25)))
+    assert len(sol.compiled.problem.free) >= linearised.DENSE_BELOW
+    sparse = flexmb.buckling(sol, n=3)
+    monkeypatch.setattr(linearised, "DENSE_BELOW", 10**6)
+    np.testing.assert_allclose(sparse, flexmb.buckling(sol, n=3), rtol=1e-9)

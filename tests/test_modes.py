@@ -603,3 +603,23 @@ def test_cross_flexure_leaves_vibrate_clamped_clamped_at_zero_degrees():
     f_cc = 4.73004074**2 / (2 * np.pi) * np.sqrt(200e9 * 1e-3**2 / (12 * RHO * 0.1**4))
     np.testing.assert_allclose(md.frequencies[1:4], f_cc, rtol=2e-3)
     assert np.abs(md.link_shapes["B"][1:4, :3]).max() < 0.02 * np.abs(md.shapes[1:4]).max()
+
+
+def test_dead_forces_keep_the_tangent_symmetric_dead_moments_do_not():
+    """A force at an offset point is conservative (its load stiffness cancels the internal
+    moments' skew part): symmetric. An applied dead moment m on a free link leaves -1/2 skew(m)
+    (3D spin coordinates): non-symmetric. In 2D both are conservative."""
+    for dim in (2, 3):
+        m = _leaf_mechanism(dim, 4, length=0.1, width=0.02, thickness=1e-3, tip_mass=0.1,
+                            tip_inertia=1e-5 if dim == 2 else 1e-5 * np.eye(3))
+        m.apply_force("tip", (0.0, 20.0, 5.0)[:dim], point=(0.12, 0.01, 0.02)[:dim])
+        assert flexmb.modes(flexmb.solve(m), n=2).symmetric
+        moment = 3.0 if dim == 2 else np.array([0.5, -1.0, 3.0])
+        m.apply_moment("tip", moment)
+        sol = flexmb.solve(m)
+        assert flexmb.modes(sol, n=2).symmetric == (dim == 2)
+        if dim == 3:
+            K = stiffness_and_mass(sol)[0].toarray()
+            r = sol.compiled.problem.model.node_dofs[sol.compiled.link_node["tip"]][3:]
+            Kr = K[np.ix_(r, r)]
+            np.testing.assert_allclose(0.5 * (Kr - Kr.T), -0.5 * skew(moment), atol=1e-6)

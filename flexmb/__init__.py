@@ -14,6 +14,8 @@ from .errors import (
 )
 from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
+from .linearised import buckling, compliance
+from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
 from .results import Solution
 from .sections import Section, rectangle
@@ -35,6 +37,7 @@ __all__ = [
     "ThreeXInfinity",
     "Link",
     "Mechanism",
+    "Modes",
     "MissingExtraError",
     "ModelError",
     "ParameterError",
@@ -47,6 +50,8 @@ __all__ = [
     "UnsupportedStrategyError",
     "DatabaseError",
     "available_joints",
+    "buckling",
+    "compliance",
     "export",
     "grid",
     "parameter_study",
@@ -56,6 +61,7 @@ __all__ = [
     "find_actuation",
     "joint",
     "models",
+    "modes",
     "testing",
     "rectangle",
     "register_joint",

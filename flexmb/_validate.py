@@ -17,6 +17,14 @@ def positive(owner: str, name: str, value) -> float:
     return v
 
 
+def nonnegative(owner: str, name: str, value) -> float:
+    """Return ``value`` as float if finite and >= 0, else raise naming ``owner.name``."""
+    v = finite(owner, name, value)
+    if not v >= 0.0:
+        raise ParameterError(f"{owner}: {name}={value!r} must be >= 0 (valid range: [0, inf))")
+    return v
+
+
 def finite(owner: str, name: str, value) -> float:
     if isinstance(value, (str, bytes, bool)):
         raise ParameterError(f"{owner}: {name}={value!r} is not a real number")
@@ -68,6 +76,38 @@ def finite_model(owner: str, values: dict) -> None:
     if bad:
         raise ParameterError(f"{owner}: the parameters give non-finite or zero {', '.join(bad)}; "
                              "check their magnitudes and units (SI: m, Pa)")
+
+
+def rigid_body(owner: str, mass, inertia, center, dim: int):
+    """``(mass, inertia, center)`` of a rigid body as fresh floats/arrays, checked: mass finite >= 0,
+    inertia (3D: (3, 3) symmetric positive semi-definite with principal moments obeying the
+    triangle inequality ``I1 + I2 >= I3``; 2D: a scalar >= 0; None: zero), center finite (dim,)."""
+    m = nonnegative(owner, "mass", mass)
+    c = np.zeros(dim) if center is None else vector(owner, "center", center, dim)
+    if dim == 2:
+        return m, (0.0 if inertia is None else nonnegative(owner, "inertia", inertia)), c
+    if inertia is None:
+        return m, np.zeros((3, 3)), c
+    try:
+        J = np.array(inertia, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{owner}: inertia={inertia!r} is not a (3, 3) tensor of real numbers") from None
+    if J.shape != (3, 3) or not np.all(np.isfinite(J)):
+        raise ParameterError(f"{owner}: inertia must be a finite (3, 3) tensor [kg m^2], got shape {J.shape}")
+    scale = float(np.abs(J).max())
+    tol = 1e-12 * scale
+    if not np.all(np.abs(J - J.T) <= tol):
+        raise ParameterError(f"{owner}: inertia tensor is not symmetric (largest |J - J^T| "
+                             f"{np.abs(J - J.T).max():.3g}); give it about the centre of mass in the link's axes")
+    J = 0.5 * (J + J.T)
+    p = np.linalg.eigvalsh(J)
+    if p[0] < -1e-10 * scale:
+        raise ParameterError(f"{owner}: inertia tensor is not positive semi-definite (principal moments "
+                             f"{', '.join(f'{x:.4g}' for x in p)} kg m^2)")
+    if p[0] + p[1] < p[2] - 1e-10 * scale:
+        raise ParameterError(f"{owner}: the principal moments {', '.join(f'{x:.4g}' for x in p)} kg m^2 violate "
+                             "the triangle inequality I1 + I2 >= I3 (no mass distribution has them)")
+    return m, J, c
 
 
 def flag(owner: str, name: str, value) -> bool:

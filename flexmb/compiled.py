@@ -20,3 +20,4 @@ class Compiled:
     actuation: tuple | None = None  # (row of the actuation in problem.loads, unit direction)
     joint_nodes: dict = attrs.field(factory=dict)  # joint name -> FE node indices of its internal nodes
     joints: tuple = ()  # (name, joint, placement, side A link, side B link) at compile time
+    fixed: tuple = ()  # names of the fixed links (the ground)

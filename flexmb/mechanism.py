@@ -25,11 +25,19 @@ BUILDERS = {fe_build.CAPABILITY: fe_build.build, closed_form_build.CAPABILITY: c
 
 @attrs.frozen(eq=False)
 class Link:
-    """A rigid link: a graph node. ``position`` [m] is its reference point in the undeformed state."""
+    """A rigid link: a graph node. ``position`` [m] is its reference point in the undeformed state.
+
+    ``mass`` [kg], ``inertia`` about the centre of mass [kg m^2] ((3, 3) in 3D, a scalar about z
+    in 2D) and ``center`` [m] (the centre of mass's offset from the reference point), all in the
+    link's frame: global axes in the undeformed configuration, turning with the link.
+    """
 
     name: str
     position: np.ndarray
     fixed: bool = False
+    mass: float = 0.0
+    inertia: np.ndarray | float = 0.0
+    center: np.ndarray | None = None
 
 
 @attrs.frozen(eq=False)
@@ -89,14 +97,22 @@ class Mechanism:
         except (KeyError, TypeError):
             raise ModelError(f"no link named {name!r}; links: {', '.join(map(repr, self.graph.nodes)) or 'none'}") from None
 
-    def add_link(self, name: str, position=None, *, fixed: bool = False) -> Link:
-        """Add a rigid link with reference point ``position`` [m] (default: the origin)."""
+    def add_link(self, name: str, position=None, *, fixed: bool = False, mass: float = 0.0, inertia=None,
+                 center=None) -> Link:
+        """Add a rigid link with reference point ``position`` [m] (default: the origin).
+
+        ``mass`` [kg] >= 0, ``inertia`` [kg m^2] about the centre of mass (3D: a symmetric positive
+        semi-definite (3, 3) tensor whose principal moments satisfy the triangle inequality; 2D:
+        a scalar >= 0 about z; default 0) and ``center`` [m], the centre of mass relative to
+        ``position`` (default: ``position``), in the link's frame (global axes, undeformed).
+        """
         if not isinstance(name, str) or not name:
             raise ModelError(f"link name must be a non-empty string, got {name!r}")
         if name in self.graph:
             raise ModelError(f"a link named {name!r} exists already")
         pos = np.zeros(self.dim) if position is None else v.vector(f"link {name!r}", "position", position, self.dim)
-        lk = Link(name, pos, v.flag(f"link {name!r}", "fixed", fixed))
+        lk = Link(name, pos, v.flag(f"link {name!r}", "fixed", fixed),
+                  *v.rigid_body(f"link {name!r}", mass, inertia, center, self.dim))
         self.graph.add_node(name, link=lk)
         return lk
 

@@ -210,6 +210,10 @@ GRIPPER_TABLE_1 = {
 }
 #: Young's moduli [uN/mm^2] (1 GPa = 1e9 uN/mm^2): silicon 100 GPa, nylon 3.84 GPa (Sec. 5.1).
 GRIPPER_MATERIALS = {"silicon": 100e9, "nylon": 3.84e9}
+#: Densities [g/mm^3], the mass unit consistent with mm, uN and s (1 uN s^2/mm = 1e-3 kg = 1 g):
+#: silicon 2329 kg/m^3, nylon 1150 kg/m^3 (handbook values; the paper gives none). Mass only:
+#: the static results do not depend on them.
+GRIPPER_DENSITIES = {"silicon": 2.329e-3, "nylon": 1.15e-3}
 
 
 def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: float = 0.0,
@@ -229,6 +233,8 @@ def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: 
     (``method="newton"``); ``elements`` is the number of beam elements per arc in flexmb's fully
     non-linear finite-element model (``method="conventional"``). ``width`` and ``height`` [mm]
     replace Table 1's cross-section b = 0.025, h = 0.005 (the cross-section study, Fig. 10).
+    Masses are in g (the unit consistent with mm, uN and s): the arcs' densities in g/mm^3
+    (`GRIPPER_DENSITIES`), so `flexmb.modes` gives frequencies in Hz.
     """
     if not isinstance(material, str) or material not in GRIPPER_MATERIALS:
         raise ParameterError(f"gripper: material={material!r}; valid: {sorted(GRIPPER_MATERIALS)}")
@@ -246,7 +252,8 @@ def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: 
         beam, placement = CurvedBeam.through(center, origin[bi] + t[si], origin[bj] + t[sj],
                                              E=GRIPPER_MATERIALS[material], width=t["b"] if width is None else width,
                                              height=t["h"] if height is None else height,
-                                             elements=elements, model=model)
+                                             elements=elements, model=model,
+                                             density=GRIPPER_DENSITIES[material])
         if abs(np.degrees(beam.angle) - deg) > 0.5:  # Table 1 lists the angles: the geometry must agree
             raise ParameterError(f"gripper: hinge {h} spans {np.degrees(beam.angle):.2f} deg, Table 1 says {deg}")
         start_dir = placement["rotation"] - np.pi / 2  # direction of the first attachment from the centre

@@ -51,6 +51,11 @@ class Section:
     ymax, zmax
         Distances of the extreme fibres from the centroid along local y and z [m], for bending
         stresses (``None``: unknown, `flexmb.fe.stress` refuses).
+    density
+        Mass density [kg/m^3] (in another consistent unit system: mass per length cubed, e.g.
+        g/mm^3 with mm, uN and s), >= 0; 0 (default): a massless section, for statics only.
+        The beam elements' mass (`flexmb.fe.mass`) uses ``density A`` per length and the rotary
+        inertias ``density Iy``, ``density Iz`` and ``density (Iy + Iz)`` (about the axis).
     """
 
     E: float
@@ -63,8 +68,10 @@ class Section:
     kz: float = 5.0 / 6.0
     ymax: float | None = None
     zmax: float | None = None
+    density: float = 0.0
 
     def __attrs_post_init__(self):
+        v.nonnegative("Section", "density", self.density)
         for name in ("E", "G", "A", "Iy", "Iz", "It"):
             v.positive("Section", name, getattr(self, name))
         for name in ("ky", "kz"):  # inf is allowed: no shear deformation
@@ -73,17 +80,19 @@ class Section:
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
 
 
-def rectangle(width: float, thickness: float, E: float, G: float) -> Section:
+def rectangle(width: float, thickness: float, E: float, G: float, density: float = 0.0) -> Section:
     """Rectangular section ``width x thickness`` [m]; local z along the width, local y along the thickness.
 
     So ``Iz = width thickness^3 / 12`` is the compliant (leaf-spring) bending stiffness and
     ``Iy = thickness width^3 / 12`` the stiff one, as in SPACAR's leaf-spring data.
-    Poisson's ratio for the shear coefficient is ``E / (2G) - 1``.
+    Poisson's ratio for the shear coefficient is ``E / (2G) - 1``. ``density`` [kg/m^3] >= 0
+    (0: massless; see `Section`).
     """
     width = v.positive("rectangle", "width", width)
     thickness = v.positive("rectangle", "thickness", thickness)
     E = v.positive("rectangle", "E", E)
     G = v.positive("rectangle", "G", G)
+    density = v.nonnegative("rectangle", "density", density)
     w, t = np.float64(width), np.float64(thickness)  # numpy floats overflow to inf, checked below
     with np.errstate(over="ignore", under="ignore"):
         props = dict(A=float(w * t), Iy=float(t * w**3 / 12.0), Iz=float(w * t**3 / 12.0))
@@ -96,7 +105,7 @@ def rectangle(width: float, thickness: float, E: float, G: float) -> Section:
         )
     k = shear_coefficient_rectangle(nu)
     return Section(E=E, G=G, It=torsion_constant_rectangle(width, thickness), ky=k, kz=k,
-                   ymax=0.5 * float(thickness), zmax=0.5 * float(width), **props)
+                   ymax=0.5 * float(thickness), zmax=0.5 * float(width), density=density, **props)
 
 
 def properties(sections, names) -> np.ndarray:

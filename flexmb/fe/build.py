@@ -22,6 +22,7 @@ from ..problem import StaticProblem
 from ..rotations import cross
 from .beam2d import local_stiffness as local_stiffness_2d
 from .beam3d import local_stiffness as local_stiffness_3d
+from .mass import RigidMasses
 from .model import BeamElements, FEModel
 
 __all__ = ["build", "CAPABILITY"]
@@ -87,13 +88,15 @@ def build(mechanism) -> Compiled:
     else:
         chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
         elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]))
-    model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements)
+    rigid = RigidMasses.of_bodies([(link_node[n], lk.mass, lk.inertia, lk.center) for n, lk in links.items()], dim)
+    model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements, rigid_masses=rigid)
 
     pres, vals, loads, paths = boundary(mechanism, link_node, links)
     return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, mechanism.points,
                     joint_elements, actuation_row(mechanism, loads), joint_nodes,
                     tuple((k, d["joint"], d["placement"], *d["sides"])
-                          for _, _, k, d in mechanism.graph.edges(keys=True, data=True)))
+                          for _, _, k, d in mechanism.graph.edges(keys=True, data=True)),
+                    tuple(n for n, lk in links.items() if lk.fixed))
 
 
 @attrs.frozen(eq=False)

@@ -59,8 +59,10 @@ class FEModel:
     """Nodes, points and beam elements; evaluates internal forces and the consistent tangent."""
 
     def __init__(self, dim: int, x0: np.ndarray, point_master: np.ndarray, point_x0: np.ndarray,
-                 elements: BeamElements):
+                 elements: BeamElements, rigid_masses=None):
         self.dim = dim
+        #: `flexmb.fe.mass.RigidMasses` of the links (None: the links carry no mass of their own)
+        self.rigid_masses = rigid_masses
         self.ndof = 3 if dim == 2 else 6
         self.nrot = 1 if dim == 2 else 3
         self.x0 = np.asarray(x0, dtype=float)

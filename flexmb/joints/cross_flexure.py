@@ -48,6 +48,8 @@ class CrossFlexure(Joint):
         Beam elements per leaf, 1 or more (3).
     gap
         Clearance between inner and outer leaves along z [m] (0).
+    density
+        Mass density of the leaves [kg/m^3] (7800, steel), >= 0 (0: massless leaves).
     """
 
     kind: ClassVar[str] = "cross_flexure"
@@ -63,10 +65,12 @@ class CrossFlexure(Joint):
     G: float = 76.9e9
     elements_per_leaf: int = 3
     gap: float = 0.0
+    density: float = 7800.0
 
     def __attrs_post_init__(self):
         owner = "cross_flexure"
         check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
+        v.nonnegative(owner, "density", self.density)
         if v.finite(owner, "gap", self.gap) < 0:
             raise ParameterError(f"{owner}: gap={self.gap!r} m must be >= 0")
         with np.errstate(over="ignore", invalid="ignore"):
@@ -109,7 +113,7 @@ class CrossFlexure(Joint):
                 pts.append(start + (end - start) * k / n)
                 side.append(SIDE_A if k == 0 else SIDE_B if k == n else INTERNAL)
             elems += [(base + k, base + k + 1) for k in range(n)]
-            sec = rectangle(width, self.thickness, self.E, self.G)
+            sec = rectangle(width, self.thickness, self.E, self.G, self.density)
             secs += [sec] * n
             if dim == 3:
                 ex = (end - start) / self.length  # every leaf has length L by construction

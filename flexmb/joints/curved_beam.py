@@ -39,6 +39,9 @@ class CurvedBeam(Joint):
         Shear modulus for the finite-element model (default ``E / 2.6``, Poisson 0.3).
     elements
         Straight co-rotational beam elements along the arc in the finite-element model (16).
+    density
+        Mass density (7800: steel in kg/m^3; in the model's units: mass per length cubed, e.g.
+        g/mm^3 with mm and uN, where 1 uN s^2/mm = 1 g), >= 0.
     model
         Wrench model of the closed form (``method="newton"``): ``"linear"`` (Eq. 15, balance in
         the undeformed configuration) or ``"partial-nonlinear"`` (Eq. 17, the end displacement
@@ -73,6 +76,7 @@ class CurvedBeam(Joint):
     height: float
     G: float | None = None
     elements: int = 16
+    density: float = 7800.0
     model: str = "partial-nonlinear"
 
     def __attrs_post_init__(self):
@@ -83,6 +87,7 @@ class CurvedBeam(Joint):
         if self.G is not None:
             v.positive(owner, "G", self.G)
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
+        v.nonnegative(owner, "density", self.density)
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
         if not self.height < self.radius:
             raise ParameterError(f"{owner}: height={self.height!r} must be < radius={self.radius!r} (a slender arc)")
@@ -113,7 +118,7 @@ class CurvedBeam(Joint):
         n = self.elements
         side = np.full(n + 1, INTERNAL)
         side[0], side[-1] = SIDE_A, SIDE_B
-        sec = rectangle(self.width, self.height, self.E, self.shear_modulus)
+        sec = rectangle(self.width, self.height, self.E, self.shear_modulus, self.density)
         return JointMesh(points=self.arc_points(n), side=side,
                          elements=np.stack([np.arange(n), np.arange(1, n + 1)], axis=1), sections=(sec,) * n)
 

@@ -32,8 +32,11 @@ class LeafSpring(Joint):
         Young's and shear modulus [Pa] (200e9, 76.9e9); Poisson's ratio ``E/(2G) - 1`` in (-1, 0.5).
     elements
         Number of beam elements, 1 or more (4).
+    density
+        Mass density [kg/m^3] (7800, steel), >= 0 (0: a massless leaf).
     section
-        Optional `Section` that replaces the rectangle (e.g. to switch off shear with ``ky = kz = inf``).
+        Optional `Section` that replaces the rectangle (e.g. to switch off shear with ``ky = kz = inf``);
+        its own ``density`` then applies.
     model
         Wrench model of the planar closed form (``method="newton"``, see `ClosedForm`).
     """
@@ -48,6 +51,7 @@ class LeafSpring(Joint):
     E: float = 200e9
     G: float = 76.9e9
     elements: int = 4
+    density: float = 7800.0
     section: Section | None = None
     model: str = "partial-nonlinear"
 
@@ -56,6 +60,7 @@ class LeafSpring(Joint):
         for name in ("length", "width", "thickness", "E", "G"):
             v.positive(owner, name, getattr(self, name))
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
+        v.nonnegative(owner, "density", self.density)
         if self.thickness >= self.length:
             raise ParameterError(f"{owner}: thickness={self.thickness!r} m must be < length={self.length!r} m")
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
@@ -74,7 +79,7 @@ class LeafSpring(Joint):
 
     def cross_section(self) -> Section:
         """The leaf's `Section`: ``section`` if given, else the ``width`` x ``thickness`` rectangle [m]."""
-        return self.section or rectangle(self.width, self.thickness, self.E, self.G)
+        return self.section or rectangle(self.width, self.thickness, self.E, self.G, self.density)
 
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements

@@ -66,6 +66,11 @@ class ThreeXInfinity(Joint):
         Young's and shear modulus [Pa] (200e9, 76.9e9).
     elements_per_leaf
         Beam elements per leaf, 1 or more (3: 27 flexible elements for 3 stages).
+    density
+        Mass density of the leaves [kg/m^3] (7800, steel), >= 0 (0: massless leaves).
+
+    The rigid intermediate bodies carry no mass of their own (only the leaves' ends attached to
+    them); give a mechanism's links their mass with `flexmb.Mechanism.add_link`.
     """
 
     kind: ClassVar[str] = "three_x_infinity"
@@ -87,11 +92,13 @@ class ThreeXInfinity(Joint):
     E: float = 200e9
     G: float = 76.9e9
     elements_per_leaf: int = 3
+    density: float = 7800.0
 
     def __attrs_post_init__(self):
         owner = "three_x_infinity"
         check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
         v.integer(owner, "stages", self.stages, 2, 100)
+        v.nonnegative(owner, "density", self.density)
         for name in ("gap", "stage_gap"):
             if v.finite(owner, name, getattr(self, name)) < 0:
                 raise ParameterError(f"{owner}: {name}={getattr(self, name)!r} m must be >= 0")
@@ -148,7 +155,7 @@ class ThreeXInfinity(Joint):
                     side.append(sd)
                     body.append(bd)
                 elems += [(base + i, base + i + 1) for i in range(n)]
-                secs += [rectangle(width, self.thickness, self.E, self.G)] * n
+                secs += [rectangle(width, self.thickness, self.E, self.G, self.density)] * n
                 ny += [np.cross([0.0, 0.0, 1.0], (b - a) / self.length)] * n
         return JointMesh(points=np.array(pts), side=np.array(side), elements=np.array(elems), sections=tuple(secs),
                          ny0=np.array(ny), body=np.array(body))

@@ -1,0 +1,129 @@
+"""Properties of a converged equilibrium from its linearisation: `buckling` multipliers and the
+`compliance` of a link's point (SPACAR's buckling load multipliers and CMglob / CMloc).
+
+Both use the full tangent of `flexmb.modal` (dead loads, prescribed DOFs held by default, the
+``held`` argument as in `flexmb.modes`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse.linalg as spla
+
+from . import _validate as v
+from .errors import ModelError, ParameterError
+from .modal import DENSE_BELOW, full_tangent, held_dofs, solvable_problem
+
+__all__ = ["buckling", "compliance", "material_tangent"]
+
+
+def material_tangent(solution):
+    """The material part ``K_m`` (N ndof, N ndof) of the tangent at the solution: the beams'
+    ``T^T D^T S D T`` without their stresses' geometric part, the rigid offsets' ``d(d x f)/dphi``
+    and the loads' stiffness (`FEModel.element_response`, `FEModel.transfer`)."""
+    problem = solvable_problem(solution)
+    model, state = problem.model, solution.state
+    Fm, Ke, _, _ = model.element_response(state, tangent=True, geometric_stress=np.zeros_like)
+    # element_response adds the offsets' block d f^T - (d.f) I (2D: -(d.f)) at each end's rotation
+    # DOFs, from the point forces f (the translational part of Fm): take it off again
+    el, dim, nd = model.elements, model.dim, model.ndof
+    m = model.point_master[el.ends].ravel()
+    d = model.offsets(state, m, model.point_offset[el.ends].reshape(-1, dim))
+    _, G = model.transfer(Fm.reshape(-1, nd), d)
+    G = G.reshape(len(el.L0), 2, nd - dim, nd - dim)
+    Ke = Ke.copy()
+    Ke[:, dim:nd, dim:nd] -= G[:, 0]
+    Ke[:, nd + dim:, nd + dim:] -= G[:, 1]
+    return full_tangent(solution, element_tangent=Ke, with_loads=False)
+
+
+def buckling(solution, n: int = 1, held="prescribed") -> np.ndarray:
+    """The ``n`` lowest positive buckling multipliers of the solution's loads and prescribed
+    motions, linearised about its deformed state: ``(K_m + lam K_s) phi = 0`` with ``K_m`` the
+    material tangent (`material_tangent`) and ``K_s = K_t - K_m`` the part proportional to the
+    current stresses and loads (geometric and load stiffness), both at the solution. ``lam = 1``:
+    the solution itself is critical; ``lam`` times the loads is the linearised critical load. Where
+    the pre-buckling path is linear (stresses proportional to the load) this is the classical
+    linear buckling analysis (e.g. Bathe 2014, Sec. 6.8.2). Returns an array (n,), ascending;
+    ``inf`` where fewer than ``n`` positive multipliers exist (no buckling under this load
+    direction).
+    """
+    problem = solvable_problem(solution)
+    model = problem.model
+    held_idx = held_dofs(solution, held, "buckling")
+    free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
+    nf = len(free)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:
+        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, "
+                             f"{nf}, minus one)")
+    Kt = full_tangent(solution)[free][:, free]
+    Km = material_tangent(solution)[free][:, free]
+    Ks = (Kt - Km).tocsr()
+    if abs(Ks).max() == 0.0:
+        return np.full(n, np.inf)  # no stress, no load: nothing to buckle
+    symmetric = bool(abs(Ks - Ks.T).max() <= 1e-11 * abs(Km).max())
+    if nf < DENSE_BELOW:
+        A, B = Ks.toarray(), Km.toarray()
+        # K_s phi = mu K_m phi, mu = -1/lam: the critical (smallest positive) lam has the most negative mu
+        mu = (sla.eigh(0.5 * (A + A.T), 0.5 * (B + B.T), eigvals_only=True) if symmetric
+              else sla.eigvals(A, B))
+    else:
+        k = min(nf - 2, 2 * n + 8)
+        op = 0.5 * (Ks + Ks.T) if symmetric else Ks
+        mu = (spla.eigsh(op.tocsc(), k=k, M=(0.5 * (Km + Km.T)).tocsc(), which="SA", return_eigenvectors=False)
+              if symmetric else spla.eigs(Ks.tocsc(), k=k, M=Km.tocsc(), which="SR", return_eigenvectors=False))
+    mu = np.asarray(mu)
+    real = mu[np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()].real if np.iscomplexobj(mu) else mu
+    lam = np.sort(-1.0 / real[real < 0])
+    out = np.full(n, np.inf)
+    out[: min(n, len(lam))] = lam[:n]
+    return out
+
+
+def compliance(solution, link: str, point=None, axes: str = "global") -> np.ndarray:
+    """Compliance (6, 6) in 3D, (3, 3) in 2D, of a point of ``link`` at the solution's deformed
+    state with the prescribed DOFs held: the point's displacement and rotation [m, rad] per unit
+    force and moment [N, N m] applied there (moments about the point), ``C = T K_ff^-1 T^T`` with
+    the rigid lever ``T`` from the link's node to the point and ``K_ff`` the full tangent on the
+    free DOFs (dead loads). ``point``: a named point of the link (`Mechanism.add_point`) or its
+    undeformed global position [m] (default: the link's reference point). ``axes``: ``"global"``
+    (SPACAR's CMglob) or ``"link"`` (CMloc: the link's current axes). Held components of the
+    link's node give zero rows and columns."""
+    problem = solvable_problem(solution)
+    compiled, model, state = solution.compiled, problem.model, solution.state
+    if link not in compiled.link_node:
+        raise ModelError(f"compliance: no link named {link!r}; links: {', '.join(compiled.link_node)}")
+    if axes not in ("global", "link"):
+        raise ParameterError(f"compliance: axes={axes!r}; valid: 'global', 'link'")
+    node = compiled.link_node[link]
+    dim, nd = model.dim, model.ndof
+    if point is None:
+        offset = np.zeros(dim)
+    elif isinstance(point, str):
+        owner, offset = compiled.points.get(point, (None, None))
+        if owner != link:
+            raise ModelError(f"compliance: link {link!r} has no point named {point!r}")
+    else:
+        offset = v.vector(f"compliance of link {link!r}", "point", point, dim) - model.x0[node]
+    free = problem.free
+    K = full_tangent(solution)[free][:, free].tocsc()
+    dofs = model.node_dofs[node]
+    cols = np.searchsorted(free, dofs)
+    is_free = (cols < len(free)) & (free[np.minimum(cols, len(free) - 1)] == dofs)
+    C_node = np.zeros((nd, nd))
+    if is_free.any():
+        rhs = np.zeros((len(free), int(is_free.sum())))
+        rhs[cols[is_free], np.arange(rhs.shape[1])] = 1.0
+        X = problem.solve_linear(K, rhs) if K.shape[0] >= 220 else np.linalg.solve(K.toarray(), rhs)
+        C_node[np.ix_(is_free, is_free)] = X[cols[is_free]]
+    T = model._lever(model.offsets(state, np.array([node]), offset[None]))[0]  # point motion = T node motion
+    C = T @ C_node @ T.T
+    if axes == "link":
+        R = model.rotation_matrices(state)[node]
+        B = np.eye(nd)
+        B[:dim, :dim] = R
+        if dim == 3:
+            B[3:, 3:] = R
+        C = B.T @ C @ B
+    return C

@@ -5,6 +5,7 @@ from __future__ import annotations
 import attrs
 import numpy as np
 
+from ._validate import frozen
 from .errors import ModelError, UnsupportedStrategyError
 from .fe.model import State
 from .rotations import cross, logm_so3
@@ -46,14 +47,14 @@ class Solution:
     method: str
     converged: bool
     iterations: int
-    residual_history: np.ndarray
+    residual_history: np.ndarray = attrs.field(converter=frozen)  # read-only copies
     load_factor: float
     steps: int
     rejected_steps: int
     wall_time: dict
     message: str
     state: State = attrs.field(repr=False)
-    residual: np.ndarray = attrs.field(repr=False)
+    residual: np.ndarray = attrs.field(repr=False, converter=frozen)
     compiled: object = attrs.field(repr=False)
     tolerance: float = 5e-7
     stable: bool | None = None

@@ -174,12 +174,32 @@ def _solve_at(strategy, compiled, value: float, previous=None):
     return _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
 
 
+class _Columns(dict):
+    """Table columns that never overwrite: a taken name gets the first free ``#2``, ``#3`` ... suffix."""
+
+    def __setitem__(self, name, values):
+        key, k = name, 1
+        while key in self:
+            k += 1
+            key = f"{name}#{k}"
+        super().__setitem__(key, values)
+
+    def update(self, other):
+        for name, values in other.items():
+            self[name] = values
+
+
 class SweepResult(Sequence):
     """The solutions of a `sweep` (a sequence: ``len``, indexing, iteration) with ``values``, the
     swept quantity's name ``quantity`` (``"force"`` or ``"link.component"``) and `table`."""
 
     def __init__(self, solutions: list, values: np.ndarray, quantity: str):
-        self.solutions, self.values, self.quantity = solutions, values, quantity
+        self.solutions, self._values, self.quantity = solutions, np.array(values, dtype=float), quantity
+
+    @property
+    def values(self) -> np.ndarray:
+        """The swept values, (n,) or (n, 3) (a copy)."""
+        return self._values.copy()
 
     def __getitem__(self, i):
         return self.solutions[i]
@@ -206,13 +226,19 @@ class SweepResult(Sequence):
         links with a fixed or prescribed DOF the reaction ``"<link>.Fx"`` ... [N],
         ``"<link>.Mz"`` ... [N m]; for every named point in ``points`` its position [m]. Write it
         with ``.to_csv(path)``; ``pandas.DataFrame(result.table())`` makes a data frame.
+
+        Nothing is overwritten: a column keeps the first name it takes, in the order above, and
+        a later column whose name is taken gets the first free ``"<name>#2"``, ``"<name>#3"`` ...
+        So the swept values keep their column: sweeping ``motion=("B", "x")``, ``"B.x"`` holds
+        the prescribed displacements and link B's position is ``"B.x#2"``; a point named like a
+        link has its columns after the link's.
         """
         sols = self.solutions
         compiled = sols[0].compiled
         dim = sols[0].dim
         axes = "xyz"[:dim]
-        cols = {}
-        vals = self.values.reshape(len(sols), -1)
+        cols = _Columns()
+        vals = self._values.reshape(len(sols), -1)
         names = [self.quantity] if vals.shape[1] == 1 else [f"{self.quantity}_{a}" for a in "xyz"]
         cols.update({n: vals[:, i] for i, n in enumerate(names)})
         cols["converged"] = self.converged

@@ -60,6 +60,18 @@ class Solution:
     stable: bool | None = None
     stages: dict = attrs.field(factory=dict, repr=False)
 
+    @classmethod
+    def failed(cls, method: str, compiled, message: str, wall_time: dict | None = None, stages: dict | None = None):
+        """A solve that produced no configuration (a strategy refused or broke down): not
+        converged, ``message`` says why; its positions, rotations and reactions are NaN, so no
+        table or plot can mistake it for an answer."""
+        model = compiled.problem.model
+        s0 = model.initial_state()
+        return cls(method=method, converged=False, iterations=0, residual_history=np.empty(0), load_factor=0.0,
+                   steps=0, rejected_steps=0, wall_time=dict(wall_time or {}), message=message,
+                   state=State(np.full_like(s0.positions, np.nan), np.full_like(s0.rotations, np.nan)),
+                   residual=np.full(model.n_dofs, np.nan), compiled=compiled, stages=dict(stages or {}))
+
     @property
     def dim(self) -> int:
         """2 (planar) or 3 (spatial)."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 
 import attrs
@@ -10,7 +11,7 @@ import scipy.linalg as sla
 
 from . import _validate as v
 from .closed_form.problem import TERMS, LinkageProblem
-from .errors import ModelError, ParameterError, UnsupportedStrategyError
+from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
 from .problem import PointLoads
 from .results import Solution
 from .solvers import make_strategy
@@ -43,8 +44,12 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     `flexmb.solve`. ``progress``: a progress bar on stderr (tqdm; None = only on a terminal).
     The mechanism is compiled once and never modified.
 
-    Returns a `SweepResult`: a sequence of one `Solution` per value, in order (failed solves are
-    kept, ``converged=False``), whose `SweepResult.table` gives the results as arrays and CSV.
+    Returns a `SweepResult`: a sequence of one `Solution` per value, in order, whose
+    `SweepResult.table` gives the results as arrays and CSV. Nothing is lost to one value: a
+    solve that fails is kept (``converged=False``), and so is one where the strategy raises (a
+    `DatabaseError` outside the trained range, a `ConvergenceError` with ``raise_on_failure``,
+    any other error): its Solution's ``message`` names the value and the error, its numbers are
+    NaN. The next value starts from the last converged one.
     """
     from tqdm.auto import tqdm
 
@@ -56,8 +61,8 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
 
 def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
                start: str = "previous", **options):
-    """`sweep` as a generator: yields each `Solution` as soon as it is computed (the arguments
-    are checked at the call, before the first solve)."""
+    """`sweep` as a generator: yields each `Solution` as soon as it is computed, failed ones
+    included as in `sweep` (the arguments are checked at the call, before the first solve)."""
     return _plan(mechanism, values, motion, method, start, options)[1]
 
 
@@ -84,13 +89,17 @@ def _plan(mechanism, values, motion, method, start, options):
         last = None  # the last converged solution
         for value in values:
             previous = last if warm else None
-            if slots is None:
-                sol = _solve_at(strategy, compiled, float(value), previous)
-            else:
-                vals = compiled.problem.values.copy()
-                vals[slots] = value
-                problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
-                sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+            t0 = time.perf_counter()
+            try:
+                if slots is None:
+                    sol = _solve_at(strategy, compiled, float(value), previous)
+                else:
+                    vals = compiled.problem.values.copy()
+                    vals[slots] = value
+                    problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
+                    sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+            except Exception as exc:  # kept, with the reason: one value never costs the others
+                sol = _failed(strategy, compiled, value, exc, time.perf_counter() - t0)
             if sol.converged:
                 last = sol
             yield sol
@@ -138,6 +147,16 @@ def _prescribed_slots(compiled, motion, comps) -> np.ndarray:
         raise ModelError(f"sweep: link {motion[0]!r} has a chain of rotations prescribed; sweep a single rotation "
                          f"vector instead")
     return np.searchsorted(problem.prescribed, dofs)
+
+
+def _failed(strategy, compiled, value, exc: Exception, seconds: float) -> Solution:
+    """The `Solution` of a value whose solve raised: not converged, the error in its message
+    (a `ConvergenceError`'s own Solution when it carries one)."""
+    if isinstance(exc, ConvergenceError) and isinstance(exc.solution, Solution):
+        return exc.solution
+    method = getattr(strategy, "name", type(strategy).__name__)
+    at = np.round(np.asarray(value, dtype=float), 12).tolist()
+    return Solution.failed(method, compiled, f"{method} at {at}: {type(exc).__name__}: {exc}", {"total": seconds})
 
 
 def _warm_starts(strategy) -> bool:

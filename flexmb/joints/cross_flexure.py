@@ -104,6 +104,10 @@ class CrossFlexure(Joint):
             (*leaf(c, -zo), self.width_outer),
         ]
 
+    def element_count(self, dim: int) -> int:
+        """Beam elements of `mesh` (known without meshing)."""
+        return len(self.leaves(dim)) * self.elements_per_leaf
+
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements_per_leaf
         pts, side, elems, secs, ny = [], [], [], [], []

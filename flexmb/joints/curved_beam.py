@@ -114,6 +114,10 @@ class CurvedBeam(Joint):
     def interface_b(self, dim: int) -> np.ndarray:
         return self.arc_points(1)[1]
 
+    def element_count(self, dim: int) -> int:
+        """Beam elements of `mesh` (known without meshing)."""
+        return self.elements
+
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements
         side = np.full(n + 1, INTERNAL)

@@ -81,6 +81,10 @@ class LeafSpring(Joint):
         """The leaf's `Section`: ``section`` if given, else the ``width`` x ``thickness`` rectangle [m]."""
         return self.section or rectangle(self.width, self.thickness, self.E, self.G, self.density)
 
+    def element_count(self, dim: int) -> int:
+        """Beam elements of `mesh` (known without meshing)."""
+        return self.elements
+
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements
         pts = np.outer(np.linspace(0.0, 1.0, n + 1), self.interface_b(dim))

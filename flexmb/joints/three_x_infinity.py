@@ -123,6 +123,10 @@ class ThreeXInfinity(Joint):
         if dim != 3:
             raise ParameterError(f"three_x_infinity: a spatial joint; dim={dim!r} must be 3")
 
+    def element_count(self, dim: int) -> int:
+        """Beam elements of `mesh` (known without meshing)."""
+        return self.flexible_elements
+
     def mesh(self, dim: int) -> JointMesh:
         self._require_3d(dim)
         n, K = self.elements_per_leaf, self.stages

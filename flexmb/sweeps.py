@@ -9,6 +9,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from . import _validate as v
+from . import jit
 from .closed_form.problem import TERMS, LinkageProblem
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
 from .problem import PointLoads
@@ -48,7 +49,9 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     """
     from tqdm.auto import tqdm
 
-    values, solutions = _plan(mechanism, values, motion, method, start, options)
+    values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress)
+    if isinstance(solutions, Sequence):  # run already, as compiled loops
+        return SweepResult(solutions, values, "force")
     bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
                disable=None if progress is None else not progress)
     return SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
@@ -61,8 +64,9 @@ def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, meth
     return _plan(mechanism, values, motion, method, start, options)[1]
 
 
-def _plan(mechanism, values, motion, method, start, options):
-    """Checked sweep values (n,) or (n, width) and the generator of their solutions."""
+def _plan(mechanism, values, motion, method, start, options, compiled_loop=False):
+    """Checked sweep values (n,) or (n, width) and the generator of their solutions (or, with
+    ``compiled_loop``, the solutions of `_compiled_force_sweep` when it applies)."""
     v.choice("sweep", "start", start, STARTS)
     strategy = make_strategy(method, options)
     if not hasattr(mechanism, "compile"):
@@ -79,6 +83,8 @@ def _plan(mechanism, values, motion, method, start, options):
                          "component)")
     slots = None if motion is None else _prescribed_slots(compiled, motion, comps)
     warm = start == "previous" and _warm_starts(strategy)
+    if compiled_loop and slots is None and jit.enabled() and hasattr(strategy, "sweep_forces"):
+        return values, _compiled_force_sweep(strategy, compiled, values, warm)
 
     def solutions():
         last = None  # the last converged solution
@@ -141,13 +147,28 @@ def _prescribed_slots(compiled, motion, comps) -> np.ndarray:
 
 
 def _warm_starts(strategy) -> bool:
-    """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies)."""
+    """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies);
+    known per solve function after the first look (inspect.signature costs ~40 us, once per solve before)."""
     import inspect
 
-    try:
-        return "state" in inspect.signature(strategy.solve).parameters
-    except (TypeError, ValueError):
-        return False
+    solve = getattr(strategy, "solve", None)
+    kind = getattr(solve, "__func__", solve)  # the function, shared by a class's instances
+    if kind not in _WARM:
+        try:
+            _WARM[kind] = "state" in inspect.signature(strategy.solve).parameters
+        except (TypeError, ValueError):
+            _WARM[kind] = False
+    return _WARM[kind]
+
+
+_WARM: dict = {}
+
+
+def _compiled_force_sweep(strategy, compiled, values, warm):
+    """A force sweep as compiled Newton loops (`flexmb.solvers.newton.Newton.sweep_forces`): the
+    gripper's 138-force opening-closing sweep in about 5 ms instead of 60 (BENCHMARKS.md); the
+    same iterations and equilibria as the per-solve path (tests/test_closed_form_jit.py)."""
+    return strategy.sweep_forces(compiled, values, warm, lambda value: _with_actuation(compiled, value))
 
 
 def _forces(owner: str, forces) -> np.ndarray:

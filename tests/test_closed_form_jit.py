@@ -34,6 +34,14 @@ def numpy_path():
     return call
 
 
+@pytest.fixture
+def compiled_path():
+    """The compiled kernels for the test (also when the suite runs with FLEXMB_KERNELS=numpy)."""
+    previous = jit.use("numba")
+    yield
+    jit.use("numba" if previous else "numpy")
+
+
 def _stage(force: float = 0.0) -> flexmb.Mechanism:
     """A stage on two parallel 60 mm leaves (SI), its actuation 15 mm off its reference point
     (so the dead force has a load stiffness) and a dead moment."""
@@ -90,7 +98,7 @@ def test_solves_equal_numpy(case, tangent, numpy_path):
 
 @pytest.mark.parametrize("start", ["previous", "undeformed"])
 @pytest.mark.parametrize("tangent", ["full", "constant"])
-def test_compiled_sweep_equals_the_per_solve_path(start, tangent):
+def test_compiled_sweep_equals_the_per_solve_path(start, tangent, compiled_path):
     """`sweep` (compiled loops, Solutions on demand) = `iter_sweep` (one `solve` per force)."""
     for m, forces in ((flexmb.models.gripper(), np.linspace(-60.0, 140.0, 21)), (_stage(), np.linspace(-40, 60, 11))):
         fast = flexmb.sweep(m, forces, method="newton", tangent=tangent, start=start)
@@ -109,7 +117,15 @@ def test_compiled_sweep_equals_the_per_solve_path(start, tangent):
         assert fast[-1] is fast[len(forces) - 1] and len(fast[2:5]) == 3
 
 
-def test_compiled_sweep_keeps_failures_and_raises_when_asked():
+@pytest.fixture(params=["numba", "numpy"])
+def either_path(request):
+    """The test once with each kernel path."""
+    previous = jit.use(request.param)
+    yield request.param
+    jit.use("numba" if previous else "numpy")
+
+
+def test_sweep_keeps_failures_and_raises_when_asked(either_path):
     """A force far beyond the gripper's range fails within max_iter=3; the others are kept; the
     failed Solution holds its start state (as a `solve` would)."""
     forces = [10.0, 1e6, 20.0]

@@ -95,6 +95,37 @@ def evaluate(pos, ang, fi, fj, s_i, s_j, b_j, b_jc, b_ia_f, arm, p_hat, K, nl, l
 
 
 @njit
+def _solve_in_place(A, b):
+    """``b <- A^-1 b`` by Gaussian elimination with partial pivoting (LAPACK getrf/getrs's
+    algorithm; ``A`` overwritten); False on an exactly zero pivot (LAPACK's info > 0). Written
+    out because numba's ``np.linalg.solve`` costs ~10 s of cold compile time on a busy 2-core
+    host, this loop ~0.3 s, for the 9 x 9 systems of a linkage."""
+    n = b.shape[0]
+    for k in range(n):
+        p = k
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > abs(A[p, k]):
+                p = i
+        if A[p, k] == 0.0:
+            return False
+        if p != k:
+            for j in range(n):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+            b[k], b[p] = b[p], b[k]
+        for i in range(k + 1, n):
+            f = A[i, k] / A[k, k]
+            for j in range(k + 1, n):
+                A[i, j] -= f * A[k, j]
+            b[i] -= f * b[k]
+    for k in range(n - 1, -1, -1):
+        s = b[k]
+        for j in range(k + 1, n):
+            s -= A[k, j] * b[j]
+        b[k] = s / A[k, k]
+    return True
+
+
+@njit
 def newton(pos, ang, free, fi, fj, s_i, s_j, b_j, b_jc, b_ia_f, arm, p_hat, K, nl, ln, loff, lforce, lmom,
            mode, K0, tol, max_iter, divergence, history, r):
     """Newton-Raphson from ``pos``, ``ang`` (updated in place; the prescribed DOFs already set),
@@ -137,14 +168,12 @@ def newton(pos, ang, free, fi, fj, s_i, s_j, b_j, b_jc, b_ia_f, arm, p_hat, K, n
                         v += T[2, free[a], free[b]]
                         v += T[3, free[a], free[b]]
                     Kf[a, b] = v
-        try:
-            dq = np.linalg.solve(Kf, rf)
-        except Exception:  # an exactly singular pivot (LAPACK info > 0)
+        if not _solve_in_place(Kf, rf):
             return 3, it, res, first
         for a in range(nf):
             d = free[a]
             if d % 3 == 2:
-                ang[d // 3] += dq[a]
+                ang[d // 3] += rf[a]
             else:
-                pos[d // 3, d % 3] += dq[a]
+                pos[d // 3, d % 3] += rf[a]
         it += 1

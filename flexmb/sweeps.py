@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 
 import attrs
@@ -11,7 +12,7 @@ import scipy.linalg as sla
 from . import _validate as v
 from . import jit
 from .closed_form.problem import TERMS, LinkageProblem
-from .errors import ModelError, ParameterError, UnsupportedStrategyError
+from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
 from .problem import PointLoads
 from .results import Solution
 from .solvers import make_strategy
@@ -44,8 +45,12 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     `flexmb.solve`. ``progress``: a progress bar on stderr (tqdm; None = only on a terminal).
     The mechanism is compiled once and never modified.
 
-    Returns a `SweepResult`: a sequence of one `Solution` per value, in order (failed solves are
-    kept, ``converged=False``), whose `SweepResult.table` gives the results as arrays and CSV.
+    Returns a `SweepResult`: a sequence of one `Solution` per value, in order, whose
+    `SweepResult.table` gives the results as arrays and CSV. Nothing is lost to one value: a
+    solve that fails is kept (``converged=False``), and so is one where the strategy raises (a
+    `DatabaseError` outside the trained range, a `ConvergenceError` with ``raise_on_failure``,
+    any other error): its Solution's ``message`` names the value and the error, its numbers are
+    NaN. The next value starts from the last converged one.
     """
     from tqdm.auto import tqdm
 
@@ -59,8 +64,8 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
 
 def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
                start: str = "previous", **options):
-    """`sweep` as a generator: yields each `Solution` as soon as it is computed (the arguments
-    are checked at the call, before the first solve)."""
+    """`sweep` as a generator: yields each `Solution` as soon as it is computed, failed ones
+    included as in `sweep` (the arguments are checked at the call, before the first solve)."""
     return _plan(mechanism, values, motion, method, start, options)[1]
 
 
@@ -90,13 +95,17 @@ def _plan(mechanism, values, motion, method, start, options, compiled_loop=False
         last = None  # the last converged solution
         for value in values:
             previous = last if warm else None
-            if slots is None:
-                sol = _solve_at(strategy, compiled, float(value), previous)
-            else:
-                vals = compiled.problem.values.copy()
-                vals[slots] = value
-                problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
-                sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+            t0 = time.perf_counter()
+            try:
+                if slots is None:
+                    sol = _solve_at(strategy, compiled, float(value), previous)
+                else:
+                    vals = compiled.problem.values.copy()
+                    vals[slots] = value
+                    problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
+                    sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+            except Exception as exc:  # kept, with the reason: one value never costs the others
+                sol = _failed(strategy, compiled, value, exc, time.perf_counter() - t0)
             if sol.converged:
                 last = sol
             yield sol
@@ -144,6 +153,16 @@ def _prescribed_slots(compiled, motion, comps) -> np.ndarray:
         raise ModelError(f"sweep: link {motion[0]!r} has a chain of rotations prescribed; sweep a single rotation "
                          f"vector instead")
     return np.searchsorted(problem.prescribed, dofs)
+
+
+def _failed(strategy, compiled, value, exc: Exception, seconds: float) -> Solution:
+    """The `Solution` of a value whose solve raised: not converged, the error in its message
+    (a `ConvergenceError`'s own Solution when it carries one)."""
+    if isinstance(exc, ConvergenceError) and isinstance(exc.solution, Solution):
+        return exc.solution
+    method = getattr(strategy, "name", type(strategy).__name__)
+    at = np.round(np.asarray(value, dtype=float), 12).tolist()
+    return Solution.failed(method, compiled, f"{method} at {at}: {type(exc).__name__}: {exc}", {"total": seconds})
 
 
 def _warm_starts(strategy) -> bool:
@@ -195,12 +214,32 @@ def _solve_at(strategy, compiled, value: float, previous=None):
     return _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
 
 
+class _Columns(dict):
+    """Table columns that never overwrite: a taken name gets the first free ``#2``, ``#3`` ... suffix."""
+
+    def __setitem__(self, name, values):
+        key, k = name, 1
+        while key in self:
+            k += 1
+            key = f"{name}#{k}"
+        super().__setitem__(key, values)
+
+    def update(self, other):
+        for name, values in other.items():
+            self[name] = values
+
+
 class SweepResult(Sequence):
     """The solutions of a `sweep` (a sequence: ``len``, indexing, iteration) with ``values``, the
     swept quantity's name ``quantity`` (``"force"`` or ``"link.component"``) and `table`."""
 
     def __init__(self, solutions: list, values: np.ndarray, quantity: str):
-        self.solutions, self.values, self.quantity = solutions, values, quantity
+        self.solutions, self._values, self.quantity = solutions, np.array(values, dtype=float), quantity
+
+    @property
+    def values(self) -> np.ndarray:
+        """The swept values, (n,) or (n, 3) (a copy)."""
+        return self._values.copy()
 
     def __getitem__(self, i):
         return self.solutions[i]
@@ -227,13 +266,19 @@ class SweepResult(Sequence):
         links with a fixed or prescribed DOF the reaction ``"<link>.Fx"`` ... [N],
         ``"<link>.Mz"`` ... [N m]; for every named point in ``points`` its position [m]. Write it
         with ``.to_csv(path)``; ``pandas.DataFrame(result.table())`` makes a data frame.
+
+        Nothing is overwritten: a column keeps the first name it takes, in the order above, and
+        a later column whose name is taken gets the first free ``"<name>#2"``, ``"<name>#3"`` ...
+        So the swept values keep their column: sweeping ``motion=("B", "x")``, ``"B.x"`` holds
+        the prescribed displacements and link B's position is ``"B.x#2"``; a point named like a
+        link has its columns after the link's.
         """
         sols = self.solutions
         compiled = sols[0].compiled
         dim = sols[0].dim
         axes = "xyz"[:dim]
-        cols = {}
-        vals = self.values.reshape(len(sols), -1)
+        cols = _Columns()
+        vals = self._values.reshape(len(sols), -1)
         names = [self.quantity] if vals.shape[1] == 1 else [f"{self.quantity}_{a}" for a in "xyz"]
         cols.update({n: vals[:, i] for i, n in enumerate(names)})
         cols["converged"] = self.converged

@@ -109,7 +109,15 @@ class _KSD:
         red = ReducedMechanism(compiled, self.database)
         t = lap("setup", t0)
 
-        poses, theta, p_hat, info = solve_kinematics(red, tol=self.kinematic_tol)
+        try:
+            poses, theta, p_hat, info = solve_kinematics(red, tol=self.kinematic_tol)
+        except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy
+            lap("kinematics", t)
+            times["total"] = time.perf_counter() - t0
+            sol = Solution.failed(self.name, compiled, f"{self.name}: {exc}", times)
+            if self.raise_on_failure:
+                raise ConvergenceError(sol.message, sol) from None
+            return sol
         _check_range(red, theta, self.strict_range)
         stages["kinematics"] = info
         t = lap("kinematics", t)

@@ -156,3 +156,24 @@ def test_sparse_buckling_equals_dense(monkeypatch):
     sparse = flexmb.buckling(sol, n=3)
     monkeypatch.setattr(linearised, "DENSE_BELOW", 10**6)
     np.testing.assert_allclose(sparse, flexmb.buckling(sol, n=3), rtol=1e-9)
+
+
+def test_support_ratios_are_compliance_with_the_intended_rotation_released():
+    """`flexmb.analysis.support_ratios` is `compliance(..., held="none")` of node B: its inverse
+    equals the FE tangent statically condensed onto B (`joint_stiffness`, an independent
+    Schur-complement route), turned into B's frame, to 1e-9 of the diagonal (a cross flexure of
+    another size than Table 1's, at 20 deg)."""
+    from flexmb.analysis import joint_stiffness, support_ratios
+    from flexmb.ksd.geometry import rz
+
+    J = flexmb.joint("cross_flexure", length=0.04, width_inner=0.012, width_outer=0.006,
+                      thickness=0.3e-3, elements_per_leaf=3)
+    K, sol = joint_stiffness(J, np.radians(20.0))
+    T = np.kron(np.eye(2), rz(np.radians(20.0)))
+    C = T.T @ flexmb.compliance(sol, "B", held="none") @ T
+    np.testing.assert_allclose(np.linalg.inv(C), K, atol=1e-9 * np.abs(np.diag(K)).max())
+    r = support_ratios(J, np.radians(20.0))
+    assert r["k_rotation"] == pytest.approx(1.0 / C[5, 5], rel=1e-12)
+    assert r["tilt_x"] == pytest.approx(1.0 / C[3, 3] / r["k_rotation"], rel=1e-12)
+    with pytest.raises(flexmb.ModelError, match="singular"):
+        flexmb.compliance(sol, "B", held="floating")

@@ -18,7 +18,7 @@ from .linearised import buckling, compliance
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
 from .results import Solution
-from .sections import Section, rectangle
+from .sections import Section, circle, rectangle
 from .solvers import solve
 from .study import grid, parameter_study
 from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
@@ -64,6 +64,7 @@ __all__ = [
     "modes",
     "testing",
     "rectangle",
+    "circle",
     "register_joint",
     "solve",
     "sweep",

@@ -15,6 +15,7 @@ from .errors import (
 from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
 from .linearised import buckling, compliance
+from .design_properties import properties
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
 from .results import Solution
@@ -56,6 +57,7 @@ __all__ = [
     "grid",
     "parameter_study",
     "plot",
+    "properties",
     "read_csv",
     "study",
     "find_actuation",

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import attrs
 import numpy as np
@@ -30,7 +30,7 @@ def _with_actuation(compiled, value: float):
 
 
 def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
-          start: str = "previous", progress: bool | None = None, **options) -> SweepResult:
+          start: str = "previous", progress: bool | None = None, properties=None, **options) -> SweepResult:
     """Solve ``mechanism`` for each of ``values``: actuation forces [N] (`Mechanism.set_actuation`)
     by default, or with ``motion=(link, component)`` the prescribed value of that component of a
     link (``"x"``, ``"y"``, ``"z"`` [m]; ``"rotation"`` [rad], in 3D rotation vectors, shape
@@ -45,13 +45,22 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
 
     Returns a `SweepResult`: a sequence of one `Solution` per value, in order (failed solves are
     kept, ``converged=False``), whose `SweepResult.table` gives the results as arrays and CSV.
+    ``properties``: design properties added to the table, a sequence of names (``"modes"``,
+    ``"buckling"``, ``"compliance"``, ``"stress"``) or a mapping of the keyword arguments of
+    `flexmb.design_properties.properties` (e.g. ``{"which": ("modes",), "n_modes": 3}``).
     """
     from tqdm.auto import tqdm
 
     values, solutions = _plan(mechanism, values, motion, method, start, options)
     bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
                disable=None if progress is None else not progress)
-    return SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+    result = SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+    if properties is not None:
+        from .design_properties import property_columns
+
+        kw = dict(properties) if isinstance(properties, Mapping) else {"which": properties}
+        result.property_table = Table(property_columns(result.solutions, **kw))
+    return result
 
 
 def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
@@ -180,6 +189,8 @@ class SweepResult(Sequence):
 
     def __init__(self, solutions: list, values: np.ndarray, quantity: str):
         self.solutions, self.values, self.quantity = solutions, values, quantity
+        #: the `properties` columns requested from `sweep`, a `Table` (None: none)
+        self.property_table = None
 
     def __getitem__(self, i):
         return self.solutions[i]
@@ -239,6 +250,8 @@ class SweepResult(Sequence):
                 raise ModelError(f"no point named {name!r}; points: {', '.join(compiled.points) or 'none'}")
             xyz = np.array([s.point(owner, name) for s in sols])
             cols.update({f"{name}.{a}": xyz[:, i] for i, a in enumerate(axes)})
+        if self.property_table is not None:
+            cols.update(self.property_table)
         return Table(cols)
 
     def to_csv(self, path, links=None, points=()):

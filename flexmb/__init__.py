@@ -15,10 +15,11 @@ from .errors import (
 from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
 from .linearised import buckling, compliance
+from .design_properties import properties
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
 from .results import Solution
-from .sections import Section, rectangle
+from .sections import Section, circle, rectangle
 from .solvers import solve
 from .study import grid, parameter_study
 from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
@@ -56,6 +57,7 @@ __all__ = [
     "grid",
     "parameter_study",
     "plot",
+    "properties",
     "read_csv",
     "study",
     "find_actuation",
@@ -64,6 +66,7 @@ __all__ = [
     "modes",
     "testing",
     "rectangle",
+    "circle",
     "register_joint",
     "solve",
     "sweep",

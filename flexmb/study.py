@@ -24,7 +24,7 @@ import numpy as np
 from .errors import FlexmbError, ParameterError
 from .table import Table
 
-__all__ = ["grid", "parameter_study", "StudyError", "StudyInterrupted", "ON_ERROR", "ERROR_COLUMN"]
+__all__ = ["grid", "parameter_study", "StudyError", "StudyInterrupted", "ON_ERROR", "ERROR_COLUMN", "joint_range"]
 
 ON_ERROR = ("record", "raise")
 #: The column holding each design's error record, ``""`` when the design finished
@@ -389,3 +389,29 @@ def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
         exc.table = table
         raise exc
     return table
+
+
+def joint_range(kind: str, rotations, *, which=("modes", "stress"), n_modes: int = 3, held=(("B", "rz"),),
+                limit=None, concentration=None, **params) -> dict:
+    """The design properties of the registered joint ``kind`` (shape ``params``, SI units) over
+    its intended rotations ``rotations`` [rad]: link A fixed, B's orientation prescribed to the
+    turn about the joint's z axis (`flexmb.testing.joint_mechanism`), swept with continuation;
+    linearised with ``held`` (default: B's rotation about z held, B otherwise free, the
+    prescription's reactions kept as dead loads) and the leaves' own mass (``density`` > 0).
+    Returns `summary` of the `properties` (the lowest parasitic frequencies ``f1.min`` ..., the
+    peak stresses ...) and ``converged``: one design of a parameter study
+    (`flexmb.study.parameter_study`), picklable as ``functools.partial(joint_range, kind,
+    rotations)``."""
+    from .design_properties import properties, summary
+    from .registry import joint
+    from .sweeps import sweep
+    from .testing import joint_mechanism
+
+    angles = np.atleast_1d(np.asarray(rotations, dtype=float))
+    m = joint_mechanism(joint(kind, **params), 3)
+    m.prescribe("B", rotation=(0.0, 0.0, 0.0))
+    zeros = np.zeros_like(angles)
+    res = sweep(m, np.column_stack([zeros, zeros, angles]), motion=("B", "rotation"), progress=False)
+    out = summary(properties(res, which, n_modes=n_modes, held=held, limit=limit, concentration=concentration))
+    out["converged"] = bool(np.all(res.converged))
+    return out

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import attrs
 import numpy as np
@@ -32,7 +32,7 @@ def _with_actuation(compiled, value: float):
 
 
 def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
-          start: str = "previous", progress: bool | None = None, **options) -> SweepResult:
+          start: str = "previous", progress: bool | None = None, properties=None, **options) -> SweepResult:
     """Solve ``mechanism`` for each of ``values``: actuation forces [N] (`Mechanism.set_actuation`)
     by default, or with ``motion=(link, component)`` the prescribed value of that component of a
     link (``"x"``, ``"y"``, ``"z"`` [m]; ``"rotation"`` [rad], in 3D rotation vectors, shape
@@ -51,15 +51,25 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     `DatabaseError` outside the trained range, a `ConvergenceError` with ``raise_on_failure``,
     any other error): its Solution's ``message`` names the value and the error, its numbers are
     NaN. The next value starts from the last converged one.
+    ``properties``: design properties added to the table, a sequence of names (``"modes"``,
+    ``"buckling"``, ``"compliance"``, ``"stress"``) or a mapping of the keyword arguments of
+    `flexmb.design_properties.properties` (e.g. ``{"which": ("modes",), "n_modes": 3}``).
     """
     from tqdm.auto import tqdm
 
     values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress)
     if isinstance(solutions, Sequence):  # run already, as compiled loops
-        return SweepResult(solutions, values, "force")
-    bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
-               disable=None if progress is None else not progress)
-    return SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+        result = SweepResult(solutions, values, "force")
+    else:
+        bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
+                   disable=None if progress is None else not progress)
+        result = SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+    if properties is not None:
+        from .design_properties import property_columns
+
+        kw = dict(properties) if isinstance(properties, Mapping) else {"which": properties}
+        result.property_table = Table(property_columns(result.solutions, **kw))
+    return result
 
 
 def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
@@ -236,6 +246,9 @@ class SweepResult(Sequence):
     def __init__(self, solutions: list, values: np.ndarray, quantity: str):
         self.solutions, self._values, self.quantity = solutions, np.array(values, dtype=float), quantity
 
+        #: the `properties` columns requested from `sweep`, a `Table` (None: none)
+        self.property_table = None
+
     @property
     def values(self) -> np.ndarray:
         """The swept values, (n,) or (n, 3) (a copy)."""
@@ -305,6 +318,8 @@ class SweepResult(Sequence):
                 raise ModelError(f"no point named {name!r}; points: {', '.join(compiled.points) or 'none'}")
             xyz = np.array([s.point(owner, name) for s in sols])
             cols.update({f"{name}.{a}": xyz[:, i] for i, a in enumerate(axes)})
+        if self.property_table is not None:
+            cols.update(self.property_table)
         return Table(cols)
 
     def to_csv(self, path, links=None, points=()):

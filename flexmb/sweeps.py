@@ -81,7 +81,7 @@ def _plan(mechanism, values, motion, method, start, options):
     warm = start == "previous" and _warm_starts(strategy)
 
     def solutions():
-        last = None  # the last converged solution
+        last = last_values = None  # the last converged solution and its prescribed values
         for value in values:
             previous = last if warm else None
             if slots is None:
@@ -89,10 +89,12 @@ def _plan(mechanism, values, motion, method, start, options):
             else:
                 vals = compiled.problem.values.copy()
                 vals[slots] = value
-                problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
+                # from the previous solution: the rotations move along the requested values
+                problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state,
+                                                       start_values=None if previous is None else last_values)
                 sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
             if sol.converged:
-                last = sol
+                last, last_values = sol, (None if slots is None else vals)
             yield sol
 
     return (values if slots is None or len(slots) > 1 else values[:, 0]), solutions()

@@ -63,7 +63,7 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
         results = [function(**d) for d in tqdm(designs, **bar)]
     elif executor is None:
         workers = max_workers or os.cpu_count() or 1
-        with ProcessPoolExecutor(max_workers=min(workers, len(designs))) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, len(designs)), initializer=_one_blas_thread) as pool:
             results = [f.result() for f in tqdm([pool.submit(function, **d) for d in designs], **bar)]
     elif isinstance(executor, Executor):
         results = [f.result() for f in tqdm([executor.submit(function, **d) for d in designs], **bar)]
@@ -77,3 +77,11 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
         raise ParameterError(f"parameter_study: outputs {sorted(clash)} have the names of inputs")
     merged = [{**d, **r} for d, r in zip(designs, rows)]
     return Table({n: [row.get(n, np.nan) for row in merged] for n in names})
+
+
+def _one_blas_thread() -> None:
+    """Process-pool initialiser: one BLAS thread per worker (the workers already fill the cores;
+    flexmb.linear.single_threaded)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")

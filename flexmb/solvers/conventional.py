@@ -18,6 +18,7 @@ from scipy.sparse.linalg import splu
 from .. import _validate as v
 from ..errors import ConvergenceError, ParameterError
 from ..fe.model import State
+from ..linear import single_threaded
 from ..problem import StaticProblem
 from ..results import Solution
 from ..rotations import logm_so3
@@ -140,8 +141,10 @@ class Conventional:
         t0 = time.perf_counter()
         problem: StaticProblem = compiled.problem
         state = problem.model.initial_state() if state is None else state
-        out = newton_steps(problem, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
-                           min_step=self.min_step, initial_step=self.initial_step, max_rotation=self.max_rotation, control=self.step_control)
+        with single_threaded():
+            out = newton_steps(problem, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
+                               min_step=self.min_step, initial_step=self.initial_step, max_rotation=self.max_rotation,
+                               control=self.step_control)
         out["wall_time"]["total"] = time.perf_counter() - t0
         sol = Solution(method=self.name, compiled=compiled, tolerance=self.tol, **out)
         if self.raise_on_failure and not sol.converged:

@@ -32,6 +32,7 @@ from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, Para
 from ..ksd.geometry import ACTIVE, rz
 from ..ksd.kinematics import _correction, _norm, solve_kinematics
 from ..ksd.reduced import ReducedMechanism
+from ..linear import single_threaded
 from ..results import Solution
 from ..rotations import expm_so3, unskew
 from .conventional import above_one, boolean, newton_steps, positive_float, positive_int, unit_interval
@@ -98,6 +99,10 @@ class _KSD:
     raise_on_failure: bool = attrs.field(default=False, validator=boolean)
 
     def solve(self, compiled) -> Solution:
+        with single_threaded():  # small dense systems throughout (flexmb.linear.single_threaded)
+            return self._solve(compiled)
+
+    def _solve(self, compiled) -> Solution:
         t0 = time.perf_counter()
         times, stages = {}, {}
 

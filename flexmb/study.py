@@ -312,7 +312,7 @@ class _Run:
 
     def _pool_run(self, indices: list[int], workers: int) -> list[int]:
         """Run ``indices`` in a fresh pool of ``workers``; the designs lost to a dead worker."""
-        pool = ProcessPoolExecutor(max_workers=workers)
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=_one_blas_thread)
         futures, todo = {}, iter(indices)
         try:
             for i in itertools.islice(todo, workers):
@@ -415,3 +415,11 @@ def joint_range(kind: str, rotations, *, which=("modes", "stress"), n_modes: int
     out = summary(properties(res, which, n_modes=n_modes, held=held, limit=limit, concentration=concentration))
     out["converged"] = bool(np.all(res.converged))
     return out
+
+
+def _one_blas_thread() -> None:
+    """Process-pool initialiser: one BLAS thread per worker (the workers already fill the cores;
+    flexmb.linear.single_threaded)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")

@@ -102,7 +102,7 @@ def _plan(mechanism, values, motion, method, start, options, compiled_loop=False
         return values, _compiled_force_sweep(strategy, compiled, values, warm)
 
     def solutions():
-        last = None  # the last converged solution
+        last = last_values = None  # the last converged solution and its prescribed values
         for value in values:
             previous = last if warm else None
             t0 = time.perf_counter()
@@ -112,12 +112,14 @@ def _plan(mechanism, values, motion, method, start, options, compiled_loop=False
                 else:
                     vals = compiled.problem.values.copy()
                     vals[slots] = value
-                    problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
+                    # from the previous solution: the rotations move along the requested values
+                    problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state,
+                                                           start_values=None if previous is None else last_values)
                     sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
             except Exception as exc:  # kept, with the reason: one value never costs the others
                 sol = _failed(strategy, compiled, value, exc, time.perf_counter() - t0)
             if sol.converged:
-                last = sol
+                last, last_values = sol, (None if slots is None else vals)
             yield sol
 
     return (values if slots is None or len(slots) > 1 else values[:, 0]), solutions()

@@ -12,7 +12,7 @@ from .errors import (
     UnknownJointError,
     UnsupportedStrategyError,
 )
-from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
+from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
 from .linearised import buckling, compliance
 from .modal import Modes, modes
@@ -31,6 +31,7 @@ __all__ = [
     "CrossFlexure",
     "CurvedBeam",
     "FlexmbError",
+    "Hinge",
     "Joint",
     "JointMesh",
     "LeafSpring",

@@ -5,8 +5,7 @@ A revolute joint (`flexmb.Hinge`) between links A and B with joint frame ``P`` (
 
     x_A + R_A s_A - x_B - R_B s_B = 0            the links share the joint origin (dim rows)
     (R_A p_x) . (R_B p_z) = 0,  (R_A p_y) . (R_B p_z) = 0     3D: they share the z axis
-    motor (optional): 2D  theta_B - theta_A - t = 0;
-                      3D  (R_B p_x) . (R_A (cos t p_y - sin t p_x)) = sin(theta - t) = 0
+    motor (optional): 2D  theta_B - theta_A - t = 0;  3D  wrap(theta - t) = 0 (one root in a turn)
 
 with ``s = o - X`` the undeformed offsets and ``t`` the motor angle at the current load factor.
 A torsional spring ``k`` adds the energy ``k theta^2 / 2`` of the relative angle ``theta``
@@ -124,15 +123,17 @@ class Hinges:
         g[:, :3, 6:9] = -np.eye(3)
         g[:, :3, 3:6] = -skew(dA)
         g[:, :3, 9:12] = skew(dB)
-        u = np.cos(t)[:, None] * RA[:, :, 1] - np.sin(t)[:, None] * RA[:, :, 0]
-        rows = [(RA[:, :, 0], RB[:, :, 2]), (RA[:, :, 1], RB[:, :, 2]), (u, RB[:, :, 0])]
         second = []
-        for i, (va, vb) in enumerate(rows):
+        for i, (va, vb) in enumerate([(RA[:, :, 0], RB[:, :, 2]), (RA[:, :, 1], RB[:, :, 2])]):
             f, gr, Hr = _dot_row(va, vb)
             c[:, 3 + i] = f
             g[:, 3 + i, 3:6], g[:, 3 + i, 9:12] = gr[:, 0], gr[:, 1]
             second.append(Hr)
-        return c, g, (dA, dB, np.stack(second, 1))
+        # the motor: the relative angle's distance to t, wrapped to (-pi, pi] (one root, theta = t)
+        gt, Ht = self._angle_derivatives(R, gradient)
+        c[:, 5] = np.angle(np.exp(1j * (self.relative_angle(R) - t)))
+        g[:, 5] = gt
+        return c, g, (dA, dB, np.stack(second, 1), Ht)
 
     def relative_angle(self, R) -> np.ndarray:
         """Relative rotation [rad] of B from A about each hinge's axis, (H,) (3D: in (-pi, pi])."""
@@ -174,10 +175,11 @@ class Hinges:
             K[:, 2, 2] -= np.einsum("hi,hi->h", dA, w[:, :2])
             K[:, 5, 5] += np.einsum("hi,hi->h", dB, w[:, :2])
             return F, K
-        dA, dB, second = extra
+        dA, dB, second, Hmotor = extra
         K[:, ra, ra] += _ss(w[:, :3], dA)
         K[:, rb, rb] -= _ss(w[:, :3], dB)
-        Hsum = np.einsum("hr,hrabij->habij", w[:, 3:], second)  # (H, 2, 2, 3, 3)
+        K[:, :2 * nd, :2 * nd] += w[:, 5, None, None] * Hmotor
+        Hsum = np.einsum("hr,hrabij->habij", w[:, 3:5], second)  # (H, 2, 2, 3, 3)
         K[:, ra, ra] += Hsum[:, 0, 0]
         K[:, ra, rb] += Hsum[:, 0, 1]
         K[:, rb, ra] += Hsum[:, 1, 0]

@@ -267,3 +267,70 @@ def test_hinge_reactions_balance_globally():
 def test_ksd_refuses_a_hinge_clearly():
     with pytest.raises(flexmb.UnsupportedStrategyError, match="hinge"):
         flexmb.solve(_loop(2, 3), method="ksd-full")
+
+
+def _column(dim, top, n_el, L=0.1):
+    """A leaf spring column pinned to the ground by a hinge; its top pinned to a slider (a hinge to
+    a link guided along x) or clamped in the guided link itself; 1 N of compression."""
+    z = [] if dim == 2 else [0.0]
+    m = flexmb.Mechanism(dim=dim)
+    m.add_link("ground", position=[0.0, 0.0] + z, fixed=True)
+    m.add_link("bottom", position=[0.0, 0.0] + z)
+    m.add_link("top", position=[L, 0.0] + z)
+    m.add_joint("ground", "bottom", "hinge", name="pin")
+    m.add_joint("bottom", "top", "leaf_spring", length=L, elements=n_el)
+    guided = "top"
+    if top == "pinned":
+        m.add_link("slider", position=[L, 0.0] + z)
+        m.add_joint("top", "slider", "hinge", name="top_pin", origin=[L, 0.0] + z)
+        guided = "slider"
+    m.prescribe(guided, y=0.0, rotation=0.0 if dim == 2 else [0.0, 0.0, 0.0], **({} if dim == 2 else {"z": 0.0}))
+    m.apply_force(guided, [-1.0, 0.0] + z)
+    return m
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("top, c, second", [("pinned", np.pi**2, 4.0),
+                                            ("fixed", 20.190728556, 59.679515944 / 20.190728556)])
+def test_hinged_euler_columns_buckle_at_their_closed_form_loads(dim, top, c, second):
+    # Euler: pinned-pinned P = pi^2 EI/L^2; pinned-clamped P = x1^2 EI/L^2 = 2.046 pi^2 EI/L^2 with
+    # x1 = 4.4934, x2 = 7.7253 the roots of tan x = x (Timoshenko & Gere, Theory of Elastic
+    # Stability, 2.1 and 2.3), shear-corrected P / (1 + P/(k G A)) (ibid. Eq. 2.48) as the leaf is a
+    # Timoshenko beam. flexmb.buckling (linear buckling about the loaded state) converges at order 2.
+    s = flexmb.LeafSpring().cross_section()
+    P = c * s.E * s.Iz / 0.1**2
+    P = P / (1.0 + P / (s.ky * s.G * s.A))
+    err = []
+    for n_el in (16, 32):
+        sol = flexmb.solve(_column(dim, top, n_el))
+        assert sol.converged and sol.stable, sol.message
+        lam = flexmb.buckling(sol, n=2)  # multipliers of the 1 N load
+        err.append(lam[0] / P - 1.0)
+        assert lam[1] / lam[0] == pytest.approx(second, rel=2e-2)
+    assert 0 < err[1] < 2e-3
+    assert err[0] / err[1] == pytest.approx(4.0, rel=0.05)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_double_pendulum_on_sprung_hinges_vibrates_at_its_closed_form_frequencies(dim):
+    # two links on hinges with springs k1, k2: M theta'' + K theta = 0 with theta the absolute
+    # link angles, K = [[k1 + k2, -k2], [-k2, k2]], M from the links' masses and inertias (Lagrange)
+    k1, k2, m1, m2, J1, J2 = 40.0, 15.0, 0.3, 0.2, 2e-4, 1e-4
+    z = [] if dim == 2 else [0.0]
+    c1, p2, c2 = np.array([0.05, 0.01]), np.array([0.1, 0.0]), np.array([0.16, -0.02])
+    m = flexmb.Mechanism(dim=dim)
+    m.add_link("ground", position=[0.0, 0.0] + z, fixed=True)
+    inertia = (lambda J: J if dim == 2 else np.diag([J, J, J]))
+    m.add_link("arm1", position=list(c1) + z, mass=m1, inertia=inertia(J1))
+    m.add_link("arm2", position=list(c2) + z, mass=m2, inertia=inertia(J2))
+    m.add_joint("ground", "arm1", "hinge", k=k1, origin=[0.0, 0.0] + z)
+    m.add_joint("arm1", "arm2", "hinge", k=k2, origin=list(p2) + z)
+    sol = flexmb.solve(m)
+    modes = flexmb.modes(sol, n=1)
+    perp = lambda r: np.array([-r[1], r[0]])  # noqa: E731 (velocity of r per unit spin)
+    V1 = np.stack([perp(c1), np.zeros(2)], 1)  # arm1's centre velocity per (theta1', theta2')
+    V2 = np.stack([perp(p2), perp(c2 - p2)], 1)
+    M = m1 * V1.T @ V1 + m2 * V2.T @ V2 + np.diag([J1, J2])
+    K = np.array([[k1 + k2, -k2], [-k2, k2]])
+    w2 = np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real)
+    assert modes.eigenvalues[0] == pytest.approx(w2[0], rel=1e-10)

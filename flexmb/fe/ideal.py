@@ -144,10 +144,12 @@ class Hinges:
         return np.arctan2(np.einsum("hi,hi->h", RA[:, :, 1], RB[:, :, 0]),
                           np.einsum("hi,hi->h", RA[:, :, 0], RB[:, :, 0]))
 
-    def response(self, positions, R, multipliers, lam_angle: float, tangent: bool = True):
+    def response(self, positions, R, multipliers, lam_angle: float, tangent: bool = True, material: bool = False):
         """Block forces ``F`` (H, 2 ndof + ROWS) and tangents ``K`` (H, n, n) on the DOFs of
         `dofs`: the multipliers' forces and the springs' moments on the link rows, the scaled
-        constraint values on the multiplier rows."""
+        constraint values on the multiplier rows. ``material``: the tangent without the parts
+        proportional to the constraint forces and spring moments (their "geometric" stiffness:
+        the multipliers times the constraints' second derivatives, ``k theta`` times the angle's)."""
         dim, H = self.dim, len(self.node)
         nd, nr, rows = (3, 1, 3) if dim == 2 else (6, 3, 6)
         n = 2 * nd + rows
@@ -166,8 +168,10 @@ class Hinges:
         K = np.zeros((H, n, n))
         K[:, :2 * nd, 2 * nd:] = np.swapaxes(sg, 1, 2)
         K[:, 2 * nd:, :2 * nd] = sg
-        K[:, :2 * nd, :2 * nd] = (self.k[:, None, None] * (gt[:, :, None] * gt[:, None, :])
-                                  + (self.k * theta)[:, None, None] * Ht)
+        K[:, :2 * nd, :2 * nd] = self.k[:, None, None] * (gt[:, :, None] * gt[:, None, :])
+        if material:
+            return F, K
+        K[:, :2 * nd, :2 * nd] += (self.k * theta)[:, None, None] * Ht
         w = mu * self.scale  # physical multipliers
         ra, rb = slice(dim, nd), slice(nd + dim, 2 * nd)
         if dim == 2:
@@ -289,3 +293,13 @@ def constrained_basis(G):
     cols = np.concatenate([np.arange(len(others)), len(others) + np.tile(np.arange(Zt.shape[1]), len(touched))])
     return sp.csr_array((np.concatenate([np.ones(len(others)), Zt.ravel()]), (rows, cols)),
                         shape=(n, len(others) + Zt.shape[1]))
+
+
+def constrained(model, free: np.ndarray, K):
+    """The free DOFs' split for an analysis on the motions the hinges allow: the free *node* DOFs
+    ``fn`` and a basis ``Z`` (len(fn), m) of their motions that keep the hinges' constraints to
+    first order (rows of ``K``'s multiplier-node block), or ``(free, None)`` without hinges."""
+    if model.hinges is None:
+        return free, None
+    fn, fm = free[free < model.n_node_dofs], free[free >= model.n_node_dofs]
+    return fn, constrained_basis(K[fm][:, fn])

@@ -181,11 +181,11 @@ class FEModel:
         K[:, nd + self.dim:, nd + self.dim:] += G[:, 1]
         return Fm, K, e, sig
 
-    def hinge_response(self, state: State, motor: float = 1.0, tangent: bool = True):
+    def hinge_response(self, state: State, motor: float = 1.0, tangent: bool = True, material: bool = False):
         """The hinges' block forces and tangents on `hinge_dofs` (`flexmb.fe.ideal.Hinges.response`);
         ``motor``: the fraction of the hinges' motor angles reached."""
         mult = np.zeros(self.hinges.n_rows) if state.multipliers is None else state.multipliers
-        return self.hinges.response(state.positions, state.rotations, mult, motor, tangent=tangent)
+        return self.hinges.response(state.positions, state.rotations, mult, motor, tangent=tangent, material=material)
 
     def internal_force(self, state: State, motor: float = 1.0) -> np.ndarray:
         """Assembled internal force vector (n_dofs,): the elements', and the hinges' (their

@@ -12,7 +12,7 @@ from .errors import (
     UnknownJointError,
     UnsupportedStrategyError,
 )
-from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
+from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
 from .linearised import buckling, compliance
 from .design_properties import properties
@@ -32,6 +32,7 @@ __all__ = [
     "CrossFlexure",
     "CurvedBeam",
     "FlexmbError",
+    "Hinge",
     "Joint",
     "JointMesh",
     "LeafSpring",

@@ -133,6 +133,8 @@ class TangentSolver:
             if not self.use_ldl or self._ldl is None:
                 return None
         else:
+            if self._ldl is None:  # this pattern's first matrix had a zero pivot (e.g. a saddle point)
+                return None
             self._upper.data = 0.5 * (K.data[self._ia] + K.data[self._ib])
             try:
                 self._ldl.update(self._upper, upper=True)

@@ -133,7 +133,8 @@ class Solution:
         balances to roundoff; see `flexmb.CurvedBeam` for the closed-form models.
         """
         problem, state = self.compiled.problem, self.state
-        f = (self.residual + problem.external_load(state, self.load_factor)).reshape(len(state.positions), -1)
+        n = len(state.positions) * problem.model.ndof  # the link and node rows (hinge multipliers follow)
+        f = (self.residual + problem.external_load(state, self.load_factor))[:n].reshape(len(state.positions), -1)
         d = self.dim
         force = f[:, :d].sum(axis=0)
         x = state.positions

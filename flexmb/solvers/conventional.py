@@ -154,7 +154,7 @@ class Conventional:
 
 def _largest_rotation(model, du: np.ndarray) -> float:
     """Largest nodal rotation [rad] in an increment (all DOFs)."""
-    rot = du.reshape(model.n_nodes, model.ndof)[:, model.dim:]
+    rot = du[:model.n_nodes * model.ndof].reshape(model.n_nodes, model.ndof)[:, model.dim:]  # hinge multipliers last
     return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
 
 
@@ -306,7 +306,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
             if lam >= 1.0 - 1e-14:
                 lam = 1.0
                 out = finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
-                out["stable"] = is_stable(Kff)
+                out["stable"] = is_stable(problem.reduced_tangent(Kff))  # Kff itself without hinges
                 if out["stable"] is False:
                     out["message"] += ("; the equilibrium is UNSTABLE (tangent not positive definite): another "
                                        "branch may be the physical one, try initial_step < 1")

@@ -120,8 +120,9 @@ def _prescribed_rate(problem, lam: float) -> np.ndarray:
 class PathPoint:
     """A converged equilibrium on the path, with what the stepping and the detection need.
 
-    ``tangent``: the path tangent per unit load factor on all DOFs (N ndof,), ``direction``:
-    +1 or -1, the way the path runs through it (so ``dlam/ds`` has the sign of ``direction``);
+    ``tangent``, ``tangent_lam``: the unit path tangent (arc-length metric) on all DOFs (N ndof,)
+    and its load-factor part; ``direction``: +1 or -1, the way the path runs through it along
+    the tangent (so ``dlam/ds = direction * tangent_lam``);
     ``negative``: the count of negative eigenvalues of the symmetric free tangent, ``near``
     the eigenvalues nearest zero; ``arc``: arc length from the start.
     """
@@ -130,6 +131,7 @@ class PathPoint:
     lam: float
     residual: np.ndarray
     tangent: np.ndarray
+    tangent_lam: float
     direction: float
     negative: int
     near: np.ndarray
@@ -191,16 +193,19 @@ class ArcLength:
         size = float(np.max(np.ptp(x, axis=0))) if len(x) > 1 else 1.0
         metric = _Metric(problem.model, size if size > 0 else 1.0, 1.0, self.psi)
         _, Kff, Kfp, _ = problem.evaluate(state, 0.0)
-        t = _tangent(problem, state, 0.0, Kff, Kfp)
-        c = metric.norm(t)
-        return attrs.evolve(metric, scale=c if c > 0 else 1.0), t, Kff
+        t = _rate(problem, state, 0.0, Kff, Kfp)
+        c = metric.norm(t) if t is not None else 0.0
+        metric = attrs.evolve(metric, scale=c if c > 0 else 1.0)
+        return metric, _unit_tangent(problem, metric, state, 0.0, Kff, Kfp), Kff
 
     def start(self, problem, metric, t0, Kff0) -> PathPoint:
         """The undeformed configuration as the path's first point (load factor 0)."""
         state = problem.model.initial_state()
         r = problem.evaluate(state, 0.0, tangent=False)[0]
         neg, near = inertia(Kff0)
-        return PathPoint(state, 0.0, r, t0, 1.0, neg, near, 1.0 / metric.length(t0, 1.0), 0.0, 0)
+        t, tl = t0
+        direction = 1.0 if tl >= 0 else -1.0  # towards positive load factors
+        return PathPoint(state, 0.0, r, t, tl, direction, neg, near, direction * tl, 0.0, 0)
 
     def step(self, problem, metric, a: PathPoint, ds: float, fix_lam: float | None = None):
         """A converged point at arc length ``ds`` from ``a`` along its direction (or, with
@@ -209,10 +214,11 @@ class ArcLength:
         t0 = time.perf_counter()
         free = problem.free
         if fix_lam is None:
-            dlam = a.direction * ds / metric.length(a.tangent, 1.0)
+            pred_u, dlam = a.direction * ds * a.tangent, a.direction * ds * a.tangent_lam
         else:
             dlam = fix_lam - a.lam
-        state = problem.model.apply_increment(a.state, dlam * a.tangent)
+            pred_u = dlam / a.tangent_lam * a.tangent if a.tangent_lam else np.zeros_like(a.tangent)
+        state = problem.model.apply_increment(a.state, _split(problem, pred_u, dlam, a.lam))
         lam = a.lam + dlam
         history = []
         for it in range(self.max_iter + 1):
@@ -253,20 +259,22 @@ class ArcLength:
             lam += dl
         if fix_lam is None:  # a corrector that came back against the predictor has doubled back
             chord = metric.difference(state, a.state)
-            if a.direction * (metric.dot(a.tangent, chord) + metric.psi2 * (lam - a.lam)) <= 0.0:
+            if a.direction * (metric.dot(a.tangent, chord) + metric.psi2 * a.tangent_lam * (lam - a.lam)) <= 0.0:
                 return None
-        return self._point(problem, metric, a, state, lam, r, Kff, Kfp, it, history, time.perf_counter() - t0)
+        try:
+            return self._point(problem, metric, a, state, lam, r, Kff, Kfp, it, history, time.perf_counter() - t0)
+        except (np.linalg.LinAlgError, RuntimeError, ValueError):
+            return None
 
     def _point(self, problem, metric, a, state, lam, r, Kff, Kfp, iterations, history, seconds) -> PathPoint:
-        t = _tangent(problem, state, lam, Kff, Kfp)
+        t, tl = _unit_tangent(problem, metric, state, lam, Kff, Kfp)
         chord_u, chord_l = metric.difference(state, a.state), lam - a.lam
         # the path runs through the new point the way the chord from the last one points
-        direction = 1.0 if metric.dot(t, chord_u) + metric.psi2 * chord_l >= 0.0 else -1.0
+        direction = 1.0 if metric.dot(t, chord_u) + metric.psi2 * tl * chord_l >= 0.0 else -1.0
         neg, near = inertia(Kff)
-        L = metric.length(t, 1.0)
         arc = a.arc + metric.length(chord_u, chord_l)
-        return PathPoint(state, lam, r, t, direction, neg, near, direction / L, arc, iterations, tuple(history),
-                         seconds)
+        return PathPoint(state, lam, r, t, tl, direction, neg, near, direction * tl, arc, iterations,
+                         tuple(history), seconds)
 
     def _converged(self, problem, metric, state, lam, r) -> bool | None:
         """True below the tolerance; None within 1e-5 of the force scales (where the round-off
@@ -405,11 +413,30 @@ def _largest_rotation(model, du: np.ndarray) -> float:
     return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
 
 
-def _tangent(problem, state, lam, Kff, Kfp) -> np.ndarray:
-    """The path tangent per unit load factor on all DOFs: ``K_ff t_f = -d r_f / d lam``, ``t_p = v_p``."""
+def _rate(problem, state, lam, Kff, Kfp):
+    """The path's rate per unit load factor on all DOFs, ``K_ff t_f = -d r_f / d lam``,
+    ``t_p = v_p``; None where ``K_ff`` is singular (a limit point)."""
     g, vp = load_tangent(problem, state, lam, Kfp)
-    tf = problem.solve_linear(Kff, -g) if len(problem.free) else np.zeros(0)
-    return problem.full_increment(tf, vp)
+    try:
+        tf = problem.solve_linear(Kff, -g) if len(problem.free) else np.zeros(0)
+    except (np.linalg.LinAlgError, RuntimeError):
+        return None
+    return problem.full_increment(tf, vp) if np.all(np.isfinite(tf)) else None
+
+
+def _unit_tangent(problem, metric, state, lam, Kff, Kfp):
+    """``(t, t_lam)``: the path's unit tangent in the arc-length metric (not oriented): the rate
+    ``(t, 1)`` normalised, or at a singular ``K_ff`` (a limit point) its null vector with
+    ``t_lam = 0``."""
+    t = _rate(problem, state, lam, Kff, Kfp)
+    if t is not None:
+        n = metric.length(t, 1.0)
+        if np.isfinite(n) and n > 0:
+            return t / n, 1.0 / n
+    K = Kff.toarray() if hasattr(Kff, "toarray") else np.asarray(Kff)
+    null = sla.svd(K)[2][-1]
+    phi = problem.full_increment(null, np.zeros(len(problem.prescribed)))
+    return phi / metric.length(phi, 0.0), 0.0
 
 
 @attrs.frozen

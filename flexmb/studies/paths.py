@@ -142,25 +142,33 @@ def von_mises_force(w, span: float = 1000.0, rise: float = 50.0, E: float = 2100
     return -E * A * (l - l0) / l0 * (rise - w) / l
 
 
-def qiu_bistable(elements: int = 40, span: float = 3e-3, rise: float = 1.2e-4, thickness: float = 1e-5,
-                 width: float = 5e-4, E: float = 169e9, load: float = 1.0) -> Mechanism:
+def qiu_bistable(elements: int = 20, span: float = 3e-3, rise: float = 1.2e-4, thickness: float = 1e-5,
+                 width: float = 5e-4, E: float = 169e9, load: float = 1.0, imperfection: float = 1e-3) -> Mechanism:
     """Qiu, Lang & Slocum's (2004) double curved beam: two cosine-shaped clamped-clamped beams
-    ``w0 = rise/2 (1 - cos(2 pi x / span))`` joined at their centres, modelled in the plane as one
-    beam of twice the bending and axial stiffness whose centre link "C" cannot rotate (the joined
-    centres suppress the antisymmetric second mode). A downward ``load`` at C (force control).
-    Defaults: a silicon MEMS beam, 3 mm x 10 um x 0.5 mm with a 120 um rise (Q = h/t = 12)."""
+    ``w0 = rise/2 (1 - cos(2 pi x / span))`` joined at their centres, a downward ``load`` [N] on
+    the centre (force control). Defaults: a silicon MEMS beam, 3 mm x 10 um x 0.5 mm with a
+    120 um rise (Q = h/t = 12).
+
+    Modelled in the plane by symmetry: the left half (``elements`` chords) of one beam of twice
+    the bending and axial stiffness, clamped at "L"; the centre link "C" moves vertically only,
+    without turning (the joined centres hold mode 2, the symmetry the antisymmetric modes, among
+    them one with the third mode's buckling load), under half the load. ``imperfection``: the
+    amplitude, relative to ``rise``, of the third buckling mode ``rise/2 (1 - cos(4 pi x /
+    span))`` added to the shape: the perfect beam reaches that mode's buckling load on its way
+    down, a bifurcation (Qiu's analysis) that the path would pass by; the imperfection turns it
+    into the snap-through the device shows.
+    """
     I, A = width * thickness**3 / 12.0, width * thickness
     sec = beam_section(E, 2 * A, 2 * I)
-    x = np.linspace(0.0, span, elements + 1)
-    pts = np.column_stack([x, rise / 2 * (1 - np.cos(2 * np.pi * x / span))])
-    names = ["L"] + [f"q{i}" for i in range(1, elements)] + ["R"]
-    names[elements // 2] = "C"
+    x = np.linspace(0.0, span / 2, elements + 1)
+    shape = 1 - np.cos(2 * np.pi * x / span) + imperfection * (1 - np.cos(4 * np.pi * x / span))
+    pts = np.column_stack([x, rise / 2 * shape])
+    names = ["L"] + [f"q{i}" for i in range(1, elements)] + ["C"]
     m = Mechanism(dim=2)
     m.add_link("L", pts[0], fixed=True)
-    m.add_link("R", pts[-1], fixed=True)
     polyline(m, pts, sec, names)
-    m.prescribe("C", rotation=0.0)
-    m.apply_force("C", (0.0, -load))
+    m.prescribe("C", x=0.0, rotation=0.0)
+    m.apply_force("C", (0.0, -load / 2))
     return m
 
 

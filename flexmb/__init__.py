@@ -23,12 +23,16 @@ from .sections import Section, circle, rectangle
 from .solvers import solve
 from .study import grid, parameter_study
 from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
+from .path import Critical, Path, trace
 from .table import Table, read_csv
 from ._version import __version__  # noqa: F401 (flexmb.__version__)
 
 
 __all__ = [
     "ConvergenceError",
+    "Critical",
+    "Path",
+    "trace",
     "CrossFlexure",
     "CurvedBeam",
     "FlexmbError",

@@ -35,7 +35,7 @@ LAYERS = [
     ("strategies and analysis", ["flexmb.solvers", "flexmb.solvers.*", "flexmb.analysis", "flexmb.modal",
                                  "flexmb.linearised", "flexmb.testing", "flexmb.database", "flexmb.database.training",
                                  "flexmb.models"]),
-    ("workflows", ["flexmb.sweeps", "flexmb.study", "flexmb.table", "flexmb.design_properties"]),
+    ("workflows", ["flexmb.sweeps", "flexmb.study", "flexmb.table", "flexmb.design_properties", "flexmb.path"]),
     ("faces", ["flexmb.plot", "flexmb.export"]),
     ("studies", ["flexmb.studies", "flexmb.studies.*"]),
     ("command line and package", ["flexmb.cli", "flexmb"]),

@@ -291,14 +291,18 @@ class Mechanism:
 
     # -- checks and compilation ---------------------------------------------------------------
     def check(self, links: dict | None = None) -> None:
-        """Raise a `TopologyError` unless the mechanism is grounded and connected (``links``: the
-        `links` mapping when the caller has it already)."""
+        """Raise a `TopologyError` unless the mechanism is grounded (a fixed link, or a link whose
+        position is prescribed) and connected (``links``: the `links` mapping when the caller has
+        it already)."""
         links = self.links if links is None else links
         if not links:
             raise TopologyError("the mechanism has no links")
-        fixed = [n for n, lk in links.items() if lk.fixed]
+        # a link whose position is prescribed (a pin support: x, y (, z) held, rotation free) anchors too
+        position = {"x", "y"} if self.dim == 2 else {"x", "y", "z"}
+        fixed = [n for n, lk in links.items() if lk.fixed or position <= self._prescribed.get(n, {}).keys()]
         if not fixed:
-            raise TopologyError("the mechanism has no fixed link; fix one with add_link(..., fixed=True) or fix()")
+            raise TopologyError("the mechanism has no fixed link; fix one with add_link(..., fixed=True) or fix(), "
+                                "or prescribe a link's position (a pin support)")
         adj = self.graph.adj  # a plain search: networkx's dispatching costs more than the search
         grounded, stack = set(fixed), list(fixed)
         while stack:

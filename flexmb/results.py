@@ -133,7 +133,8 @@ class Solution:
         balances to roundoff; see `flexmb.CurvedBeam` for the closed-form models.
         """
         problem, state = self.compiled.problem, self.state
-        f = (self.residual + problem.external_load(state, self.load_factor)).reshape(len(state.positions), -1)
+        n = len(state.positions) * problem.model.ndof  # the link and node rows (hinge multipliers follow)
+        f = (self.residual + problem.external_load(state, self.load_factor))[:n].reshape(len(state.positions), -1)
         d = self.dim
         force = f[:, :d].sum(axis=0)
         x = state.positions
@@ -160,6 +161,22 @@ class Solution:
             return sigma[self.compiled.joint_elements[joint]]
         except KeyError:
             raise ModelError(f"no joint named {joint!r}; joints: {', '.join(self.compiled.joint_elements)}") from None
+
+    def stresses(self, concentration=None, limit=None):
+        """Peak normal, shear (torsion and transverse) and von Mises stresses [Pa] of every beam
+        element at its section's perimeter (`flexmb.fe.stress.element_stresses`), times a
+        stress-concentration factor ``concentration`` (a number for all joints or ``{joint:
+        factor}``, >= 1; e.g. a notch hinge's K_t), and with a material ``limit`` [Pa] (yield or
+        fatigue strength) the safety factors ``limit / von_mises``. Returns a
+        `flexmb.fe.stress.Stresses`: per element arrays, ``.joint(name)`` and ``.summary()``."""
+        from .fe.stress import element_stresses
+
+        model = self.compiled.problem.model
+        if not hasattr(model, "elements"):
+            raise UnsupportedStrategyError(
+                f"stresses need beam elements: this solution comes from method {self.method!r}, whose "
+                "closed-form model has none; solve with method='conventional' for stresses")
+        return element_stresses(model, self.state, self.compiled.joint_elements, concentration, limit)
 
     def strain_energy(self) -> float:
         """Elastic energy stored in all beam elements [J]."""

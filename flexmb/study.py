@@ -24,7 +24,7 @@ import numpy as np
 from .errors import FlexmbError, ParameterError
 from .table import Table
 
-__all__ = ["grid", "parameter_study", "StudyError", "StudyInterrupted", "ON_ERROR", "ERROR_COLUMN"]
+__all__ = ["grid", "parameter_study", "StudyError", "StudyInterrupted", "ON_ERROR", "ERROR_COLUMN", "joint_range"]
 
 ON_ERROR = ("record", "raise")
 #: The column holding each design's error record, ``""`` when the design finished
@@ -312,7 +312,7 @@ class _Run:
 
     def _pool_run(self, indices: list[int], workers: int) -> list[int]:
         """Run ``indices`` in a fresh pool of ``workers``; the designs lost to a dead worker."""
-        pool = ProcessPoolExecutor(max_workers=workers)
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=_one_blas_thread)
         futures, todo = {}, iter(indices)
         try:
             for i in itertools.islice(todo, workers):
@@ -389,3 +389,37 @@ def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
         exc.table = table
         raise exc
     return table
+
+
+def joint_range(kind: str, rotations, *, which=("modes", "stress"), n_modes: int = 3, held=(("B", "rz"),),
+                limit=None, concentration=None, **params) -> dict:
+    """The design properties of the registered joint ``kind`` (shape ``params``, SI units) over
+    its intended rotations ``rotations`` [rad]: link A fixed, B's orientation prescribed to the
+    turn about the joint's z axis (`flexmb.testing.joint_mechanism`), swept with continuation;
+    linearised with ``held`` (default: B's rotation about z held, B otherwise free, the
+    prescription's reactions kept as dead loads) and the leaves' own mass (``density`` > 0).
+    Returns `summary` of the `properties` (the lowest parasitic frequencies ``f1.min`` ..., the
+    peak stresses ...) and ``converged``: one design of a parameter study
+    (`flexmb.study.parameter_study`), picklable as ``functools.partial(joint_range, kind,
+    rotations)``."""
+    from .design_properties import properties, summary
+    from .registry import joint
+    from .sweeps import sweep
+    from .testing import joint_mechanism
+
+    angles = np.atleast_1d(np.asarray(rotations, dtype=float))
+    m = joint_mechanism(joint(kind, **params), 3)
+    m.prescribe("B", rotation=(0.0, 0.0, 0.0))
+    zeros = np.zeros_like(angles)
+    res = sweep(m, np.column_stack([zeros, zeros, angles]), motion=("B", "rotation"), progress=False)
+    out = summary(properties(res, which, n_modes=n_modes, held=held, limit=limit, concentration=concentration))
+    out["converged"] = bool(np.all(res.converged))
+    return out
+
+
+def _one_blas_thread() -> None:
+    """Process-pool initialiser: one BLAS thread per worker (the workers already fill the cores;
+    flexmb.linear.single_threaded)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import attrs
 import numpy as np
 import scipy.linalg as sla
 
 from . import _validate as v
+from . import jit
 from .closed_form.problem import TERMS, LinkageProblem
 from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
 from .problem import PointLoads
@@ -31,7 +32,7 @@ def _with_actuation(compiled, value: float):
 
 
 def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
-          start: str = "previous", progress: bool | None = None, **options) -> SweepResult:
+          start: str = "previous", progress: bool | None = None, properties=None, **options) -> SweepResult:
     """Solve ``mechanism`` for each of ``values``: actuation forces [N] (`Mechanism.set_actuation`)
     by default, or with ``motion=(link, component)`` the prescribed value of that component of a
     link (``"x"``, ``"y"``, ``"z"`` [m]; ``"rotation"`` [rad], in 3D rotation vectors, shape
@@ -50,13 +51,25 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     `DatabaseError` outside the trained range, a `ConvergenceError` with ``raise_on_failure``,
     any other error): its Solution's ``message`` names the value and the error, its numbers are
     NaN. The next value starts from the last converged one.
+    ``properties``: design properties added to the table, a sequence of names (``"modes"``,
+    ``"buckling"``, ``"compliance"``, ``"stress"``) or a mapping of the keyword arguments of
+    `flexmb.design_properties.properties` (e.g. ``{"which": ("modes",), "n_modes": 3}``).
     """
     from tqdm.auto import tqdm
 
-    values, solutions = _plan(mechanism, values, motion, method, start, options)
-    bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
-               disable=None if progress is None else not progress)
-    return SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+    values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress)
+    if isinstance(solutions, Sequence):  # run already, as compiled loops
+        result = SweepResult(solutions, values, "force")
+    else:
+        bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
+                   disable=None if progress is None else not progress)
+        result = SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+    if properties is not None:
+        from .design_properties import property_columns
+
+        kw = dict(properties) if isinstance(properties, Mapping) else {"which": properties}
+        result.property_table = Table(property_columns(result.solutions, **kw))
+    return result
 
 
 def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
@@ -66,8 +79,9 @@ def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, meth
     return _plan(mechanism, values, motion, method, start, options)[1]
 
 
-def _plan(mechanism, values, motion, method, start, options):
-    """Checked sweep values (n,) or (n, width) and the generator of their solutions."""
+def _plan(mechanism, values, motion, method, start, options, compiled_loop=False):
+    """Checked sweep values (n,) or (n, width) and the generator of their solutions (or, with
+    ``compiled_loop``, the solutions of `_compiled_force_sweep` when it applies)."""
     v.choice("sweep", "start", start, STARTS)
     strategy = make_strategy(method, options)
     if not hasattr(mechanism, "compile"):
@@ -84,9 +98,11 @@ def _plan(mechanism, values, motion, method, start, options):
                          "component)")
     slots = None if motion is None else _prescribed_slots(compiled, motion, comps)
     warm = start == "previous" and _warm_starts(strategy)
+    if compiled_loop and slots is None and jit.enabled() and hasattr(strategy, "sweep_forces"):
+        return values, _compiled_force_sweep(strategy, compiled, values, warm)
 
     def solutions():
-        last = None  # the last converged solution
+        last = last_values = None  # the last converged solution and its prescribed values
         for value in values:
             previous = last if warm else None
             t0 = time.perf_counter()
@@ -96,12 +112,14 @@ def _plan(mechanism, values, motion, method, start, options):
                 else:
                     vals = compiled.problem.values.copy()
                     vals[slots] = value
-                    problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
+                    # from the previous solution: the rotations move along the requested values
+                    problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state,
+                                                           start_values=None if previous is None else last_values)
                     sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
             except Exception as exc:  # kept, with the reason: one value never costs the others
                 sol = _failed(strategy, compiled, value, exc, time.perf_counter() - t0)
             if sol.converged:
-                last = sol
+                last, last_values = sol, (None if slots is None else vals)
             yield sol
 
     return (values if slots is None or len(slots) > 1 else values[:, 0]), solutions()
@@ -160,13 +178,28 @@ def _failed(strategy, compiled, value, exc: Exception, seconds: float) -> Soluti
 
 
 def _warm_starts(strategy) -> bool:
-    """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies)."""
+    """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies);
+    known per solve function after the first look (inspect.signature costs ~40 us, once per solve before)."""
     import inspect
 
-    try:
-        return "state" in inspect.signature(strategy.solve).parameters
-    except (TypeError, ValueError):
-        return False
+    solve = getattr(strategy, "solve", None)
+    kind = getattr(solve, "__func__", solve)  # the function, shared by a class's instances
+    if kind not in _WARM:
+        try:
+            _WARM[kind] = "state" in inspect.signature(strategy.solve).parameters
+        except (TypeError, ValueError):
+            _WARM[kind] = False
+    return _WARM[kind]
+
+
+_WARM: dict = {}
+
+
+def _compiled_force_sweep(strategy, compiled, values, warm):
+    """A force sweep as compiled Newton loops (`flexmb.solvers.newton.Newton.sweep_forces`): the
+    gripper's 138-force opening-closing sweep in about 5 ms instead of 60 (BENCHMARKS.md); the
+    same iterations and equilibria as the per-solve path (tests/test_closed_form_jit.py)."""
+    return strategy.sweep_forces(compiled, values, warm, lambda value: _with_actuation(compiled, value))
 
 
 def _forces(owner: str, forces) -> np.ndarray:
@@ -214,6 +247,9 @@ class SweepResult(Sequence):
 
     def __init__(self, solutions: list, values: np.ndarray, quantity: str):
         self.solutions, self._values, self.quantity = solutions, np.array(values, dtype=float), quantity
+
+        #: the `properties` columns requested from `sweep`, a `Table` (None: none)
+        self.property_table = None
 
     @property
     def values(self) -> np.ndarray:
@@ -284,6 +320,8 @@ class SweepResult(Sequence):
                 raise ModelError(f"no point named {name!r}; points: {', '.join(compiled.points) or 'none'}")
             xyz = np.array([s.point(owner, name) for s in sols])
             cols.update({f"{name}.{a}": xyz[:, i] for i, a in enumerate(axes)})
+        if self.property_table is not None:
+            cols.update(self.property_table)
         return Table(cols)
 
     def to_csv(self, path, links=None, points=()):

@@ -79,13 +79,29 @@ def read_csv(path) -> Table:
     """Read a `Table.to_csv` file back: columns of integers, floats (``nan``/``inf`` included),
     booleans or text, each as the narrowest of those that holds every entry. A number is read as
     one only when written as Python writes it: ``7``, ``-7``, ``0.25``, ``1e-05``; text such as
-    ``007``, ``+7``, ``1_000`` or `` 7`` stays text."""
+    ``007``, ``+7``, ``1_000`` or `` 7`` stays text.
+
+    The file is read as UTF-8. `ParameterError` when it cannot be read or is not a regular file
+    (a folder, FIFO or device), is not UTF-8 text, or is
+    not CSV the `csv` module accepts (a field longer than ``csv.field_size_limit()``,
+    131072 characters by default), naming the line."""
     path = _path("read_csv", path)
     try:
-        with path.open(newline="") as f:
-            rows = list(csv.reader(f))
+        if path.exists() and not path.is_file():  # a folder, FIFO or device: opening could block or never end
+            raise ParameterError(f"read_csv: {str(path)!r} is not a regular file")
+        with path.open(newline="", encoding="utf-8") as f:
+            reader = csv.reader(f)
+            try:
+                rows = list(reader)
+            except csv.Error as exc:
+                hint = "; csv.field_size_limit() raises the limit" if "field larger" in str(exc) else ""
+                raise ParameterError(f"read_csv: {str(path)!r} line {reader.line_num}: not readable CSV "
+                                     f"({exc}{hint})") from None
     except OSError as exc:
         raise ParameterError(f"read_csv: cannot read {str(path)!r}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ParameterError(f"read_csv: {str(path)!r} is not UTF-8 text (byte {exc.start}: {exc.reason}); "
+                             "save it as UTF-8") from None
     if not rows:
         raise ParameterError(f"read_csv: {str(path)!r} is empty (expected a header row)")
     head, body = rows[0], rows[1:]

@@ -5,11 +5,13 @@ material's given yield stress, and the parasitic shortening the closed-form mode
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
 
 from .closed_form.problem import LinkageProblem
+from ._validate import hashable
 from .errors import ConvergenceWarning, ModelError, PlausibilityWarning
 from .rotations import rot2
 from .sections import properties
@@ -81,10 +83,7 @@ def _shortening(solution, stacklevel: int) -> None:
     (one whose closed-form end lies on its x axis, unrotated: a leaf spring, not a curved beam)."""
     worst = None
     for name, joint, placement, side_a, side_b in solution.compiled.joints:
-        if "closed_form" not in joint.capabilities:
-            continue
-        cf = joint.closed_form(2)
-        if cf.end_angle != 0.0 or cf.end[1] != 0.0:
+        if not _straight(joint):
             continue
         a0 = placement.origin
         b0 = placement.to_global(joint.interface_b(2))
@@ -106,6 +105,24 @@ def _shortening(solution, stacklevel: int) -> None:
                       f"that far shortens by about 0.6 d^2/L = {0.6 * d * d / L:.3g}, which the closed-form "
                       "constant-stiffness model leaves out (no parasitic shortening). Use method='conventional' "
                       "where parasitic motions matter", PlausibilityWarning, stacklevel=stacklevel)
+
+
+def _straight(joint) -> bool:
+    """Whether a joint is a straight closed-form flexure (its end on its x axis, unrotated);
+    cached per joint value (joints are immutable): `ClosedForm` can cost more than the check."""
+    if not hashable(joint):
+        return _is_straight(joint)
+    return _straight_cached(joint)
+
+
+def _is_straight(joint) -> bool:
+    if "closed_form" not in joint.capabilities:
+        return False
+    cf = joint.closed_form(2)
+    return cf.end_angle == 0.0 and cf.end[1] == 0.0
+
+
+_straight_cached = functools.lru_cache(maxsize=256)(_is_straight)
 
 
 def _x0(solution, link: str) -> np.ndarray:

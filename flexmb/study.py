@@ -22,7 +22,7 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 
 from .errors import FlexmbError, ParameterError
-from .table import Table
+from .table import Table, column
 
 __all__ = ["grid", "parameter_study", "StudyError", "StudyInterrupted", "ON_ERROR", "ERROR_COLUMN", "joint_range"]
 
@@ -356,19 +356,6 @@ def _stop(pool: ProcessPoolExecutor) -> None:
 
 # -- the table -------------------------------------------------------------------------------
 
-def _column(values: list) -> np.ndarray:
-    """Numbers as a numeric array, text as text; anything else (mixed, sequences) kept as objects."""
-    if all(isinstance(x, (bool, np.bool_)) for x in values) or all(
-            isinstance(x, (int, float, np.number)) and not isinstance(x, (bool, np.bool_)) for x in values):
-        return np.array(values)
-    if all(isinstance(x, str) for x in values):
-        return np.array(values, dtype=str)
-    out = np.empty(len(values), dtype=object)
-    for i, x in enumerate(values):  # one by one: a list stays one cell
-        out[i] = x
-    return out
-
-
 def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
     """One row per design: inputs, outputs (NaN where a design has none) and the error record.
     Outputs named like an input or the error column are refused, with the table attached."""
@@ -378,9 +365,9 @@ def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
     outputs = list(dict.fromkeys(k for r in rows for k in r))
     clash = [k for k in outputs if k in inputs or k == ERROR_COLUMN]
     names = {k: (f"output.{k}" if k in clash else k) for k in outputs}
-    cols = {n: _column([d.get(n, np.nan) for d in designs]) for n in inputs}
-    cols.update({names[k]: _column([r.get(k, np.nan) for r in rows]) for k in outputs})
-    cols[ERROR_COLUMN] = _column(errors)
+    cols = {n: column([d.get(n, np.nan) for d in designs]) for n in inputs}
+    cols.update({names[k]: column([r.get(k, np.nan) for r in rows]) for k in outputs})
+    cols[ERROR_COLUMN] = column(errors)
     table = Table(cols)
     if clash:
         exc = ParameterError(f"parameter_study: outputs {sorted(clash)} have the names of inputs or of the "

@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import ModelError, ParameterError
 
-__all__ = ["Table", "read_csv"]
+__all__ = ["Table", "read_csv", "column"]
 
 
 class Table(Mapping):
@@ -29,7 +29,10 @@ class Table(Mapping):
         self._columns = {}
         n = None
         for name, values in columns.items():
-            a = np.array(values)  # a copy: the caller's arrays stay theirs
+            if isinstance(values, np.ndarray) or not _scalars(values):
+                a = _array(name, values)  # a copy; more than 1-D is refused below
+            else:
+                a = column(values)  # a copy: the caller's values stay theirs
             if a.ndim != 1:
                 raise ParameterError(f"Table: column {name!r} must be one-dimensional, got shape {a.shape}")
             if n is not None and len(a) != n:
@@ -73,6 +76,38 @@ class Table(Mapping):
         except OSError as exc:
             raise ParameterError(f"to_csv: cannot write {str(path)!r}: {exc.strerror or exc}") from None
         return path
+
+
+def _scalars(values) -> bool:
+    """Whether ``values`` is a sequence (not text) of scalar cells."""
+    if isinstance(values, (str, bytes, Mapping)) or not hasattr(values, "__iter__"):
+        return False
+    return all(np.ndim(x) == 0 and not isinstance(x, (list, tuple, dict)) for x in values)
+
+
+def _array(name, values) -> np.ndarray:
+    try:
+        return np.array(values)
+    except (TypeError, ValueError):  # ragged
+        raise ParameterError(f"Table: column {name!r} must be a 1-D sequence of scalars") from None
+
+
+def column(values) -> np.ndarray:
+    """A new 1-D array of ``values``: numbers as numbers, booleans as booleans, text as text, and
+    a mix (or sequences) as objects, one per cell: never a silent conversion of numbers to text."""
+    values = list(values) if not isinstance(values, (str, bytes)) and hasattr(values, "__iter__") else values
+    if not isinstance(values, list):
+        return np.array(values)  # a scalar: refused by the caller (not 1-D)
+    if all(isinstance(x, (bool, np.bool_)) for x in values) or all(
+            isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, (bool, np.bool_))
+            for x in values):
+        return np.array(values)
+    if all(isinstance(x, str) for x in values):
+        return np.array(values, dtype=str)
+    out = np.empty(len(values), dtype=object)
+    for i, x in enumerate(values):  # one by one: a list stays one cell
+        out[i] = x
+    return out
 
 
 def read_csv(path) -> Table:

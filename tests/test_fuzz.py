@@ -8,6 +8,7 @@ leaves the mechanism exactly as it was; a solve that reports convergence has fin
 """
 
 import pickle
+import warnings
 
 import attrs
 import numpy as np
@@ -223,3 +224,115 @@ def test_workflow_functions_refuse_junk_with_flexmb_errors(call, value, tmp_path
     pytest.importorskip("meshio")
     monkeypatch.chdir(tmp_path_factory.mktemp("fuzz"))
     _outcome(lambda: WORKFLOW[call](value))
+
+
+# -- studies, sweeps and tables keep what the user had (issue 20) ---------------------------------
+
+cells = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-2**62, 2**62), st.text(max_size=6),
+                  st.booleans(), st.none())
+column_names = st.one_of(st.text(max_size=4), st.integers(-3, 3))
+
+
+@FUZZ
+@given(columns=st.dictionaries(column_names, st.one_of(st.lists(cells, max_size=4), junk), max_size=4))
+def test_a_table_keeps_every_column_as_given_or_refuses_and_leaves_the_input_alone(columns):
+    before = pickle.dumps(columns)
+    made = []
+    exc = _outcome(lambda: made.append(flexmb.Table(columns)))
+    assert pickle.dumps(columns) == before  # nothing the user had is changed
+    if exc is None:
+        table = made[0]
+        assert list(table) == [str(k) for k in columns]  # no column lost or merged
+        for k, values in columns.items():
+            got = table[str(k)]
+            assert len(got) == len(values)
+            for a, b in zip(got.tolist(), list(values)):  # each cell as given: no number turned into text
+                assert a == b or (a != a and b != b) or (isinstance(b, float) and a == b), (a, b)
+                assert isinstance(a, str) == isinstance(b, str)
+
+
+def _round_trippable(text: str) -> bool:
+    """Text that read_csv's documented rule keeps as text (not a number as Python writes it, not a
+    boolean, not "nan"/"inf")."""
+    from flexmb.table import _FLOAT
+
+    return not _FLOAT.fullmatch(text) and text not in ("True", "False")
+
+
+typed_columns = st.one_of(st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=4),
+                          st.lists(st.integers(-2**62, 2**62), min_size=1, max_size=4),
+                          st.lists(st.booleans(), min_size=1, max_size=4),
+                          st.lists(st.text(max_size=6).filter(_round_trippable), min_size=1, max_size=4))
+
+
+@FUZZ
+@given(columns=st.lists(typed_columns, min_size=1, max_size=3).filter(lambda c: len({len(x) for x in c}) == 1))
+def test_a_table_comes_back_from_csv_with_the_same_cells_and_types(columns, tmp_path_factory):
+    """Numbers stay numbers (floats bit for bit), text stays text ('007' is not 7), booleans stay booleans."""
+    table = flexmb.Table({f"c{i}": c for i, c in enumerate(columns)})
+    back = flexmb.read_csv(table.to_csv(tmp_path_factory.mktemp("csv") / "t.csv"))
+    assert list(back) == list(table)
+    for name in table:
+        a, b = table[name], back[name]
+        assert a.dtype.kind == b.dtype.kind or (a.dtype.kind == "U" and b.dtype.kind == "O"), (a, b)
+        if a.dtype.kind == "f":
+            np.testing.assert_array_equal(a, b)  # NaN == NaN here
+        else:
+            assert a.tolist() == b.tolist()
+
+
+def _study_design(x=0.0, fail=0, **rest):
+    """A design function that fails in the ways a user's can: raises, returns junk, or works."""
+    if fail == 1:
+        raise ValueError("bad design")
+    if fail == 2:
+        return {"y": [x, x]}  # not a scalar
+    if fail == 3:
+        return {1: x}  # not a name
+    if fail == 4:
+        return object()  # not a scalar (one scalar, e.g. text, is the column "value")
+    return {"y": 2 * x if isinstance(x, (int, float)) else 0.0}
+
+
+designs_strategy = st.lists(st.fixed_dictionaries({"x": st.one_of(st.floats(allow_nan=True), st.text(max_size=3),
+                                                                   st.lists(st.integers(), max_size=2)),
+                                                   "fail": st.integers(0, 4)}), max_size=5)
+
+
+@FUZZ
+@given(designs=st.one_of(designs_strategy, junk), on_error=st.sampled_from(["record", "raise"]))
+def test_a_study_returns_one_row_per_design_or_a_flexmb_error_and_never_changes_the_designs(designs, on_error):
+    before = pickle.dumps(designs)
+    out = []
+    exc = _outcome(lambda: out.append(flexmb.parameter_study(_study_design, designs, executor="serial",
+                                                            on_error=on_error)))
+    assert pickle.dumps(designs) == before
+    table = out[0] if out else getattr(exc, "table", None)
+    if table is not None:  # a result or an error carrying the table: every design has its row
+        assert table.n_rows == len(designs)
+        for i, d in enumerate(designs):
+            x = table["x"][i]
+            assert x == d["x"] or (x != x and d["x"] != d["x"]) or list(x) == d["x"]
+            assert (table["error"][i] == "") == (d["fail"] == 0) or table["error"][i].startswith("cancelled")
+
+
+@FUZZ
+@given(values=st.one_of(st.lists(st.floats(-2.0, 2.0), min_size=1, max_size=4).map(np.array), junk))
+def test_a_sweep_keeps_a_solution_per_value_or_refuses_and_changes_nothing(values):
+    """Angles to +-2 rad (beyond the database's 75 deg): a KSD sweep keeps every value, refused
+    ones as non-converged Solutions; the mechanism and the values array are not changed."""
+    m = models.cross_flexure_pivot(elements_per_leaf=1, dim=2)
+    m.prescribe("B", rotation=0.0)
+    before, values_before = _snapshot(m), pickle.dumps(values)
+    out = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        exc = _outcome(lambda: out.append(flexmb.sweep(m, values, motion=("B", "rotation"), method="ksd-reduced")))
+    assert _snapshot(m) == before and pickle.dumps(values) == values_before
+    valid = isinstance(values, np.ndarray) and values.ndim == 1 and len(values) and np.isfinite(values).all()
+    assert exc is None or not valid, exc  # finite angles: never refused, whatever one of them does
+    if exc is None:
+        result = out[0]
+        assert len(result) == len(values)
+        for sol in result:
+            assert sol.converged or sol.message

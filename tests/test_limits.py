@@ -92,3 +92,16 @@ def test_automatic_joint_names_never_collide_with_a_users():
     m.add_joint("A", "B", "cross_flexure", name="cross_flexure_1")
     m.add_joint("B", "C", "cross_flexure")  # would be "cross_flexure_1": takes the next free number
     assert list(m.joints) == ["cross_flexure_1", "cross_flexure_2"]
+
+
+def test_ksd_refuses_a_prescribed_rotation_no_chain_of_trained_joints_reaches_at_once():
+    """Found by tests/test_fuzz.py: a prescribed 1e300 rad kept KSD step 1 busy for minutes.
+    One cross flexure trained to +-75 deg (1.309 rad) plus a full turn reaches 7.59 rad."""
+    import time
+
+    m = models.cross_flexure_pivot(elements_per_leaf=1, dim=2)
+    m.prescribe("B", rotation=1e300)
+    t0 = time.perf_counter()
+    with pytest.raises(flexmb.DatabaseError, match="1e\\+300 rad is beyond the trained ranges"):
+        flexmb.solve(m, method="ksd-reduced")
+    assert time.perf_counter() - t0 < 5.0

@@ -58,6 +58,20 @@ def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool) -> None
                 warnings.warn(msg + "; the database fits are extrapolated", ExtrapolationWarning, stacklevel=4)
 
 
+def _check_reachable(red: ReducedMechanism) -> None:
+    """Refuse (`DatabaseError`) a prescribed rotation component larger than the trained ranges of
+    all joints together plus a full turn: no joint rotations within their ranges reach it, and
+    step 1 would grind through thousands of load steps first (a prescribed 1e300 rad: minutes).
+    Nearer rotations are left to step 1, which names the joint out of its range."""
+    reach = sum(max(abs(lo), abs(hi)) * len(idx) for tpl, _, idx in red.groups for lo, hi in [tpl.data.range])
+    comp = red.prescribed % 6
+    rot = np.abs(np.asarray(red.values, dtype=float)[comp >= 3])
+    if rot.size and rot.max() > reach + 2 * np.pi:
+        raise DatabaseError(f"KSD: a prescribed rotation of {rot.max():.6g} rad is beyond the trained ranges of all the "
+                            f"mechanism's joints together and a full turn ({reach:.4g} + 2 pi rad); use method='conventional' or retrain with "
+                            "`flexmb train --range`")
+
+
 @attrs.frozen(kw_only=True)
 class _KSD:
     """Kinematically Started Deformation method (Dwarshuis et al. 2020).
@@ -114,6 +128,8 @@ class _KSD:
         red = ReducedMechanism(compiled, self.database)
         t = lap("setup", t0)
 
+        if self.strict_range:
+            _check_reachable(red)
         try:
             poses, theta, p_hat, info = solve_kinematics(red, tol=self.kinematic_tol, stop_beyond_half_turn=self.strict_range)
         except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy

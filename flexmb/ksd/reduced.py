@@ -99,6 +99,10 @@ class ReducedMechanism:
 
         names, a, b, rot, b0, origin, groups, seen = [], [], [], [], [], [], {}, {}
         for key, jt, pl, side_a, side_b in compiled.joints:
+            if "ideal" in jt.capabilities:
+                raise UnsupportedStrategyError(
+                    f"joint {key!r} ({jt.kind}) is an ideal joint: KSD's kinematic step and reduced model do not "
+                    "include ideal joints yet; solve with method='conventional' (exact hinge constraints)")
             try:
                 tpl = seen[jt] if hashable(jt) and jt in seen else template(jt, dim, folder)
             except DatabaseError as exc:

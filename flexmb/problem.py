@@ -224,6 +224,18 @@ class StaticProblem(BoundaryConditions):
         du[self.prescribed] = du_pres
         return du
 
+    def broken_constraints(self, state: State, lam: float = 1.0) -> str:
+        """Why ``state`` is not the equilibrium asked for although its residual vanishes, or "": an
+        over-constrained mechanism whose prescribed motion violates the hinges' redundant rows
+        (dropped at build time as dependent, `flexmb.fe.ideal.Hinges.violated`)."""
+        m = self.model
+        if m.hinges is None:
+            return ""
+        size = float(np.ptp(m.x0, axis=0).max()) or 1.0
+        bad = m.hinges.violated(state.positions, state.rotations, self.motor_fraction(lam), size)
+        return ("" if not bad else "the prescribed motion contradicts the over-constrained hinges: their redundant "
+                f"(dropped) constraint rows are violated: {', '.join(bad)} [m, rad]")
+
     def reduced_tangent(self, K_ff: sp.csr_array) -> sp.csr_array:
         """The free tangent on the motions the hinges allow, ``Z^T K Z`` with ``G Z = 0`` (``G`` the
         hinges' constraint rows): positive definite exactly when the constrained equilibrium is a

@@ -82,6 +82,16 @@ def test_a_planar_loop_in_3d_drops_its_redundant_rows():
     assert (hinges.n_rows, len(hinges.dropped)) == (15, 5)
 
 
+def test_a_prescribed_motion_that_contradicts_redundant_rows_is_not_converged():
+    # the 3D planar four-bar's crank turned about a tilted axis: the ground pin's axis rows were
+    # dropped as dependent (crank orientation prescribed) and are now violated: reported, named
+    m = fourbar(3, "prescribe", 0.0)
+    m.prescribe("crank", rotation=[0.05, 0.0, 0.3])
+    sol = flexmb.solve(m)
+    assert not sol.converged
+    assert "O2.axis_y" in sol.message and "contradicts" in sol.message
+
+
 def test_drive_torque_of_a_loaded_fourbar_is_the_virtual_work_of_the_load():
     # a force P on the coupler's reference point (the crank pin), the crank turned 0.3 rad: the
     # hinges' forces do no work in a motion the hinges allow, so the torque holding the crank is

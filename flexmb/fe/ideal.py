@@ -75,8 +75,20 @@ class Hinges:
     angle: np.ndarray
     active: np.ndarray
     scale: np.ndarray
-    #: dependent rows dropped at build time, as ``"joint.row"`` names (`row_names`)
+    #: dependent rows dropped at build time, as ``"joint.row"`` names (`row_names`), and their mask
     dropped: tuple = ()
+    dropped_rows: np.ndarray | None = None
+
+    def violated(self, positions, R, lam_angle: float, size: float, tol: float = 1e-8) -> list[str]:
+        """The dropped (dependent) rows that a state violates by more than ``tol`` (positions: times
+        ``size`` [m]; rotations [rad]), as ``"joint.row (value)"``: an over-constrained mechanism
+        whose prescribed motion contradicts its redundant constraints."""
+        if self.dropped_rows is None or not self.dropped_rows.any():
+            return []
+        c = self.residual_rows(positions, R, lam_angle)[0]
+        limit = np.where(np.arange(ROWS[self.dim]) < self.dim, tol * size, tol)
+        bad = self.dropped_rows & (np.abs(c) > limit)
+        return [f"{self.names[h]}.{row_names(self.dim)[r]} ({c[h, r]:+.3g})" for h, r in zip(*np.nonzero(bad))]
 
     @property
     def n_rows(self) -> int:

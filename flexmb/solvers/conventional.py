@@ -208,6 +208,9 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
             steps += 1
             if lam >= 1.0 - 1e-14:
                 lam = 1.0
+                broken = problem.broken_constraints(state)  # "" without hinges
+                if broken:
+                    return finish(False, f"not converged: {broken}", r)
                 out = finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
                 out["stable"] = is_stable(problem.reduced_tangent(Kff))  # Kff itself without hinges
                 if out["stable"] is False:

@@ -89,6 +89,8 @@ class StaticProblem(BoundaryConditions):
         self._wrench0 = np.zeros_like(self._wrench)
         self._motion_scale = 1.0
         self._offset = None
+        #: (prescribed slots (3,), w_0, w_1) of 3D orientations followed as exp(w_0 + lam (w_1 - w_0))
+        self._rotation_lines = ()
 
     @functools.cached_property
     def _patterns(self) -> tuple[SparsePattern, SparsePattern]:
@@ -127,16 +129,21 @@ class StaticProblem(BoundaryConditions):
         out._offset = functools.partial(self.residual, state, 1.0)  # needed only if a step is cut
         return out
 
-    def with_motion(self, values: np.ndarray, start: State | None = None) -> StaticProblem:
+    def with_motion(self, values: np.ndarray, start: State | None = None,
+                    start_values: np.ndarray | None = None) -> StaticProblem:
         """A copy with other prescribed ``values`` (same DOFs, totals from the undeformed state).
 
         With ``start`` (an equilibrium under these loads), the load factor moves the prescribed
         DOFs from ``start`` to ``values`` while the loads stay whole (a warm start along a motion
-        sweep); 3D orientations turn about the one axis of ``R_target R_start^T``.
+        sweep); 3D orientations turn about the one axis of ``R_target R_start^T`` or, given the
+        prescribed ``start_values`` ``start`` was solved for, along ``exp(w_0 + lam (w_1 - w_0))``:
+        the requested motion, however far (a turn of more than pi is not taken the short way;
+        `max_load_step` splits it).
         """
         out = copy.copy(self)
         out.values = np.asarray(values, dtype=float)
         out._offset = None
+        out._rotation_lines = ()
         if start is None:
             return out
         m = self.model
@@ -153,6 +160,11 @@ class StaticProblem(BoundaryConditions):
             for dofs, w in self.rotation_paths:
                 target[np.searchsorted(self.prescribed[first], dofs[0])] = chain_rotation(w, 1.0)
             inc[blocks] = logm_so3(target @ start.rotations[node[first]].transpose(0, 2, 1))
+            if start_values is not None:
+                chained = {int(d[0]) for d, _ in self.rotation_paths}
+                w0 = np.asarray(start_values, dtype=float)
+                out._rotation_lines = tuple((b, w0[b], out.values[b]) for b in blocks
+                                            if int(self.prescribed[b[0]]) not in chained)
         out.values = inc
         out.rotation_paths = ()
         out._motor_reached = True
@@ -215,7 +227,18 @@ class StaticProblem(BoundaryConditions):
             for dofs, w in self.rotation_paths:
                 step = chain_rotation(w, lam + dlam) @ chain_rotation(w, lam).T
                 du[np.searchsorted(self.prescribed, dofs)] = logm_so3(step)
+        for slots, w0, w1 in self._rotation_lines:
+            du[slots] = logm_so3(expm_so3(w0 + (lam + dlam) * (w1 - w0)) @ expm_so3(w0 + lam * (w1 - w0)).T)
         return du
+
+    @property
+    def max_load_step(self) -> float:
+        """Largest load-factor step whose prescribed rotation increments stay below 3 rad (< pi,
+        so that each is the requested turn, not the short way round): the angle between
+        ``exp(a)`` and ``exp(b)`` is at most ``|a - b|``, a chain's at most the sum of its links'."""
+        turn = max([float(np.sum(np.linalg.norm(w, axis=1))) for _, w in self.rotation_paths if self._motion_scale]
+                   + [float(np.linalg.norm(w1 - w0)) for _, w0, w1 in self._rotation_lines] + [0.0])
+        return min(1.0, 3.0 / turn) if turn > 0.0 else 1.0
 
     def full_increment(self, du_free: np.ndarray, du_pres: np.ndarray) -> np.ndarray:
         """The increment of every DOF from its free and prescribed parts."""
@@ -235,6 +258,15 @@ class StaticProblem(BoundaryConditions):
         bad = m.hinges.violated(state.positions, state.rotations, self.motor_fraction(lam), size)
         return ("" if not bad else "the prescribed motion contradicts the over-constrained hinges: their redundant "
                 f"(dropped) constraint rows are violated: {', '.join(bad)} [m, rad]")
+
+    @functools.cached_property
+    def model_length(self) -> float:
+        """A length of the model [m]: the diagonal of its nodes' bounding box (the mean element
+        length if the nodes coincide); moments over it compare with forces, rotations with
+        translations over it."""
+        x0 = self.model.x0
+        d = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0))) if len(x0) else 0.0
+        return d if d > 0.0 else float(np.mean(self.model.elements.L0)) if len(self.model.elements.L0) else 1.0
 
     def reduced_tangent(self, K_ff: sp.csr_array) -> sp.csr_array:
         """The free tangent on the motions the hinges allow, ``Z^T K Z`` with ``G Z = 0`` (``G`` the

@@ -358,3 +358,28 @@ class TestHingeConformance(flexmb.testing.JointConformance):
     closed-form Newton refuse it (UnsupportedStrategyError), so their frame-invariance check skips."""
 
     joint_class = flexmb.Hinge
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("top, c", [("pinned", np.pi**2), ("fixed", 20.190728556)])
+def test_hinged_euler_columns_bifurcate_at_their_closed_form_loads_through_trace(dim, top, c):
+    # the same columns loaded to 1.5x their critical load (shear-corrected Euler, as above) and
+    # traced by arc length: the path loses stability at a located bifurcation (no load-factor
+    # extremum), at the critical load to the mesh's order-2 error; stable before, unstable after
+    s = flexmb.LeafSpring().cross_section()
+    P = c * s.E * s.Iz / 0.1**2
+    P = P / (1.0 + P / (s.ky * s.G * s.A))
+    err = []
+    for n_el in (16, 32):
+        m = _column(dim, top, n_el)
+        m.clear_loads()
+        m.apply_force("slider" if top == "pinned" else "top", [-1.5 * P, 0.0] + ([0.0] if dim == 3 else []))
+        path = flexmb.trace(m, steps=40, max_load_factor=1.0, progress=False)
+        assert path.stopped_by == "max_load_factor", path.message
+        (crit,) = path.critical
+        assert crit.kind == "bifurcation"
+        err.append(1.5 * crit.load_factor - 1.0)
+        before = path.load_factor < crit.load_factor
+        assert path.stable[before].all() and not path.stable[~before].any()
+    assert 0 < err[1] < 2e-3
+    assert err[0] / err[1] == pytest.approx(4.0, rel=0.1)

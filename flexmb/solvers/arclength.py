@@ -202,7 +202,7 @@ class ArcLength:
         """The undeformed configuration as the path's first point (load factor 0)."""
         state = problem.model.initial_state()
         r = problem.evaluate(state, 0.0, tangent=False)[0]
-        neg, near = inertia(Kff0)
+        neg, near = inertia(problem.reduced_tangent(Kff0))  # hinges: on the motions they allow
         t, tl = t0
         direction = 1.0 if tl >= 0 else -1.0  # towards positive load factors
         return PathPoint(state, 0.0, r, t, tl, direction, neg, near, direction * tl, 0.0, 0)
@@ -271,7 +271,7 @@ class ArcLength:
         chord_u, chord_l = metric.difference(state, a.state), lam - a.lam
         # the path runs through the new point the way the chord from the last one points
         direction = 1.0 if metric.dot(t, chord_u) + metric.psi2 * tl * chord_l >= 0.0 else -1.0
-        neg, near = inertia(Kff)
+        neg, near = inertia(problem.reduced_tangent(Kff))  # hinges: on the motions they allow
         arc = a.arc + metric.length(chord_u, chord_l)
         return PathPoint(state, lam, r, t, tl, direction, neg, near, direction * tl, arc, iterations,
                          tuple(history), seconds)
@@ -289,6 +289,8 @@ class ArcLength:
         tr = np.zeros(m.ndof, dtype=bool)
         tr[: m.dim] = True
         is_tr = np.tile(tr, m.n_nodes)
+        if m.hinges is not None:  # the hinges' position rows are forces, their angle rows moments
+            is_tr = np.concatenate([is_tr, np.nonzero(m.hinges.active)[1] < m.dim])
         F = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
         M = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]), F * metric.size)
         if F == 0.0 and M == 0.0:
@@ -384,7 +386,7 @@ class ArcLength:
 
 def _kth_eigenvalue(problem, p: PathPoint, k: int) -> float:
     """The ``k``-th (0-based, ascending) eigenvalue of the symmetric free tangent at ``p``."""
-    Kff = problem.evaluate(p.state, p.lam)[1]
+    Kff = problem.reduced_tangent(problem.evaluate(p.state, p.lam)[1])
     n = Kff.shape[0]
     if n < DENSE_EIGEN_BELOW:
         A = Kff.toarray()
@@ -404,12 +406,12 @@ def _negligible(model, du: np.ndarray, size: float) -> bool:
     """Whether an increment moves no node by more than 1e-12 of the mechanism's size (nor turns
     one by 1e-12 rad): round-off in the positions; measured on a strut with EA L^2 / EI = 1e7,
     whose residual stalls at 3.5e-8 of the applied load while the corrections reach 1e-16."""
-    d = du.reshape(model.n_nodes, model.ndof)
+    d = model.node_part(du)
     return bool(np.max(np.abs(d[:, : model.dim])) <= 1e-12 * size and np.max(np.abs(d[:, model.dim:])) <= 1e-12)
 
 
 def _largest_rotation(model, du: np.ndarray) -> float:
-    rot = du.reshape(model.n_nodes, model.ndof)[:, model.dim:]
+    rot = model.node_part(du)[:, model.dim:]
     return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
 
 
@@ -456,7 +458,10 @@ class _Metric:
     def _weights(self) -> np.ndarray:
         w = np.ones(self.model.ndof)
         w[: self.model.dim] = 1.0 / self.size
-        return np.tile(w, self.model.n_nodes) / self.scale
+        w = np.tile(w, self.model.n_nodes) / self.scale
+        if self.model.hinges is not None:  # the hinges' multipliers follow the motion: no weight
+            w = np.concatenate([w, np.zeros(self.model.hinges.n_rows)])
+        return w
 
     def dot(self, a: np.ndarray, b: np.ndarray) -> float:
         w = self._weights()
@@ -479,7 +484,7 @@ class _Metric:
             out[:, 2] = state.rotations - start.rotations
         else:
             out[:, 3:] = logm_so3(state.rotations @ start.rotations.transpose(0, 2, 1))
-        return out.ravel()
+        return np.concatenate([out.ravel(), m.multiplier_change(start, state)])
 
     def root(self, Du, Dl, dr, dt, ds) -> float:
         """``dlam`` of the corrector on the constraint ``|(Du + dr + dlam dt, Dl + dlam)| = ds``

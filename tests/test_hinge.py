@@ -106,11 +106,16 @@ def test_drive_torque_of_a_loaded_fourbar_is_the_virtual_work_of_the_load():
     assert sol.reaction("crank")[2] == pytest.approx(-float(P @ dx), rel=1e-10)
     assert np.allclose(sol.reaction("ground")[:2], -P, atol=1e-10)
     assert np.abs(sol.imbalance()).max() < 1e-10
-    # a motor hinge reaches the same configuration
+    # a motor hinge reaches the same configuration and applies that torque on the crank
     m = fourbar(2, "motor", 0.3)
     m.apply_force("coupler", P)
     motor = flexmb.solve(m, tol=1e-11)
     assert np.allclose(motor.node_positions(), sol.node_positions(), atol=1e-12)
+    assert motor.joint_wrench("O2")[2] == pytest.approx(-float(P @ dx), rel=1e-10)
+    # the crank pin carries the force on the coupler: the coupler's hinges balance P
+    assert np.allclose(motor.joint_wrench("A")[:2] - motor.joint_wrench("B")[:2], -P, atol=1e-10)
+    with pytest.raises(flexmb.ModelError, match="no ideal joint named 'crank'"):
+        motor.joint_wrench("crank")
 
 
 def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work():
@@ -146,15 +151,20 @@ def test_hinge_spring_gives_moment_k_theta_exactly(dim, turn):
     axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
     rotation = None if dim == 2 else np.cross([0, 0, 1.0], axis) / np.linalg.norm(np.cross([0, 0, 1.0], axis)) \
         * np.arccos(axis[2])
-    m.add_joint("ground", "arm", "hinge", k=k, origin=[0.05, 0.02] + z, rotation=rotation)
+    m.add_joint("ground", "arm", "hinge", k=k, origin=[0.05, 0.02] + z, rotation=rotation, name="spring")
     m.prescribe("arm", rotation=turn if dim == 2 else turn * axis)
     sol = flexmb.solve(m, tol=1e-10)
     assert sol.converged, sol.message
     moment = sol.reaction("arm")[dim:]
     # about the hinge origin the arm needs k theta along the axis (the pin carries the force)
+    # the hinge's own wrench on the arm about its origin: the spring's -k theta about the axis
+    w = sol.joint_wrench("spring")
     if dim == 2:
         assert moment[0] == pytest.approx(k * turn, rel=1e-12)
+        assert w[2] == pytest.approx(-k * turn, rel=1e-12)
     else:
+        assert w[3:] @ axis == pytest.approx(-k * turn, rel=1e-12)
+        assert np.linalg.norm(w[3:] - (w[3:] @ axis) * axis) < 1e-9 * k
         f = sol.reaction("arm")[:3]
         arm = sol.pose("arm")[0] - np.array([0.05, 0.02, 0.3])
         about_pin = moment + np.cross(arm, f)

@@ -202,6 +202,22 @@ class Hinges:
         K[:, rb, rb] += Hsum[:, 1, 1]
         return F, K
 
+    def wrench_on_b(self, h: int, positions, R, multipliers) -> np.ndarray:
+        """The wrench hinge ``h`` (its constraints and spring) applies on its link B: force [N]
+        and moment [N m] about the joint origin, global axes ((3,) in 2D, (6,) in 3D)."""
+        dim = self.dim
+        nd = 3 if dim == 2 else 6
+        F = self.response(positions, R, multipliers, 1.0, tangent=False)[0][h, nd:2 * nd]
+        f, m = -F[:dim], -F[dim:]  # the hinge's internal force on B's DOFs, reversed
+        b = self.node[h, 1]
+        if dim == 2:
+            c, s = np.cos(R[b]), np.sin(R[b])
+            d = np.array([c * self.offset[h, 1, 0] - s * self.offset[h, 1, 1], s * self.offset[h, 1, 0]
+                          + c * self.offset[h, 1, 1]])
+            return np.concatenate([f, m - (d[0] * f[1] - d[1] * f[0])])
+        d = R[b] @ self.offset[h, 1]
+        return np.concatenate([f, m - np.cross(d, f)])
+
     def _angle_derivatives(self, R, tangent: bool):
         """Gradient (H, 2 ndof) of the relative angle on the solver's increments and its spin
         derivative (H, 2 ndof, 2 ndof)."""

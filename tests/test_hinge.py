@@ -118,12 +118,14 @@ def test_drive_torque_of_a_loaded_fourbar_is_the_virtual_work_of_the_load():
         motor.joint_wrench("crank")
 
 
-def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work():
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("drive", ["prescribe", "motor"])
+def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work(dim, drive):
     # beyond the papers: a pseudo-rigid-body four-bar in mm, N, N mm: every hinge a spring k
     # [N mm/rad]; the drive torque is dU/dth2 = sum k_i theta_i dtheta_i/dth2 (relative angles;
     # velocity analysis of the Freudenstein loop: Norton, Design of Machinery, Eq. 6.18)
     k, dth, mm = 250.0, 0.4, 1000.0
-    sol = flexmb.solve(fourbar(2, "prescribe", dth, k=k, units=mm), tol=1e-9)
+    sol = flexmb.solve(fourbar(dim, drive, dth, k=k, units=mm), tol=1e-9)
     assert sol.converged, sol.message
     th2 = TH20 + dth
     th4, th3 = freudenstein(th2)
@@ -132,7 +134,10 @@ def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work():
     w4 = A_ * np.sin(th2 - th3) / (C_ * np.sin(th4 - th3))
     rel = [(dth, 1.0), ((th3 - th30) - dth, w3 - 1.0), ((th4 - th40) - (th3 - th30), w4 - w3), (-(th4 - th40), -w4)]
     T = sum(k * t * dt for t, dt in rel)
-    assert sol.reaction("crank")[2] == pytest.approx(T, rel=1e-9)
+    if drive == "prescribe":
+        assert sol.reaction("crank")[-1] == pytest.approx(T, rel=1e-9)
+    else:  # the motor's torque T, and the ground pin's own spring -k dth, on the crank
+        assert sol.joint_wrench("O2")[-1] == pytest.approx(T - k * dth, rel=1e-9)
     assert angle_of(sol, "rocker") == pytest.approx(th4 - th40, abs=1e-10)
     assert sol.strain_energy() == pytest.approx(0.5 * k * sum(t * t for t, _ in rel), rel=1e-12)
     assert sol.stable is True

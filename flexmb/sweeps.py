@@ -374,6 +374,10 @@ def tangent_stiffness(mechanism, solution=None, terms: bool = False, *, method: 
     if terms:
         raise UnsupportedStrategyError("tangent_stiffness: terms are defined for the closed-form model "
                                        "(method='newton'), not the finite-element model")
+    if getattr(problem.model, "hinges", None) is not None:
+        raise UnsupportedStrategyError(
+            f"tangent_stiffness: the ideal joints {list(problem.model.hinges.names)} make the links infinitely stiff "
+            "in the directions they constrain; use flexmb.compliance (finite, zero in those directions)")
     _, Kff, _, _ = problem.evaluate(state, 1.0)
     K = Kff.toarray()
     pos = np.searchsorted(problem.free, keep)

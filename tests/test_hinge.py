@@ -398,3 +398,22 @@ def test_hinged_euler_columns_bifurcate_at_their_closed_form_loads_through_trace
         assert path.stable[before].all() and not path.stable[~before].any()
     assert 0 < err[1] < 2e-3
     assert err[0] / err[1] == pytest.approx(4.0, rel=0.1)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compliance_of_a_sprung_pin_is_one_over_k_about_its_axis_and_zero_elsewhere(dim):
+    k = 8.0
+    z = [] if dim == 2 else [0.0]
+    m = flexmb.Mechanism(dim=dim)
+    m.add_link("ground", position=[0.0, 0.0] + z, fixed=True)
+    m.add_link("arm", position=[0.1, 0.0] + z)
+    m.add_joint("ground", "arm", "hinge", k=k, origin=[0.0, 0.0] + z, name="pin")
+    sol = flexmb.solve(m)
+    C = flexmb.compliance(sol, "arm", point=[0.0, 0.0] + z)  # at the pin
+    expected = np.zeros_like(C)
+    expected[-1, -1] = 1.0 / k  # rotation about z per unit moment
+    assert np.allclose(C, expected, atol=1e-12 / k)
+    tip = flexmb.compliance(sol, "arm")  # 0.1 m from the pin: the tip moves 0.1/k per N m
+    assert tip[1, -1] == pytest.approx(0.1 / k, rel=1e-12)
+    with pytest.raises(flexmb.UnsupportedStrategyError, match=r"\['pin'\]"):
+        flexmb.tangent_stiffness(m)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import flexmb
-from flexmb.linear import DENSE_BELOW, TangentSolver
+from flexmb.linear import DENSE_BELOW, TangentSolver, available
 from flexmb.testing import finite_difference_tangent, perturbed_state
 
 # four-bar of rigid links: crank a, coupler b, rocker c, ground d [m] (a Grashof crank-rocker)
@@ -278,6 +278,9 @@ def test_saddle_point_tangent_is_solved_exactly_below_and_above_the_dense_limit(
         x = solver.solve(Kff, b)
         # backward error of an exact solve of the indefinite saddle point
         assert np.abs(Kff @ x - b).max() <= 1e-12 * (abs(Kff).max() * np.abs(x).max() + np.abs(b).max())
+    if n >= DENSE_BELOW and available()["qdldl"]:  # the shifted LDL^T took every Newton solve
+        stats = problem._tangent_solver.stats
+        assert stats["ldl"] > 0 and stats["superlu"] == 0
     assert sol.stable is True
 
 

@@ -16,8 +16,8 @@ multiplier's force ``s_i g_i^T mu_i`` on the links' rows (``g_i`` its gradient i
 increments: translations and spins), so the tangent is the symmetric saddle point
 ``[[K + sum mu_i s_i H_i, s G^T], [s G, 0]]``. ``s`` (N/m for positions, N m/rad for rotations)
 puts the constraint rows in the units and the size of the model's own stiffest rows, so the
-residual norm stays a force and the saddle point is balanced; the physical multiplier (the
-constraint force [N] or moment [N m] on link A) is ``s_i mu_i``.
+residual norm stays a force and the saddle point is balanced; ``s_i mu_i`` is the physical
+multiplier [N, N m] (`flexmb.Solution.joint_wrench` turns them into the wrench on link B).
 """
 
 from __future__ import annotations

@@ -420,3 +420,26 @@ def test_compliance_of_a_sprung_pin_is_one_over_k_about_its_axis_and_zero_elsewh
     assert tip[1, -1] == pytest.approx(0.1 / k, rel=1e-12)
     with pytest.raises(flexmb.UnsupportedStrategyError, match=r"\['pin'\]"):
         flexmb.tangent_stiffness(m)
+
+
+def test_warm_started_sweeps_with_hinges_equal_cold_solves():
+    # a load sweep on a motor-driven PRB four-bar (the motor stays at its angle from the warm
+    # start) and a 3D crank-rotation sweep: the same equilibria as solving each value afresh
+    forces = [0.0, 5.0, 20.0]
+    m = fourbar(2, "motor", 0.5, k=2.0)
+    m.set_actuation("coupler", (0.0, -1.0))
+    for f, warm in zip(forces, flexmb.sweep(m, forces)):
+        cold = fourbar(2, "motor", 0.5, k=2.0)
+        cold.set_actuation("coupler", (0.0, -1.0), value=f)
+        cold = flexmb.solve(cold)
+        assert np.allclose(warm.node_positions(), cold.node_positions(), atol=1e-12)
+        assert warm.joint_wrench("O2")[2] == pytest.approx(cold.joint_wrench("O2")[2], rel=1e-9)
+    turns = [0.2, 0.6, 1.2]
+    m = fourbar(3, "prescribe", 0.0, k=2.0)
+    m.apply_force("coupler", [0.0, -3.0, 0.0])
+    for a, warm in zip(turns, flexmb.sweep(m, [[0.0, 0.0, a] for a in turns], motion=("crank", "rotation"))):
+        cold = fourbar(3, "prescribe", a, k=2.0)
+        cold.apply_force("coupler", [0.0, -3.0, 0.0])
+        cold = flexmb.solve(cold)
+        assert np.allclose(warm.node_positions(), cold.node_positions(), atol=1e-12)
+        assert warm.reaction("crank")[-1] == pytest.approx(cold.reaction("crank")[-1], rel=1e-6)

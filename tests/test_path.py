@@ -254,3 +254,37 @@ def test_a_path_that_cannot_continue_is_reported_with_its_points():
     path = flexmb.trace(cases.lee_frame(), steps=5, arc_length=1.0, max_rotation=1e-12, progress=False)
     assert path.stopped_by == "failure" and "cannot continue from load factor 0" in path.message
     assert len(path) == 1 and path[0].converged and path.load_factor[0] == 0.0
+
+
+def test_qiu_bistable_snaps_through_between_two_stable_states():
+    """Qiu, Lang & Slocum's (2004) double curved beam (Q = h/t = 12) under force control, with a
+    1e-3 third-mode imperfection: stable up to the forward switching force, unstable on the way
+    down to the backward one, stable again through the second stable state (force 0 at about
+    twice the rise, the mirrored shape). The switching forces against Qiu's modal model
+    (`qiu_switching_forces`: 0.0481 N, -0.0237 N): measured -4.9 % and -5.3 % (the model keeps
+    modes 1 and 3 of a shallow beam; the imperfection lowers F_top by 2 %)."""
+    f_top, f_bot = cases.qiu_switching_forces()
+    path = flexmb.trace(cases.qiu_bistable(load=f_top), steps=150, arc_length=0.05, progress=False,
+                        stop=lambda s: -s.displacement("C")[1] > 2.6e-4)
+    assert [c.kind for c in path.critical] == ["limit", "limit"]
+    top, bottom = (c.load_factor * f_top for c in path.critical)
+    assert top == pytest.approx(f_top, rel=0.06) and top < f_top
+    assert bottom == pytest.approx(f_bot, rel=0.06) and bottom > f_bot
+    d = np.array([-s.displacement("C")[1] for s in path])
+    second = np.flatnonzero(np.diff(np.sign(path.load_factor)) > 0)[-1] + 1  # the force turns positive again
+    assert d[second] == pytest.approx(2 * 1.2e-4, rel=0.02) and path.stable[second]
+    arcs = [c.arc_length for c in path.critical]
+    between = (path.arc_length > arcs[0]) & (path.arc_length < arcs[1])
+    assert between.sum() > 5 and not path.stable[between].any() and path.stable[~between].all()
+    _check_stability(path)
+
+
+def test_the_perfect_bistable_bifurcates_into_the_third_mode():
+    """Without the imperfection the beam reaches the third mode's buckling load on its way down
+    (Qiu's mode switch): a bifurcation at the forward switching force, 3.0 % below the modal
+    model's (measured)."""
+    f_top, _ = cases.qiu_switching_forces()
+    path = flexmb.trace(cases.qiu_bistable(load=f_top, imperfection=0.0), steps=12, arc_length=0.05,
+                        progress=False)
+    first = path.critical[0]
+    assert first.kind == "bifurcation" and first.load_factor == pytest.approx(1.0, rel=0.05)

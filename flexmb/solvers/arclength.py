@@ -167,6 +167,11 @@ class ArcLength:
     max_rotation
         A corrector that turns a node by more than this [rad] cuts the step (it is leaving the
         branch; as in `Conventional`), None disables the check (1.0).
+    max_turn
+        A step whose end tangent turns from its start tangent by more than this [rad] is cut in
+        half (0.2): the path keeps its resolution through sharp turns and does not jump to a
+        nearby branch (Qiu's bistable with a 1e-3 imperfection, where two branches pass close:
+        at 0.5 the path jumped onto the other and went round it; at 0.2 it snaps through).
     locate_tol
         Critical points are located to this fraction of the arc length between the two
         bracketing points (1e-6).
@@ -183,6 +188,7 @@ class ArcLength:
     max_arc: float = attrs.field(default=1000.0, validator=positive_float)
     max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(positive_float))
     locate_tol: float = attrs.field(default=1e-6, validator=unit_interval)
+    max_turn: float = attrs.field(default=0.2, validator=positive_float)
 
     # -- the pieces --------------------------------------------------------------------------
     def setup(self, problem):
@@ -314,6 +320,8 @@ class ArcLength:
         a, ds = first, ds0
         while True:
             b = self.step(problem, metric, a, ds)
+            if b is not None and ds > self.min_arc * ds0 and self._turn(metric, a, b) > self.max_turn:
+                b = None  # the path turns too sharply for this step: it may have jumped to another branch
             if b is None:
                 ds *= 0.5
                 if ds < self.min_arc * ds0:
@@ -325,30 +333,35 @@ class ArcLength:
             yield ("point", b, ds)
             a, ds = b, self.next_arc(ds, b.iterations, ds0)
 
+    @staticmethod
+    def _turn(metric, a: PathPoint, b: PathPoint) -> float:
+        """The angle [rad] between the oriented unit tangents at ``a`` and ``b``."""
+        c = (metric.dot(a.tangent, b.tangent) + metric.psi2 * a.tangent_lam * b.tangent_lam) / (1.0 + metric.psi2)
+        return math.acos(max(-1.0, min(1.0, a.direction * b.direction * c)))
+
     def _critical(self, problem, metric, a: PathPoint, b: PathPoint, ds: float):
         """The limit and bifurcation points between consecutive points ``a`` and ``b``, in path order.
 
         Each eigenvalue (ascending order) that changes sign between them is located by its zero;
-        the limit point, if ``dlam/ds`` changes sign, by that zero. The eigenvalue crossing at
-        the limit point (the same arc length within ``locate_tol``) is the limit's own; every
-        other crossing is a bifurcation point."""
+        the limit point, if ``dlam/ds`` changes sign, by that zero. The eigenvalue crossing
+        nearest the limit point is the limit's own (the two zeros agree only to the equilibrium's
+        accuracy: the eigenvalue is flat there); every other crossing is a bifurcation point."""
         found = []
         if np.sign(a.dlam_ds) != np.sign(b.dlam_ds):
             p = self.locate(problem, metric, a, ds, a.dlam_ds, b.dlam_ds, lambda x: x.dlam_ds)
             if p is not None:
                 found.append(("limit", p))
-        limit_arc = found[0][1].arc if found else None
+        crossings = []
         for k in range(min(a.negative, b.negative), max(a.negative, b.negative)):
             def crossing(x, k=k):
                 return _kth_eigenvalue(problem, x, k)
 
             p = self.locate(problem, metric, a, ds, crossing(a), crossing(b), crossing)
-            if p is None:
-                continue
-            if limit_arc is not None and abs(p.arc - limit_arc) <= 1e3 * self.locate_tol * ds:
-                limit_arc = None  # the limit point's own eigenvalue
-                continue
-            found.append(("bifurcation", p))
+            if p is not None:
+                crossings.append(p)
+        if found and crossings:  # the crossing nearest the limit point is the limit's own eigenvalue
+            crossings.remove(min(crossings, key=lambda p: abs(p.arc - found[0][1].arc)))
+        found += [("bifurcation", p) for p in crossings]
         for kind, p in sorted(found, key=lambda f: f[1].arc):
             yield ("critical", kind, p)
 

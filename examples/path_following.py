@@ -4,7 +4,7 @@ Five cases (builders and closed forms in `flexmb.studies.paths`), each traced fr
 state by arc length, with stability at every point and the located critical points:
 
 * Lee's frame (E = 720, A = 6, I = 2, L = 120; 10 and 40 elements per member): limit loads in
-  P L^2 / EI against the literature (18.5 and about -9.6);
+  P L^2 / EI, the upper one against the literature's 18.5;
 * DaDeppo & Schmidt's (1975) 215 deg clamped-hinged arch under an apex load: P R^2 / EI = 9.0;
 * Qiu, Lang & Slocum's (2004) double curved-beam bistable (silicon, Q = 12) under force control,
   against their modal model's force curve and switching forces;
@@ -63,8 +63,8 @@ def table(results: dict) -> str:
     """The critical points, steps, iterations and time per case (Markdown)."""
     rows = ["| case | points | iterations | time [s] | critical points (kind: value) | reference |",
             "|---|---|---|---|---|---|"]
-    refs = {"lee10": "18.5, -9.6 (P L²/EI; Schweizerhof & Wriggers 1986, 10 el.)",
-            "lee40": "18.5, -9.6 (P L²/EI)",
+    refs = {"lee10": "upper 18.5 (P L²/EI; Lee et al. 1968, Schweizerhof & Wriggers 1986, 10 el.)",
+            "lee40": "upper 18.5 (P L²/EI)",
             "arch": "9.0 (P R²/EI; DaDeppo & Schmidt 1975)",
             "qiu": "F_top {:.4g} N, F_bot {:.4g} N (Qiu et al. 2004 modal model)",
             "strut": "elastica (no critical point with the imperfection)",

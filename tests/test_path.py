@@ -290,3 +290,56 @@ def test_the_perfect_bistable_bifurcates_into_the_third_mode():
                         progress=False)
     first = path.critical[0]
     assert first.kind == "bifurcation" and first.load_factor == pytest.approx(1.0, rel=0.05)
+
+
+# -- hinges (ideal revolute joints, with Lagrange multipliers) ------------------------------------------------
+
+def _hinged_column(top_rotation_held: bool, elements: int = 16):
+    """A column of length 1 (EI = 1) from link A, pinned to the ground G by a hinge, to link B,
+    held sideways (x) and loaded downwards by pi^2 EI / L^2; B's rotation held or free."""
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("G", fixed=True)
+    m.add_link("A")
+    m.add_joint("G", "A", "hinge", origin=(0.0, 0.0))
+    cases.polyline(m, np.column_stack([np.zeros(elements + 1), np.linspace(0.0, 1.0, elements + 1)]),
+                   cases.beam_section(1.0, 1e7, 1.0), ["A"] + [f"c{i}" for i in range(1, elements)] + ["B"])
+    m.prescribe("B", x=0.0, **({"rotation": 0.0} if top_rotation_held else {}))
+    m.apply_force("B", (0.0, -math.pi**2))
+    return m
+
+
+@pytest.mark.parametrize("held, critical", [
+    (False, 1.0),                      # pinned-pinned: pi^2 EI / L^2
+    (True, 4.493409457909064**2 / math.pi**2),  # pinned-fixed: (4.4934)^2 EI / L^2, tan(kL) = kL
+])
+def test_hinged_euler_columns_bifurcate_at_their_closed_form_loads(held, critical):
+    """Pin supports as hinges to a fixed link (`flexmb.joints.Hinge`): the stability is the
+    inertia of the tangent on the motions the hinges allow; the straight column loses it at the
+    Euler load, from above at order 2 (the co-rotational chord's geometric stiffness): measured
+    +1.3, +0.24, +0.08 % pinned-pinned and +2.6, +0.52, +0.13 % pinned-fixed at 8, 16, 32 elements."""
+    path = flexmb.trace(_hinged_column(held), arc_length=0.1, max_load_factor=2.2, progress=False)
+    assert [c.kind for c in path.critical] == ["bifurcation"]
+    assert 0 < path.critical[0].load_factor / critical - 1 < 7e-3  # 16 elements
+    assert path.stable[0] and not path.stable[-1]
+
+
+def test_the_load_factor_derivative_with_a_hinge_motor():
+    """A motor hinge ramps its angle with the load factor: its constraint row's rate is part of
+    d r / d lam (central differences, as above, at lam = 0.4)."""
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("G", fixed=True)
+    m.add_link("A")
+    m.add_link("B", (0.1, 0.0))
+    m.add_joint("G", "A", "hinge", angle=0.5, origin=(0.0, 0.0))
+    m.add_joint("A", "B", "leaf_spring", elements=3)
+    m.apply_force("B", (0.0, -2.0))
+    problem = m.compile().problem
+    lam, h = 0.4, 1e-6
+    rng = np.random.default_rng(2)  # a configuration off equilibrium, multipliers included
+    state = problem.model.apply_increment(problem.model.initial_state(),
+                                          problem.full_increment(rng.normal(scale=1e-2, size=problem.n_free),
+                                                                 np.zeros(len(problem.prescribed))))
+    g, _ = load_tangent(problem, state, lam)
+    fd = (problem.residual(state, lam + h) - problem.residual(state, lam - h))[problem.free] / (2 * h)
+    np.testing.assert_allclose(g, fd, rtol=0, atol=FD_TANGENT * np.max(np.abs(fd)))
+    assert np.max(np.abs(g[-1:])) > 0  # the motor's row moves

@@ -98,7 +98,40 @@ def load_tangent(problem, state: State, lam: float, Kfp=None):
     vp = _prescribed_rate(problem, lam)
     if Kfp is None:
         Kfp = problem.evaluate(state, lam)[2]
-    return -q[problem.free] + Kfp @ vp, vp
+    return (_motor_rate(problem) - q)[problem.free] + Kfp @ vp, vp
+
+
+def _motor_rate(problem) -> np.ndarray:
+    """d r / d lam of the hinges' motors (`flexmb.joints.Hinge`): a motor row's constraint is
+    ``theta - lam angle`` (scaled), so its rate is ``-angle scale`` while the motor ramps."""
+    model = problem.model
+    hinges = getattr(model, "hinges", None)
+    out = np.zeros(model.n_dofs)
+    if hinges is None or problem.motor_fraction(0.0) == 1.0:
+        return out
+    rows = hinges.active.shape[1]
+    n = model.hinge_dofs.shape[1]
+    F = np.zeros((len(hinges.node), n))
+    F[:, n - 1] = np.where(hinges.active[:, -1], -np.nan_to_num(hinges.angle) * hinges.scale[rows - 1], 0.0)
+    np.add.at(out, model.hinge_dofs.ravel(), F.ravel())
+    return out
+
+
+def _translational(model) -> np.ndarray:
+    """Which DOFs (all, multipliers last) are translations or carry forces (True) rather than
+    rotations or moments: a hinge's position rows are forces, its axis and motor rows moments."""
+    node = np.tile(np.arange(model.ndof) < model.dim, model.n_nodes)
+    hinges = getattr(model, "hinges", None)
+    if hinges is None:
+        return node
+    return np.concatenate([node, np.nonzero(hinges.active)[1] < model.dim])
+
+
+def _stability_matrix(problem, Kff):
+    """The matrix whose inertia is the stability: ``K_ff``, or with hinges the tangent on the
+    motions they allow (`StaticProblem.reduced_tangent`; ``K_ff`` then includes the multipliers)."""
+    reduce = getattr(problem, "reduced_tangent", None)
+    return Kff if reduce is None else reduce(Kff)
 
 
 def _prescribed_rate(problem, lam: float) -> np.ndarray:
@@ -208,7 +241,7 @@ class ArcLength:
         """The undeformed configuration as the path's first point (load factor 0)."""
         state = problem.model.initial_state()
         r = problem.evaluate(state, 0.0, tangent=False)[0]
-        neg, near = inertia(Kff0)
+        neg, near = inertia(_stability_matrix(problem, Kff0))
         t, tl = t0
         direction = 1.0 if tl >= 0 else -1.0  # towards positive load factors
         return PathPoint(state, 0.0, r, t, tl, direction, neg, near, direction * tl, 0.0, 0)
@@ -277,7 +310,7 @@ class ArcLength:
         chord_u, chord_l = metric.difference(state, a.state), lam - a.lam
         # the path runs through the new point the way the chord from the last one points
         direction = 1.0 if metric.dot(t, chord_u) + metric.psi2 * tl * chord_l >= 0.0 else -1.0
-        neg, near = inertia(Kff)
+        neg, near = inertia(_stability_matrix(problem, Kff))
         arc = a.arc + metric.length(chord_u, chord_l)
         return PathPoint(state, lam, r, t, tl, direction, neg, near, direction * tl, arc, iterations,
                          tuple(history), seconds)
@@ -289,12 +322,9 @@ class ArcLength:
         free = problem.free
         if self.tol is not None:
             return float(np.linalg.norm(r[free])) <= self.tol
-        m = problem.model
         f_ext = problem.external_force(state, lam)[0]
         f_int = r + f_ext
-        tr = np.zeros(m.ndof, dtype=bool)
-        tr[: m.dim] = True
-        is_tr = np.tile(tr, m.n_nodes)
+        is_tr = _translational(problem.model)
         F = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
         M = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]), F * metric.size)
         if F == 0.0 and M == 0.0:
@@ -397,7 +427,7 @@ class ArcLength:
 
 def _kth_eigenvalue(problem, p: PathPoint, k: int) -> float:
     """The ``k``-th (0-based, ascending) eigenvalue of the symmetric free tangent at ``p``."""
-    Kff = problem.evaluate(p.state, p.lam)[1]
+    Kff = _stability_matrix(problem, problem.evaluate(p.state, p.lam)[1])
     n = Kff.shape[0]
     if n < DENSE_EIGEN_BELOW:
         A = Kff.toarray()
@@ -417,12 +447,12 @@ def _negligible(model, du: np.ndarray, size: float) -> bool:
     """Whether an increment moves no node by more than 1e-12 of the mechanism's size (nor turns
     one by 1e-12 rad): round-off in the positions; measured on a strut with EA L^2 / EI = 1e7,
     whose residual stalls at 3.5e-8 of the applied load while the corrections reach 1e-16."""
-    d = du.reshape(model.n_nodes, model.ndof)
+    d = du[: model.n_nodes * model.ndof].reshape(model.n_nodes, model.ndof)
     return bool(np.max(np.abs(d[:, : model.dim])) <= 1e-12 * size and np.max(np.abs(d[:, model.dim:])) <= 1e-12)
 
 
 def _largest_rotation(model, du: np.ndarray) -> float:
-    rot = du.reshape(model.n_nodes, model.ndof)[:, model.dim:]
+    rot = du[: model.n_nodes * model.ndof].reshape(model.n_nodes, model.ndof)[:, model.dim:]
     return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
 
 
@@ -455,7 +485,7 @@ def _unit_tangent(problem, metric, state, lam, Kff, Kfp):
 @attrs.frozen
 class _Metric:
     """The scaled metric of the arc-length constraint (module notes): translations over ``size``,
-    rotations in rad, divided by ``scale`` (the initial tangent's size)."""
+    rotations in rad, divided by ``scale`` (the initial tangent's size); multipliers weigh 0."""
 
     model: object
     size: float
@@ -467,9 +497,9 @@ class _Metric:
         return self.psi * self.psi
 
     def _weights(self) -> np.ndarray:
-        w = np.ones(self.model.ndof)
-        w[: self.model.dim] = 1.0 / self.size
-        return np.tile(w, self.model.n_nodes) / self.scale
+        w = np.where(_translational(self.model), 1.0 / self.size, 1.0) / self.scale
+        w[self.model.n_nodes * self.model.ndof:] = 0.0  # the hinges' multipliers are no motion
+        return w
 
     def dot(self, a: np.ndarray, b: np.ndarray) -> float:
         w = self._weights()
@@ -492,7 +522,11 @@ class _Metric:
             out[:, 2] = state.rotations - start.rotations
         else:
             out[:, 3:] = logm_so3(state.rotations @ start.rotations.transpose(0, 2, 1))
-        return out.ravel()
+        full = np.zeros(m.n_dofs)
+        full[: out.size] = out.ravel()
+        if state.multipliers is not None and start.multipliers is not None:
+            full[out.size:] = state.multipliers - start.multipliers
+        return full
 
     def root(self, Du, Dl, dr, dt, ds) -> float:
         """``dlam`` of the corrector on the constraint ``|(Du + dr + dlam dt, Dl + dlam)| = ds``

@@ -127,9 +127,12 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         raise ModelError(f"{owner}() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
     compiled = mechanism.compile(strategy.capability)
     problem = compiled.problem
-    if not (np.any(problem.loads.force) or np.any(problem.loads.moment) or np.any(problem.values)):
+    hinges = getattr(problem.model, "hinges", None)
+    motors = hinges is not None and np.any(np.nan_to_num(hinges.angle))
+    if not (np.any(problem.loads.force) or np.any(problem.loads.moment) or np.any(problem.values) or motors):
         raise ModelError(f"{owner}: nothing to scale: the mechanism has no load (apply_force, apply_moment, "
-                         "set_actuation with a non-zero value) and no non-zero prescribed motion (prescribe)")
+                         "set_actuation with a non-zero value), no non-zero prescribed motion (prescribe) and no "
+                         "hinge motor (hinge angle)")
     t0 = time.perf_counter()
     metric, t_0, Kff0 = strategy.setup(problem)
     first = strategy.start(problem, metric, t_0, Kff0)

@@ -343,3 +343,34 @@ def test_the_load_factor_derivative_with_a_hinge_motor():
     fd = (problem.residual(state, lam + h) - problem.residual(state, lam - h))[problem.free] / (2 * h)
     np.testing.assert_allclose(g, fd, rtol=0, atol=FD_TANGENT * np.max(np.abs(fd)))
     assert np.max(np.abs(g[-1:])) > 0  # the motor's row moves
+
+
+def test_a_motor_alone_is_something_to_scale():
+    """A hinge motor turning a leaf spring: the path follows the motor (the leaf bends with it)."""
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("G", fixed=True)
+    m.add_link("A")
+    m.add_link("B", (0.1, 0.0))
+    m.add_joint("G", "A", "hinge", angle=0.3, origin=(0.0, 0.0))
+    m.add_joint("A", "B", "leaf_spring", elements=4)
+    m.prescribe("B", x=0.0, y=0.0)  # B pinned: the motor bends the leaf
+    path = flexmb.trace(m, arc_length=0.1, max_load_factor=1.0, progress=False)
+    assert path.stopped_by == "max_load_factor" and path[-1].pose("A")[1] == pytest.approx(0.3, abs=1e-12)
+
+
+def test_a_spatial_strut_buckles_about_its_weak_axis():
+    """3D: a clamped-free leaf spring (width 20 x thickness 1, 10 elements) under an axial tip
+    load bifurcates at Euler's load about the weak axis, pi^2 E I_z / (4 L^2) (+0.2 % measured:
+    the mesh and shear), long before the strong axis (400 x)."""
+    leaf = flexmb.LeafSpring(length=0.1, width=0.02, thickness=1e-3, elements=10)
+    s = leaf.cross_section()
+    P = math.pi**2 * s.E * s.Iz / (4 * leaf.length**2)
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", (0.1, 0.0, 0.0))
+    m.add_joint("A", "B", leaf)
+    m.apply_force("B", (-P, 0.0, 0.0))
+    path = flexmb.trace(m, arc_length=0.1, max_load_factor=1.3, progress=False)
+    assert [c.kind for c in path.critical] == ["bifurcation"]
+    assert path.critical[0].load_factor == pytest.approx(1.0, rel=5e-3)
+    _check_stability(path)

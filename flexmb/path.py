@@ -69,13 +69,14 @@ class Path(SweepResult):
 
 def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_load_factor: float | None = None,
           stop=None, method: str = "conventional", progress: bool | None = None, **options) -> Path:
-    """The equilibrium path of ``mechanism``'s loads and prescribed motions scaled by a load
-    factor ``lam`` (``lam = 1``: the mechanism as given; the path starts undeformed at 0).
+    """The equilibrium path of ``mechanism``'s loads, prescribed motions and hinge motors scaled by
+    a load factor ``lam`` (``lam = 1``: the mechanism as given; the path starts undeformed at 0).
 
     Arc-length continuation (Crisfield's spherical constraint, `flexmb.solvers.arclength`) follows
     the path through limit points, snap-through and snap-back; the arc length adapts to the
     corrector's iterations. At every point: stability, from the inertia of the symmetric part of
-    the free tangent (the negative eigenvalues are counted). Limit points (extrema of ``lam``) and
+    the free tangent (the negative eigenvalues are counted; with hinges, of the tangent on the
+    motions they allow). Limit points (extrema of ``lam``) and
     bifurcation points (a change of stability without one) between two points are located on the
     path (regula falsi on the arc length, to ``locate_tol``) and reported in `Path.critical`.
 

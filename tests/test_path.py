@@ -374,3 +374,23 @@ def test_a_spatial_strut_buckles_about_its_weak_axis():
     assert [c.kind for c in path.critical] == ["bifurcation"]
     assert path.critical[0].load_factor == pytest.approx(1.0, rel=5e-3)
     _check_stability(path)
+
+
+def test_the_sparse_inertia_equals_the_dense_one():
+    """Above `DENSE_EIGEN_BELOW` free DOFs the negative count comes from a sparse LDL^T and the
+    eigenvalues nearest zero from ARPACK: the same as LAPACK's on a banded symmetric matrix with
+    three negative eigenvalues (and a non-symmetric part that the inertia ignores)."""
+    import scipy.sparse as sp
+
+    from flexmb.solvers.arclength import DENSE_EIGEN_BELOW, inertia
+
+    n = DENSE_EIGEN_BELOW + 100
+    rng = np.random.default_rng(3)
+    d = np.linspace(0.5, 10.0, n)
+    d[[7, 250, 480]] = [-2.0, -0.3, -5.0]
+    off = 0.05 * rng.normal(size=n - 1)
+    K = sp.diags([d, off, off + 0.01], [0, 1, -1]).tocsr()  # skew part 0.005 on the off-diagonals
+    neg, near = inertia(K)
+    ev = sla.eigvalsh(0.5 * (K + K.T).toarray())
+    assert neg == np.sum(ev < 0) == 3
+    np.testing.assert_allclose(near, np.sort(ev[np.argsort(np.abs(ev))[:4]]), rtol=1e-8)

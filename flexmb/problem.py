@@ -201,6 +201,7 @@ class StaticProblem(BoundaryConditions):
         Fe, Ke, _, sig = m.element_response(state, tangent=tangent, geometric_stress=geometric_stress)
         f_ext, G = self.external_force(state, lam)
         r = scatter_add(m.element_dofs, Fe, m.n_dofs) - f_ext
+        self.force_scale = self._force_scale(Fe, f_ext)
         if not tangent:
             return r, None, None, sig
         vals = np.concatenate([Ke.ravel(), (-G).ravel()])
@@ -234,6 +235,30 @@ class StaticProblem(BoundaryConditions):
         du[self.free] = du_free
         du[self.prescribed] = du_pres
         return du
+
+    def _force_scale(self, Fe: np.ndarray, f_ext: np.ndarray) -> float:
+        """The problem's force scale [N]: the largest element end force, applied load or moment
+        over `model_length` (reactions are sums of element forces)."""
+        m, L = self.model, self.model_length
+        nd, d = m.ndof, m.dim
+        F = Fe.reshape(len(Fe), 2, nd) if len(Fe) else np.zeros((0, 2, nd))
+        f = f_ext.reshape(-1, nd)
+        return float(max(np.abs(F[..., :d]).max(initial=0.0), np.abs(F[..., d:]).max(initial=0.0) / L,
+                         np.abs(f[:, :d]).max(initial=0.0), np.abs(f[:, d:]).max(initial=0.0) / L))
+
+    def scaled_residual(self, r_free: np.ndarray) -> float:
+        """``|| [r_F, r_M / L] || / F``: the free residual in units of the force scale of the last
+        `evaluate` (`force_scale`), moments over `model_length`: the same in any consistent unit
+        system."""
+        w = self._free_weights
+        F = getattr(self, "force_scale", 0.0)
+        v = float(np.sqrt(np.sum((r_free * w) ** 2)))
+        return v / F if F > 0.0 else (0.0 if v == 0.0 else np.inf)
+
+    @functools.cached_property
+    def _free_weights(self) -> np.ndarray:
+        comp = self.free % self.model.ndof
+        return np.where(comp < self.model.dim, 1.0, 1.0 / self.model_length)
 
     @functools.cached_property
     def model_length(self) -> float:

@@ -160,21 +160,24 @@ def _largest_rotation(model, du: np.ndarray) -> float:
 
 def _size(model, du: np.ndarray, length: float) -> float:
     """Size of an increment: the largest nodal translation over ``length`` or rotation [rad]."""
-    d = du.reshape(model.n_nodes, model.ndof)
+    d = du[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # hinge multipliers last
     t = np.sqrt(np.max(np.sum(d[:, :model.dim] ** 2, axis=1))) / length if len(d) else 0.0
     return max(float(t), _largest_rotation(model, du))
 
 
 def _increment(model, frm: State, to: State) -> np.ndarray:
     """The increment ``du`` (all DOFs) with ``apply_increment(frm, du) == to``: translations
-    subtract, rotations as spatial spins ``log(R_to R_frm^T)`` (3D, Eq. A.8) or angles (2D)."""
+    subtract, rotations as spatial spins ``log(R_to R_frm^T)`` (3D, Eq. A.8) or angles (2D), the
+    hinges' multipliers subtract."""
     du = np.empty((model.n_nodes, model.ndof))
     du[:, :model.dim] = to.positions - frm.positions
     if model.dim == 2:
         du[:, 2] = to.rotations - frm.rotations
     else:
         du[:, 3:] = logm_so3(to.rotations @ frm.rotations.transpose(0, 2, 1))
-    return du.ravel()
+    if model.hinges is None:
+        return du.ravel()
+    return np.concatenate([du.ravel(), to.multipliers - frm.multipliers])  # the hinges' multipliers last
 
 
 def _extrapolated(model, path: list, target: float) -> np.ndarray:

@@ -61,6 +61,7 @@ class EOBTable:
 
     @property
     def width(self) -> int:
+        """Columns of the samples: the numbers tabulated per angle."""
         return sum(r * c for _, r, c in self.layout)
 
     @property

@@ -3,7 +3,8 @@
 ``K x = b`` with ``K`` the free-free tangent of one sparsity pattern, solved many times (every
 Newton iteration of every load step). Three paths, chosen by size and by what is installed:
 
-* below `DENSE_BELOW` unknowns: dense LAPACK (SuperLU's set-up costs more there);
+* below `DENSE_BELOW` unknowns (`DENSE_BELOW_LDL` when qdldl is the sparse path): dense LAPACK
+  (the sparse set-up costs more there);
 * with qdldl (the OSQP team's LDL^T, in the ``fast`` extra): the symmetric part
   ``K_s = (K + K^T)/2`` factorised as ``P K_s P^T = L D L^T`` with the AMD ordering and the
   symbolic factorisation computed once per pattern (`qdldl.Solver.update` refactors the numbers
@@ -34,9 +35,13 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-__all__ = ["TangentSolver", "DENSE_BELOW", "REFINE_TOL", "available", "single_threaded"]
+__all__ = ["TangentSolver", "DENSE_BELOW", "DENSE_BELOW_LDL", "REFINE_TOL", "available", "single_threaded"]
 
 DENSE_BELOW = 220  # unknowns; crossover of LAPACK and SuperLU ~200-230 (3D cross flexure, four-bar)
+#: The crossover when qdldl's LDL^T (analysis reused) is the sparse path: measured on converged 3D
+#: cantilever tangents in one run (benchmarks/bench_scale.py, one BLAS thread, loaded host), dense /
+#: LDL^T time 0.54 at 48 unknowns, 0.93 at 60, 1.28 at 72, 1.75 at 90, 10 at 120.
+DENSE_BELOW_LDL = 64
 REFINE_TOL = 1e-13  # backward error ||b - K x|| / (||K||_max ||x|| + ||b||) accepted from refinement
 _MAX_REFINE = 6
 #: Shift of a zero diagonal entry in the LDL^T only, relative to max|K| (refinement restores the
@@ -89,7 +94,7 @@ class TangentSolver:
     def solve(self, K: sp.csr_array | sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         """``x`` with ``K x = b`` (``K`` CSR with sorted indices, as `flexmb.fe.assembly` builds it)."""
         n = K.shape[0]
-        if n < DENSE_BELOW:
+        if n < (DENSE_BELOW_LDL if self.use_ldl else DENSE_BELOW):
             self.stats["dense"] += 1
             return np.linalg.solve(K.toarray(), b)
         if self.use_ldl:

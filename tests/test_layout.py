@@ -31,7 +31,7 @@ LAYERS = [
     ("problems", ["flexmb.linear", "flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),
     ("builders", ["flexmb.boundary", "flexmb.fe.build", "flexmb.closed_form", "flexmb.closed_form.build"]),
     ("mechanism", ["flexmb.mechanism"]),
-    ("results and joint data", ["flexmb.results", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),
+    ("results and joint data", ["flexmb.results", "flexmb.database.eob_format", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),
     ("strategies and analysis", ["flexmb.plausibility", "flexmb.solvers", "flexmb.solvers.*", "flexmb.analysis", "flexmb.modal",
                                  "flexmb.linearised", "flexmb.testing", "flexmb.database", "flexmb.database.training",
                                  "flexmb.models"]),

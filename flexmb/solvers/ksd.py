@@ -134,7 +134,10 @@ class _KSD:
         Fh = np.zeros((J, 6))
         eobs = []
         for tpl, _, idx in red.groups:
-            e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
+            if not self.full and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
+                e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
+            else:
+                e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
             K[idx[:, None, None], emb[:, None], emb] = e.K_T
             Fh[idx[:, None], emb] = e.F_hat_T
             eobs.append(e)

@@ -59,8 +59,9 @@ def integer(owner: str, name: str, value, lo: int, hi: int | None = None) -> int
 
 
 def vector(owner: str, name: str, value, size: int) -> np.ndarray:
+    """``value`` as a new float array of shape (size,) (a copy: the caller's array stays theirs)."""
     try:
-        a = np.asarray(value, dtype=float)
+        a = np.array(value, dtype=float)
     except (TypeError, ValueError):
         raise ParameterError(f"{owner}: {name}={value!r} is not a vector of {size} real numbers") from None
     if a.shape != (size,):
@@ -108,6 +109,13 @@ def rigid_body(owner: str, mass, inertia, center, dim: int):
         raise ParameterError(f"{owner}: the principal moments {', '.join(f'{x:.4g}' for x in p)} kg m^2 violate "
                              "the triangle inequality I1 + I2 >= I3 (no mass distribution has them)")
     return m, J, c
+
+
+def frozen(a) -> np.ndarray:
+    """A read-only copy of array ``a``: what a model object stores, so no caller can change it."""
+    out = np.array(a, dtype=float)
+    out.flags.writeable = False
+    return out
 
 
 def flag(owner: str, name: str, value) -> bool:

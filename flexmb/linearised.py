@@ -7,13 +7,15 @@ Both use the full tangent of `flexmb.modal` (dead loads, prescribed DOFs held by
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from . import _validate as v
 from .errors import ModelError, ParameterError
-from .modal import DENSE_BELOW, full_tangent, held_dofs, solvable_problem
+from .modal import DENSE_BELOW, constrained, full_tangent, held_dofs, solvable_problem
 
 __all__ = ["buckling", "compliance", "material_tangent"]
 
@@ -57,8 +59,12 @@ def buckling(solution, n: int = 1, held="prescribed") -> np.ndarray:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:
         raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, "
                              f"{nf}, minus one)")
-    Kt = full_tangent(solution)[free][:, free]
-    Km = material_tangent(solution)[free][:, free]
+    Kt, Km = full_tangent(solution), material_tangent(solution)
+    free, Z = constrained(model, free, Kt)  # hinges: the motions they allow, multipliers out
+    Kt, Km = Kt[free][:, free], Km[free][:, free]
+    if Z is not None:
+        Kt, Km = Z.T @ Kt @ Z, Z.T @ Km @ Z
+        nf = Kt.shape[0]
     Ks = (Kt - Km).tocsr()
     if abs(Ks).max() == 0.0:
         return np.full(n, np.inf)  # no stress, no load: nothing to buckle
@@ -81,9 +87,9 @@ def buckling(solution, n: int = 1, held="prescribed") -> np.ndarray:
     return out
 
 
-def compliance(solution, link: str, point=None, axes: str = "global") -> np.ndarray:
+def compliance(solution, link: str, point=None, axes: str = "global", held="prescribed") -> np.ndarray:
     """Compliance (6, 6) in 3D, (3, 3) in 2D, of a point of ``link`` at the solution's deformed
-    state with the prescribed DOFs held: the point's displacement and rotation [m, rad] per unit
+    state with the ``held`` DOFs held (as in `flexmb.modes`; default the prescribed ones): the point's displacement and rotation [m, rad] per unit
     force and moment [N, N m] applied there (moments about the point), ``C = T K_ff^-1 T^T`` with
     the rigid lever ``T`` from the link's node to the point and ``K_ff`` the full tangent on the
     free DOFs (dead loads). ``point``: a named point of the link (`Mechanism.add_point`) or its
@@ -106,7 +112,8 @@ def compliance(solution, link: str, point=None, axes: str = "global") -> np.ndar
             raise ModelError(f"compliance: link {link!r} has no point named {point!r}")
     else:
         offset = v.vector(f"compliance of link {link!r}", "point", point, dim) - model.x0[node]
-    free = problem.free
+    free = problem.free if isinstance(held, str) and held == "prescribed" else \
+        np.setdiff1d(np.arange(model.n_dofs), held_dofs(solution, held, "compliance"))
     K = full_tangent(solution)[free][:, free].tocsc()
     dofs = model.node_dofs[node]
     cols = np.searchsorted(free, dofs)
@@ -115,7 +122,16 @@ def compliance(solution, link: str, point=None, axes: str = "global") -> np.ndar
     if is_free.any():
         rhs = np.zeros((len(free), int(is_free.sum())))
         rhs[cols[is_free], np.arange(rhs.shape[1])] = 1.0
-        X = problem.solve_linear(K, rhs) if K.shape[0] >= 220 else np.linalg.solve(K.toarray(), rhs)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", sla.LinAlgWarning)  # rcond below eps: singular
+                X = problem.solve_linear(K, rhs) if K.shape[0] >= 220 else sla.solve(K.toarray(), rhs)
+        except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError, ArithmeticError) as exc:
+            raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
+                             "leaves a rigid-body motion free, or the equilibrium is critical)") from exc
+        if not np.all(np.isfinite(X)):
+            raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
+                             "leaves a rigid-body motion free, or the equilibrium is critical)")
         C_node[np.ix_(is_free, is_free)] = X[cols[is_free]]
     T = model._lever(model.offsets(state, np.array([node]), offset[None]))[0]  # point motion = T node motion
     C = T @ C_node @ T.T

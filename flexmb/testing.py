@@ -13,7 +13,8 @@ from .problem import StaticProblem
 
 __all__ = ["finite_difference_tangent", "perturbed_state", "scaled_error", "joint_mechanism", "check_rest",
            "check_tangent", "check_rigid_motion", "check_frame_invariance", "check_reciprocity", "check_energy",
-           "check_strategies", "joints", "placements", "JointConformance"]
+           "check_strategies", "check_mass", "check_modes_rigid_move", "check_floating_modes", "check_rayleigh",
+           "joints", "placements", "JointConformance"]
 
 
 def scaled_error(K: np.ndarray, Kfd: np.ndarray, diag_rows: np.ndarray, diag_cols: np.ndarray) -> float:
@@ -346,6 +347,124 @@ def check_strategies(joint, dim: int, motion: float = 0.2) -> dict:
     return out
 
 
+# -- vibration invariants (issue 22): the joint's own mass, B free ------------------------------
+#
+# These checks linearise the joint mechanism with its leaves' own mass (the sections' density);
+# a joint without mass has nothing to check and returns None.
+
+#: Relative agreement of frequencies of two solves converged to the default ``tol``.
+MODES_TOLERANCE = 1e-6
+
+
+def _massive_solution(joint, dim: int, origin=None, rotation=None, motion: float = 0.0):
+    """The solved joint mechanism, or None when the joint's sections carry no mass."""
+    m = joint_mechanism(joint, dim, origin, rotation, motion=motion)
+    if all(getattr(s, "density", 0.0) == 0.0 for s in m.compile().problem.model.elements.sections):
+        return None
+    return _solve(m)
+
+
+def _rigid_velocities(model) -> np.ndarray:
+    """(N ndof, 3 or 6) nodal velocities of the rigid motions: unit translations, unit spins about
+    the global axes through the origin."""
+    d = model.dim
+    spins = 1 if d == 2 else 3
+    V = np.zeros((model.n_dofs, d + spins))
+    for i in range(d):
+        V[model.node_dofs[:, i], i] = 1.0
+    for i in range(spins):
+        axis = np.eye(3)[2 if d == 2 else i]
+        x = np.column_stack([model.x0, np.zeros(len(model.x0))]) if d == 2 else model.x0
+        V[model.node_dofs[:, :d].ravel(), d + i] = np.cross(axis, x)[:, :d].ravel()
+        V[model.node_dofs[:, d + i], d + i] = 1.0
+    return V
+
+
+def check_mass(joint, dim: int, rotation=None, *, motion: float = 0.2):
+    """The consistent mass on every DOF at a deformed configuration is symmetric (to 1e-14 of its
+    largest entry) and positive definite (Cholesky), and its rigid-body part is the joint's
+    total mass on each translation. Returns the mass matrix (dense) or None (massless joint)."""
+    from .fe.mass import mass_matrix
+
+    sol = _massive_solution(joint, dim, rotation=rotation, motion=motion)
+    if sol is None:
+        return None
+    model = sol.compiled.problem.model
+    M = mass_matrix(model, sol.state, model.rigid_masses).toarray()
+    scale = np.abs(M).max()
+    assert np.abs(M - M.T).max() <= 1e-14 * scale, f"{joint.kind} {dim}D: the mass matrix is not symmetric"
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        raise AssertionError(f"{joint.kind} {dim}D: the mass matrix is not positive definite") from None
+    V = _rigid_velocities(model)[:, :dim]
+    MR = V.T @ M @ V
+    assert np.allclose(MR, MR[0, 0] * np.eye(dim), rtol=1e-12, atol=1e-12 * MR[0, 0]), \
+        f"{joint.kind} {dim}D: the rigid translations do not see one total mass: {np.diag(MR)}"
+    return M
+
+
+def check_modes_rigid_move(joint, dim: int, origin, rotation, *, motion: float = 0.2, n: int = 6):
+    """The ``n`` lowest frequencies (prescribed DOFs held) of the joint placed at ``origin`` with
+    ``rotation`` equal those of the joint in its own frame, to `MODES_TOLERANCE`."""
+    from .modal import modes
+
+    a = _massive_solution(joint, dim, motion=motion)
+    if a is None:
+        return None
+    b = _massive_solution(joint, dim, origin, rotation, motion=motion)
+    n = min(n, len(a.compiled.problem.free) - 1)
+    fa, fb = modes(a, n=n).frequencies, modes(b, n=n).frequencies
+    assert np.allclose(fb, fa, rtol=MODES_TOLERANCE, atol=MODES_TOLERANCE * np.abs(fa).max()), \
+        f"{joint.kind} {dim}D: a rigid move changed the frequencies: {fa} -> {fb}"
+    return fa
+
+
+def check_floating_modes(joint, dim: int, rotation=None):
+    """Unsupported (``held="floating"``) at rest, the joint has exactly its rigid-body zero modes
+    (3 in 2D, 6 in 3D): those eigenvalues below 1e-8 of the first elastic one, their shapes rigid
+    motions (residual after projection on the rigid velocities below 1e-6), the next one elastic."""
+    from .modal import modes
+
+    sol = _massive_solution(joint, dim, rotation=rotation)
+    if sol is None:
+        return None
+    k = 3 if dim == 2 else 6
+    md = modes(sol, n=k + 1, held="floating")
+    lam = md.eigenvalues
+    assert lam[k] > 0 and np.all(np.abs(lam[:k]) <= 1e-8 * lam[k]), \
+        f"{joint.kind} {dim}D: floating eigenvalues {lam} are not {k} zeros and an elastic one"
+    model = sol.compiled.problem.model
+    V = _rigid_velocities(model)
+    for shape in md.shapes[:k]:
+        phi = shape.ravel()
+        coef = np.linalg.lstsq(V, phi, rcond=None)[0]
+        assert np.linalg.norm(V @ coef - phi) <= 1e-6 * np.linalg.norm(phi), \
+            f"{joint.kind} {dim}D: a zero mode is not a rigid motion"
+    return lam
+
+
+def check_rayleigh(joint, dim: int, rotation=None, *, motion: float = 0.2, n: int = 6):
+    """Each mode's Rayleigh quotient ``phi^T K phi / phi^T M phi`` with the full tangent and mass
+    on the free DOFs equals its ``omega^2`` (to 1e-8 of the largest), and the shapes are
+    mass-normalised (``phi^T M phi = 1``)."""
+    from .modal import modes, stiffness_and_mass
+
+    sol = _massive_solution(joint, dim, rotation=rotation, motion=motion)
+    if sol is None:
+        return None
+    n = min(n, len(sol.compiled.problem.free) - 1)
+    md = modes(sol, n=n)
+    K, M = stiffness_and_mass(sol)
+    phi = md.shapes.reshape(n, -1).T
+    mass = np.einsum("ik,ik->k", phi, M @ phi)
+    quotient = np.einsum("ik,ik->k", phi, K @ phi) / mass
+    assert np.allclose(mass, 1.0, rtol=1e-9), f"{joint.kind} {dim}D: shapes not mass-normalised: {mass}"
+    assert np.allclose(quotient, md.eigenvalues, rtol=1e-8, atol=1e-8 * np.abs(md.eigenvalues).max()), \
+        f"{joint.kind} {dim}D: Rayleigh quotients {quotient} != omega^2 {md.eigenvalues}"
+    return quotient
+
+
 # -- hypothesis strategies and the pytest base class ----------------------------------------
 
 
@@ -439,3 +558,19 @@ class JointConformance:
     def test_every_strategy_solves_or_refuses_cleanly(self):
         """`check_strategies`: every strategy solves the joint or raises its documented error."""
         self._run(lambda j, dim, pl, mo: check_strategies(j, dim, motion=mo))
+
+    def test_mass_symmetric_positive_definite(self):
+        """`check_mass`: the consistent mass is symmetric positive definite, one total mass."""
+        self._run(lambda j, dim, pl, mo: check_mass(j, dim, pl[1], motion=mo))
+
+    def test_frequencies_unchanged_by_a_rigid_move(self):
+        """`check_modes_rigid_move`: a moved and turned joint vibrates at the same frequencies."""
+        self._run(lambda j, dim, pl, mo: check_modes_rigid_move(j, dim, pl[0], pl[1], motion=mo))
+
+    def test_unsupported_joint_has_its_rigid_body_zero_modes(self):
+        """`check_floating_modes`: with nothing held, exactly the rigid-body zero modes."""
+        self._run(lambda j, dim, pl, mo: check_floating_modes(j, dim, pl[1]))
+
+    def test_rayleigh_quotients_are_the_eigenvalues(self):
+        """`check_rayleigh`: each mode's Rayleigh quotient is its omega^2."""
+        self._run(lambda j, dim, pl, mo: check_rayleigh(j, dim, pl[1], motion=mo))

@@ -164,9 +164,10 @@ def refinement() -> list[str]:
     out = []
     c = fourbar(5, displacement=0.3).compile()
     for k in (1, 2, 4):
-        e = ExudynModel(c, node_type="Rxyz", refine=k).solve(load_steps=4, absolute_tolerance=1e-6)
+        e = ExudynModel(c, node_type="Rxyz", refine=k).solve(load_steps=2, absolute_tolerance=1e-5)
         s = flexmb.solve(fourbar(5 * k, displacement=0.3))
-        out.append(f"| {5 * k} | {s.reaction('top')[0]:.3f} | {e.reactions['top'][0]:.3f} |")
+        peer = f"{e.reactions['top'][0]:.3f}" if e.converged else "not converged"
+        out.append(f"| {5 * k} | {s.reaction('top')[0]:.3f} | {peer} |")
     return out
 
 
@@ -225,7 +226,7 @@ def main(quick: bool = False) -> str:
     lines += ["", "The same-mesh differences are the two beams' discretisation errors: flexmb's element has the exact",
               "two-node Timoshenko stiffness, Exudyn's interpolates linearly with one-point integration. Refined, both",
               "approach one answer (four-bar actuation force [N]; Exudyn refined by splitting each element of the 5 el./leaf",
-              "mesh, residual below 1e-6):", "",
+              "mesh, residual below 1e-5 N):", "",
               "| elements per leaf | flexmb | Exudyn |", "|---:|---:|---:|", *conv]
     return "\n".join(lines)
 

@@ -113,6 +113,9 @@ class ExudynModel:
         if model.dim != 3:
             raise UnsupportedStrategyError(f"ExudynModel builds 3D models; this one is {model.dim}D "
                                            "(build the mechanism with dim=3)")
+        if getattr(model, "hinges", None) is not None:
+            raise UnsupportedStrategyError("ExudynModel builds flexure joints (beam elements); this mechanism has "
+                                           "ideal joints (hinges), which it does not translate")
         if node_type not in NODE_TYPES:
             raise ModelError(f"ExudynModel: node_type={node_type!r}; valid: {', '.join(NODE_TYPES)}")
         if not (isinstance(refine, (int, np.integer)) and refine >= 1):

@@ -88,6 +88,11 @@ def test_bad_input_is_refused_by_name(monkeypatch):
     c3 = flexmb.models.cantilever(elements=2, dim=3).compile()
     with pytest.raises(UnsupportedStrategyError, match="3D"):
         ExudynModel(flexmb.models.cantilever(elements=2, dim=2).compile())
+    hinged = flexmb.models.cantilever(elements=2, dim=3)
+    hinged.add_link("arm", position=(0.2, 0.0, 0.0))
+    hinged.add_joint("tip", "arm", "hinge", origin=(0.1, 0.0, 0.0), k=1.0)
+    with pytest.raises(UnsupportedStrategyError, match="hinges"):
+        ExudynModel(hinged.compile())
     with pytest.raises(ModelError, match="node_type"):
         ExudynModel(c3, node_type="quaternion")
     with pytest.raises(ModelError, match="refine"):

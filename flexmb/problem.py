@@ -99,8 +99,9 @@ class StaticProblem(BoundaryConditions):
         model, (slot_f, slot_p, nf, npres) = self.model, self._slots
         ed = model.element_dofs
         lr = model.node_dofs[self.loads.node][:, model.dim:]  # (K, nrot)
-        rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in (ed, lr)])
-        cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in (ed, lr)])
+        blocks = (ed, lr) if model.hinges is None else (ed, lr, model.hinge_dofs)
+        rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in blocks])
+        cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in blocks])
         return (SparsePattern(slot_f[rows], slot_f[cols], (nf, nf)),
                 SparsePattern(slot_f[rows], slot_p[cols], (nf, npres)))
 
@@ -116,6 +117,7 @@ class StaticProblem(BoundaryConditions):
         out._wrench0 = (np.zeros_like(out._wrench) if start is None
                         else np.concatenate([start.force, start.moment], axis=1))
         out._motion_scale = 1.0 if start is None else 0.0
+        out._motor_reached = start is not None
         out._offset = None
         return out
 
@@ -165,6 +167,7 @@ class StaticProblem(BoundaryConditions):
                                             if int(self.prescribed[b[0]]) not in chained)
         out.values = inc
         out.rotation_paths = ()
+        out._motor_reached = True
         out._wrench0 = out._wrench
         out._motion_scale = 1.0
         return out
@@ -185,9 +188,14 @@ class StaticProblem(BoundaryConditions):
         """Assembled applied loads at load factor ``lam`` on all DOFs (what `residual` subtracts)."""
         return self.external_force(state, lam)[0]
 
+    def motor_fraction(self, lam: float) -> float:
+        """How much of the hinges' motor angles is reached at load factor ``lam``: ``lam`` from the
+        undeformed state; all of it in a warm-started copy (`with_loads`/`with_motion` with ``start``)."""
+        return 1.0 if getattr(self, "_motor_reached", False) else lam
+
     def residual(self, state: State, lam: float) -> np.ndarray:
-        """``f_int - f_ext(lam)`` on all DOFs (N * ndof,)."""
-        return self.model.internal_force(state) - self.external_force(state, lam)[0]
+        """``f_int - f_ext(lam)`` on all DOFs (n_dofs,; the hinges' multiplier rows last)."""
+        return self.model.internal_force(state, self.motor_fraction(lam)) - self.external_force(state, lam)[0]
 
     def evaluate(self, state: State, lam: float, tangent: bool = True, geometric_stress=None):
         """Residual on all DOFs and, if asked, the tangent blocks ``K_ff`` and ``K_fp`` (CSR).
@@ -201,10 +209,14 @@ class StaticProblem(BoundaryConditions):
         Fe, Ke, _, sig = m.element_response(state, tangent=tangent, geometric_stress=geometric_stress)
         f_ext, G = self.external_force(state, lam)
         r = scatter_add(m.element_dofs, Fe, m.n_dofs) - f_ext
+        Kh = None
+        if m.hinges is not None:
+            Fh, Kh = m.hinge_response(state, self.motor_fraction(lam), tangent=tangent)
+            r = r + scatter_add(m.hinge_dofs, Fh, m.n_dofs)
         self.force_scale = self._force_scale(Fe, f_ext)
         if not tangent:
             return r, None, None, sig
-        vals = np.concatenate([Ke.ravel(), (-G).ravel()])
+        vals = np.concatenate([Ke.ravel(), (-G).ravel()] + ([] if Kh is None else [Kh.ravel()]))
         ff, fp = self._patterns
         return r, ff.matrix(vals), fp.matrix(vals), sig
 
@@ -236,13 +248,25 @@ class StaticProblem(BoundaryConditions):
         du[self.prescribed] = du_pres
         return du
 
+    def broken_constraints(self, state: State, lam: float = 1.0) -> str:
+        """Why ``state`` is not the equilibrium asked for although its residual vanishes, or "": an
+        over-constrained mechanism whose prescribed motion violates the hinges' redundant rows
+        (dropped at build time as dependent, `flexmb.fe.ideal.Hinges.violated`)."""
+        m = self.model
+        if m.hinges is None:
+            return ""
+        size = float(np.ptp(m.x0, axis=0).max()) or 1.0
+        bad = m.hinges.violated(state.positions, state.rotations, self.motor_fraction(lam), size)
+        return ("" if not bad else "the prescribed motion contradicts the over-constrained hinges: their redundant "
+                f"(dropped) constraint rows are violated: {', '.join(bad)} [m, rad]")
+
     def _force_scale(self, Fe: np.ndarray, f_ext: np.ndarray) -> float:
         """The problem's force scale [N]: the largest element end force, applied load or moment
         over `model_length` (reactions are sums of element forces)."""
         m, L = self.model, self.model_length
         nd, d = m.ndof, m.dim
         F = Fe.reshape(len(Fe), 2, nd) if len(Fe) else np.zeros((0, 2, nd))
-        f = f_ext.reshape(-1, nd)
+        f = f_ext[: m.n_node_dofs].reshape(-1, nd)  # the hinges' multiplier rows last
         return float(max(np.abs(F[..., :d]).max(initial=0.0), np.abs(F[..., d:]).max(initial=0.0) / L,
                          np.abs(f[:, :d]).max(initial=0.0), np.abs(f[:, d:]).max(initial=0.0) / L))
 
@@ -257,8 +281,11 @@ class StaticProblem(BoundaryConditions):
 
     @functools.cached_property
     def _free_weights(self) -> np.ndarray:
-        comp = self.free % self.model.ndof
-        return np.where(comp < self.model.dim, 1.0, 1.0 / self.model_length)
+        m = self.model
+        force = np.tile(np.arange(m.ndof) < m.dim, m.n_nodes)
+        if m.hinges is not None:  # a hinge's position rows are forces, its axis and motor rows moments
+            force = np.concatenate([force, np.nonzero(m.hinges.active)[1] < m.dim])
+        return np.where(force[self.free], 1.0, 1.0 / self.model_length)
 
     @functools.cached_property
     def model_length(self) -> float:
@@ -268,6 +295,20 @@ class StaticProblem(BoundaryConditions):
         x0 = self.model.x0
         d = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0))) if len(x0) else 0.0
         return d if d > 0.0 else float(np.mean(self.model.elements.L0)) if len(self.model.elements.L0) else 1.0
+
+    def reduced_tangent(self, K_ff: sp.csr_array) -> sp.csr_array:
+        """The free tangent on the motions the hinges allow, ``Z^T K Z`` with ``G Z = 0`` (``G`` the
+        hinges' constraint rows): positive definite exactly when the constrained equilibrium is a
+        strict minimum of the energy (second-order condition); ``K_ff`` itself without hinges."""
+        m = self.model
+        if m.hinges is None:
+            return K_ff
+        from .fe.ideal import constrained_basis
+
+        n = len(self.free) - m.hinges.n_rows  # the multipliers are the last free DOFs
+        K = sp.csr_array(K_ff)
+        Z = constrained_basis(K[n:, :n])
+        return (Z.T @ K[:n, :n] @ Z).tocsr()
 
     def solve_linear(self, K: sp.csr_array, rhs: np.ndarray) -> np.ndarray:
         """Solve ``K x = rhs`` with `flexmb.linear.TangentSolver` (dense LAPACK below 220 unknowns;

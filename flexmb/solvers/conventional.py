@@ -194,27 +194,30 @@ class Conventional:
 
 def _largest_rotation(model, du: np.ndarray) -> float:
     """Largest nodal rotation [rad] in an increment (all DOFs)."""
-    rot = du.reshape(model.n_nodes, model.ndof)[:, model.dim:]
+    rot = du[:model.n_nodes * model.ndof].reshape(model.n_nodes, model.ndof)[:, model.dim:]  # hinge multipliers last
     return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
 
 
 def _size(model, du: np.ndarray, length: float) -> float:
     """Size of an increment: the largest nodal translation over ``length`` or rotation [rad]."""
-    d = du.reshape(model.n_nodes, model.ndof)
+    d = du[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # hinge multipliers last
     t = np.sqrt(np.max(np.sum(d[:, :model.dim] ** 2, axis=1))) / length if len(d) else 0.0
     return max(float(t), _largest_rotation(model, du))
 
 
 def _increment(model, frm: State, to: State) -> np.ndarray:
     """The increment ``du`` (all DOFs) with ``apply_increment(frm, du) == to``: translations
-    subtract, rotations as spatial spins ``log(R_to R_frm^T)`` (3D, Eq. A.8) or angles (2D)."""
+    subtract, rotations as spatial spins ``log(R_to R_frm^T)`` (3D, Eq. A.8) or angles (2D), the
+    hinges' multipliers subtract."""
     du = np.empty((model.n_nodes, model.ndof))
     du[:, :model.dim] = to.positions - frm.positions
     if model.dim == 2:
         du[:, 2] = to.rotations - frm.rotations
     else:
         du[:, 3:] = logm_so3(to.rotations @ frm.rotations.transpose(0, 2, 1))
-    return du.ravel()
+    if model.hinges is None:
+        return du.ravel()
+    return np.concatenate([du.ravel(), to.multipliers - frm.multipliers])  # the hinges' multipliers last
 
 
 def _continued(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
@@ -240,10 +243,11 @@ def _extrapolated(model, path: list, target: float) -> np.ndarray:
         lam_i, s_i = path[i]
         others = np.delete(lams, i)
         weight = np.prod((target - others) / (lam_i - others))
-        d = _increment(model, last, s_i).reshape(model.n_nodes, model.ndof)
+        d = _increment(model, last, s_i)
         if model.dim == 3:
-            d[:, 3:] = near = _continued(d[:, 3:], near)
-        du += weight * d.ravel()
+            nodes = d[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # a view: hinge multipliers last
+            nodes[:, 3:] = near = _continued(nodes[:, 3:], near)
+        du += weight * d
     return du
 
 
@@ -352,6 +356,9 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
             steps += 1
             if lam >= 1.0 - 1e-14:
                 lam = 1.0
+                broken = problem.broken_constraints(state)  # "" without hinges
+                if broken:
+                    return finish(False, f"not converged: {broken}", r)
                 if tol is not None:
                     out = finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
                     out["tolerance"] = tol
@@ -361,7 +368,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
                     out = finish(True, f"converged: residual {history[-1]:.3g}, {scaled:.2g} of the force scale "
                                        f"{problem.force_scale:.3g} ({why}) in {steps} steps", r)
                     out["tolerance"] = max(rtol * problem.force_scale, history[-1])
-                out["stable"] = is_stable(Kff)
+                out["stable"] = is_stable(problem.reduced_tangent(Kff))  # Kff itself without hinges
                 if out["stable"] is False:
                     out["message"] += ("; the equilibrium is UNSTABLE (tangent not positive definite): another "
                                        "branch may be the physical one, try initial_step < 1")

@@ -114,7 +114,15 @@ class _KSD:
         red = ReducedMechanism(compiled, self.database)
         t = lap("setup", t0)
 
-        poses, theta, p_hat, info = solve_kinematics(red, tol=self.kinematic_tol, stop_beyond_half_turn=self.strict_range)
+        try:
+            poses, theta, p_hat, info = solve_kinematics(red, tol=self.kinematic_tol, stop_beyond_half_turn=self.strict_range)
+        except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy
+            lap("kinematics", t)
+            times["total"] = time.perf_counter() - t0
+            sol = Solution.failed(self.name, compiled, f"{self.name}: {exc}", times)
+            if self.raise_on_failure:
+                raise ConvergenceError(sol.message, sol) from None
+            return sol
         _check_range(red, theta, self.strict_range)
         stages["kinematics"] = info
         t = lap("kinematics", t)
@@ -126,7 +134,10 @@ class _KSD:
         Fh = np.zeros((J, 6))
         eobs = []
         for tpl, _, idx in red.groups:
-            e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
+            if not self.full and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
+                e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
+            else:
+                e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
             K[idx[:, None, None], emb[:, None], emb] = e.K_T
             Fh[idx[:, None], emb] = e.F_hat_T
             eobs.append(e)

@@ -67,7 +67,7 @@ def _chain_3d():
     m.add_joint("B", "C", "leaf_spring", elements=3, origin=(0.1, 0.0, 0.0))
     m.apply_force("B", (1.0, -5.0, 2.0), point=(0.12, 0.01, 0.0))
     m.apply_moment("B", (0.1, 0.2, -0.3))
-    m.prescribe("C", x=0.002, rotation=[(0.0, 0.0, 0.3), (0.2, 0.0, 0.0)])  # a chain of rotations
+    m.prescribe("C", x=2e-5, rotation=[(0.0, 0.0, 0.3), (0.2, 0.0, 0.0)])  # a chain of rotations
     return m
 
 
@@ -412,3 +412,17 @@ def test_the_example_traces_its_cases_and_draws_them(tmp_path):
     assert "| truss |" in text and "limit: 4001.4" in text and "| qiu |" in text
     out = ex.plot(res, tmp_path / "paths.png")
     assert FilePath(out).stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("build", [_lever_2d, _chain_3d])
+def test_the_path_reaches_the_mechanism_as_given_at_load_factor_one(build):
+    """lam = 1 is the mechanism as given: the path's last point at max_load_factor=1 is the
+    equilibrium `flexmb.solve` finds (2D offset loads and prescribed motion; 3D dead moment and a
+    prescribed rotation chain), to the solvers' tolerances."""
+    path = flexmb.trace(build(), arc_length=0.1, max_load_factor=1.0, progress=False)
+    ref = flexmb.solve(build())
+    assert path.stopped_by == "max_load_factor" and path.load_factor[-1] == 1.0
+    np.testing.assert_allclose(path[-1].node_positions(), ref.node_positions(), rtol=0, atol=1e-9)
+    # free components of a reaction are residuals: both below 1e-8 of the reaction's size
+    w = ref.reaction("C")
+    np.testing.assert_allclose(path[-1].reaction("C"), w, rtol=0, atol=1e-8 * np.max(np.abs(w)))

@@ -70,7 +70,7 @@ def table(results: dict) -> str:
     """The critical points, steps, iterations and time per case (Markdown)."""
     rows = ["| case | points | iterations | time [s] | critical points (kind: value) | reference |",
             "|---|---|---|---|---|---|"]
-    refs = {"lee10": "upper 18.5 (P L²/EI; Lee et al. 1968, Schweizerhof & Wriggers 1986, 10 el.)",
+    refs = {"lee10": "upper 18.5 (P L²/EI; as quoted from Schweizerhof & Wriggers 1986, 10 el.)",
             "lee40": "upper 18.5 (P L²/EI)",
             "arch": "9.0 (P R²/EI; DaDeppo & Schmidt 1975)",
             "qiu": "F_top {:.4g} N, F_bot {:.4g} N (Qiu et al. 2004 modal model)",

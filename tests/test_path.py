@@ -182,8 +182,8 @@ def test_the_imperfect_strut_follows_the_elastica():
 
 def test_lee_frame_limit_loads_and_snap_back():
     """Lee's frame (E = 720, A = 6, I = 2, L = 120): the upper limit load in P L^2 / EI against
-    the 18.5 reported in the literature (Lee, Manuel & Rossow 1968; Schweizerhof & Wriggers 1986
-    with 10 elements): 18.66 here with 10 elements per member, 18.56 with 40. The lower one has
+    the 18.5 commonly quoted from Schweizerhof & Wriggers (1986, 10 elements; quoted, the paper
+    not at hand): 18.66 here with 10 elements per member, 18.56 with 40. The lower one has
     no published number at hand: against this model's own 40-element value, -9.427 (-9.618 at
     10: mesh convergence). Snap-back: the load point's downward travel turns back on the
     unstable branch while the load keeps falling."""

@@ -426,3 +426,35 @@ def test_the_path_reaches_the_mechanism_as_given_at_load_factor_one(build):
     # free components of a reaction are residuals: both below 1e-8 of the reaction's size
     w = ref.reaction("C")
     np.testing.assert_allclose(path[-1].reaction("C"), w, rtol=0, atol=1e-8 * np.max(np.abs(w)))
+
+
+def test_the_sparse_kth_eigenvalue_equals_the_dense_one():
+    """Above `DENSE_EIGEN_BELOW` the eigenvalue that crosses zero (the k-th ascending) comes from
+    the negative count and shift-invert ARPACK at 0: the same as LAPACK's, on either side of 0."""
+    import scipy.sparse as sp
+
+    from flexmb.solvers import arclength
+
+    n = arclength.DENSE_EIGEN_BELOW + 100
+    d = np.linspace(0.5, 10.0, n)
+    d[[7, 250, 480]] = [-2.0, -0.3, -5.0]
+    K = sp.diags([d, np.full(n - 1, 0.05), np.full(n - 1, 0.05)], [0, 1, -1]).tocsr()
+
+    class Problem:  # what `_kth_eigenvalue` reads of a problem
+        def evaluate(self, state, lam):
+            return None, K, None, None
+
+        def reduced_tangent(self, Kff):
+            return Kff
+
+    point = _bare_point()
+    ev = sla.eigvalsh(K.toarray())
+    for k in (0, 2, 3, 5):
+        assert arclength._kth_eigenvalue(Problem(), point, k) == pytest.approx(ev[k], rel=1e-9)
+
+
+def _bare_point():
+    """A `PathPoint` with nothing but its place (for functions that evaluate the problem there)."""
+    from flexmb.solvers.arclength import PathPoint
+
+    return PathPoint(None, 0.0, None, None, 0.0, 1.0, 0, np.zeros(0), 0.0, 0.0, 0)

@@ -1,7 +1,19 @@
 """The ``flexmb`` command: ``demo``, ``solve``, ``run``, ``bench``, ``train``, ``joints``.
 
-Errors are one line on stderr (``--debug`` for a traceback). Exit codes: 0 success, 1 a flexmb
-error (bad input, a solve that did not converge, a failed benchmark), 2 usage error.
+Errors are one line on stderr (``--debug`` for a traceback). Exit codes:
+
+- 0 success;
+- 1 a flexmb error: flexmb refused a model or solver parameter, a solve did not converge (its
+  result is still printed), a database is missing, a benchmark failed; ``run``: the script's own
+  exit code (``sys.exit("message")`` prints the message and gives 1, as Python does);
+- 2 a usage error: an unknown command or option, a value of the wrong type or outside its range
+  (``--step 0``, ``--range -5``, ``--elements 0``), ``--param``/``--option`` without ``=VALUE``,
+  an ``--out`` folder that cannot be created or is the shipped data;
+- 141 the reader of the output went away (``flexmb solve fourbar --json | head -c1``): nothing
+  more is printed, as for a process ended by SIGPIPE (128 + 13).
+
+``--json`` output is strict JSON (RFC 8259): non-finite numbers (a diverged state, an infinite
+residual) are written as ``null``.
 """
 
 from __future__ import annotations
@@ -9,6 +21,8 @@ from __future__ import annotations
 import argparse
 import inspect
 import json
+import math
+import os
 import runpy
 import subprocess
 import sys
@@ -23,6 +37,7 @@ from .errors import FlexmbError, ParameterError
 def _demo(args) -> int:
     from .studies import demo
 
+    out = _out_folder(args.out, create=False)  # checked before minutes of solving, created after
     print("flexmb demo 1: cross-flexure pivot of Dwarshuis et al. (2020), Table 1, full model, conventional method")
     print("M / M_lin with M_lin = 2 E I theta / L (Eq. 4.3); reference: inextensible elastica (Wittrick 1948)\n")
     elements = (1, 2, 3) if args.quick else (1, 2, 3, 4, 5)
@@ -40,10 +55,8 @@ def _demo(args) -> int:
     gripper = _demo_gripper(args.quick)
     fourbar_rows = _demo_fourbar(args.quick)
     manipulator_rows = _demo_manipulator(args.quick)
-    out = Path(args.out)
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        written = _demo_figures(out, curves, reference, gripper, fourbar_rows, manipulator_rows)
+        written = _demo_figures(_out_folder(out), curves, reference, gripper, fourbar_rows, manipulator_rows)
         print("\nfigures: " + ", ".join(str(p) for p in written))
     except ImportError:
         print("\n(no figures: install the plot extra, pip install 'flexmb[plot]')")
@@ -146,19 +159,73 @@ def _train(args) -> int:
     from . import database
     from .registry import joint as make_joint
 
-    out = Path(args.out) if args.out else database.data_path()
-    out.mkdir(parents=True, exist_ok=True)
+    out = _out_folder(args.out if args.out is not None else database.user_path())
+    shipped = database.data_path()
+    if out.resolve() == shipped.resolve():
+        raise _UsageError(f"--out {str(out)!r} is the shipped data, which flexmb never writes; train into a folder of "
+                          f"your own (default: {database.user_path()}, or set {database.store.ENVIRONMENT})")
+    params = dict(_parse_params(args.param))
+    range_deg = None if args.range is None else (-args.range, args.range)
     for dim in args.dim:
         for n in args.elements:
-            params = dict(_parse_params(args.param))
-            j = make_joint(args.kind, elements_per_leaf=n, **params) if n else make_joint(args.kind, **params)
-            data = database.train(j, dim, range_deg=None if args.range is None else (-args.range, args.range),
-                                  step_deg=args.step)
-            path = database.save(data, out / database.file_name(j.kind, dim, data.key))
+            j = make_joint(args.kind, elements_per_leaf=n, **params)
+            data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
+            name = database.file_name(j.kind, dim, data.key)
+            path = database.save(data, out / name)
             res = ", ".join(f"{k} {f.max_residual:.1e}" for k, f in data.functions.items())
             print(f"{path}: {len(data.samples)} runs; max fit residuals: {res}, elements "
                   f"{data.elements.max_residual:.1e} rad, nodes {data.nodes.max_residual:.1e} rad")
+            if (shipped / name).exists():
+                print(f"  (for KSD this file takes precedence over the shipped data of the same joint when found "
+                      f"first; search order: {', '.join(map(str, database.search_path(out)))}; delete it to go back)")
     return 0
+
+
+class _UsageError(FlexmbError):
+    """A command-line argument that is malformed or cannot be used (exit code 2)."""
+
+
+def _out_folder(path, *, create: bool = True) -> Path:
+    """The ``--out`` folder, created if needed (with ``create=False`` only checked: it exists as a
+    writable folder, or its nearest existing parent does); `_UsageError` when it cannot be used."""
+    out = Path(path)
+    if create:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise _UsageError(f"--out {str(out)!r}: cannot create the folder: {exc.strerror or exc}") from None
+    where = out.absolute()
+    while not where.exists() and where != where.parent:
+        where = where.parent
+    if not where.is_dir():
+        raise _UsageError(f"--out {str(out)!r}: {str(where)!r} is a file, not a folder")
+    if not os.access(where, os.W_OK | os.X_OK):
+        raise _UsageError(f"--out {str(out)!r}: {str(where)!r} is not writable")
+    return out
+
+
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{n} must be at least 1")
+    return n
+
+
+def _angle(upper: float):
+    """argparse type: a finite angle [deg] in (0, ``upper``]."""
+    def parse(text: str) -> float:
+        try:
+            x = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number [deg]") from None
+        if not 0.0 < x <= upper:  # NaN fails too
+            raise argparse.ArgumentTypeError(f"{text} must lie in (0, {upper:g}] deg")
+        return x
+    parse.__name__ = "angle"
+    return parse
 
 
 def _parse_params(items, flag: str = "--param") -> list[tuple[str, object]]:
@@ -168,7 +235,7 @@ def _parse_params(items, flag: str = "--param") -> list[tuple[str, object]]:
     for item in items or ():
         key, sep, val = item.partition("=")
         if not sep or not key:
-            raise ParameterError(f"{flag} {item!r}: expected NAME=VALUE, e.g. {flag} angle=0.6")
+            raise _UsageError(f"{flag} {item!r}: expected NAME=VALUE, e.g. {flag} angle=0.6")
         out.append((key, [_number(x) for x in val.split(",")] if "," in val else _number(val)))
     return out
 
@@ -210,7 +277,7 @@ def _solve(args) -> int:
     sol = solve(mechanism, method=method, **dict(_parse_params(args.option, "--option")))
     report = solution_report(sol, case=args.case, parameters=params)
     if args.json:
-        print(json.dumps(report, indent=2))
+        print(json.dumps(strict_json(report), indent=2, allow_nan=False))
     else:
         print(f"{args.case} ({method}): {sol.message}; {sol.iterations} iterations, "
               f"{sol.wall_time.get('total', float('nan')) * 1e3:.1f} ms")
@@ -235,6 +302,18 @@ def solution_report(sol, **extra) -> dict:
     return out
 
 
+def strict_json(value):
+    """``value`` (dicts, lists, numbers, text) with every non-finite float replaced by ``None``,
+    so that `json.dumps` writes strict JSON (``null``, not ``NaN``/``Infinity``)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    return value
+
+
 def _run(args) -> int:
     path = Path(args.script)
     if not path.suffix and not path.exists():  # a case name: examples/<name>.py in this folder
@@ -246,8 +325,11 @@ def _run(args) -> int:
     sys.argv = [str(path), *args.args]
     try:
         runpy.run_path(str(path), run_name="__main__")
-    except SystemExit as exc:
-        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except SystemExit as exc:  # as the interpreter does: an int is the code, anything else is printed
+        if exc.code is None or isinstance(exc.code, int):
+            return exc.code or 0
+        print(exc.code, file=sys.stderr)
+        return 1
     finally:
         sys.argv = argv
     return 0
@@ -281,8 +363,15 @@ class _BenchFailed(FlexmbError):
     """A benchmark script exited with an error."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with its usage errors as one line on stderr (exit code 2)."""
+
+    def error(self, message):
+        self.exit(2, f"flexmb: error: {self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="flexmb", description="Kinetostatics of flexure mechanisms.")
+    parser = _Parser(prog="flexmb", description="Kinetostatics of flexure mechanisms.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("demo", help="solve the paper cases, print a result table, write figures")
@@ -292,14 +381,22 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("train", help="(re)train a joint database from the joint's finite-element model")
     p.add_argument("kind", nargs="?", default="cross_flexure", help="joint kind (default: cross_flexure)")
     p.add_argument("--dim", type=int, nargs="+", default=[2, 3], choices=(2, 3))
-    p.add_argument("--elements", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="elements per leaf")
-    p.add_argument("--range", type=float, default=None,
-                   help="intended rotation range +- [deg] (default: the joint's own, 75 for cross_flexure)")
-    p.add_argument("--step", type=float, default=None, help="sampling step [deg] (default: the joint's own, 5)")
+    p.add_argument("--elements", type=_positive_int, nargs="+", default=[1, 2, 3, 4, 5],
+                   help="elements per leaf, at least 1")
+    p.add_argument("--range", type=_angle(180.0), default=None,
+                   help="intended rotation range +- [deg], in (0, 180] (default: the joint's own, 75 for "
+                        "cross_flexure)")
+    p.add_argument("--step", type=_angle(360.0), default=None,
+                   help="sampling step [deg], positive (default: the joint's own, 5)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="joint shape parameter, repeatable (e.g. --param angle=0.6)")
-    p.add_argument("--out", default=None, help="folder (default: the package's shipped data); pass it to "
-                                               "solve(..., method='ksd-full', database=FOLDER)")
+    p.add_argument("--eob-table", action="store_true",
+                   help="also tabulate this joint's EOB condensation against the rotation (a side file "
+                        "<name>.eob.bin; KSD-reduced then looks it up for joints with exactly these parameters)")
+    p.add_argument("--out", default=None,
+                   help="folder (default: the user data folder, flexmb.database.user_path(), where KSD looks before "
+                        "the shipped data; $FLEXMB_DATABASE overrides it); another folder: pass it to "
+                        "solve(..., method='ksd-full', database=FOLDER). The shipped data are never written")
     p.set_defaults(func=_train)
     p = sub.add_parser("joints", help="list the registered joint plugins and their parameters")
     p.set_defaults(func=_joints)
@@ -327,12 +424,27 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     np.set_printoptions(precision=4, suppress=True)
     try:
-        return args.func(args)
+        code = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return 141
     except FlexmbError as exc:
         if args.debug:
             raise
         print(f"flexmb: error: {exc}", file=sys.stderr)
-        return 1
+        return 2 if isinstance(exc, _UsageError) else 1
+
+
+def _silence_stdout() -> None:
+    """Point the standard output at the null device, so the interpreter's final flush into the
+    closed pipe neither fails nor prints (Python docs, "Note on SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # not a real file (pytest's capture): nothing to flush
+        pass
 
 
 if __name__ == "__main__":

@@ -156,20 +156,32 @@ def write_vtk(solution: Solution, path: str | os.PathLike, *, undeformed: bool =
         A finite-element `Solution` (see `to_meshio`).
     path
         Output file; its suffix picks the format: ``.vtu`` (XML unstructured grid, compressed,
-        with field data) or ``.vtk`` (legacy binary). The directory must exist.
+        with field data) or ``.vtk`` (legacy binary). The directory must exist. The file is
+        written under a temporary name and renamed: a failed write leaves no partial file and
+        an earlier file at ``path`` unchanged.
     undeformed
         Write the undeformed configuration (see `to_meshio`).
 
     Raises
     ------
     ParameterError
-        ``path`` has another suffix, or ``solution`` is not a `Solution`.
+        ``path`` has another suffix or cannot be written (a missing or read-only folder, a full
+        disk), or ``solution`` is not a `Solution`.
     UnsupportedStrategyError, MissingExtraError
         As `to_meshio`.
     """
     require("meshio", "export", FEATURE)
     path = _checked_path("write_vtk", path, SUFFIXES)
-    return _write(to_meshio(solution, undeformed=undeformed), path)
+    mesh = to_meshio(solution, undeformed=undeformed)
+    tmp = _staged(path)
+    try:
+        _write(mesh, tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise ParameterError(f"write_vtk: cannot write {str(path)!r}: {exc.strerror or exc}") from None
+    finally:
+        _discard(tmp)
+    return path
 
 
 def write_series(solutions: Iterable[Solution], path: str | os.PathLike, *,
@@ -179,6 +191,9 @@ def write_series(solutions: Iterable[Solution], path: str | os.PathLike, *,
     Writes ``<stem>_0000.vtu``, ``<stem>_0001.vtu``, ... next to ``path`` (one per solution,
     see `write_vtk`) and the collection ``path`` itself, a ``.pvd`` file listing them with their
     time steps; open the ``.pvd`` in ParaView and step through the sweep with the time controls.
+    All files are written under temporary names first and renamed into place only when every one
+    was written (the collection last): a failure leaves no partial series and an earlier series
+    of that name unchanged.
 
     Parameters
     ----------
@@ -193,8 +208,8 @@ def write_series(solutions: Iterable[Solution], path: str | os.PathLike, *,
     Raises
     ------
     ParameterError
-        No solutions, an item that is not a `Solution`, a suffix other than ``.pvd``, or
-        ``times`` of the wrong length or not finite.
+        No solutions, an item that is not a `Solution`, a suffix other than ``.pvd``,
+        ``times`` of the wrong length or not finite, or a file that cannot be written.
     UnsupportedStrategyError, MissingExtraError
         As `to_meshio`.
     """
@@ -227,13 +242,25 @@ def write_series(solutions: Iterable[Solution], path: str | os.PathLike, *,
     width = max(4, len(str(n - 1)))
     root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
     collection = ET.SubElement(root, "Collection")
-    for i, (s, t) in enumerate(zip(solutions, times)):
-        name = f"{path.stem}_{i:0{width}d}.vtu"
-        _write(to_meshio(s), path.with_name(name))
-        ET.SubElement(collection, "DataSet", timestep=repr(t), group="", part="0", file=name)
-    tree = ET.ElementTree(root)
-    ET.indent(tree)
-    tree.write(path, xml_declaration=True, encoding="utf-8")
+    staged = []  # (temporary, final): every file is written aside first, then all are renamed
+    try:
+        for i, (s, t) in enumerate(zip(solutions, times)):
+            name = f"{path.stem}_{i:0{width}d}.vtu"
+            staged.append((_staged(path.with_name(name)), path.with_name(name)))
+            _write(to_meshio(s), staged[-1][0])
+            ET.SubElement(collection, "DataSet", timestep=repr(t), group="", part="0", file=name)
+        tree = ET.ElementTree(root)
+        ET.indent(tree)
+        staged.append((_staged(path), path))
+        tree.write(staged[-1][0], xml_declaration=True, encoding="utf-8")
+        for tmp, final in staged:  # the collection last: it never lists a file not yet in place
+            os.replace(tmp, final)
+    except OSError as exc:
+        raise ParameterError(f"write_series: cannot write {str(path)!r}: {exc.strerror or exc}; nothing was "
+                             "written") from None
+    finally:
+        for tmp, _ in staged:
+            _discard(tmp)
     return path
 
 
@@ -260,6 +287,21 @@ def _checked_path(where: str, path, suffixes: dict) -> pathlib.Path:
     if p.suffix.lower() not in suffixes:
         raise ParameterError(f"{where}: path={str(p)!r} has suffix {p.suffix!r}; valid: {', '.join(suffixes)}")
     return p
+
+
+def _staged(path: pathlib.Path) -> pathlib.Path:
+    """A temporary name next to ``path`` with its suffix (meshio picks the format by it): files are
+    written there and renamed into place, so a failed write leaves no partial file and an earlier
+    file of that name as it was."""
+    return path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+
+
+def _discard(path: pathlib.Path) -> None:
+    """Remove a temporary file if it is there (its folder may not even exist)."""
+    try:
+        path.unlink()
+    except OSError:
+        pass
 
 
 def _write(mesh, path: pathlib.Path) -> pathlib.Path:

@@ -15,7 +15,7 @@ import scipy.sparse.linalg as spla
 
 from . import _validate as v
 from .errors import ModelError, ParameterError
-from .modal import DENSE_BELOW, full_tangent, held_dofs, solvable_problem
+from .modal import DENSE_BELOW, constrained, full_tangent, held_dofs, solvable_problem
 
 __all__ = ["buckling", "compliance", "material_tangent"]
 
@@ -67,15 +67,20 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:
         raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, "
                              f"{nf}, minus one)")
-    Kt = full_tangent(solution)[free][:, free]
+    Kt = full_tangent(solution)
     if base is None:
-        Km = material_tangent(solution)[free][:, free]
+        Km = material_tangent(solution)
     else:
         bmodel = solvable_problem(base).model
         if bmodel.n_dofs != model.n_dofs or not np.array_equal(bmodel.x0, model.x0) or \
                 len(bmodel.elements.L0) != len(model.elements.L0):
             raise ModelError("buckling: base is not a solution of the same mechanism (its nodes or elements differ)")
-        Km = full_tangent(base)[free][:, free]
+        Km = full_tangent(base)
+    free, Z = constrained(model, free, Kt)  # hinges: the motions they allow, multipliers out
+    Kt, Km = Kt[free][:, free], Km[free][:, free]
+    if Z is not None:
+        Kt, Km = Z.T @ Kt @ Z, Z.T @ Km @ Z
+        nf = Kt.shape[0]
     Ks = (Kt - Km).tocsr()
     if abs(Ks).max() == 0.0:
         return np.full(n, np.inf)  # no stress, no load: nothing to buckle

@@ -176,7 +176,10 @@ def test_bench_lists_and_regenerates_benchmarks_md_in_a_checkout(tmp_path, capsy
 
     shutil.copytree(ROOT / "benchmarks", tmp_path / "benchmarks")
     assert cli.main(["bench", "--list", "--root", str(tmp_path)]) == 0
-    assert capsys.readouterr().out.split() == ["core", "fourbar", "gripper", "manipulator"]
+    # every benchmarks/bench_<name>.py, in name order (the paper's four among them)
+    listed = capsys.readouterr().out.split()
+    assert listed == sorted(p.stem.removeprefix("bench_") for p in (ROOT / "benchmarks").glob("bench_*.py"))
+    assert {"core", "fourbar", "gripper", "manipulator"} <= set(listed)
     assert cli.main(["bench", "--quick", "--only", "core", "--root", str(tmp_path)]) == 0
     text = (tmp_path / "BENCHMARKS.md").read_text()
     assert "<!-- begin core -->" in text and "<!-- begin fourbar -->" not in text
@@ -198,3 +201,113 @@ def test_eob_limits_example_prints_figs_7b_and_8_and_saves_its_figure(tmp_path, 
     np.testing.assert_allclose(res["width"][0.02]["eob"], res["width"][0.02]["fe"], rtol=1e-4)
     assert np.abs(res["width"][0.08]["eob"] / res["width"][0.08]["fe"] - 1).max() > 5e-3
     assert (tmp_path / "eob_limits.png").stat().st_size > 10_000
+
+
+# -- every bad argument: one line on stderr and the documented exit code (issue 20, class 5) --
+
+def _exit_code(argv):
+    """``cli.main(argv)``'s exit code, whether returned or raised by argparse as SystemExit."""
+    try:
+        return cli.main(argv)
+    except SystemExit as exc:
+        return exc.code
+
+
+BAD_ARGUMENTS = {
+    "demo --out is a file": lambda f: ["demo", "--quick", "--out", str(f)],  # main: traceback after the solves
+    "demo --out under a file": lambda f: ["demo", "--quick", "--out", str(f / "figures")],
+    "train --out under a file": lambda f: ["train", "--dim", "2", "--elements", "1", "--out", str(f / "db")],
+    "train --range text": lambda f: ["train", "--range", "abc"],
+    "train --range negative": lambda f: ["train", "--range", "-5"],
+    "train --range NaN": lambda f: ["train", "--range", "nan"],
+    "train --range above 180": lambda f: ["train", "--range", "200"],
+    "train --step 0": lambda f: ["train", "--dim", "2", "--elements", "1", "--step", "0", "--out", str(f.parent)],
+    "train --elements 0": lambda f: ["train", "--dim", "2", "--elements", "0", "--out", str(f.parent)],
+    "solve --param without value": lambda f: ["solve", "cantilever", "--param", "rotation"],  # main: exit 1
+    "solve --option without value": lambda f: ["solve", "cantilever", "--option", "tol"],
+    "train --param without value": lambda f: ["train", "--param", "angle", "--out", str(f.parent)],
+}
+
+
+@pytest.mark.parametrize("name", list(BAD_ARGUMENTS))
+def test_every_bad_argument_is_one_line_with_exit_code_2(name, tmp_path, capsys):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("not a folder")
+    code = _exit_code(BAD_ARGUMENTS[name](a_file))
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert err.startswith("flexmb: error:") and err.count("\n") == 1 and "Traceback" not in err
+    assert out == ""  # refused before any work (the demo used to solve for minutes, then fail)
+    assert a_file.read_text() == "not a folder" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+def test_train_refuses_to_write_the_shipped_data(capsys):
+    from flexmb import database
+
+    before = {p.name: p.read_bytes() for p in database.data_path().iterdir()}
+    argv = ["train", "--dim", "2", "--elements", "1", "--range", "10", "--out", str(database.data_path())]
+    assert cli.main(argv) == 2
+    assert "never writes" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in database.data_path().iterdir()} == before
+
+
+def test_train_writes_the_elements_asked_for(tmp_path, capsys):
+    """``--elements 2`` trains 2 el./leaf (main silently trained the default 3 for ``--elements 0``,
+    which is now refused above)."""
+    assert cli.main(["train", "--dim", "2", "--elements", "2", "--range", "10", "--out", str(tmp_path)]) == 0
+    assert [p.name for p in tmp_path.iterdir()] == ["cross_flexure-2d-angle0.785398-elements_per_leaf2.json"]
+
+
+def test_a_closed_pipe_ends_quietly(tmp_path):
+    """``flexmb solve cantilever --json | head -c1``: the reader is gone before flexmb writes; main
+    printed a BrokenPipeError traceback, now nothing is printed and the exit code is 141 (SIGPIPE)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "OPENBLAS_NUM_THREADS": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "flexmb.cli", "solve", "cantilever", "--json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, cwd=tmp_path)
+    proc.stdout.close()  # the reader went away
+    err = proc.stderr.read()
+    assert proc.wait(timeout=120) == 141
+    assert err == b""
+
+
+def test_a_closed_pipe_in_process(monkeypatch, capsys):
+    import sys
+
+    class Closed:
+        def write(self, text):
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    assert cli.main(["joints"]) == 141
+    assert capsys.readouterr().err == ""
+
+
+def test_json_is_strict_with_non_finite_numbers_as_null(capsys):
+    """A diverged solve (a 1e150 m stroke): main printed ``NaN``, which JSON parsers reject."""
+    import json
+
+    def refuse(token):
+        raise AssertionError(f"not JSON: {token}")
+
+    assert cli.main(["solve", "fourbar", "--param", "displacement=1e150", "--json"]) == 1
+    report = json.loads(capsys.readouterr().out, parse_constant=refuse)
+    assert report["converged"] is False
+    assert None in report["residual_history"]  # the diverged iterations' residuals, as null
+    assert cli.strict_json({"a": [float("inf"), -float("inf"), float("nan"), 1.5], "b": (2, "x")}) == \
+        {"a": [None, None, None, 1.5], "b": [2, "x"]}
+
+
+def test_run_prints_the_message_of_sys_exit(tmp_path, capsys):
+    script = tmp_path / "fails.py"
+    script.write_text("import sys\nsys.exit('the load case is missing')\n")
+    assert cli.main(["run", str(script)]) == 1  # main: exit 1 without the message
+    assert capsys.readouterr().err == "the load case is missing\n"
+    script.write_text("import sys\nsys.exit()\n")
+    assert cli.main(["run", str(script)]) == 0

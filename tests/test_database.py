@@ -142,3 +142,226 @@ def test_train_command_writes_a_loadable_file(tmp_path, capsys):
     files = list(tmp_path.glob("*.json"))
     assert len(files) == 1 and db.load(files[0]).dim == 2
     assert "max fit residuals" in capsys.readouterr().out
+
+
+# -- content validation after the checksum (issue 20, class 4) -------------------------------
+
+def _forged(tmp_path, mutate, dim=2, n=2):
+    """A copy of the shipped file with ``mutate`` applied and the checksum recomputed (so only
+    the content checks can refuse it); returns the joint it claims to describe."""
+    from flexmb.database.store import _checksum
+
+    j = flexmb.CrossFlexure(elements_per_leaf=n)
+    src = db.data_path() / db.file_name(j.kind, dim, j.database_key())
+    body = json.loads(src.read_text())
+    mutate(body)
+    body["checksum"] = _checksum(body)
+    (tmp_path / src.name).write_text(json.dumps(body))
+    return j
+
+
+_DROP = object()
+
+
+def _set(*path_and_value):
+    """A mutation setting ``body[p0][p1]... = value`` (a function of the old value when callable;
+    `_DROP` deletes the entry)."""
+    *path, value = path_and_value
+
+    def mutate(body):
+        d = body
+        for k in path[:-1]:
+            d = d[k]
+        if value is _DROP:
+            del d[path[-1]]
+        else:
+            d[path[-1]] = value(d[path[-1]]) if callable(value) else value
+    return mutate
+
+
+FORGERIES = {
+    # each raised a raw exception on main (the kind in the comment) or was accepted
+    "functions not an object": (_set("functions", []), "'functions' must be dict"),  # AttributeError
+    "a function missing": (_set("functions", "x/D0", _DROP), "missing"),
+    "range text": (_set("range", "ab"), "'range' must be list"),  # TypeError
+    "range one number": (_set("range", [1.0]), "range must be"),  # ValueError (unpacking)
+    "range NaN": (_set("range", [float("nan"), 1.0]), "range must be a list of numbers|non-finite|range must be"),
+    "element rows dropped": (_set("elements", "coefficients", lambda c: c[:-1]), "element rotations|row"),  # IndexError
+    "powers text": (_set("elements", "powers", "x"), "'powers' must be list"),
+    # converged to -16946 N m on main:
+    "negative powers": (_set("elements", "powers", [-1, -2, -3, -4, -5]), "powers must be distinct integers"),
+    "nested parameters": (_set("parameters", "angle", [[[[1]]]]), "parameters"),
+    "key not an object": (_set("key", []), "'key' must be dict"),
+    "dimension 7": (_set("dim", 7), "dim=7"),
+    "dimension as text": (_set("dim", "x"), "'dim' must be int"),
+    "samples as text": (_set("samples", "x"), "'samples' must be list"),
+    "residual missing": (_set("nodes", "max_residual", _DROP), "max_residual"),  # KeyError
+    "residual None": (_set("elements", "max_residual", None), "elements.'max_residual' must be"),
+    "huge integer": (_set("length", 10**400), "length is too large"),  # OverflowError
+    "position fit scaled": (_set("functions", "x/D0", "coefficients", lambda c: [1.2 * x for x in c]),
+                            "disagree|at rest"),
+    "D0 scaled": (_set("length", lambda v: 1.2 * v), "D0"),
+    "coefficient column missing": (_set("functions", "y/D0", "coefficients", lambda c: c[:-1]), "columns"),
+    "boolean dimension": (_set("dim", True), "'dim' must be int"),
+}
+
+
+@pytest.mark.parametrize("name", list(FORGERIES))
+def test_a_file_with_a_recomputed_checksum_is_checked_for_content(tmp_path, name):
+    """Malformed structures behind a valid checksum raise `DatabaseError` naming the fault, from
+    `load`, `shipped` and a KSD solve alike (main raised AttributeError, TypeError, ValueError,
+    IndexError, KeyError, OverflowError, or converged to a wrong answer)."""
+    mutate, match = FORGERIES[name]
+    j = _forged(tmp_path, mutate)
+    with pytest.raises(DatabaseError, match=match):
+        db.shipped(j, 2, folder=tmp_path)
+    m = flexmb.models.cross_flexure_pivot(elements_per_leaf=2, dim=2, rotation=0.3)
+    with pytest.raises(DatabaseError):
+        flexmb.solve(m, method="ksd-reduced", database=str(tmp_path))
+
+
+def test_deeply_nested_json_is_refused_not_a_recursion_error(tmp_path):
+    (tmp_path / "deep.json").write_text('{"format": ' + "[" * 200_000 + "]" * 200_000 + "}")
+    with pytest.raises(DatabaseError, match="not readable JSON"):
+        db.load(tmp_path / "deep.json")
+
+
+def test_a_consistently_edited_file_is_caught_by_verify(tmp_path):
+    """Element rotations scaled by 1.2 pass every self-consistency check (they are not tied to B's
+    position in the file) and move the KSD-reduced moment by 0.5 %; `verify` re-runs the FE model
+    at three trained rotations and finds the fits off by far more than they state."""
+    j = _forged(tmp_path, _set("elements", "coefficients", lambda c: [[1.2 * x for x in r] for r in c]))
+    db.shipped(j, 2, folder=tmp_path)  # accepted by the loader: only the FE model can tell
+    with pytest.raises(DatabaseError, match="elements differs from the FE model"):
+        db.verify(j, 2, folder=tmp_path)
+    assert db.verify(j, 2).key == j.database_key()  # the shipped file passes
+
+
+def _finishes(call, seconds=10.0):
+    """Run ``call`` in a thread; its outcome, or "hung" when it does not return in ``seconds``."""
+    import threading
+
+    out = []
+
+    def run():
+        try:
+            out.append(call())
+        except BaseException as exc:  # noqa: BLE001 - the test inspects whatever came out
+            out.append(exc)
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(seconds)
+    return out[0] if out else "hung"
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="POSIX FIFOs")
+def test_a_fifo_at_the_path_is_refused_without_blocking(tmp_path):
+    import os
+
+    j = flexmb.CrossFlexure()
+    os.mkfifo(tmp_path / db.file_name(j.kind, 3, j.database_key()))
+    outcome = _finishes(lambda: db.shipped(j, 3, folder=tmp_path))  # main: blocked forever in open()
+    assert isinstance(outcome, DatabaseError) and "not a regular file" in str(outcome)
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/dev/zero"), reason="needs /dev/zero")
+def test_a_link_to_an_endless_device_is_refused_without_reading_it(tmp_path):
+    j = flexmb.CrossFlexure()
+    (tmp_path / db.file_name(j.kind, 3, j.database_key())).symlink_to("/dev/zero")
+    outcome = _finishes(lambda: db.shipped(j, 3, folder=tmp_path))  # main: read until MemoryError
+    assert isinstance(outcome, DatabaseError) and "not a regular file" in str(outcome)
+
+
+def test_an_oversized_file_is_refused_before_it_is_read(tmp_path):
+    from flexmb.database.store import MAX_BYTES
+
+    path = tmp_path / "big.json"
+    with path.open("wb") as f:
+        f.truncate(MAX_BYTES + 1)  # sparse: nothing is written
+    with pytest.raises(DatabaseError, match="bytes"):
+        db.load(path)
+
+
+def test_the_template_cache_follows_the_content_not_the_time_stamp(tmp_path):
+    """A file replaced by another with its modification time restored (as `cp -p`, rsync or a
+    checkout do): KSD uses the new content (main kept the old template, keyed on mtime)."""
+    import os
+
+    from flexmb.ksd.reduced import template
+
+    j = _forged(tmp_path, lambda b: None)
+    path = tmp_path / db.file_name(j.kind, 2, j.database_key())
+    before = template(j, 2, tmp_path)
+    stamp = path.stat().st_mtime_ns
+    _forged(tmp_path, _set("elements", "coefficients", lambda c: [[1.1 * x for x in r] for r in c]))
+    os.utime(path, ns=(stamp, stamp))
+    after = template(j, 2, tmp_path)
+    assert after is not before
+    np.testing.assert_allclose(after.data.elements.coefficients, 1.1 * before.data.elements.coefficients, rtol=1e-15)
+    assert template(j, 2, tmp_path) is after  # unchanged content: cached
+
+
+def test_loaded_arrays_are_read_only(tmp_path):
+    """The parsed data are shared by every reader of the same content: nobody can change them."""
+    data = db.shipped(flexmb.CrossFlexure(), 2)
+    with pytest.raises(ValueError, match="read-only"):
+        data.elements.coefficients[0, 0] = 1.0
+
+
+# -- where the data live: user folder, search order, the shipped data never written ----------
+
+def test_user_path_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv("FLEXMB_DATABASE", str(tmp_path / "mine"))
+    assert db.user_path() == tmp_path / "mine"
+    assert db.search_path() == [tmp_path / "mine", db.data_path()]
+    assert db.search_path(tmp_path) == [tmp_path, tmp_path / "mine", db.data_path()]
+    monkeypatch.delenv("FLEXMB_DATABASE")
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
+    if __import__("sys").platform.startswith("linux"):
+        assert db.user_path() == tmp_path / "xdg" / "flexmb" / "database"
+
+
+def test_data_are_found_in_the_documented_order(monkeypatch, tmp_path):
+    """database=FOLDER first, then the user folder, then the shipped data; the first file wins."""
+    user, mine = tmp_path / "user", tmp_path / "mine"
+    user.mkdir(), mine.mkdir()
+    monkeypatch.setenv("FLEXMB_DATABASE", str(user))
+    j = flexmb.CrossFlexure(elements_per_leaf=1)
+    name = db.file_name(j.kind, 2, j.database_key())
+    assert db.locate(j, 2) == db.data_path() / name
+    db.save(db.train(j, 2, range_deg=(-20, 20), step_deg=10), user / name)
+    assert db.locate(j, 2) == user / name and db.shipped(j, 2).range == pytest.approx(np.radians((-20, 20)))
+    db.save(db.train(j, 2, range_deg=(-30, 30), step_deg=10), mine / name)
+    assert db.locate(j, 2, mine) == mine / name
+    assert db.shipped(j, 2, mine).range == pytest.approx(np.radians((-30, 30)))
+    with pytest.raises(DatabaseError, match=f"in {mine}, {user}, "):
+        db.shipped(flexmb.CrossFlexure(angle=0.6), 2, mine)
+
+
+def _shipped_files():
+    return {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in db.data_path().iterdir()}
+
+
+def test_train_without_out_writes_the_user_folder_not_the_shipped_data(monkeypatch, tmp_path, capsys):
+    """Main rewrote the shipped file inside the installed package (then KSD above the trained
+    20 deg failed for everyone); now the user data folder gets it, and KSD finds it there."""
+    from flexmb import cli
+
+    monkeypatch.setenv("FLEXMB_DATABASE", str(tmp_path / "user"))
+    before = _shipped_files()
+    assert cli.main(["train", "--dim", "2", "--elements", "1", "--range", "20", "--step", "10"]) == 0
+    assert _shipped_files() == before
+    j = flexmb.CrossFlexure(elements_per_leaf=1)
+    written = tmp_path / "user" / db.file_name(j.kind, 2, j.database_key())
+    assert db.load(written).range == pytest.approx(np.radians((-20, 20)))
+    out = capsys.readouterr().out
+    assert str(written) in out and "takes precedence over the shipped" in out
+    assert db.locate(j, 2) == written
+
+
+def test_save_is_atomic_and_reports_an_unwritable_folder(tmp_path):
+    data = db.shipped(flexmb.CrossFlexure(), 2)
+    with pytest.raises(DatabaseError, match="cannot write"):
+        db.save(data, tmp_path / "no-such-folder" / "x.json")
+    path = db.save(data, tmp_path / "x.json")
+    assert db.load(path).key == data.key and [p.name for p in tmp_path.iterdir()] == ["x.json"]

@@ -261,3 +261,52 @@ def test_missing_meshio_names_the_extra(pivot2, tmp_path, monkeypatch):
             call()
         assert isinstance(info.value, ImportError)
     assert not any(tmp_path.iterdir())
+
+
+# -- I/O faults: a FlexmbError, and nothing half written (issue 20, class 4) -----------------
+@pytest.mark.parametrize("where", ["missing/pivot.vtu", "a_file/pivot.vtu"])
+def test_an_unwritable_path_is_a_parameter_error(pivot2, tmp_path, where):
+    """main raised the raw FileNotFoundError / NotADirectoryError from meshio."""
+    (tmp_path / "a_file").write_text("x")
+    with pytest.raises(ParameterError, match="write_vtk: cannot write"):
+        export.write_vtk(pivot2, tmp_path / where)
+    with pytest.raises(ParameterError, match="write_series: cannot write"):
+        export.write_series([pivot2], tmp_path / where.replace(".vtu", ".pvd"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+def _disk_full_after(monkeypatch, calls: int):
+    """meshio.write that writes ``calls`` files, then half a file and fails as a full disk does."""
+    import errno
+
+    original, count = meshio.write, [0]
+
+    def write(path, mesh, **kwargs):
+        count[0] += 1
+        if count[0] > calls:
+            with open(path, "wb") as f:
+                f.write(b"<VTKFile")  # half a file
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return original(path, mesh, **kwargs)
+
+    monkeypatch.setattr(meshio, "write", write)
+
+
+def test_a_failed_write_vtk_leaves_the_earlier_file(pivot2, pivot3, tmp_path, monkeypatch):
+    path = export.write_vtk(pivot2, tmp_path / "pivot.vtu")
+    before = path.read_bytes()
+    _disk_full_after(monkeypatch, 0)
+    with pytest.raises(ParameterError, match="No space left"):
+        export.write_vtk(pivot3, path)
+    assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["pivot.vtu"]
+
+
+def test_a_failed_series_leaves_no_partial_series_and_the_earlier_one_intact(pivot2, pivot3, tmp_path, monkeypatch):
+    """The third file fails (a full disk): main left two new .vtu files beside the old collection,
+    which then played a mix of both series; now the earlier series is untouched."""
+    export.write_series([pivot2, pivot2, pivot2], tmp_path / "sweep.pvd", times=[1.0, 2.0, 3.0])
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    _disk_full_after(monkeypatch, 2)
+    with pytest.raises(ParameterError, match="write_series: cannot write .*nothing was written"):
+        export.write_series([pivot3, pivot3, pivot3, pivot3], tmp_path / "sweep.pvd")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before

@@ -1,7 +1,8 @@
 """Joint database: trained kinematic data of standard joints (Dwarshuis et al. 2020, Secs. 2.1, 3.1)."""
 
-from .store import FORMAT, FORMAT_VERSION, JointData, Polynomial, data_path, file_name, load, save, shipped
-from .training import TrainingRun, simulate, train
+from .store import (FORMAT, FORMAT_VERSION, JointData, Polynomial, data_path, file_name, load, locate, save,
+                    search_path, shipped, user_path)
+from .training import TrainingRun, simulate, train, verify
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "JointData", "Polynomial", "TrainingRun", "data_path", "file_name", "load",
-           "save", "shipped", "simulate", "train"]
+           "locate", "save", "search_path", "shipped", "simulate", "train", "user_path", "verify"]

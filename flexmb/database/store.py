@@ -1,20 +1,23 @@
 """Joint database files: a versioned JSON format with a checksum, and the shipped data.
 
-Format ``flexmb-joint-database`` version 2 (one file per joint kind, dimension and mesh)::
+Format ``flexmb-joint-database`` version 3 (one file per joint kind, dimension and mesh)::
 
-    {"format": "flexmb-joint-database", "format_version": 1, "flexmb_version": "...",
+    {"format": "flexmb-joint-database", "format_version": 3, "flexmb_version": "...",
      "kind": "cross_flexure", "dim": 3, "parameters": {...training joint...},
      "key": {...shape parameters the data belong to...}, "mesh_hash": "...",
      "intended": "rotation about z [rad]", "range": [lo, hi], "samples": [...],
      "length": D0 [m],
      "functions": {name: {"powers": [...], "coefficients": [...], "max_residual": r}},
      "elements": {"powers": [...], "coefficients": [[...]...], "max_residual": r},
-     "nodes": {...same...}, "checksum": sha256 of everything else}
+     "nodes": {...same...}, "eob_table": {...} or null, "checksum": sha256 of everything else}
 
 Functions are dimensionless (positions over D0, the undeformed distance of the interface nodes).
 Element and internal-node orientations (Eq. 3.1) are angles [rad] in 2D and rotation vectors
 [rad] in 3D (Sec. 3.1), one row per element or node and component (element-major: e0x, e0y, e0z,
 e1x, ...). Version 1 stored 3D orientations as angles about z only; such files are refused.
+Version 3 adds ``eob_table``: the EOB condensation tabulated against theta for the training joint
+(`flexmb.database.eob_format`, issue 21); a version 2 file is read as version 3 without a table
+(its data are unchanged: KSD then condenses per solve, as before) and `flexmb train` rewrites it.
 """
 
 from __future__ import annotations
@@ -22,6 +25,10 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import math
+import os
+import stat
+import sys
 import warnings
 from importlib import resources
 from pathlib import Path
@@ -29,14 +36,28 @@ from pathlib import Path
 import attrs
 import numpy as np
 
+from .._validate import hashable
 from .._version import __version__
+from . import eob_format
 from ..errors import DatabaseError, ExtrapolationWarning
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "Polynomial", "JointData", "save", "load", "mesh_hash", "data_path",
-           "shipped"]
+           "shipped", "user_path", "search_path", "locate", "read_bytes", "ENVIRONMENT", "MAX_BYTES"]
 
 FORMAT = "flexmb-joint-database"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
+#: Versions read: 3, and 2 migrated on reading (no EOB table).
+READABLE_VERSIONS = (2, 3)
+#: Environment variable naming the user data folder (`user_path`).
+ENVIRONMENT = "FLEXMB_DATABASE"
+#: Largest database file read [bytes]: the shipped files are 3-20 kB; a 10-stage joint at 20
+#: el./leaf stays below 1 MB. A larger file is refused before it is read.
+MAX_BYTES = 16 * 2**20
+#: Largest fit residual a usable file may state (positions over D0, rotations [rad]): the shipped
+#: fits stay below 2.3e-4; a fit 5 % off is no kinematic data.
+MAX_RESIDUAL = 0.05
+#: Highest polynomial power read (the shipped fits use 6).
+MAX_POWER = 30
 
 
 @attrs.frozen(eq=False)
@@ -96,6 +117,7 @@ class JointData:
     elements: Polynomial
     nodes: Polynomial
     flexmb_version: str = ""
+    eob_table: object = None  # a flexmb.database.eob_format.EOBTable, or None (version 2, or not tabulated)
 
     def check_range(self, theta, *, strict: bool = False) -> None:
         """Warn (``ExtrapolationWarning``) or, with ``strict``, raise when ``theta`` leaves the range."""
@@ -116,15 +138,19 @@ class JointData:
         except KeyError:
             raise DatabaseError(f"{self.kind} database holds {sorted(self.functions)}, not {name!r}") from None
 
-    def to_json(self) -> dict:
-        """The whole record as a JSON-ready dict (format name and version, joint, fits, checksum)."""
+    def to_json(self, values_file: str | None = None) -> dict:
+        """The whole record as a JSON-ready dict (format name and version, joint, fits, checksum);
+        ``values_file`` names the EOB table's side file (default: that of `file_name`)."""
+        if values_file is None:
+            values_file = file_name(self.kind, self.dim, self.key)[:-len(".json")] + eob_format.SUFFIX
 
         body = {"format": FORMAT, "format_version": FORMAT_VERSION, "flexmb_version": __version__,
                 "kind": self.kind, "dim": self.dim, "parameters": self.parameters, "key": self.key,
                 "mesh_hash": self.mesh_hash, "intended": "rotation of node B about z relative to node A [rad]",
                 "range": list(self.range), "samples": np.asarray(self.samples).tolist(), "length": self.length,
                 "functions": {k: f.to_json() for k, f in self.functions.items()},
-                "elements": self.elements.to_json(), "nodes": self.nodes.to_json()}
+                "elements": self.elements.to_json(), "nodes": self.nodes.to_json(),
+                "eob_table": eob_format.to_json(self.eob_table, values_file)}
         body["checksum"] = _checksum(body)
         return body
 
@@ -137,6 +163,17 @@ def _checksum(body: dict) -> str:
 def mesh_hash(joint, dim: int) -> str:
     """Fingerprint of a joint's mesh in the plane of motion (x, y over D0, sides, elements): the
     kinematic data belong to it; data trained on another in-plane mesh are stale."""
+    return _mesh_facts(joint, dim)[0]
+
+
+def _mesh_facts(joint, dim: int) -> tuple[str, int]:
+    """(`mesh_hash`, number of elements) of the joint's mesh; cached per joint value, as joints
+    are frozen values: building the mesh took ~60 % of a KSD-reduced manipulator solve when it
+    was done on every solve (issue 21)."""
+    return _cached_mesh_facts(joint, dim) if hashable(joint) else _compute_mesh_facts(joint, dim)
+
+
+def _compute_mesh_facts(joint, dim: int) -> tuple[str, int]:
     mesh = joint.mesh(dim)
     D0 = float(np.linalg.norm(joint.interface_b(dim)))
     pts = np.round(np.asarray(mesh.points, float)[:, :2] / D0, 9) + 0.0
@@ -144,49 +181,293 @@ def mesh_hash(joint, dim: int) -> str:
     if mesh.body is not None:
         parts.append(np.asarray(mesh.body).tolist())
     blob = json.dumps(parts)
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+    return hashlib.sha256(blob.encode()).hexdigest()[:16], len(mesh.elements)
+
+
+_cached_mesh_facts = functools.lru_cache(maxsize=256)(_compute_mesh_facts)
 
 
 def save(data: JointData, path) -> Path:
-    """Write ``data`` as JSON to ``path`` (format of `JointData.to_json`); returns the path."""
+    """Write ``data`` as JSON to ``path`` (format of `JointData.to_json`); returns the path.
+
+    The file is written next to ``path`` under a temporary name and renamed over it, so a reader
+    never sees half a file and a failed write leaves the old file as it was. `DatabaseError` when
+    the folder cannot be written."""
     path = Path(path)
-    path.write_text(json.dumps(data.to_json(), indent=1, sort_keys=True) + "\n")
+    side = path.with_name(path.stem + eob_format.SUFFIX)  # the EOB table's samples, written first
+    text = json.dumps(data.to_json(side.name), indent=1, sort_keys=True) + "\n"
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        eob_format.write_values(data.eob_table, side)
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise DatabaseError(f"cannot write joint database {path}: {exc.strerror or exc}") from None
     return path
 
 
-def load(path) -> JointData:
-    """Read and verify a database file (format, version, checksum); `DatabaseError` otherwise."""
+def read_bytes(path) -> bytes:
+    """The bytes of the database file ``path``: a regular file (a FIFO, device or folder is
+    refused without blocking on it) of at most `MAX_BYTES`; `DatabaseError` otherwise."""
     path = Path(path)
     try:
-        body = json.loads(Path(path).read_text())
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
     except FileNotFoundError:
         raise DatabaseError(f"joint database {path} does not exist; create it with `flexmb train`") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise DatabaseError(f"joint database {path} is corrupted (not readable JSON: {exc}); "
+    except OSError as exc:
+        raise DatabaseError(f"joint database {path} cannot be opened: {exc.strerror or exc}") from None
+    with os.fdopen(fd, "rb") as f:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise DatabaseError(f"joint database {path} is not a regular file (a folder, pipe or device); give "
+                                "the path of a .json file written by `flexmb train`")
+        if info.st_size > MAX_BYTES:
+            raise DatabaseError(f"joint database {path} has {info.st_size} bytes, more than any database "
+                                f"(at most {MAX_BYTES}); it is not a flexmb joint database")
+        try:
+            raw = f.read(MAX_BYTES + 1)
+        except OSError as exc:
+            raise DatabaseError(f"joint database {path} cannot be read: {exc.strerror or exc}") from None
+    if len(raw) > MAX_BYTES:  # grew while being read
+        raise DatabaseError(f"joint database {path} has more than {MAX_BYTES} bytes; it is not a flexmb joint "
+                            "database")
+    return raw
+
+
+def load(path) -> JointData:
+    """Read and verify a database file: a regular file of at most `MAX_BYTES`, the format, version
+    and checksum, then its content (types, shapes, finite values, consistent sizes, ranges and
+    the consistency of its fits, `_validate`); `DatabaseError` naming the first fault otherwise."""
+    path = Path(path)
+    return _parse(read_bytes(path), str(path))
+
+
+@functools.lru_cache(maxsize=64)
+def _parse(raw: bytes, where: str) -> JointData:
+    """The `JointData` held by the bytes ``raw`` of file ``where`` (cached on the content, so a
+    replaced file is read anew whatever its time stamps)."""
+    try:
+        body = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:  # JSONDecodeError is a ValueError
+        raise DatabaseError(f"joint database {where} is corrupted (not readable JSON: {str(exc)[:200]}); "
                             "re-create it with `flexmb train`") from None
     if not isinstance(body, dict) or body.get("format") != FORMAT:
-        raise DatabaseError(f"{path} is not a flexmb joint database (format {FORMAT!r})")
-    if body.get("format_version") != FORMAT_VERSION:
-        raise DatabaseError(f"joint database {path} has format version {body.get('format_version')!r}; this flexmb "
-                            f"reads version {FORMAT_VERSION}: re-create it with `flexmb train`")
-    if body.get("checksum") != _checksum(body):
-        raise DatabaseError(f"joint database {path} is corrupted (checksum mismatch): it was edited or damaged; "
+        raise DatabaseError(f"{where} is not a flexmb joint database (format {FORMAT!r})")
+    if body.get("format_version") not in READABLE_VERSIONS:
+        raise DatabaseError(f"joint database {where} has format version {body.get('format_version')!r}; this "
+                            f"flexmb reads versions {READABLE_VERSIONS} (2 migrated on reading): re-create it with "
+                            "`flexmb train`")
+    try:
+        intact = body.get("checksum") == _checksum(body)
+    except (TypeError, ValueError, RecursionError):
+        intact = False
+    if not intact:
+        raise DatabaseError(f"joint database {where} is corrupted (checksum mismatch): it was edited or damaged; "
                             "re-create it with `flexmb train`")
     try:
-        return JointData(kind=body["kind"], dim=int(body["dim"]), parameters=body["parameters"], key=body["key"],
-                         mesh_hash=body["mesh_hash"], range=tuple(body["range"]), samples=np.asarray(body["samples"]),
-                         length=float(body["length"]),
-                         functions={k: Polynomial.from_json(f) for k, f in body["functions"].items()},
-                         elements=Polynomial.from_json(body["elements"]), nodes=Polynomial.from_json(body["nodes"]),
-                         flexmb_version=body.get("flexmb_version", ""))
-    except (KeyError, TypeError, ValueError) as exc:
-        raise DatabaseError(f"joint database {path} is incomplete ({exc!r})") from None
+        data = _validate(body)
+        table = _eob_table(body, Path(where).parent)
+        return data if table is None else attrs.evolve(data, eob_table=table)
+    except _Invalid as exc:
+        raise DatabaseError(f"joint database {where} is invalid: {exc}; re-create it with `flexmb train`") from None
+    except RecursionError:
+        raise DatabaseError(f"joint database {where} is invalid: nested too deeply; re-create it with "
+                            "`flexmb train`") from None
+
+
+class _Invalid(Exception):
+    """A field of a database body that is not what `JointData.to_json` writes."""
+
+
+def _field(body: dict, name: str, types: type | tuple, owner: str = ""):
+    if name not in body:
+        raise _Invalid(f"field {owner}{name!r} is missing")
+    value = body[name]
+    types = types if isinstance(types, tuple) else (types,)
+    if not isinstance(value, types) or isinstance(value, bool) and bool not in types:
+        raise _Invalid(f"field {owner}{name!r} must be {_names(types)}, got {type(value).__name__}")
+    return value
+
+
+def _names(types: tuple) -> str:
+    return " or ".join(t.__name__ for t in types)
+
+
+def _array(value, name: str, ndim: int) -> np.ndarray:
+    """``value`` as a finite float array of ``ndim`` dimensions (an empty list counts as any)."""
+    if not isinstance(value, list) or not _numbers_only(value):
+        raise _Invalid(f"{name} must be a list of numbers")
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise _Invalid(f"{name} must be a rectangular list of numbers") from None
+    if a.size == 0 and ndim == 2:
+        a = a.reshape(0, 0)
+    if a.ndim != ndim:
+        raise _Invalid(f"{name} must have {ndim} dimension(s), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise _Invalid(f"{name} holds non-finite numbers")
+    return a
+
+
+def _numbers_only(value, depth: int = 0) -> bool:
+    if depth > 2:
+        return False
+    return all(_numbers_only(v, depth + 1) if isinstance(v, list) else
+               isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+
+
+def _scalar(value, name: str, lo: float = -math.inf, hi: float = math.inf) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _Invalid(f"{name} must be a number, got {type(value).__name__}")
+    try:
+        x = float(value)
+    except OverflowError:
+        raise _Invalid(f"{name} is too large") from None
+    if not lo <= x <= hi:  # NaN fails too
+        raise _Invalid(f"{name}={x!r} must lie in [{lo}, {hi}]")
+    return x
+
+
+def _polynomial(value, name: str, ndim: int) -> Polynomial:
+    if not isinstance(value, dict):
+        raise _Invalid(f"{name} must be an object with powers, coefficients and max_residual")
+    powers = _array(_field(value, "powers", list, name + "."), f"{name}.powers", 1)
+    if len(powers) == 0 or np.any(powers < 0) or np.any(powers > MAX_POWER) or np.any(powers != np.round(powers)) \
+            or len(np.unique(powers)) != len(powers):
+        raise _Invalid(f"{name}.powers must be distinct integers in [0, {MAX_POWER}], got {powers.tolist()}")
+    coef = _array(_field(value, "coefficients", list, name + "."), f"{name}.coefficients", ndim)
+    if coef.shape[-1] != len(powers) and coef.size:
+        raise _Invalid(f"{name}.coefficients must have {len(powers)} columns (one per power), got shape {coef.shape}")
+    residual = _scalar(_field(value, "max_residual", (int, float), name + "."), f"{name}.max_residual", 0.0,
+                       MAX_RESIDUAL)
+    if ndim == 2 and coef.size == 0:
+        coef = np.zeros((0, len(powers)))
+    return Polynomial(powers, coef, residual)
+
+
+def _plain_dict(value, name: str) -> dict:
+    if not isinstance(value, dict):
+        raise _Invalid(f"field {name!r} must be an object")
+    for k, v in value.items():
+        if isinstance(v, float) and not math.isfinite(v):
+            raise _Invalid(f"{name}[{k!r}] is not finite")
+        if not isinstance(v, (str, int, float, bool)) and v is not None:
+            raise _Invalid(f"{name}[{k!r}] must be a number, text or boolean, got {type(v).__name__}")
+    return value
+
+
+def _validate(body: dict) -> JointData:
+    """`JointData` from a checksummed body after checking every field (types, shapes, finite values,
+    consistent sizes, ranges) and the consistency of its fits: the positions of B at rest (D/D0
+    - 1 = 0 at theta = 0), D/D0 - 1 against the norm of the position fits at every sample (both
+    fitted to the same runs, so they agree within the sum of their stated residuals) and zero
+    element and node rotations at rest. `_Invalid` names the first fault."""
+    kind = _field(body, "kind", str)
+    if not kind:
+        raise _Invalid("field 'kind' is empty")
+    dim = _field(body, "dim", int)
+    if dim not in (2, 3):
+        raise _Invalid(f"dim={dim!r} must be 2 or 3")
+    parameters = _plain_dict(_field(body, "parameters", dict), "parameters")
+    key = _plain_dict(_field(body, "key", dict), "key")
+    mesh = _field(body, "mesh_hash", str)
+    rng = _array(_field(body, "range", list), "range", 1)
+    if len(rng) != 2 or not -math.pi <= rng[0] < rng[1] <= math.pi:
+        raise _Invalid(f"range must be [lo, hi] with -pi <= lo < hi <= pi [rad], got {rng.tolist()}")
+    samples = _array(_field(body, "samples", list), "samples", 1)
+    if len(samples) < 2 or np.any(np.diff(samples) <= 0) or abs(samples[0] - rng[0]) > 1e-12 \
+            or abs(samples[-1] - rng[1]) > 1e-12:
+        raise _Invalid("samples must increase strictly from range[0] to range[1]")
+    length = _scalar(_field(body, "length", (int, float)), "length", 0.0)
+    if not length > 0 or not math.isfinite(length):
+        raise _Invalid(f"length={length!r} must be positive and finite [m]")
+    raw = _field(body, "functions", dict)
+    names = ("x/D0", "y/D0", "z/D0")[:dim] + ("D/D0-1",)
+    missing = [n for n in names if n not in raw]
+    if missing:
+        raise _Invalid(f"functions {missing} are missing (a {dim}D database holds {list(names)})")
+    functions = {str(k): _polynomial(f, f"functions[{k!r}]", 1) for k, f in raw.items()}
+    c = 1 if dim == 2 else 3
+    elements = _polynomial(_field(body, "elements", dict), "elements", 2)
+    nodes = _polynomial(_field(body, "nodes", dict), "nodes", 2)
+    for name, poly, least in (("elements", elements, 1), ("nodes", nodes, 0)):
+        rows = poly.coefficients.shape[0]
+        if rows < least or rows % c:
+            raise _Invalid(f"{name} must hold {c} row(s) per {name[:-1]} ({'at least one' if least else 'or none'}), "
+                           f"got {rows}")
+    version = body.get("flexmb_version", "")
+    if not isinstance(version, str):
+        raise _Invalid("field 'flexmb_version' must be text")
+    # the fits describe one set of runs: their values must agree where the runs fix them
+    pos = [functions[n] for n in names[:-1]]
+    spread = sum(f.max_residual for f in pos) + functions["D/D0-1"].max_residual
+    norm = np.linalg.norm(np.stack([f(samples) for f in pos], axis=-1), axis=-1) - 1.0
+    gap = float(np.abs(norm - functions["D/D0-1"](samples)).max())
+    if gap > spread + 1e-9:
+        raise _Invalid(f"the position fits and D/D0 - 1 disagree by {gap:.3g} at the samples (the fits state at "
+                       f"most {spread:.3g})")
+    for name, poly in (("D/D0-1", functions["D/D0-1"]), ("elements", elements), ("nodes", nodes)):
+        rest = np.abs(poly(0.0)).max() if poly.coefficients.size else 0.0
+        if rest > poly.max_residual + 1e-9:
+            raise _Invalid(f"{name} is {rest:.3g} at rest (theta = 0); the runs start undeformed")
+    for a in (samples, elements.powers, elements.coefficients, nodes.powers, nodes.coefficients,
+              *(x for f in functions.values() for x in (f.powers, f.coefficients))):
+        a.flags.writeable = False  # shared by every reader of this content (`_parse` caches it)
+    return JointData(kind=kind, dim=dim, parameters=parameters, key=key, mesh_hash=mesh,
+                     range=(float(rng[0]), float(rng[1])), samples=samples, length=length, functions=functions,
+                     elements=elements, nodes=nodes, flexmb_version=version)
+
+
+def _eob_table(body: dict, folder: Path):
+    """The version 3 ``eob_table`` (None in version 2 files or when absent), checked; its samples
+    are read from ``folder`` when first used."""
+    if body.get("format_version") == 2:
+        return None
+    try:
+        return eob_format.from_json(body.get("eob_table"), folder, lambda d: _plain_dict(d, "eob_table.parameters"))
+    except ValueError as exc:
+        raise _Invalid(str(exc)) from None
 
 
 @functools.cache
 def data_path() -> Path:
-    """Folder of the shipped, pre-trained database files."""
+    """Folder of the shipped, pre-trained database files (read only: flexmb never writes it)."""
     return Path(str(resources.files("flexmb.database") / "data"))
+
+
+def user_path() -> Path:
+    """Folder of the user's trained database files: `flexmb train` writes here unless told
+    otherwise, and KSD looks here before the shipped data (`search_path`).
+
+    The environment variable ``FLEXMB_DATABASE`` when set; otherwise the platform's user data
+    folder: ``$XDG_DATA_HOME/flexmb/database`` (default ``~/.local/share/flexmb/database``) on
+    Linux, ``~/Library/Application Support/flexmb/database`` on macOS,
+    ``%LOCALAPPDATA%\\flexmb\\database`` on Windows. The folder need not exist."""
+    env = os.environ.get(ENVIRONMENT)
+    if env:
+        return Path(env).expanduser()
+    home = Path.home()
+    if sys.platform == "win32":
+        base = Path(os.environ.get("LOCALAPPDATA") or home / "AppData" / "Local")
+    elif sys.platform == "darwin":
+        base = home / "Library" / "Application Support"
+    else:
+        xdg = os.environ.get("XDG_DATA_HOME", "")
+        base = Path(xdg) if os.path.isabs(xdg) else home / ".local" / "share"
+    return base / "flexmb" / "database"
+
+
+def search_path(folder=None) -> list[Path]:
+    """The folders searched for a joint's database file, in order (the first holding the file
+    wins): ``folder`` when given (KSD's ``database=`` option), then `user_path`, then the shipped
+    data (`data_path`)."""
+    out = [Path(folder)] if folder is not None else []
+    for p in (user_path(), data_path()):
+        if p not in out:
+            out.append(p)
+    return out
 
 
 def file_name(kind: str, dim: int, key: dict) -> str:
@@ -199,17 +480,29 @@ def _fmt(v) -> str:
     return f"{v:.6g}" if isinstance(v, float) else str(v)
 
 
-def shipped(joint, dim: int, folder=None) -> JointData:
-    """The trained data for ``joint`` in a ``dim`` mechanism (from ``folder``, default the shipped
-    data); refuses missing, corrupted and stale files with a `DatabaseError`."""
+def locate(joint, dim: int, folder=None) -> Path:
+    """The database file of ``joint`` in ``dim``: the first of `search_path` holding its
+    `file_name`; `DatabaseError` naming the folders searched and the training command otherwise."""
     key = joint.database_key()
-    path = Path(folder or data_path()) / file_name(joint.kind, dim, key)
-    if not path.exists():
-        params = " ".join(f"--param {k}={v}" for k, v in key.items() if k != "elements_per_leaf")
-        elements = f" --elements {key['elements_per_leaf']}" if "elements_per_leaf" in key else ""
-        raise DatabaseError(f"no trained data for {joint.kind} ({dim}D, {key}) in {path.parent}; train it with "
-                            f"`flexmb train {joint.kind} --dim {dim}{elements} {params} --out FOLDER` and solve with "
-                            f"database=FOLDER (present: {sorted(p.name for p in path.parent.glob('*.json'))})")
+    name = file_name(joint.kind, dim, key)
+    folders = search_path(folder)
+    for f in folders:
+        if os.path.lexists(f / name):
+            return f / name
+    params = " ".join(f"--param {k}={v}" for k, v in key.items() if k != "elements_per_leaf")
+    elements = f" --elements {key['elements_per_leaf']}" if "elements_per_leaf" in key else ""
+    present = sorted({p.name for f in folders if f.is_dir() for p in f.glob(f"{joint.kind}-*.json")})
+    raise DatabaseError(f"no trained data for {joint.kind} ({dim}D, {key}) in {', '.join(map(str, folders))}; train "
+                        f"it with `flexmb train {joint.kind} --dim {dim}{elements} {params} --out FOLDER` and solve "
+                        f"with database=FOLDER, or without --out into {user_path()} (present: {present})")
+
+
+def shipped(joint, dim: int, folder=None) -> JointData:
+    """The trained data for ``joint`` in a ``dim`` mechanism: the first file found along
+    `search_path` (``folder``, the user data folder, the shipped data); refuses missing,
+    corrupted, invalid and stale files, and files of another joint, with a `DatabaseError`."""
+    key = joint.database_key()
+    path = locate(joint, dim, folder)
     data = load(path)
     if data.kind != joint.kind or data.dim != dim or data.key != key:
         raise DatabaseError(f"joint database {path} holds {data.kind} {data.dim}D {data.key}, not {joint.kind} "
@@ -217,4 +510,23 @@ def shipped(joint, dim: int, folder=None) -> JointData:
     if data.mesh_hash != mesh_hash(joint, dim):
         raise DatabaseError(f"joint database {path} is stale: it was trained on another mesh of {joint.kind} "
                             f"(flexmb {data.flexmb_version or '?'}); re-train with `flexmb train {joint.kind} --dim {dim}`")
+    _check_joint(data, joint, dim, path)
     return data
+
+
+def _check_joint(data: JointData, joint, dim: int, path: Path) -> None:
+    """The fits belong to this joint: its D0, its rest position of B (the position fits at
+    theta = 0, within their residuals) and its number of elements (one row, 3 in 3D, each)."""
+    b0 = np.asarray(joint.interface_b(dim), dtype=float)
+    D0 = float(np.linalg.norm(b0))
+    if abs(data.length - D0) > 1e-9 * D0:
+        raise DatabaseError(f"joint database {path} states D0 = {data.length!r} m, the joint's is {D0!r} m")
+    for k, name in enumerate(("x/D0", "y/D0", "z/D0")[:dim]):
+        f = data.functions[name]
+        if abs(float(f(0.0)) - b0[k] / D0) > f.max_residual + 1e-9:
+            raise DatabaseError(f"joint database {path}: {name} at rest is {float(f(0.0)):.6g}, the joint's "
+                                f"{b0[k] / D0:.6g}; the file does not describe this joint")
+    E = _mesh_facts(joint, dim)[1] * (1 if dim == 2 else 3)
+    if data.elements.coefficients.shape[0] != E:
+        raise DatabaseError(f"joint database {path} holds {data.elements.coefficients.shape[0]} element "
+                            f"rotations; the joint's mesh has {E}")

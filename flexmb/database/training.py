@@ -14,13 +14,14 @@ import time
 import attrs
 import numpy as np
 
-from ..errors import ConvergenceError, DatabaseError
+from ..errors import ConvergenceError, DatabaseError, ParameterError
 from ..mechanism import Mechanism
 from ..rotations import logm_so3
-from .store import JointData, Polynomial, mesh_hash
+from .eob_format import plain_parameters
+from .store import JointData, Polynomial, load, mesh_hash, save, shipped
 
-__all__ = ["TrainingRun", "simulate", "train", "DEFAULT_RANGE_DEG", "ELEMENT_POWERS", "CONSTRAINT_POWERS", "TRAINING",
-           "element_rotations"]
+__all__ = ["TrainingRun", "simulate", "train", "verify", "DEFAULT_RANGE_DEG", "ELEMENT_POWERS", "CONSTRAINT_POWERS",
+           "TRAINING", "element_rotations"]
 
 DEFAULT_RANGE_DEG = (-75.0, 75.0)
 #: Element (and node) rotations as polynomials without constant term, Eq. (4.2) taken to fifth
@@ -101,14 +102,24 @@ def element_rotations(model, state) -> np.ndarray:
     return logm_so3(frame @ np.swapaxes(frame0, 1, 2))
 
 
-def train(joint, dim: int, range_deg=None, step_deg: float | None = None) -> JointData:
+def train(joint, dim: int, range_deg=None, step_deg: float | None = None, eob_table: bool = False) -> JointData:
     """Train the database of ``joint`` (a `Joint` with a FE model and a `database_key`) in ``dim``.
 
     The sampling (``range_deg``, ``step_deg``) and the polynomial orders default to the joint's
-    ``training`` settings (`TRAINING` where it sets none)."""
+    ``training`` settings (`TRAINING` where it sets none). ``eob_table``: also tabulate the EOB
+    condensation of this joint against theta (`flexmb.ksd.eob_table`; KSD-reduced then looks it
+    up instead of condensing per solve, for joints with these parameters)."""
     opt = {**TRAINING, **getattr(joint, "training", {})}
-    lo, hi = opt["range_deg"] if range_deg is None else range_deg
-    step_deg = opt["step_deg"] if step_deg is None else step_deg
+    try:
+        lo, hi = (float(x) for x in (opt["range_deg"] if range_deg is None else range_deg))
+        step_deg = float(opt["step_deg"] if step_deg is None else step_deg)
+    except (TypeError, ValueError):
+        raise ParameterError(f"train: range_deg={range_deg!r} must be (lo, hi) and step_deg={step_deg!r} a number "
+                             "[deg]") from None
+    if not -180.0 <= lo < hi <= 180.0:
+        raise ParameterError(f"train: range_deg=({lo}, {hi}) must satisfy -180 <= lo < hi <= 180 [deg]")
+    if not 0.0 < step_deg <= hi - lo:
+        raise ParameterError(f"train: step_deg={step_deg} must lie in (0, {hi - lo:g}] deg (the range's width)")
     key = joint.database_key()
     theta = np.radians(np.arange(lo, hi + 0.5 * step_deg, step_deg))
     run = simulate(joint, dim, theta)
@@ -118,13 +129,60 @@ def train(joint, dim: int, range_deg=None, step_deg: float | None = None) -> Joi
                  for k, name in enumerate(("x/D0", "y/D0", "z/D0")[:dim])}
     functions["D/D0-1"] = Polynomial.fit(theta, np.linalg.norm(pos, axis=1) - 1.0, opt["length_powers"])
     S = len(theta)
-    return JointData(kind=joint.kind, dim=dim, parameters=_plain(joint.describe()), key=key,
+    data = JointData(kind=joint.kind, dim=dim, parameters=plain_parameters(joint.describe()), key=key,
                      mesh_hash=mesh_hash(joint, dim), range=(float(theta[0]), float(theta[-1])), samples=theta,
                      length=D0, functions=functions,
                      elements=Polynomial.fit(theta, run.element_rotation.reshape(S, -1), opt["element_powers"]),
                      nodes=Polynomial.fit(theta, run.node_rotation.reshape(S, -1), opt["element_powers"]))
+    return with_eob_table(joint, data) if eob_table else data
 
 
-def _plain(d: dict) -> dict:
-    return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in d.items()
-            if isinstance(v, (int, float, str, bool, np.floating)) or v is None}
+def migrate(path) -> JointData:
+    """Rewrite the database file ``path`` (version 2 or 3) as version 3 with the EOB condensation
+    of its training joint tabulated (the joint rebuilt from the recorded kind and parameters;
+    the kinematic fits are kept as they are). How the shipped data were migrated (issue 21)."""
+    from ..registry import joint as make_joint
+
+    data = load(path)
+    joint = make_joint(data.kind, **data.parameters)
+    out = with_eob_table(joint, data)
+    save(out, path)
+    return out
+
+
+def with_eob_table(joint, data: JointData) -> JointData:
+    """``data`` with the EOB condensation of ``joint`` (the joint it was trained on) tabulated
+    (`flexmb.ksd.eob_table.tabulate`): how `train` and the migration of version 2 files add it."""
+    from ..ksd.eob import EOBTemplate
+    from ..ksd.eob_table import tabulate
+
+    return attrs.evolve(data, eob_table=tabulate(EOBTemplate(joint, data.dim, data), plain_parameters(joint.describe())))
+
+
+def verify(joint, dim: int, folder=None, *, samples: int = 3) -> JointData:
+    """The database of ``joint`` (`shipped`: ``folder``, the user folder, the shipped data), checked
+    against the joint's FE model re-run at ``samples`` of its trained rotations (both ends and
+    evenly between): B's position over D0 and every element and node rotation must match the fits
+    within the residual each fit states (plus 1e-8 for the solves' tolerance). The checksum and
+    `load`'s content checks catch damaged files; this catches a file edited consistently, e.g.
+    element rotations scaled and the checksum recomputed. `DatabaseError` naming the worst fit.
+    Costs ``samples`` solves (0.3 s for the 3D cross flexure at 3 el./leaf)."""
+    data = shipped(joint, dim, folder)
+    idx = np.unique(np.linspace(0, len(data.samples) - 1, max(int(samples), 1)).round().astype(int))
+    run = simulate(joint, dim, data.samples[idx])
+    S = len(idx)
+    checks = [(name, data.functions[name], run.b_position[:, k] / data.length)
+              for k, name in enumerate(("x/D0", "y/D0", "z/D0")[:dim])]
+    checks += [("elements", data.elements, run.element_rotation.reshape(S, -1)),
+               ("nodes", data.nodes, run.node_rotation.reshape(S, -1))]
+    for name, poly, exact in checks:
+        if not np.size(poly.coefficients):
+            continue
+        err = float(np.abs(poly(run.theta).reshape(exact.shape) - exact).max())
+        if err > poly.max_residual + 1e-8:
+            raise DatabaseError(f"{joint.kind} database ({dim}D, {data.key}): {name} differs from the FE model by "
+                                f"{err:.3g} where the fit states at most {poly.max_residual:.3g}; the file was "
+                                "edited: re-create it with `flexmb train`")
+    return data
+
+

@@ -10,17 +10,17 @@ the joint in its current geometry, so the joint wrenches balance exactly, as in 
 from __future__ import annotations
 
 import functools
-import os
 
 import numpy as np
 
 from .._validate import hashable
-from ..database.store import data_path, file_name, shipped
+from ..database.store import shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
 from ..fe.model import State
 from ..rotations import cross, expm_so3, skew, unskew
 from . import constraints
 from .eob import EOBTemplate
+from .eob_table import lookup_for
 from .geometry import ACTIVE, JointFrames, LinkPoses, intended_angle
 
 __all__ = ["ReducedMechanism", "template"]
@@ -31,8 +31,14 @@ _DUNSKEW = 0.5 * (np.outer(_EYE.ravel(), _EYE.ravel()) - np.eye(9))
 
 
 @functools.lru_cache(maxsize=64)
-def _cached_template(joint, dim: int, folder: str, stamp: int) -> EOBTemplate:
-    return EOBTemplate(joint, dim, shipped(joint, dim, folder))
+def _cached_template(joint, dim: int, data) -> EOBTemplate:
+    return _with_lookup(EOBTemplate(joint, dim, data), joint)
+
+
+def _with_lookup(tpl: EOBTemplate, joint) -> EOBTemplate:
+    """``tpl`` with its database's tabulated condensation attached when it applies (issue 21)."""
+    tpl.lookup = lookup_for(tpl, joint)
+    return tpl
 
 
 @functools.lru_cache(maxsize=256)
@@ -42,18 +48,14 @@ def _constraint_set(tpl: EOBTemplate, names: tuple, D0: bytes, b0: bytes) -> con
 
 
 def template(joint, dim: int, folder=None) -> EOBTemplate:
-    """The joint's `EOBTemplate` with its database (cached per joint value and database file)."""
-    folder = str(folder or data_path())
+    """The joint's `EOBTemplate` with its database (cached per joint value and database content)."""
     if "database" not in joint.capabilities:
         raise UnsupportedStrategyError(
             f"joint kind {joint.kind!r} has no joint database (KSD needs one); it offers {sorted(joint.capabilities)}")
-    try:
-        stamp = os.stat(os.path.join(folder, file_name(joint.kind, dim, joint.database_key()))).st_mtime_ns
-    except OSError:
-        stamp = -1
+    data = shipped(joint, dim, folder)  # read on every call; one `JointData` per file content
     if not hashable(joint):  # a plugin joint that is not a value: no caching
-        return EOBTemplate(joint, dim, shipped(joint, dim, folder))
-    return _cached_template(joint, dim, folder, stamp)
+        return _with_lookup(EOBTemplate(joint, dim, data), joint)
+    return _cached_template(joint, dim, data)
 
 
 def _embed(v: np.ndarray, dim: int) -> np.ndarray:
@@ -99,6 +101,10 @@ class ReducedMechanism:
 
         names, a, b, rot, b0, origin, groups, seen = [], [], [], [], [], [], {}, {}
         for key, jt, pl, side_a, side_b in compiled.joints:
+            if "ideal" in jt.capabilities:
+                raise UnsupportedStrategyError(
+                    f"joint {key!r} ({jt.kind}) is an ideal joint: KSD's kinematic step and reduced model do not "
+                    "include ideal joints yet; solve with method='conventional' (exact hinge constraints)")
             try:
                 tpl = seen[jt] if hashable(jt) and jt in seen else template(jt, dim, folder)
             except DatabaseError as exc:

@@ -274,7 +274,11 @@ def _solve(args) -> int:
     params = dict(_parse_params(args.param))
     mechanism, default = _build(args.case, params)
     method = args.method or default
-    sol = solve(mechanism, method=method, **dict(_parse_params(args.option, "--option")))
+    options = dict(_parse_params(args.option, "--option"))
+    clash = sorted({"mechanism", "method"} & set(options))
+    if clash:
+        raise _UsageError(f"--option {clash[0]}=...: not a solver option (choose the method with --method)")
+    sol = solve(mechanism, method=method, **options)
     report = solution_report(sol, case=args.case, parameters=params)
     if args.json:
         print(json.dumps(strict_json(report), indent=2, allow_nan=False))

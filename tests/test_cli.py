@@ -223,6 +223,7 @@ BAD_ARGUMENTS = {
     "solve --param without value": lambda f: ["solve", "cantilever", "--param", "rotation"],  # main: exit 1
     "solve --option without value": lambda f: ["solve", "cantilever", "--option", "tol"],
     "train --param without value": lambda f: ["train", "--param", "angle", "--out", str(f.parent)],
+    "solve --option method": lambda f: ["solve", "cantilever", "--option", "method=newton"],  # main: TypeError
 }
 
 

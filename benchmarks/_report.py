@@ -27,7 +27,8 @@ def machine() -> str:
     import scipy
 
     return (f"Python {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}, "
-            f"{platform.machine()}, {__import__('os').cpu_count()} cores")
+            f"{platform.machine()}, {__import__('os').cpu_count()} cores, load average {__import__('os').getloadavg()[0]:.1f} "
+            "at the start (the host is shared: absolute times are noisy, ratios within one run are not)")
 
 
 def write_section(name: str, body: str, path: Path = ROOT / "BENCHMARKS.md") -> None:

@@ -3,6 +3,9 @@
 from . import export, models, plot, study, testing
 from .errors import (
     ConvergenceError,
+    ConvergenceWarning,
+    ExtrapolationWarning,
+    PlausibilityWarning,
     DatabaseError,
     FlexmbError,
     MissingExtraError,
@@ -12,25 +15,34 @@ from .errors import (
     UnknownJointError,
     UnsupportedStrategyError,
 )
-from .joints import CrossFlexure, CurvedBeam, Joint, JointMesh, LeafSpring, ThreeXInfinity
+from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
 from .linearised import buckling, compliance
+from .design_properties import properties
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
 from .results import Solution
-from .sections import Section, rectangle
+from .sections import Section, circle, rectangle
 from .solvers import solve
 from .study import grid, parameter_study
 from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
+from .path import Critical, Path, trace
 from .table import Table, read_csv
 from ._version import __version__  # noqa: F401 (flexmb.__version__)
 
 
 __all__ = [
     "ConvergenceError",
+    "ConvergenceWarning",
+    "ExtrapolationWarning",
+    "PlausibilityWarning",
+    "Critical",
+    "Path",
+    "trace",
     "CrossFlexure",
     "CurvedBeam",
     "FlexmbError",
+    "Hinge",
     "Joint",
     "JointMesh",
     "LeafSpring",
@@ -56,6 +68,7 @@ __all__ = [
     "grid",
     "parameter_study",
     "plot",
+    "properties",
     "read_csv",
     "study",
     "find_actuation",
@@ -64,6 +77,7 @@ __all__ = [
     "modes",
     "testing",
     "rectangle",
+    "circle",
     "register_joint",
     "solve",
     "sweep",

@@ -38,15 +38,25 @@ def joint_stiffness(joint, rotation: float = 0.0):
 
 def support_ratios(joint, rotation: float = 0.0) -> dict:
     """Support stiffness of every unintended direction over the rotational stiffness at
-    ``rotation`` [rad].
+    ``rotation`` [rad]: a special case of `flexmb.compliance`.
 
-    Each direction's stiffness is ``1 / C_ii`` with ``C`` the compliance of `joint_stiffness`
-    (all other directions free, the intended rotation included). Translations are compared as
-    ``k D0^2`` [N m] with D0 the distance of the interface nodes (the joint's own length), tilts
-    directly [N m/rad]. Returns the five ratios, ``"k_rotation"`` [N m/rad] and the peak normal
-    stress ``"stress"`` [Pa] of the solution."""
-    K, sol = joint_stiffness(joint, rotation)
-    k = 1.0 / np.diag(np.linalg.inv(K))
+    Each direction's stiffness is ``1 / C_ii`` with ``C`` the compliance of node B
+    (``flexmb.compliance(solution, "B", held="none")``: link A held, every direction of B free,
+    the intended rotation included) turned into B's frame ``rz(rotation)``. Translations are
+    compared as ``k D0^2`` [N m] with D0 the distance of the interface nodes (the joint's own
+    length), tilts directly [N m/rad]. Returns the five ratios, ``"k_rotation"`` [N m/rad] and
+    the peak normal stress ``"stress"`` [Pa] of the solution."""
+    from .linearised import compliance
+    from .solvers import solve
+    from .testing import joint_mechanism
+
+    sol = solve(joint_mechanism(joint, 3, motion=rotation))
+    if not sol.converged:
+        raise ConvergenceError(f"{joint.kind}: the FE model did not converge at {np.degrees(rotation):.1f} deg: "
+                               f"{sol.message}", sol)
+    T = np.zeros((6, 6))
+    T[:3, :3] = T[3:, 3:] = rz(rotation)
+    k = 1.0 / np.diag(T.T @ compliance(sol, "B", held="none") @ T)
     D0 = float(np.linalg.norm(joint.interface_b(3)))
     out = {name: float(k[i] * (D0 ** 2 if i < 3 else 1.0) / k[5]) for i, name in enumerate(_DIRECTIONS[:5])}
     out["k_rotation"] = float(k[5])

@@ -23,6 +23,14 @@ __all__ = ["Link", "Mechanism", "Placement", "Compiled", "BUILDERS"]
 BUILDERS = {fe_build.CAPABILITY: fe_build.build, closed_form_build.CAPABILITY: closed_form_build.build}
 
 
+def _frozen_or_none(a):
+    return None if a is None else v.frozen(a)
+
+
+def _frozen_unless_scalar(a):
+    return a if np.ndim(a) == 0 else v.frozen(a)
+
+
 @attrs.frozen(eq=False)
 class Link:
     """A rigid link: a graph node. ``position`` [m] is its reference point in the undeformed state.
@@ -33,19 +41,19 @@ class Link:
     """
 
     name: str
-    position: np.ndarray
+    position: np.ndarray = attrs.field(converter=v.frozen)  # read-only copies: no caller can change a link
     fixed: bool = False
     mass: float = 0.0
-    inertia: np.ndarray | float = 0.0
-    center: np.ndarray | None = None
+    inertia: np.ndarray | float = attrs.field(default=0.0, converter=_frozen_unless_scalar)
+    center: np.ndarray | None = attrs.field(default=None, converter=_frozen_or_none)
 
 
 @attrs.frozen(eq=False)
 class Placement:
     """Where a joint sits: its frame's origin [m] and rotation (matrix (dim, dim)) in global axes."""
 
-    origin: np.ndarray
-    rotation: np.ndarray
+    origin: np.ndarray = attrs.field(converter=v.frozen)  # read-only copies
+    rotation: np.ndarray = attrs.field(converter=v.frozen)
 
     def to_global(self, local: np.ndarray) -> np.ndarray:
         """Points (..., dim) [m] of the joint frame in global coordinates."""
@@ -130,6 +138,8 @@ class Mechanism:
         ``joint`` is a `Joint` instance or a registered name (then ``params`` go to its constructor).
         The joint frame is placed at ``origin`` [m] (default: link ``a``'s reference point) with
         ``rotation`` (2D: angle [rad]; 3D: rotation vector [rad] or a 3x3 matrix; default none).
+        ``name``: a non-empty string, or None for ``"<kind>_<k>"`` with the first k from the number
+        of joints that no joint has taken.
         """
         self.link(a), self.link(b)
         if a == b:
@@ -143,7 +153,13 @@ class Mechanism:
         if self.dim not in type(joint).dims:
             raise UnsupportedStrategyError(
                 f"joint kind {joint.kind!r} supports dim in {type(joint).dims}, not a dim={self.dim} mechanism")
-        name = name or f"{joint.kind}_{self.graph.number_of_edges()}"
+        if name is None:  # the first free "<kind>_<k>", k from the joint count: never a user's name
+            k = self.graph.number_of_edges()
+            while f"{joint.kind}_{k}" in self.joints:
+                k += 1
+            name = f"{joint.kind}_{k}"
+        elif not isinstance(name, str) or not name:
+            raise ModelError(f"joint name must be a non-empty string (or None for an automatic one), got {name!r}")
         if name in self.joints:
             raise ModelError(f"a joint named {name!r} exists already")
         where = f"joint {name!r}"
@@ -192,17 +208,18 @@ class Mechanism:
                 current.pop(key, None)
             elif key == "rotation" and self.dim == 3:
                 if np.ndim(val) == 2:  # a chain of rotation vectors
-                    current[key] = np.array([v.vector(where, f"rotation[{i}]", w, 3) for i, w in enumerate(val)])
+                    current[key] = v.frozen([v.vector(where, f"rotation[{i}]", w, 3) for i, w in enumerate(val)])
                     if len(current[key]) == 0:
                         raise ParameterError(f"{where}: rotation is an empty sequence of rotation vectors")
                 else:
-                    current[key] = v.vector(where, "rotation", val, 3)
+                    current[key] = v.frozen(v.vector(where, "rotation", val, 3))
             else:
                 current[key] = v.finite(where, key, val)
         self._prescribed[name] = current
 
     def prescribed(self, name: str) -> dict:
-        """A copy of the prescribed components of link ``name`` (``{"x": ..., "rotation": ...}``)."""
+        """A copy of the prescribed components of link ``name`` (``{"x": ..., "rotation": ...}``;
+        rotation arrays are read-only copies of what was given)."""
         return dict(self._prescribed.get(name, {}))
 
     def apply_force(self, name: str, force, point=None) -> None:
@@ -262,22 +279,30 @@ class Mechanism:
         return tuple((link, o.copy(), f.copy(), m.copy()) for link, o, f, m in self._loads)
 
     def add_point(self, link: str, name: str, position) -> None:
-        """Name a point of a link (undeformed global position [m]), e.g. an end-effector."""
+        """Name a point of a link (undeformed global position [m]), e.g. an end-effector. A name
+        already given to a point is refused (`ModelError`), never replaced."""
         lk = self.link(link)
         if not isinstance(name, str) or not name:
             raise ModelError(f"point name must be a non-empty string, got {name!r}")
+        if name in self._points:
+            raise ModelError(f"a point named {name!r} exists already (on link {self._points[name][0]!r}); "
+                             "choose another name")
         self._points[name] = (link, v.vector(f"point {name!r}", "position", position, self.dim) - lk.position)
 
     # -- checks and compilation ---------------------------------------------------------------
     def check(self, links: dict | None = None) -> None:
-        """Raise a `TopologyError` unless the mechanism is grounded and connected (``links``: the
-        `links` mapping when the caller has it already)."""
+        """Raise a `TopologyError` unless the mechanism is grounded (a fixed link, or a link whose
+        position is prescribed) and connected (``links``: the `links` mapping when the caller has
+        it already)."""
         links = self.links if links is None else links
         if not links:
             raise TopologyError("the mechanism has no links")
-        fixed = [n for n, lk in links.items() if lk.fixed]
+        # a link whose position is prescribed (a pin support: x, y (, z) held, rotation free) anchors too
+        position = {"x", "y"} if self.dim == 2 else {"x", "y", "z"}
+        fixed = [n for n, lk in links.items() if lk.fixed or position <= self._prescribed.get(n, {}).keys()]
         if not fixed:
-            raise TopologyError("the mechanism has no fixed link; fix one with add_link(..., fixed=True) or fix()")
+            raise TopologyError("the mechanism has no fixed link; fix one with add_link(..., fixed=True) or fix(), "
+                                "or prescribe a link's position (a pin support)")
         adj = self.graph.adj  # a plain search: networkx's dispatching costs more than the search
         grounded, stack = set(fixed), list(fixed)
         while stack:

@@ -35,9 +35,10 @@ import scipy.sparse.linalg as spla
 
 from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
 from .fe.assembly import SparsePattern
+from .fe.ideal import constrained
 from .fe.mass import mass_matrix
 
-__all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", "solvable_problem", "DENSE_BELOW",
+__all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", "solvable_problem", "constrained", "DENSE_BELOW",
            "DENSE_BELOW_NONSYMMETRIC"]
 
 #: Free DOFs below which `modes` solves the symmetric eigenproblem dense (LAPACK ``eigh``); at and
@@ -89,21 +90,27 @@ class Modes:
 def _full_pattern(model, loads):
     ed = model.element_dofs
     lr = model.node_dofs[loads.node][:, model.dim:]
-    rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in (ed, lr)])
-    cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in (ed, lr)])
+    blocks = (ed, lr) if model.hinges is None else (ed, lr, model.hinge_dofs)
+    rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in blocks])
+    cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in blocks])
     return SparsePattern(rows, cols, (model.n_dofs, model.n_dofs))
 
 
 def full_tangent(solution, element_tangent=None, with_loads: bool = True) -> sp.csr_array:
-    """The tangent on *all* DOFs (N ndof, N ndof) at a converged FE solution: the elements' (or
-    ``element_tangent``, (E, 2 ndof, 2 ndof) in master DOFs) and, ``with_loads``, the dead loads'
-    stiffness at the solution's load factor."""
+    """The tangent on *all* DOFs (n_dofs, n_dofs) at a converged FE solution: the elements' (or
+    ``element_tangent``, (E, 2 ndof, 2 ndof) in master DOFs), the hinges' saddle-point blocks
+    (without their constraint forces' part when ``element_tangent`` is given: the material tangent)
+    and, ``with_loads``, the dead loads' stiffness at the solution's load factor."""
     problem = solvable_problem(solution)
     model, state = problem.model, solution.state
     Ke = model.element_response(state, tangent=True)[1] if element_tangent is None else element_tangent
     _, G = problem.external_force(state, solution.load_factor)
     G = -G if with_loads else np.zeros_like(G)
-    return _full_pattern(model, problem.loads).matrix(np.concatenate([Ke.ravel(), G.ravel()]))
+    vals = [Ke.ravel(), G.ravel()]
+    if model.hinges is not None:
+        vals.append(model.hinge_response(state, problem.motor_fraction(solution.load_factor),
+                                         material=element_tangent is not None)[1].ravel())
+    return _full_pattern(model, problem.loads).matrix(np.concatenate(vals))
 
 
 def stiffness_and_mass(solution) -> tuple[sp.csr_array, sp.csr_array]:
@@ -203,10 +210,20 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
         raise ParameterError(f"modes: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, {nf}, "
                              "minus one)")
     K, M = stiffness_and_mass(solution)
+    free, Z = constrained(model, free, K)  # hinges: the motions they allow (Z), multipliers out
     K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
+    if Z is not None:
+        K, M = (Z.T @ K @ Z).tocsr(), (Z.T @ M @ Z).tocsr()
+        nf = K.shape[0]
+        if not 1 <= n < nf:
+            raise ParameterError(f"modes: n={n!r} must be in [1, {nf - 1}] (the motions the hinges allow, {nf}, "
+                                 "minus one)")
     dM = M.diagonal()
     scale = float(dM.max(initial=0.0))
     massless = np.flatnonzero(~(dM > 1e-14 * scale)) if scale > 0 else np.arange(nf)
+    if len(massless) and Z is not None:
+        raise ModelError(f"modes: {len(massless)} of the motions the hinges allow carry no mass; give the links "
+                         "mass (add_link(..., mass=, inertia=)) or the joints density, or hold them (held=...)")
     if len(massless):
         listed = ", ".join(_dof_name(compiled, free[i]) for i in massless[:6])
         raise ModelError(f"modes: {len(massless)} free direction(s) carry no mass: {listed}"
@@ -226,9 +243,11 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     vec = vec / norm
     big = np.argmax(np.abs(vec), axis=0)
     vec = vec * np.sign(vec[big, np.arange(vec.shape[1])])
+    if Z is not None:
+        vec = Z @ vec
     full = np.zeros((n, model.n_dofs))
     full[:, free] = vec.T
-    shapes = full.reshape(n, model.n_nodes, model.ndof)
+    shapes = full[:, :model.n_nodes * model.ndof].reshape(n, model.n_nodes, model.ndof)
     freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
     link_shapes = {link: shapes[:, node].copy() for link, node in compiled.link_node.items()}
     return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, solver)

@@ -89,6 +89,8 @@ class StaticProblem(BoundaryConditions):
         self._wrench0 = np.zeros_like(self._wrench)
         self._motion_scale = 1.0
         self._offset = None
+        #: (prescribed slots (3,), w_0, w_1) of 3D orientations followed as exp(w_0 + lam (w_1 - w_0))
+        self._rotation_lines = ()
 
     @functools.cached_property
     def _patterns(self) -> tuple[SparsePattern, SparsePattern]:
@@ -97,8 +99,9 @@ class StaticProblem(BoundaryConditions):
         model, (slot_f, slot_p, nf, npres) = self.model, self._slots
         ed = model.element_dofs
         lr = model.node_dofs[self.loads.node][:, model.dim:]  # (K, nrot)
-        rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in (ed, lr)])
-        cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in (ed, lr)])
+        blocks = (ed, lr) if model.hinges is None else (ed, lr, model.hinge_dofs)
+        rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in blocks])
+        cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in blocks])
         return (SparsePattern(slot_f[rows], slot_f[cols], (nf, nf)),
                 SparsePattern(slot_f[rows], slot_p[cols], (nf, npres)))
 
@@ -114,6 +117,7 @@ class StaticProblem(BoundaryConditions):
         out._wrench0 = (np.zeros_like(out._wrench) if start is None
                         else np.concatenate([start.force, start.moment], axis=1))
         out._motion_scale = 1.0 if start is None else 0.0
+        out._motor_reached = start is not None
         out._offset = None
         return out
 
@@ -125,16 +129,21 @@ class StaticProblem(BoundaryConditions):
         out._offset = functools.partial(self.residual, state, 1.0)  # needed only if a step is cut
         return out
 
-    def with_motion(self, values: np.ndarray, start: State | None = None) -> StaticProblem:
+    def with_motion(self, values: np.ndarray, start: State | None = None,
+                    start_values: np.ndarray | None = None) -> StaticProblem:
         """A copy with other prescribed ``values`` (same DOFs, totals from the undeformed state).
 
         With ``start`` (an equilibrium under these loads), the load factor moves the prescribed
         DOFs from ``start`` to ``values`` while the loads stay whole (a warm start along a motion
-        sweep); 3D orientations turn about the one axis of ``R_target R_start^T``.
+        sweep); 3D orientations turn about the one axis of ``R_target R_start^T`` or, given the
+        prescribed ``start_values`` ``start`` was solved for, along ``exp(w_0 + lam (w_1 - w_0))``:
+        the requested motion, however far (a turn of more than pi is not taken the short way;
+        `max_load_step` splits it).
         """
         out = copy.copy(self)
         out.values = np.asarray(values, dtype=float)
         out._offset = None
+        out._rotation_lines = ()
         if start is None:
             return out
         m = self.model
@@ -151,8 +160,14 @@ class StaticProblem(BoundaryConditions):
             for dofs, w in self.rotation_paths:
                 target[np.searchsorted(self.prescribed[first], dofs[0])] = chain_rotation(w, 1.0)
             inc[blocks] = logm_so3(target @ start.rotations[node[first]].transpose(0, 2, 1))
+            if start_values is not None:
+                chained = {int(d[0]) for d, _ in self.rotation_paths}
+                w0 = np.asarray(start_values, dtype=float)
+                out._rotation_lines = tuple((b, w0[b], out.values[b]) for b in blocks
+                                            if int(self.prescribed[b[0]]) not in chained)
         out.values = inc
         out.rotation_paths = ()
+        out._motor_reached = True
         out._wrench0 = out._wrench
         out._motion_scale = 1.0
         return out
@@ -173,9 +188,14 @@ class StaticProblem(BoundaryConditions):
         """Assembled applied loads at load factor ``lam`` on all DOFs (what `residual` subtracts)."""
         return self.external_force(state, lam)[0]
 
+    def motor_fraction(self, lam: float) -> float:
+        """How much of the hinges' motor angles is reached at load factor ``lam``: ``lam`` from the
+        undeformed state; all of it in a warm-started copy (`with_loads`/`with_motion` with ``start``)."""
+        return 1.0 if getattr(self, "_motor_reached", False) else lam
+
     def residual(self, state: State, lam: float) -> np.ndarray:
-        """``f_int - f_ext(lam)`` on all DOFs (N * ndof,)."""
-        return self.model.internal_force(state) - self.external_force(state, lam)[0]
+        """``f_int - f_ext(lam)`` on all DOFs (n_dofs,; the hinges' multiplier rows last)."""
+        return self.model.internal_force(state, self.motor_fraction(lam)) - self.external_force(state, lam)[0]
 
     def evaluate(self, state: State, lam: float, tangent: bool = True, geometric_stress=None):
         """Residual on all DOFs and, if asked, the tangent blocks ``K_ff`` and ``K_fp`` (CSR).
@@ -189,9 +209,14 @@ class StaticProblem(BoundaryConditions):
         Fe, Ke, _, sig = m.element_response(state, tangent=tangent, geometric_stress=geometric_stress)
         f_ext, G = self.external_force(state, lam)
         r = scatter_add(m.element_dofs, Fe, m.n_dofs) - f_ext
+        Kh = None
+        if m.hinges is not None:
+            Fh, Kh = m.hinge_response(state, self.motor_fraction(lam), tangent=tangent)
+            r = r + scatter_add(m.hinge_dofs, Fh, m.n_dofs)
+        self.force_scale = self._force_scale(Fe, f_ext)
         if not tangent:
             return r, None, None, sig
-        vals = np.concatenate([Ke.ravel(), (-G).ravel()])
+        vals = np.concatenate([Ke.ravel(), (-G).ravel()] + ([] if Kh is None else [Kh.ravel()]))
         ff, fp = self._patterns
         return r, ff.matrix(vals), fp.matrix(vals), sig
 
@@ -203,7 +228,18 @@ class StaticProblem(BoundaryConditions):
             for dofs, w in self.rotation_paths:
                 step = chain_rotation(w, lam + dlam) @ chain_rotation(w, lam).T
                 du[np.searchsorted(self.prescribed, dofs)] = logm_so3(step)
+        for slots, w0, w1 in self._rotation_lines:
+            du[slots] = logm_so3(expm_so3(w0 + (lam + dlam) * (w1 - w0)) @ expm_so3(w0 + lam * (w1 - w0)).T)
         return du
+
+    @property
+    def max_load_step(self) -> float:
+        """Largest load-factor step whose prescribed rotation increments stay below 3 rad (< pi,
+        so that each is the requested turn, not the short way round): the angle between
+        ``exp(a)`` and ``exp(b)`` is at most ``|a - b|``, a chain's at most the sum of its links'."""
+        turn = max([float(np.sum(np.linalg.norm(w, axis=1))) for _, w in self.rotation_paths if self._motion_scale]
+                   + [float(np.linalg.norm(w1 - w0)) for _, w0, w1 in self._rotation_lines] + [0.0])
+        return min(1.0, 3.0 / turn) if turn > 0.0 else 1.0
 
     def full_increment(self, du_free: np.ndarray, du_pres: np.ndarray) -> np.ndarray:
         """The increment of every DOF from its free and prescribed parts."""
@@ -211,6 +247,68 @@ class StaticProblem(BoundaryConditions):
         du[self.free] = du_free
         du[self.prescribed] = du_pres
         return du
+
+    def broken_constraints(self, state: State, lam: float = 1.0) -> str:
+        """Why ``state`` is not the equilibrium asked for although its residual vanishes, or "": an
+        over-constrained mechanism whose prescribed motion violates the hinges' redundant rows
+        (dropped at build time as dependent, `flexmb.fe.ideal.Hinges.violated`)."""
+        m = self.model
+        if m.hinges is None:
+            return ""
+        size = float(np.ptp(m.x0, axis=0).max()) or 1.0
+        bad = m.hinges.violated(state.positions, state.rotations, self.motor_fraction(lam), size)
+        return ("" if not bad else "the prescribed motion contradicts the over-constrained hinges: their redundant "
+                f"(dropped) constraint rows are violated: {', '.join(bad)} [m, rad]")
+
+    def _force_scale(self, Fe: np.ndarray, f_ext: np.ndarray) -> float:
+        """The problem's force scale [N]: the largest element end force, applied load or moment
+        over `model_length` (reactions are sums of element forces)."""
+        m, L = self.model, self.model_length
+        nd, d = m.ndof, m.dim
+        F = Fe.reshape(len(Fe), 2, nd) if len(Fe) else np.zeros((0, 2, nd))
+        f = f_ext[: m.n_node_dofs].reshape(-1, nd)  # the hinges' multiplier rows last
+        return float(max(np.abs(F[..., :d]).max(initial=0.0), np.abs(F[..., d:]).max(initial=0.0) / L,
+                         np.abs(f[:, :d]).max(initial=0.0), np.abs(f[:, d:]).max(initial=0.0) / L))
+
+    def scaled_residual(self, r_free: np.ndarray) -> float:
+        """``|| [r_F, r_M / L] || / F``: the free residual in units of the force scale of the last
+        `evaluate` (`force_scale`), moments over `model_length`: the same in any consistent unit
+        system."""
+        w = self._free_weights
+        F = getattr(self, "force_scale", 0.0)
+        v = float(np.sqrt(np.sum((r_free * w) ** 2)))
+        return v / F if F > 0.0 else (0.0 if v == 0.0 else np.inf)
+
+    @functools.cached_property
+    def _free_weights(self) -> np.ndarray:
+        m = self.model
+        force = np.tile(np.arange(m.ndof) < m.dim, m.n_nodes)
+        if m.hinges is not None:  # a hinge's position rows are forces, its axis and motor rows moments
+            force = np.concatenate([force, np.nonzero(m.hinges.active)[1] < m.dim])
+        return np.where(force[self.free], 1.0, 1.0 / self.model_length)
+
+    @functools.cached_property
+    def model_length(self) -> float:
+        """A length of the model [m]: the diagonal of its nodes' bounding box (the mean element
+        length if the nodes coincide); moments over it compare with forces, rotations with
+        translations over it."""
+        x0 = self.model.x0
+        d = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0))) if len(x0) else 0.0
+        return d if d > 0.0 else float(np.mean(self.model.elements.L0)) if len(self.model.elements.L0) else 1.0
+
+    def reduced_tangent(self, K_ff: sp.csr_array) -> sp.csr_array:
+        """The free tangent on the motions the hinges allow, ``Z^T K Z`` with ``G Z = 0`` (``G`` the
+        hinges' constraint rows): positive definite exactly when the constrained equilibrium is a
+        strict minimum of the energy (second-order condition); ``K_ff`` itself without hinges."""
+        m = self.model
+        if m.hinges is None:
+            return K_ff
+        from .fe.ideal import constrained_basis
+
+        n = len(self.free) - m.hinges.n_rows  # the multipliers are the last free DOFs
+        K = sp.csr_array(K_ff)
+        Z = constrained_basis(K[n:, :n])
+        return (Z.T @ K[:n, :n] @ Z).tocsr()
 
     def solve_linear(self, K: sp.csr_array, rhs: np.ndarray) -> np.ndarray:
         """Solve ``K x = rhs`` with `flexmb.linear.TangentSolver` (dense LAPACK below 220 unknowns;

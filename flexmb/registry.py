@@ -53,6 +53,14 @@ def register_joint(name: str, cls: type, *, clobber: bool = False) -> None:
     _session[name] = cls
 
 
+def _shipped() -> dict[str, type]:
+    """flexmb's own joints, for an editable install whose entry-point metadata predates one of them."""
+    from . import joints
+
+    return {cls.kind: cls for cls in (joints.CrossFlexure, joints.CurvedBeam, joints.Hinge, joints.LeafSpring,
+                                      joints.ThreeXInfinity)}
+
+
 def available_joints() -> dict[str, type]:
     """Registered joint classes by name: installed entry points, then session registrations."""
     return {**_installed(), **_session}
@@ -61,6 +69,8 @@ def available_joints() -> dict[str, type]:
 def joint(name: str, **params) -> Joint:
     """Instantiate the registered joint ``name`` with ``params``."""
     known = available_joints()
+    if name not in known and isinstance(name, str):
+        known = {**_shipped(), **known}
     if name not in known:
         raise UnknownJointError(f"unknown joint {name!r}; known joints: {', '.join(sorted(known)) or 'none'}")
     return joint_from_params(known[name], **params)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import attrs
 import numpy as np
 
+from ._validate import frozen
 from .errors import ModelError, UnsupportedStrategyError
 from .fe.model import State
 from .rotations import cross, logm_so3
@@ -46,18 +47,30 @@ class Solution:
     method: str
     converged: bool
     iterations: int
-    residual_history: np.ndarray
+    residual_history: np.ndarray = attrs.field(converter=frozen)  # read-only copies
     load_factor: float
     steps: int
     rejected_steps: int
     wall_time: dict
     message: str
     state: State = attrs.field(repr=False)
-    residual: np.ndarray = attrs.field(repr=False)
+    residual: np.ndarray = attrs.field(repr=False, converter=frozen)
     compiled: object = attrs.field(repr=False)
     tolerance: float = 5e-7
     stable: bool | None = None
     stages: dict = attrs.field(factory=dict, repr=False)
+
+    @classmethod
+    def failed(cls, method: str, compiled, message: str, wall_time: dict | None = None, stages: dict | None = None):
+        """A solve that produced no configuration (a strategy refused or broke down): not
+        converged, ``message`` says why; its positions, rotations and reactions are NaN, so no
+        table or plot can mistake it for an answer."""
+        model = compiled.problem.model
+        s0 = model.initial_state()
+        return cls(method=method, converged=False, iterations=0, residual_history=np.empty(0), load_factor=0.0,
+                   steps=0, rejected_steps=0, wall_time=dict(wall_time or {}), message=message,
+                   state=State(np.full_like(s0.positions, np.nan), np.full_like(s0.rotations, np.nan)),
+                   residual=np.full(model.n_dofs, np.nan), compiled=compiled, stages=dict(stages or {}))
 
     @property
     def dim(self) -> int:
@@ -95,6 +108,18 @@ class Solution:
         model = self.compiled.problem.model
         return self.residual[model.node_dofs[self._node(link)]].copy()
 
+    def joint_wrench(self, joint: str) -> np.ndarray:
+        """The wrench an ideal joint (`flexmb.Hinge`: its constraint forces, motor and spring)
+        applies on its side-B link: force [N] then moment [N m] about the joint's origin, global
+        axes. About the hinge axis the moment is the motor's torque plus the spring's ``-k theta``;
+        its other components (3D) are the moments the bearing carries."""
+        model = self.compiled.problem.model
+        names = () if getattr(model, "hinges", None) is None else model.hinges.names
+        if joint not in names:
+            raise ModelError(f"no ideal joint named {joint!r}; ideal joints: {', '.join(names) or 'none'}")
+        st = self.state
+        return model.hinges.wrench_on_b(names.index(joint), st.positions, st.rotations, st.multipliers)
+
     def point(self, link: str, name: str) -> np.ndarray:
         """Current position [m] of a named point of a link (see `Mechanism.add_point`)."""
         try:
@@ -120,7 +145,8 @@ class Solution:
         balances to roundoff; see `flexmb.CurvedBeam` for the closed-form models.
         """
         problem, state = self.compiled.problem, self.state
-        f = (self.residual + problem.external_load(state, self.load_factor)).reshape(len(state.positions), -1)
+        n = len(state.positions) * problem.model.ndof  # the link and node rows (hinge multipliers follow)
+        f = (self.residual + problem.external_load(state, self.load_factor))[:n].reshape(len(state.positions), -1)
         d = self.dim
         force = f[:, :d].sum(axis=0)
         x = state.positions
@@ -147,6 +173,22 @@ class Solution:
             return sigma[self.compiled.joint_elements[joint]]
         except KeyError:
             raise ModelError(f"no joint named {joint!r}; joints: {', '.join(self.compiled.joint_elements)}") from None
+
+    def stresses(self, concentration=None, limit=None):
+        """Peak normal, shear (torsion and transverse) and von Mises stresses [Pa] of every beam
+        element at its section's perimeter (`flexmb.fe.stress.element_stresses`), times a
+        stress-concentration factor ``concentration`` (a number for all joints or ``{joint:
+        factor}``, >= 1; e.g. a notch hinge's K_t), and with a material ``limit`` [Pa] (yield or
+        fatigue strength) the safety factors ``limit / von_mises``. Returns a
+        `flexmb.fe.stress.Stresses`: per element arrays, ``.joint(name)`` and ``.summary()``."""
+        from .fe.stress import element_stresses
+
+        model = self.compiled.problem.model
+        if not hasattr(model, "elements"):
+            raise UnsupportedStrategyError(
+                f"stresses need beam elements: this solution comes from method {self.method!r}, whose "
+                "closed-form model has none; solve with method='conventional' for stresses")
+        return element_stresses(model, self.state, self.compiled.joint_elements, concentration, limit)
 
     def strain_energy(self) -> float:
         """Elastic energy stored in all beam elements [J]."""

@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import time
+from collections.abc import Mapping, Sequence
 
 import attrs
 import numpy as np
 import scipy.linalg as sla
 
 from . import _validate as v
+from . import jit
 from .closed_form.problem import TERMS, LinkageProblem
-from .errors import ModelError, ParameterError, UnsupportedStrategyError
+from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
+from .plausibility import check
 from .problem import PointLoads
 from .results import Solution
 from .solvers import make_strategy
@@ -30,7 +33,7 @@ def _with_actuation(compiled, value: float):
 
 
 def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
-          start: str = "previous", progress: bool | None = None, **options) -> SweepResult:
+          start: str = "previous", progress: bool | None = None, properties=None, **options) -> SweepResult:
     """Solve ``mechanism`` for each of ``values``: actuation forces [N] (`Mechanism.set_actuation`)
     by default, or with ``motion=(link, component)`` the prescribed value of that component of a
     link (``"x"``, ``"y"``, ``"z"`` [m]; ``"rotation"`` [rad], in 3D rotation vectors, shape
@@ -43,26 +46,43 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     `flexmb.solve`. ``progress``: a progress bar on stderr (tqdm; None = only on a terminal).
     The mechanism is compiled once and never modified.
 
-    Returns a `SweepResult`: a sequence of one `Solution` per value, in order (failed solves are
-    kept, ``converged=False``), whose `SweepResult.table` gives the results as arrays and CSV.
+    Returns a `SweepResult`: a sequence of one `Solution` per value, in order, whose
+    `SweepResult.table` gives the results as arrays and CSV. Nothing is lost to one value: a
+    solve that fails is kept (``converged=False``), and so is one where the strategy raises (a
+    `DatabaseError` outside the trained range, any other error): its Solution's ``message``
+    names the value and the error, its numbers are NaN. The next value starts from the last
+    converged one. Only ``raise_on_failure=True`` stops a sweep, with the `ConvergenceError` asked for.
+    ``properties``: design properties added to the table, a sequence of names (``"modes"``,
+    ``"buckling"``, ``"compliance"``, ``"stress"``) or a mapping of the keyword arguments of
+    `flexmb.design_properties.properties` (e.g. ``{"which": ("modes",), "n_modes": 3}``).
     """
     from tqdm.auto import tqdm
 
-    values, solutions = _plan(mechanism, values, motion, method, start, options)
-    bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
-               disable=None if progress is None else not progress)
-    return SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+    values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress)
+    if isinstance(solutions, Sequence):  # run already, as compiled loops
+        result = SweepResult(solutions, values, "force")
+    else:
+        bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
+                   disable=None if progress is None else not progress)
+        result = SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+    if properties is not None:
+        from .design_properties import property_columns
+
+        kw = dict(properties) if isinstance(properties, Mapping) else {"which": properties}
+        result.property_table = Table(property_columns(result.solutions, **kw))
+    return result
 
 
 def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
                start: str = "previous", **options):
-    """`sweep` as a generator: yields each `Solution` as soon as it is computed (the arguments
-    are checked at the call, before the first solve)."""
+    """`sweep` as a generator: yields each `Solution` as soon as it is computed, failed ones
+    included as in `sweep` (the arguments are checked at the call, before the first solve)."""
     return _plan(mechanism, values, motion, method, start, options)[1]
 
 
-def _plan(mechanism, values, motion, method, start, options):
-    """Checked sweep values (n,) or (n, width) and the generator of their solutions."""
+def _plan(mechanism, values, motion, method, start, options, compiled_loop=False):
+    """Checked sweep values (n,) or (n, width) and the generator of their solutions (or, with
+    ``compiled_loop``, the solutions of `_compiled_force_sweep` when it applies)."""
     v.choice("sweep", "start", start, STARTS)
     strategy = make_strategy(method, options)
     if not hasattr(mechanism, "compile"):
@@ -79,23 +99,61 @@ def _plan(mechanism, values, motion, method, start, options):
                          "component)")
     slots = None if motion is None else _prescribed_slots(compiled, motion, comps)
     warm = start == "previous" and _warm_starts(strategy)
+    if compiled_loop and slots is None and jit.enabled() and hasattr(strategy, "sweep_forces"):
+        return values, _checked_lazily(_compiled_force_sweep(strategy, compiled, values, warm),
+                                       getattr(strategy, "raise_on_failure", False))
 
     def solutions():
-        last = None  # the last converged solution
+        last = last_values = None  # the last converged solution and its prescribed values
         for value in values:
             previous = last if warm else None
-            if slots is None:
-                sol = _solve_at(strategy, compiled, float(value), previous)
-            else:
-                vals = compiled.problem.values.copy()
-                vals[slots] = value
-                problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state)
-                sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+            t0 = time.perf_counter()
+            try:
+                if slots is None:
+                    sol = _solve_at(strategy, compiled, float(value), previous)
+                else:
+                    vals = compiled.problem.values.copy()
+                    vals[slots] = value
+                    # from the previous solution: the rotations move along the requested values
+                    problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state,
+                                                           start_values=None if previous is None else last_values)
+                    sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+            except Exception as exc:  # kept, with the reason: one value never costs the others
+                if isinstance(exc, ConvergenceError) and getattr(strategy, "raise_on_failure", False):
+                    raise  # asked for: raise_on_failure=True stops the sweep at its first failure
+                sol = _failed(strategy, compiled, value, exc, time.perf_counter() - t0)
             if sol.converged:
-                last = sol
+                last, last_values = sol, (None if slots is None else vals)
             yield sol
 
-    return (values if slots is None or len(slots) > 1 else values[:, 0]), solutions()
+    return (values if slots is None or len(slots) > 1 else values[:, 0]), _checked(solutions())
+
+
+def _checked(solutions):
+    """The solutions, each checked as `flexmb.solve` checks (ConvergenceWarning, PlausibilityWarning)."""
+    for sol in solutions:
+        check(sol, stacklevel=4)
+        yield sol
+
+
+def _checked_lazily(sweep, raise_on_failure: bool):
+    """A compiled force sweep (`flexmb.solvers.newton.ForceSweep`), checked as `_checked` checks
+    without building every Solution: each failed value warns (those are built; with
+    ``raise_on_failure`` the first raises its `ConvergenceError`, as the per-solve path does), and
+    of the converged ones the value that moved the links farthest, where the closed form's
+    missing shortening (0.6 d^2 / L against d) weighs most."""
+    failed = np.flatnonzero(~np.asarray(sweep.converged, dtype=bool))
+    if raise_on_failure and len(failed):
+        sol = sweep[int(failed[0])]
+        raise ConvergenceError(sol.message, sol)
+    for k in failed:
+        check(sweep[int(k)], stacklevel=4)
+    ok = np.flatnonzero(np.asarray(sweep.converged, dtype=bool))
+    if len(ok):
+        x0 = sweep._compiled.problem.model.x0  # the links' rest positions
+        moved = np.abs(sweep.positions[ok] - x0).reshape(len(ok), -1).max(axis=1)
+        check(sweep[int(ok[np.argmax(moved)])], stacklevel=4)
+    return sweep
 
 
 _COMPONENTS = {2: {"x": [0], "y": [1], "rotation": [2]}, 3: {"x": [0], "y": [1], "z": [2], "rotation": [3, 4, 5]}}
@@ -140,14 +198,36 @@ def _prescribed_slots(compiled, motion, comps) -> np.ndarray:
     return np.searchsorted(problem.prescribed, dofs)
 
 
+def _failed(strategy, compiled, value, exc: Exception, seconds: float) -> Solution:
+    """The `Solution` of a value whose solve raised: not converged, the error in its message."""
+    method = getattr(strategy, "name", type(strategy).__name__)
+    at = np.round(np.asarray(value, dtype=float), 12).tolist()
+    return Solution.failed(method, compiled, f"{method} at {at}: {type(exc).__name__}: {exc}", {"total": seconds})
+
+
 def _warm_starts(strategy) -> bool:
-    """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies)."""
+    """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies);
+    known per solve function after the first look (inspect.signature costs ~40 us, once per solve before)."""
     import inspect
 
-    try:
-        return "state" in inspect.signature(strategy.solve).parameters
-    except (TypeError, ValueError):
-        return False
+    solve = getattr(strategy, "solve", None)
+    kind = getattr(solve, "__func__", solve)  # the function, shared by a class's instances
+    if kind not in _WARM:
+        try:
+            _WARM[kind] = "state" in inspect.signature(strategy.solve).parameters
+        except (TypeError, ValueError):
+            _WARM[kind] = False
+    return _WARM[kind]
+
+
+_WARM: dict = {}
+
+
+def _compiled_force_sweep(strategy, compiled, values, warm):
+    """A force sweep as compiled Newton loops (`flexmb.solvers.newton.Newton.sweep_forces`): the
+    gripper's 138-force opening-closing sweep in about 5 ms instead of 60 (BENCHMARKS.md); the
+    same iterations and equilibria as the per-solve path (tests/test_closed_form_jit.py)."""
+    return strategy.sweep_forces(compiled, values, warm, lambda value: _with_actuation(compiled, value))
 
 
 def _forces(owner: str, forces) -> np.ndarray:
@@ -174,12 +254,35 @@ def _solve_at(strategy, compiled, value: float, previous=None):
     return _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
 
 
+class _Columns(dict):
+    """Table columns that never overwrite: a taken name gets the first free ``#2``, ``#3`` ... suffix."""
+
+    def __setitem__(self, name, values):
+        key, k = name, 1
+        while key in self:
+            k += 1
+            key = f"{name}#{k}"
+        super().__setitem__(key, values)
+
+    def update(self, other):
+        for name, values in other.items():
+            self[name] = values
+
+
 class SweepResult(Sequence):
     """The solutions of a `sweep` (a sequence: ``len``, indexing, iteration) with ``values``, the
     swept quantity's name ``quantity`` (``"force"`` or ``"link.component"``) and `table`."""
 
     def __init__(self, solutions: list, values: np.ndarray, quantity: str):
-        self.solutions, self.values, self.quantity = solutions, values, quantity
+        self.solutions, self._values, self.quantity = solutions, np.array(values, dtype=float), quantity
+
+        #: the `properties` columns requested from `sweep`, a `Table` (None: none)
+        self.property_table = None
+
+    @property
+    def values(self) -> np.ndarray:
+        """The swept values, (n,) or (n, 3) (a copy)."""
+        return self._values.copy()
 
     def __getitem__(self, i):
         return self.solutions[i]
@@ -206,13 +309,19 @@ class SweepResult(Sequence):
         links with a fixed or prescribed DOF the reaction ``"<link>.Fx"`` ... [N],
         ``"<link>.Mz"`` ... [N m]; for every named point in ``points`` its position [m]. Write it
         with ``.to_csv(path)``; ``pandas.DataFrame(result.table())`` makes a data frame.
+
+        Nothing is overwritten: a column keeps the first name it takes, in the order above, and
+        a later column whose name is taken gets the first free ``"<name>#2"``, ``"<name>#3"`` ...
+        So the swept values keep their column: sweeping ``motion=("B", "x")``, ``"B.x"`` holds
+        the prescribed displacements and link B's position is ``"B.x#2"``; a point named like a
+        link has its columns after the link's.
         """
         sols = self.solutions
         compiled = sols[0].compiled
         dim = sols[0].dim
         axes = "xyz"[:dim]
-        cols = {}
-        vals = self.values.reshape(len(sols), -1)
+        cols = _Columns()
+        vals = self._values.reshape(len(sols), -1)
         names = [self.quantity] if vals.shape[1] == 1 else [f"{self.quantity}_{a}" for a in "xyz"]
         cols.update({n: vals[:, i] for i, n in enumerate(names)})
         cols["converged"] = self.converged
@@ -239,6 +348,8 @@ class SweepResult(Sequence):
                 raise ModelError(f"no point named {name!r}; points: {', '.join(compiled.points) or 'none'}")
             xyz = np.array([s.point(owner, name) for s in sols])
             cols.update({f"{name}.{a}": xyz[:, i] for i, a in enumerate(axes)})
+        if self.property_table is not None:
+            cols.update(self.property_table)
         return Table(cols)
 
     def to_csv(self, path, links=None, points=()):
@@ -291,6 +402,10 @@ def tangent_stiffness(mechanism, solution=None, terms: bool = False, *, method: 
     if terms:
         raise UnsupportedStrategyError("tangent_stiffness: terms are defined for the closed-form model "
                                        "(method='newton'), not the finite-element model")
+    if getattr(problem.model, "hinges", None) is not None:
+        raise UnsupportedStrategyError(
+            f"tangent_stiffness: the ideal joints {list(problem.model.hinges.names)} make the links infinitely stiff "
+            "in the directions they constrain; use flexmb.compliance (finite, zero in those directions)")
     _, Kff, _, _ = problem.evaluate(state, 1.0)
     K = Kff.toarray()
     pos = np.searchsorted(problem.free, keep)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -17,9 +18,10 @@ __all__ = ["Table", "read_csv"]
 
 
 class Table(Mapping):
-    """Columns ``name -> 1-D array``, all of one length, in insertion order.
+    """Columns ``name -> 1-D array``, all of one length, in insertion order. Names are text:
+    two names with the same text (``1`` and ``"1"``) are refused, never merged.
 
-    A read-only mapping: ``table["force"]`` is a numpy array, ``list(table)`` the column names,
+    A read-only mapping: ``table["force"]`` is a numpy array (a copy), ``list(table)`` the column names,
     ``len(table)`` their number and `n_rows` the number of rows.
     """
 
@@ -27,18 +29,21 @@ class Table(Mapping):
         self._columns = {}
         n = None
         for name, values in columns.items():
-            a = np.asarray(values)
+            a = np.array(values)  # a copy: the caller's arrays stay theirs
             if a.ndim != 1:
                 raise ParameterError(f"Table: column {name!r} must be one-dimensional, got shape {a.shape}")
             if n is not None and len(a) != n:
                 raise ParameterError(f"Table: column {name!r} has {len(a)} rows, the others {n}")
             n = len(a)
+            if str(name) in self._columns:
+                raise ParameterError(f"Table: two columns are named {str(name)!r}; column names must be distinct "
+                                     "as text")
             self._columns[str(name)] = a
         self.n_rows = 0 if n is None else n
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
-            return self._columns[name]
+            return self._columns[name].copy()  # a copy: the table is not changed through it
         except KeyError:
             raise ModelError(f"no column {name!r}; columns: {', '.join(self._columns)}") from None
 
@@ -72,7 +77,9 @@ class Table(Mapping):
 
 def read_csv(path) -> Table:
     """Read a `Table.to_csv` file back: columns of integers, floats (``nan``/``inf`` included),
-    booleans or text, each as the narrowest of those that holds every entry.
+    booleans or text, each as the narrowest of those that holds every entry. A number is read as
+    one only when written as Python writes it: ``7``, ``-7``, ``0.25``, ``1e-05``; text such as
+    ``007``, ``+7``, ``1_000`` or `` 7`` stays text.
 
     The file is read as UTF-8. `ParameterError` when it cannot be read or is not a regular file
     (a folder, FIFO or device), is not UTF-8 text, or is
@@ -109,12 +116,18 @@ def _path(owner: str, path) -> Path:
     return Path(path)
 
 
+#: Numbers as ``repr`` writes them: no leading zeros, sign only "-", no "_" or spaces
+_INT = re.compile(r"-?(0|[1-9][0-9]*)")
+_FLOAT = re.compile(r"-?(0|[1-9][0-9]*)(\.[0-9]+)?([eE][-+]?[0-9]+)?|-?inf|nan")
+
+
 def _parse(cells: list[str]) -> np.ndarray:
     if cells and all(c in ("True", "False") for c in cells):
         return np.array([c == "True" for c in cells])
-    for kind in (int, float):
-        try:
-            return np.array([kind(c) for c in cells], dtype=kind)
-        except ValueError:
-            pass
+    for kind, form in ((int, _INT), (float, _FLOAT)):
+        if all(form.fullmatch(c) for c in cells):
+            try:
+                return np.array([kind(c) for c in cells], dtype=kind)
+            except (ValueError, OverflowError):  # an integer beyond int64: read as text
+                break
     return np.array(cells, dtype=object)

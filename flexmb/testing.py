@@ -13,7 +13,8 @@ from .problem import StaticProblem
 
 __all__ = ["finite_difference_tangent", "perturbed_state", "scaled_error", "joint_mechanism", "check_rest",
            "check_tangent", "check_rigid_motion", "check_frame_invariance", "check_reciprocity", "check_energy",
-           "check_strategies", "joints", "placements", "JointConformance"]
+           "check_strategies", "check_mass", "check_modes_rigid_move", "check_floating_modes", "check_rayleigh",
+           "joints", "placements", "JointConformance"]
 
 
 def scaled_error(K: np.ndarray, Kfd: np.ndarray, diag_rows: np.ndarray, diag_cols: np.ndarray) -> float:
@@ -150,7 +151,9 @@ def check_rest(joint, dim: int) -> None:
     assert res <= 1e-13 * rest.big * rest.size, f"{joint.kind} {dim}D: residual at rest {res:.3g}"
     asym = np.abs(rest.K - rest.K.T).max() / rest.big
     assert asym <= 1e-12, f"{joint.kind} {dim}D: tangent at rest not symmetric ({asym:.3g} of its largest entry)"
-    assert is_stable(sp.csr_array(rest.K)), f"{joint.kind} {dim}D: tangent at rest not positive definite"
+    # on the motions an ideal joint's constraints allow (the saddle point's Z^T K Z; K itself otherwise)
+    K = rest.compiled.problem.reduced_tangent(sp.csr_array(rest.K))
+    assert is_stable(K), f"{joint.kind} {dim}D: tangent at rest not positive definite"
 
 
 def check_tangent(joint, dim: int, origin=None, rotation=None, *, motion: float = 0.3, seed: int = 0) -> float:
@@ -164,7 +167,9 @@ def check_tangent(joint, dim: int, origin=None, rotation=None, *, motion: float 
     K, Kfd = finite_difference_tangent(problem, state)
     nf = problem.n_free
     d = np.abs(np.diag(K[:, :nf]))
+    d = np.where(d > 0, d, np.abs(K[:, :nf]).max(axis=1))  # an ideal joint's multiplier rows: zero diagonal
     cols = np.concatenate([d, np.abs(K[:, nf:]).max(axis=0)]) if K.shape[1] > nf else d
+    cols = np.where(cols > 0, cols, np.abs(K).max())  # a column without stiffness (a hinge's ground DOF)
     err = scaled_error(K, Kfd, d, cols)
     assert err <= FD_TOLERANCE, f"{joint.kind} {dim}D: tangent differs from central differences by {err:.3g} (scaled)"
     return err
@@ -197,7 +202,8 @@ def check_frame_invariance(joint, dim: int, origin, rotation, *, motion: float =
     size = float(np.linalg.norm(joint.interface_b(dim))) or 1.0
     rng = np.random.default_rng(7)
     w = rng.standard_normal(len(C0))
-    w *= load * size / np.linalg.norm((C0 @ w)[:dim])  # moves B by ~ load x its size in linear theory
+    move = C0 @ w  # an ideal joint's node B does not move: then turn it by ~ load [rad]
+    w *= load * size / (np.linalg.norm(move[:dim]) or size * np.linalg.norm(move[dim:]))
     f_scale = np.abs(w).max()
     f, mom = w[:dim], (w[dim] if dim == 2 else w[dim:])
     ref = _solve(joint_mechanism(joint, dim, motion=motion, force=f, moment=mom), method=method, **options)
@@ -215,7 +221,8 @@ def check_frame_invariance(joint, dim: int, origin, rotation, *, motion: float =
     assert err_w <= SOLVE_TOLERANCE, f"{joint.kind} {dim}D {method}: reaction on A not frame invariant ({err_w:.3g})"
     if method in ("conventional", "ksd-full"):
         e_ref, e_mov = ref.strain_energy(), moved.strain_energy()
-        assert abs(e_ref - e_mov) <= SOLVE_TOLERANCE * max(abs(e_ref), 1e-300), (
+        # relative, down to roundoff of the loads' work scale (a prescribed hinge stores ~nothing)
+        assert abs(e_ref - e_mov) <= SOLVE_TOLERANCE * max(abs(e_ref), 1e-12 * f_scale * size * load), (
             f"{joint.kind} {dim}D {method}: strain energy {e_ref:.12g} vs {e_mov:.12g} after moving the frame")
 
 
@@ -269,11 +276,17 @@ def check_reciprocity(joint, dim: int, rotation=None) -> None:
     T[:dim, :dim] = Q
     if dim == 3:
         T[3:, 3:] = Q
+    live = np.flatnonzero(np.diag(C0) > 0)  # an ideal joint's constrained directions do not comply
+    if len(live) < 2:
+        return  # Maxwell-Betti relates two compliant directions; a hinge has one
+    C0 = C0[np.ix_(live, live)]
+    T = T[:, live]
+    n = len(live)
     C = np.empty((n, n))
     for i in range(n):
         # loads +-eps that move B by ~1e-5 of its size (or turn it 1e-5 rad); the central difference
         # cancels the second-order (geometric) response, leaving O(1e-10)
-        eps = 1e-5 * (size if i < dim else 1.0) / C0[i, i]
+        eps = 1e-5 * (size if live[i] < dim else 1.0) / C0[i, i]
         u = []
         for sign in (1.0, -1.0):
             w = T[:, i] * sign * eps
@@ -344,6 +357,124 @@ def check_strategies(joint, dim: int, motion: float = 0.2) -> dict:
         except FlexmbError as exc:
             out[name] = exc
     return out
+
+
+# -- vibration invariants (issue 22): the joint's own mass, B free ------------------------------
+#
+# These checks linearise the joint mechanism with its leaves' own mass (the sections' density);
+# a joint without mass has nothing to check and returns None.
+
+#: Relative agreement of frequencies of two solves converged to the default ``tol``.
+MODES_TOLERANCE = 1e-6
+
+
+def _massive_solution(joint, dim: int, origin=None, rotation=None, motion: float = 0.0):
+    """The solved joint mechanism, or None when the joint's sections carry no mass."""
+    m = joint_mechanism(joint, dim, origin, rotation, motion=motion)
+    if all(getattr(s, "density", 0.0) == 0.0 for s in m.compile().problem.model.elements.sections):
+        return None
+    return _solve(m)
+
+
+def _rigid_velocities(model) -> np.ndarray:
+    """(N ndof, 3 or 6) nodal velocities of the rigid motions: unit translations, unit spins about
+    the global axes through the origin."""
+    d = model.dim
+    spins = 1 if d == 2 else 3
+    V = np.zeros((model.n_dofs, d + spins))
+    for i in range(d):
+        V[model.node_dofs[:, i], i] = 1.0
+    for i in range(spins):
+        axis = np.eye(3)[2 if d == 2 else i]
+        x = np.column_stack([model.x0, np.zeros(len(model.x0))]) if d == 2 else model.x0
+        V[model.node_dofs[:, :d].ravel(), d + i] = np.cross(axis, x)[:, :d].ravel()
+        V[model.node_dofs[:, d + i], d + i] = 1.0
+    return V
+
+
+def check_mass(joint, dim: int, rotation=None, *, motion: float = 0.2):
+    """The consistent mass on every DOF at a deformed configuration is symmetric (to 1e-14 of its
+    largest entry) and positive definite (Cholesky), and its rigid-body part is the joint's
+    total mass on each translation. Returns the mass matrix (dense) or None (massless joint)."""
+    from .fe.mass import mass_matrix
+
+    sol = _massive_solution(joint, dim, rotation=rotation, motion=motion)
+    if sol is None:
+        return None
+    model = sol.compiled.problem.model
+    M = mass_matrix(model, sol.state, model.rigid_masses).toarray()
+    scale = np.abs(M).max()
+    assert np.abs(M - M.T).max() <= 1e-14 * scale, f"{joint.kind} {dim}D: the mass matrix is not symmetric"
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        raise AssertionError(f"{joint.kind} {dim}D: the mass matrix is not positive definite") from None
+    V = _rigid_velocities(model)[:, :dim]
+    MR = V.T @ M @ V
+    assert np.allclose(MR, MR[0, 0] * np.eye(dim), rtol=1e-12, atol=1e-12 * MR[0, 0]), \
+        f"{joint.kind} {dim}D: the rigid translations do not see one total mass: {np.diag(MR)}"
+    return M
+
+
+def check_modes_rigid_move(joint, dim: int, origin, rotation, *, motion: float = 0.2, n: int = 6):
+    """The ``n`` lowest frequencies (prescribed DOFs held) of the joint placed at ``origin`` with
+    ``rotation`` equal those of the joint in its own frame, to `MODES_TOLERANCE`."""
+    from .modal import modes
+
+    a = _massive_solution(joint, dim, motion=motion)
+    if a is None:
+        return None
+    b = _massive_solution(joint, dim, origin, rotation, motion=motion)
+    n = min(n, len(a.compiled.problem.free) - 1)
+    fa, fb = modes(a, n=n).frequencies, modes(b, n=n).frequencies
+    assert np.allclose(fb, fa, rtol=MODES_TOLERANCE, atol=MODES_TOLERANCE * np.abs(fa).max()), \
+        f"{joint.kind} {dim}D: a rigid move changed the frequencies: {fa} -> {fb}"
+    return fa
+
+
+def check_floating_modes(joint, dim: int, rotation=None):
+    """Unsupported (``held="floating"``) at rest, the joint has exactly its rigid-body zero modes
+    (3 in 2D, 6 in 3D): those eigenvalues below 1e-8 of the first elastic one, their shapes rigid
+    motions (residual after projection on the rigid velocities below 1e-6), the next one elastic."""
+    from .modal import modes
+
+    sol = _massive_solution(joint, dim, rotation=rotation)
+    if sol is None:
+        return None
+    k = 3 if dim == 2 else 6
+    md = modes(sol, n=k + 1, held="floating")
+    lam = md.eigenvalues
+    assert lam[k] > 0 and np.all(np.abs(lam[:k]) <= 1e-8 * lam[k]), \
+        f"{joint.kind} {dim}D: floating eigenvalues {lam} are not {k} zeros and an elastic one"
+    model = sol.compiled.problem.model
+    V = _rigid_velocities(model)
+    for shape in md.shapes[:k]:
+        phi = shape.ravel()
+        coef = np.linalg.lstsq(V, phi, rcond=None)[0]
+        assert np.linalg.norm(V @ coef - phi) <= 1e-6 * np.linalg.norm(phi), \
+            f"{joint.kind} {dim}D: a zero mode is not a rigid motion"
+    return lam
+
+
+def check_rayleigh(joint, dim: int, rotation=None, *, motion: float = 0.2, n: int = 6):
+    """Each mode's Rayleigh quotient ``phi^T K phi / phi^T M phi`` with the full tangent and mass
+    on the free DOFs equals its ``omega^2`` (to 1e-8 of the largest), and the shapes are
+    mass-normalised (``phi^T M phi = 1``)."""
+    from .modal import modes, stiffness_and_mass
+
+    sol = _massive_solution(joint, dim, rotation=rotation, motion=motion)
+    if sol is None:
+        return None
+    n = min(n, len(sol.compiled.problem.free) - 1)
+    md = modes(sol, n=n)
+    K, M = stiffness_and_mass(sol)
+    phi = md.shapes.reshape(n, -1).T
+    mass = np.einsum("ik,ik->k", phi, M @ phi)
+    quotient = np.einsum("ik,ik->k", phi, K @ phi) / mass
+    assert np.allclose(mass, 1.0, rtol=1e-9), f"{joint.kind} {dim}D: shapes not mass-normalised: {mass}"
+    assert np.allclose(quotient, md.eigenvalues, rtol=1e-8, atol=1e-8 * np.abs(md.eigenvalues).max()), \
+        f"{joint.kind} {dim}D: Rayleigh quotients {quotient} != omega^2 {md.eigenvalues}"
+    return quotient
 
 
 # -- hypothesis strategies and the pytest base class ----------------------------------------
@@ -439,3 +570,19 @@ class JointConformance:
     def test_every_strategy_solves_or_refuses_cleanly(self):
         """`check_strategies`: every strategy solves the joint or raises its documented error."""
         self._run(lambda j, dim, pl, mo: check_strategies(j, dim, motion=mo))
+
+    def test_mass_symmetric_positive_definite(self):
+        """`check_mass`: the consistent mass is symmetric positive definite, one total mass."""
+        self._run(lambda j, dim, pl, mo: check_mass(j, dim, pl[1], motion=mo))
+
+    def test_frequencies_unchanged_by_a_rigid_move(self):
+        """`check_modes_rigid_move`: a moved and turned joint vibrates at the same frequencies."""
+        self._run(lambda j, dim, pl, mo: check_modes_rigid_move(j, dim, pl[0], pl[1], motion=mo))
+
+    def test_unsupported_joint_has_its_rigid_body_zero_modes(self):
+        """`check_floating_modes`: with nothing held, exactly the rigid-body zero modes."""
+        self._run(lambda j, dim, pl, mo: check_floating_modes(j, dim, pl[1]))
+
+    def test_rayleigh_quotients_are_the_eigenvalues(self):
+        """`check_rayleigh`: each mode's Rayleigh quotient is its omega^2."""
+        self._run(lambda j, dim, pl, mo: check_rayleigh(j, dim, pl[1], motion=mo))

@@ -9,3 +9,10 @@ settings.register_profile("ci", max_examples=25, deadline=None, derandomize=True
 settings.register_profile("dev", max_examples=25, deadline=None)
 settings.register_profile("thorough", max_examples=500, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+def pytest_report_header(config):
+    """Which kernels the run uses (CI runs the suite with both: .ci/run)."""
+    from flexmb import jit
+
+    return f"flexmb kernels: {'compiled (numba)' if jit.enabled() else 'numpy'} (FLEXMB_KERNELS to choose)"

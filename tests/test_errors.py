@@ -303,15 +303,15 @@ def test_unknown_joint_name_in_add_joint_lists_the_known_ones():
     m = flexmb.Mechanism(dim=2)
     m.add_link("A", fixed=True)
     m.add_link("B")
-    with pytest.raises(flexmb.UnknownJointError, match=r"'hinge'.*cross_flexure"):
-        m.add_joint("A", "B", "hinge")
+    with pytest.raises(flexmb.UnknownJointError, match=r"'ball_joint'.*cross_flexure"):
+        m.add_joint("A", "B", "ball_joint")
 
 
 def test_unknown_joint_error_message_is_readable():
     """UnknownJointError is also a KeyError, whose str() would be the quoted repr of the message."""
     with pytest.raises(flexmb.UnknownJointError) as info:
-        flexmb.joint("hinge")
-    assert str(info.value).startswith("unknown joint 'hinge'")
+        flexmb.joint("ball_joint")
+    assert str(info.value).startswith("unknown joint 'ball_joint'")
 
 
 def test_duplicate_link_and_joint_names_are_rejected_naming_them():

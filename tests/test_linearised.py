@@ -156,3 +156,89 @@ def test_sparse_buckling_equals_dense(monkeypatch):
     sparse = flexmb.buckling(sol, n=3)
     monkeypatch.setattr(linearised, "DENSE_BELOW", 10**6)
     np.testing.assert_allclose(sparse, flexmb.buckling(sol, n=3), rtol=1e-9)
+
+
+def test_support_ratios_are_compliance_with_the_intended_rotation_released():
+    """`flexmb.analysis.support_ratios` is `compliance(..., held="none")` of node B: its inverse
+    equals the FE tangent statically condensed onto B (`joint_stiffness`, an independent
+    Schur-complement route), turned into B's frame, to 1e-9 of the diagonal (a cross flexure of
+    another size than Table 1's, at 20 deg)."""
+    from flexmb.analysis import joint_stiffness, support_ratios
+    from flexmb.ksd.geometry import rz
+
+    J = flexmb.joint("cross_flexure", length=0.04, width_inner=0.012, width_outer=0.006,
+                      thickness=0.3e-3, elements_per_leaf=3)
+    K, sol = joint_stiffness(J, np.radians(20.0))
+    T = np.kron(np.eye(2), rz(np.radians(20.0)))
+    C = T.T @ flexmb.compliance(sol, "B", held="none") @ T
+    np.testing.assert_allclose(np.linalg.inv(C), K, atol=1e-9 * np.abs(np.diag(K)).max())
+    r = support_ratios(J, np.radians(20.0))
+    assert r["k_rotation"] == pytest.approx(1.0 / C[5, 5], rel=1e-12)
+    assert r["tilt_x"] == pytest.approx(1.0 / C[3, 3] / r["k_rotation"], rel=1e-12)
+    with pytest.raises(flexmb.ModelError, match="singular"):
+        flexmb.compliance(sol, "B", held="floating")
+
+
+def test_lateral_torsional_buckling_of_a_cantilever_strip():
+    """A narrow strip (20:1, L = 100 mm) clamped at one end, a dead centroidal tip load along its
+    width (bending about the stiff axis): it buckles sideways and twists at
+    P_cr = 4.013 sqrt(E I_weak G J) / L^2 (Timoshenko & Gere 1961, Sec. 6.3, Eq. 6-26 with
+    gamma = 4.013 for a load at the centroid; pre-buckling deflection neglected, I_weak/I_strong =
+    0.0025 here). Linearised about the state at 1e-3 P_cr: converges from above at second order
+    (measured +1.11e-2, +2.65e-3, +5.6e-4 at 8, 16, 32 elements); the Richardson limit is
+    within 2e-4 of 4.013 (measured -1.4e-4: 4.013 is itself rounded from 4.0126). The strip
+    turned arbitrarily in space gives the same."""
+    L, w, t = 0.1, 0.01, 0.5e-3
+    s = flexmb.rectangle(w, t, **STEEL)
+    P_cr = 4.013 * np.sqrt(s.E * s.Iz * s.G * s.It) / L**2
+    Q = flexmb.rotations.expm_so3(np.array([0.4, 1.2, -0.3]))
+    err = []
+    for n in (8, 16, 32):
+        m = _column(3, n, 0.0, length=L, width=w, thickness=t, Q=Q)
+        m.apply_force("tip", -1e-3 * P_cr * Q[:, 2])  # along the width (local z)
+        err.append(flexmb.buckling(flexmb.solve(m))[0] * 1e-3 - 1.0)
+    err = np.array(err)
+    assert np.all(err > 0)
+    assert 1.9 < np.log2(err[0] / err[1]) < 2.4 and 1.9 < np.log2(err[1] / err[2]) < 2.4
+    assert abs(err[2] - (err[1] - err[2]) / 3.0) < 2e-4
+
+
+def test_buckling_about_a_preloaded_base_state():
+    """``base``: the multiplier scales only the load increment from ``base`` to the solution.
+    On Euler's fixed-free column (a linear pre-buckling path) the preload P1 = 0.6 P_cr plus
+    lam x (1e-3 P_cr) gives the critical load found from the unloaded column to 1e-5; from
+    the unloaded state as base, the same as without base to 1e-4 (K_m at the deformed vs the
+    undeformed state). A base of another mechanism is refused."""
+    s = flexmb.rectangle(0.01, 1e-3, **STEEL)
+    Pe = _euler(s, 1.0, 0.25)
+    small = flexmb.solve(_column(3, 8, 1e-3 * Pe))
+    P_cr = flexmb.buckling(small)[0] * 1e-3 * Pe
+    base = flexmb.solve(_column(3, 8, 0.6 * Pe))
+    sol = flexmb.solve(_column(3, 8, 0.601 * Pe))
+    assert 0.6 * Pe + flexmb.buckling(sol, base=base)[0] * 1e-3 * Pe == pytest.approx(P_cr, rel=1e-5)
+    rest = flexmb.solve(_column(3, 8, 0.0))
+    assert flexmb.buckling(small, base=rest)[0] == pytest.approx(flexmb.buckling(small)[0], rel=1e-4)
+    with pytest.raises(flexmb.ModelError, match="same mechanism"):
+        flexmb.buckling(small, base=flexmb.solve(_column(3, 4, 0.0)))
+
+
+def test_sparse_non_symmetric_buckling_equals_dense(monkeypatch):
+    """A dead moment on a free rotation (the Table 1 pivot turned 30 deg, the turn released)
+    makes the buckling pencil non-symmetric; forced onto the sparse path (Arnoldi on
+    K_m^-1 (-K_s)) it gives the dense multipliers."""
+    import flexmb.linearised as linearised
+
+    def pushed(force):
+        J = flexmb.CrossFlexure(elements_per_leaf=3)
+        m = flexmb.Mechanism(dim=3)
+        m.add_link("A", fixed=True)
+        m.add_link("B", position=J.interface_b(3))
+        m.add_joint("A", "B", J, name="pivot")
+        m.prescribe("B", rotation=(0.0, 0.0, np.radians(30.0)))
+        m.apply_force("B", (0.0, -force, 0.0))
+        return flexmb.solve(m)
+
+    base, sol = pushed(0.0), pushed(1.0)
+    dense = flexmb.buckling(sol, n=2, held="none", base=base)
+    monkeypatch.setattr(linearised, "DENSE_BELOW", 0)
+    np.testing.assert_allclose(flexmb.buckling(sol, n=2, held="none", base=base), dense, rtol=1e-8)

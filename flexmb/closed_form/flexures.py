@@ -79,6 +79,17 @@ class FlexureSet:
             "b_ia_f": -z(self.B_i[:, :, 0]) * z(self.A_f[:, :, 0]),
         })
 
+    def compiled_arrays(self) -> tuple:
+        """The constants in the argument order of `flexmb.closed_form.linkage_jit` (fi ... nl),
+        contiguous and typed for the compiled loops."""
+        c = self._c
+        if "jit" not in c:  # built once: the flexures never change
+            c["jit"] = (np.ascontiguousarray(self.i, dtype=np.int64), np.ascontiguousarray(self.j, dtype=np.int64),
+                        *(np.ascontiguousarray(c[k], dtype=complex) for k in ("s_i", "s_j", "b_j", "b_j*", "b_ia_f",
+                                                                             "arm", "p_hat")),
+                        np.ascontiguousarray(self.K, dtype=float), np.ascontiguousarray(c["nl"], dtype=float))
+        return c["jit"]
+
     def __len__(self) -> int:
         return len(self.i)
 

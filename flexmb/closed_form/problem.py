@@ -13,6 +13,7 @@ import copy
 
 import numpy as np
 
+from .. import jit
 from ..fe.model import State
 from ..problem import BoundaryConditions, PointLoads
 from .flexures import FlexureSet, rot
@@ -90,6 +91,12 @@ class LinkageProblem(BoundaryConditions):
         self._load_flat = nd[loads.node, 2] * (self.model.n_dofs + 1)  # (theta, theta) entries
         self._load_offset = loads.offset[:, 0] + 1j * loads.offset[:, 1]
         self._load_force = loads.force[:, 0] + 1j * loads.force[:, 1]
+        self._jit_loads = (np.ascontiguousarray(loads.node, dtype=np.int64), np.ascontiguousarray(self._load_offset),
+                           np.ascontiguousarray(self._load_force), np.ascontiguousarray(loads.moment[:, 0], dtype=float))
+
+    def compiled_arrays(self) -> tuple:
+        """Flexure and load constants in the argument order of `flexmb.closed_form.linkage_jit`."""
+        return self.model.flexures.compiled_arrays() + self._jit_loads
 
     def with_loads(self, loads: PointLoads, start: PointLoads | None = None) -> LinkageProblem:
         """A copy of this problem under other loads (patterns shared). ``start`` is accepted for the
@@ -129,6 +136,14 @@ class LinkageProblem(BoundaryConditions):
         """Residual ``R`` (n_dofs,) on all DOFs (Eq. 25; the reactions on prescribed DOFs) and, if
         asked, the tangent terms as a dict of dense (n_dofs, n_dofs) arrays keyed by `TERMS`."""
         m, n = self.model, self.model.n_dofs
+        if jit.enabled():
+            from . import linkage_jit
+
+            r, T = np.empty(n), np.empty((4, n, n) if tangent else (1, 1, 1))
+            linkage_jit.evaluate(np.ascontiguousarray(state.positions, dtype=float),
+                                 np.ascontiguousarray(state.rotations, dtype=float), *self.compiled_arrays(),
+                                 tangent, r, T)
+            return r, (dict(zip(TERMS, T)) if tangent else None)
         resp = m.flexures.evaluate(state.positions, state.rotations, tangent=tangent)
         f_ext, dF = self._external(state)
         r = np.bincount(self._rows.ravel(), resp.wrench.ravel(), minlength=n) - f_ext

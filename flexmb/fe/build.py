@@ -9,6 +9,7 @@ immutable), so a mechanism of identical joints and repeated solves build each me
 from __future__ import annotations
 
 import functools
+import os
 
 import attrs
 import numpy as np
@@ -22,12 +23,38 @@ from ..problem import StaticProblem
 from ..rotations import cross
 from .beam2d import local_stiffness as local_stiffness_2d
 from .beam3d import local_stiffness as local_stiffness_3d
+from .ideal import ROWS, Hinges, dense_rows, free_motions, independent_rows, lock_rows, row_names
 from .mass import RigidMasses
 from .model import BeamElements, FEModel
 
-__all__ = ["build", "CAPABILITY"]
+__all__ = ["build", "CAPABILITY", "BYTES_PER_ELEMENT", "check_size", "memory_bytes"]
 
 CAPABILITY = "fe_model"  # what a joint must offer (`Joint.capabilities`) to be built here
+IDEAL = "ideal"  # an ideal joint (`flexmb.Hinge`): exact constraints between its two links
+
+
+#: Peak memory of a conventional solve per beam element [bytes]: measured on ThreeXInfinity
+#: (stages=100, 3D) between 30 and 100 elements per leaf (9000 -> 30000 elements: 314 -> 795 MB
+#: peak RSS), 23 KB per element, rounded up.
+BYTES_PER_ELEMENT = 24_000
+
+
+def memory_bytes() -> int:
+    """This machine's physical memory [bytes] (0 when the OS does not say)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return 0
+
+
+def check_size(n_elements: int, what: str = "the model") -> None:
+    """Refuse (`ModelError`) a model whose solve needs more memory than the machine has, from its
+    element count, before allocating it."""
+    need, have = n_elements * BYTES_PER_ELEMENT, memory_bytes()
+    if have and need > have:
+        raise ModelError(f"{what} has {n_elements} beam elements: solving it needs about {need / 1e9:.3g} GB "
+                         f"({BYTES_PER_ELEMENT // 1000} kB per element, measured), more than this machine's "
+                         f"{have / 1e9:.3g} GB; use fewer elements (elements_per_leaf, elements, stages)")
 
 
 def build(mechanism) -> Compiled:
@@ -47,9 +74,16 @@ def build(mechanism) -> Compiled:
     ends, sections, L0, S, ny, nz, owner = [], [], [], [], [], [], []
     joint_elements, joint_nodes = {}, {}
     n_elements = 0
+    counts = [_element_count(d["joint"], dim) for _, _, d in mechanism.graph.edges(data=True)]
+    check_size(sum(counts), "the mechanism's finite-element model")  # before meshing anything
+    hinges = []
     for j, (a, b, key, data) in enumerate(mechanism.graph.edges(keys=True, data=True)):
         jt: Joint = data["joint"]
         side_a, side_b = data["sides"]
+        if IDEAL in jt.capabilities:
+            hinges.append((key, jt, data["placement"], link_node[side_a], link_node[side_b]))
+            joint_elements[key], joint_nodes[key] = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+            continue
         if CAPABILITY not in jt.capabilities:
             raise UnsupportedStrategyError(
                 f"joint {key!r} ({jt.kind}) does not offer {CAPABILITY!r}; it offers {sorted(jt.capabilities)}")
@@ -76,8 +110,13 @@ def build(mechanism) -> Compiled:
             nz.append(mesh.nz0 @ pl.rotation.T)
         joint_elements[key] = n_elements + np.arange(n_el)
         n_elements += n_el
-    if n_elements == 0:
+        check_size(n_elements, "the mechanism's finite-element model")  # joints that cannot count ahead
+    if n_elements == 0 and not hinges:
         raise TopologyError("the mechanism has no joints with beam elements")
+    if n_elements == 0:  # links and hinges only
+        nS = 3 if dim == 2 else 6
+        ends, L0, S, owner = [np.zeros((0, 2), dtype=np.int64)], [np.zeros(0)], [np.zeros((0, nS, nS))], [np.zeros(0, dtype=np.int64)]
+        ny, nz = [np.zeros((0, 3))], [np.zeros((0, 3))]
     ends = np.concatenate(ends)
     pt_x0 = np.concatenate(pt_x0)
     node_x0 = np.concatenate(node_x0)
@@ -89,14 +128,26 @@ def build(mechanism) -> Compiled:
         chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
         elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]))
     rigid = RigidMasses.of_bodies([(link_node[n], lk.mass, lk.inertia, lk.center) for n, lk in links.items()], dim)
-    model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements, rigid_masses=rigid)
-
     pres, vals, loads, paths = boundary(mechanism, link_node, links)
+    ideal = None
+    if hinges:
+        ideal = _hinges(mechanism, hinges, node_x0[:len(names)], elements, pres, names)
+    model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements, rigid_masses=rigid, hinges=ideal)
+
     return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, mechanism.points,
                     joint_elements, actuation_row(mechanism, loads), joint_nodes,
                     tuple((k, d["joint"], d["placement"], *d["sides"])
                           for _, _, k, d in mechanism.graph.edges(keys=True, data=True)),
                     tuple(n for n, lk in links.items() if lk.fixed))
+
+
+def _element_count(joint: Joint, dim: int) -> int:
+    """A joint's element count if it knows it ahead (`Joint.element_count`), else 0."""
+    try:
+        n = joint.element_count(dim) if CAPABILITY in joint.capabilities else None
+    except Exception:  # a plugin's estimate is advice: the mesh is checked when built
+        n = None
+    return int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n > 0 else 0
 
 
 @attrs.frozen(eq=False)
@@ -165,6 +216,15 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     if dim == 3 and (mesh.ny0 is None or np.shape(mesh.ny0) != (len(el), 3)):
         raise ModelError(f"{where}: a 3D mesh needs ny0 of shape ({len(el)}, 3)")
     first, node_of = _internal_nodes(side, mesh.body)
+    attached = np.zeros(len(first), dtype=bool)  # every internal node must be an element's end
+    inner = np.flatnonzero(side == INTERNAL)
+    node = np.full(len(pts), -1)
+    node[inner] = node_of
+    attached[node[el.ravel()][node[el.ravel()] >= 0]] = True
+    if not attached.all():
+        k = int(first[np.flatnonzero(~attached)[0]])
+        raise ModelError(f"{where}: internal mesh point {k} at {pts[k].tolist()} is attached to no beam element "
+                         f"(its node would have no stiffness); remove it or connect it")
     chord = pts[el[:, 1]] - pts[el[:, 0]]
     L0 = np.linalg.norm(chord, axis=1)
     if np.any(~(L0 > 0)):
@@ -184,3 +244,89 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     S = (local_stiffness_3d if dim == 3 else local_stiffness_2d)(mesh.sections, L0)
     return _Mesh(pts, el.astype(np.int64), tuple(mesh.sections), ny, nz, L0, S, side == SIDE_A, side == INTERNAL,
                  first, node_of)
+
+
+def _hinges(mechanism, hinges: list, link_x0: np.ndarray, elements: BeamElements, prescribed: np.ndarray,
+            names: list) -> Hinges:
+    """The `Hinges` of ``hinges`` ((name, joint, placement, node A, node B)), their dependent
+    constraint rows dropped; a `TopologyError` naming the links when the hinges leave a motion that
+    deforms nothing (a mechanism, not a structure: the tangent would be singular).
+
+    Both questions are answered on the links' DOFs at the undeformed state (SPACAR's approach: the
+    rank of the constraint Jacobian): the hinges' rows, every other joint as a weld between its two
+    links (a flexure resists all its relative motions), the springs of hinges with ``k > 0``, on
+    the DOFs that are neither fixed nor prescribed."""
+    dim = mechanism.dim
+    nd, R = (3 if dim == 2 else 6), ROWS[dim]
+    H = len(hinges)
+    node = np.array([[a, b] for *_, a, b in hinges], dtype=np.int64)
+    origin = np.array([pl.origin for _, _, pl, _, _ in hinges], dtype=float).reshape(H, dim)
+    offset = origin[:, None, :] - link_x0[node]
+    frame = np.array([pl.rotation for _, _, pl, _, _ in hinges], dtype=float).reshape(H, dim, dim)
+    for (key, jt, *_), P in zip(hinges, frame):
+        if not (np.all(np.isfinite(P)) and np.allclose(P.T @ P, np.eye(dim), atol=1e-9) and np.linalg.det(P) > 0):
+            raise ModelError(f"joint {key!r} (hinge): its frame's rotation is not a proper rotation, so its axis is "
+                             "undefined; place it with a finite rotation vector or a rotation matrix")
+    k = np.array([jt.k for _, jt, *_ in hinges], dtype=float)
+    angle = np.array([jt.motor for _, jt, *_ in hinges], dtype=float)
+    active = np.ones((H, R), dtype=bool)
+    active[:, -1] = np.isfinite(angle)
+    scale = _row_scales(dim, elements, k, link_x0)
+    probe = Hinges(dim, tuple(h[0] for h in hinges), node, offset, frame, k, angle, active, scale)
+    rot = np.zeros(len(link_x0)) if dim == 2 else np.tile(np.eye(3), (len(link_x0), 1, 1))
+    _, g, _ = probe.residual_rows(link_x0, rot, 0.0)
+    n_cols = len(link_x0) * nd
+    free = np.setdiff1d(np.arange(n_cols), prescribed)
+    size = float(np.ptp(np.vstack([link_x0, origin]), axis=0).max()) or 1.0
+    col = np.where(free % nd < dim, 1.0, 1.0 / size)  # rotations as arc lengths of the model's size
+    row = np.where(np.arange(R) < dim, 1.0, size)
+    J = (dense_rows(g * row[None, :, None], node, nd, n_cols)[:, free] * col)
+    keep = independent_rows(J, active.ravel()).reshape(H, R)
+    # other joints as welds, hinges with springs hold their relative rotation
+    welds = [(link_node, pl.origin) for link_node, pl in _other_joints(mechanism, names)]
+    blocks = [J[keep.ravel()]]
+    if welds:
+        wn = np.array([w[0] for w in welds], dtype=np.int64)
+        wo = np.array([w[1] for w in welds], dtype=float).reshape(len(welds), dim)
+        gw = lock_rows(dim, wo - link_x0[wn[:, 0]], wo - link_x0[wn[:, 1]])
+        wrow = np.where(np.arange(nd) < dim, 1.0, size)
+        blocks.append(dense_rows(gw * wrow[None, :, None], wn, nd, n_cols)[:, free] * col)
+    sprung = k > 0
+    if sprung.any():
+        gt = probe._angle_derivatives(rot, False)[0][sprung][:, None, :]
+        blocks.append(dense_rows(gt * size, node[sprung], nd, n_cols)[:, free] * col)
+    Z = free_motions(np.vstack(blocks))
+    if Z.shape[1]:
+        moving = sorted({names[i] for i in np.unique(free[np.any(np.abs(Z) > 1e-6, axis=1)] // nd)})
+        joints = [h[0] for h in hinges if names[h[3]] in moving or names[h[4]] in moving]
+        raise TopologyError(
+            f"the hinges {joints} leave {Z.shape[1]} free motion(s) of links {moving}: they move without deforming "
+            "any flexure (a mechanism, not a structure; its tangent is singular). Prescribe the motion "
+            "(Mechanism.prescribe, a hinge's angle=) or give a hinge a torsional stiffness k")
+    dropped = [f"{hinges[h][0]}.{row_names(dim)[r]}" for h, r in zip(*np.nonzero(active & ~keep))]
+    return attrs.evolve(probe, active=keep, dropped=tuple(dropped), dropped_rows=active & ~keep)
+
+
+def _other_joints(mechanism, names: list):
+    """(link nodes (2,), placement) of every joint that is not ideal."""
+    index = {n: i for i, n in enumerate(names)}
+    for a, b, _, d in mechanism.graph.edges(keys=True, data=True):
+        if IDEAL not in d["joint"].capabilities:
+            yield (index[d["sides"][0]], index[d["sides"][1]]), d["placement"]
+
+
+def _row_scales(dim: int, elements: BeamElements, k: np.ndarray, link_x0: np.ndarray) -> np.ndarray:
+    """Scales of a hinge's constraint rows: the model's stiffest axial stiffness ``EA/L`` [N/m] for
+    positions and that times the elements' mean length squared [N m/rad] for rotations, so the
+    constraint rows weigh like the stiffest element rows. Links and hinges only: the largest
+    spring stiffness (1 if none) for rotations and that over the model size squared for positions."""
+    R = ROWS[dim]
+    rows = np.arange(R) < dim
+    if len(elements.L0):
+        t = float(np.max(elements.S[:, 0, 0]))
+        r = t * float(np.mean(elements.L0)) ** 2
+    else:
+        size = float(np.ptp(link_x0, axis=0).max()) if len(link_x0) > 1 else 1.0
+        r = float(np.max(k)) if np.max(k) > 0 else 1.0
+        t = r / (size or 1.0) ** 2
+    return np.where(rows, t, r)

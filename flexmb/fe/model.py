@@ -30,10 +30,13 @@ class State:
 
     positions: np.ndarray
     rotations: np.ndarray
+    #: scaled Lagrange multipliers of the ideal joints' constraint rows (`flexmb.fe.ideal`), or None
+    multipliers: np.ndarray | None = None
 
     def copy(self) -> State:
-        """An independent copy (positions and rotations copied)."""
-        return State(self.positions.copy(), self.rotations.copy())
+        """An independent copy (positions, rotations and multipliers copied)."""
+        return State(self.positions.copy(), self.rotations.copy(),
+                     None if self.multipliers is None else self.multipliers.copy())
 
 
 @attrs.frozen(eq=False)
@@ -59,7 +62,7 @@ class FEModel:
     """Nodes, points and beam elements; evaluates internal forces and the consistent tangent."""
 
     def __init__(self, dim: int, x0: np.ndarray, point_master: np.ndarray, point_x0: np.ndarray,
-                 elements: BeamElements, rigid_masses=None):
+                 elements: BeamElements, rigid_masses=None, hinges=None):
         self.dim = dim
         #: `flexmb.fe.mass.RigidMasses` of the links (None: the links carry no mass of their own)
         self.rigid_masses = rigid_masses
@@ -67,7 +70,10 @@ class FEModel:
         self.nrot = 1 if dim == 2 else 3
         self.x0 = np.asarray(x0, dtype=float)
         self.n_nodes = len(self.x0)
-        self.n_dofs = self.n_nodes * self.ndof
+        #: `flexmb.fe.ideal.Hinges` between link nodes, or None; their multipliers are the last DOFs
+        self.hinges = hinges if hinges is not None and len(hinges.node) else None
+        self.n_node_dofs = self.n_nodes * self.ndof
+        self.n_dofs = self.n_node_dofs + (self.hinges.n_rows if self.hinges is not None else 0)
         self.point_master = np.asarray(point_master, dtype=np.int64)
         self.point_x0 = np.asarray(point_x0, dtype=float)
         self.point_offset = self.point_x0 - self.x0[self.point_master]
@@ -75,13 +81,14 @@ class FEModel:
         ends_master = self.point_master[elements.ends]  # (E, 2)
         k = np.arange(self.ndof)
         self.element_dofs = (ends_master[:, :, None] * self.ndof + k).reshape(len(elements.L0), 2 * self.ndof)
-        self.node_dofs = np.arange(self.n_dofs).reshape(self.n_nodes, self.ndof)
+        self.node_dofs = np.arange(self.n_node_dofs).reshape(self.n_nodes, self.ndof)
+        self.hinge_dofs = None if self.hinges is None else self.hinges.dofs(self.node_dofs, self.n_node_dofs)
 
     # -- configuration -------------------------------------------------------------------
     def initial_state(self) -> State:
         """The undeformed configuration: reference positions [m], zero rotations."""
         rot = np.zeros(self.n_nodes) if self.dim == 2 else np.tile(np.eye(3), (self.n_nodes, 1, 1))
-        return State(self.x0.copy(), rot)
+        return State(self.x0.copy(), rot, None if self.hinges is None else np.zeros(self.hinges.n_rows))
 
     def rotation_matrices(self, state: State) -> np.ndarray:
         """Nodal rotation matrices (N, 2, 2) in 2D or (N, 3, 3) in 3D."""
@@ -95,13 +102,32 @@ class FEModel:
         """Current positions of all points [m], shape (P, dim)."""
         return state.positions[self.point_master] + self.offsets(state, self.point_master, self.point_offset)
 
+    def node_part(self, du: np.ndarray) -> np.ndarray:
+        """The nodes' rows (N, ndof) of a vector on all DOFs (the hinges' multipliers, last, left out)."""
+        return np.asarray(du)[: self.n_node_dofs].reshape(self.n_nodes, self.ndof)
+
+    def multiplier_change(self, frm: State, to: State) -> np.ndarray:
+        """The multipliers' part of the increment from ``frm`` to ``to`` (empty without hinges)."""
+        if self.hinges is None:
+            return np.zeros(0)
+        zero = np.zeros(self.hinges.n_rows)
+        return (zero if to.multipliers is None else to.multipliers) - (zero if frm.multipliers is None
+                                                                         else frm.multipliers)
+
     def apply_increment(self, state: State, du: np.ndarray) -> State:
-        """New state after nodal increments ``du`` (N, ndof): positions add, rotations compose (Eq. A.8)."""
+        """New state after increments ``du`` (n_dofs,): positions add, rotations compose (Eq. A.8),
+        the hinges' multipliers (the last DOFs) add."""
+        du = np.asarray(du)
+        mult = state.multipliers
+        if self.hinges is not None:
+            du = du.ravel()
+            mult = (np.zeros(self.hinges.n_rows) if mult is None else mult) + du[self.n_node_dofs:]
+            du = du[:self.n_node_dofs]
         du = du.reshape(self.n_nodes, self.ndof)
         pos = state.positions + du[:, : self.dim]
         if self.dim == 2:
-            return State(pos, state.rotations + du[:, 2])
-        return State(pos, expm_so3(du[:, 3:6]) @ state.rotations)
+            return State(pos, state.rotations + du[:, 2], mult)
+        return State(pos, expm_so3(du[:, 3:6]) @ state.rotations, mult)
 
     # -- forces ----------------------------------------------------------------------------
     def transfer(self, wrench: np.ndarray, d: np.ndarray):
@@ -136,6 +162,9 @@ class FEModel:
         ``sigma`` returning the stresses of the beams' geometric stiffness, if not their own.
         """
         el = self.elements
+        if len(el.L0) == 0:  # links joined by ideal joints only
+            n2, nm = 2 * self.ndof, el.S.shape[-1] if el.S.ndim == 3 else 3 * self.nrot
+            return np.zeros((0, n2)), (np.zeros((0, n2, n2)) if tangent else None), np.zeros((0, nm)), np.zeros((0, nm))
         m = self.point_master[el.ends]  # (E, 2)
         d = self.offsets(state, m.ravel(), self.point_offset[el.ends].ravel().reshape(-1, self.dim))
         x = state.positions[m.ravel()] + d
@@ -164,12 +193,26 @@ class FEModel:
         K[:, nd + self.dim:, nd + self.dim:] += G[:, 1]
         return Fm, K, e, sig
 
-    def internal_force(self, state: State) -> np.ndarray:
-        """Assembled internal force vector (N * ndof,)."""
+    def hinge_response(self, state: State, motor: float = 1.0, tangent: bool = True, material: bool = False):
+        """The hinges' block forces and tangents on `hinge_dofs` (`flexmb.fe.ideal.Hinges.response`);
+        ``motor``: the fraction of the hinges' motor angles reached."""
+        mult = np.zeros(self.hinges.n_rows) if state.multipliers is None else state.multipliers
+        return self.hinges.response(state.positions, state.rotations, mult, motor, tangent=tangent, material=material)
+
+    def internal_force(self, state: State, motor: float = 1.0) -> np.ndarray:
+        """Assembled internal force vector (n_dofs,): the elements', and the hinges' (their
+        constraint forces and springs on the link rows, their scaled constraint values on the
+        multiplier rows; ``motor``: the fraction of the motor angles reached)."""
         F = self.element_response(state, tangent=False)[0]
-        return scatter_add(self.element_dofs, F, self.n_dofs)
+        f = scatter_add(self.element_dofs, F, self.n_dofs)
+        if self.hinges is not None:
+            f = f + scatter_add(self.hinge_dofs, self.hinge_response(state, motor, tangent=False)[0], self.n_dofs)
+        return f
 
     def strain_energy(self, state: State) -> float:
-        """Total strain energy [J], ``sum 1/2 e^T S e``."""
+        """Total strain energy [J], ``sum 1/2 e^T S e`` and the hinges' springs ``k theta^2 / 2``."""
         _, _, e, sig = self.element_response(state, tangent=False)
-        return 0.5 * float(np.sum(e * sig))
+        energy = 0.5 * float(np.sum(e * sig))
+        if self.hinges is not None:
+            energy += 0.5 * float(np.sum(self.hinges.k * self.hinges.relative_angle(state.rotations) ** 2))
+        return energy

@@ -17,7 +17,7 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg import lapack
 
-from ..errors import ConvergenceError, TopologyError
+from ..errors import ConvergenceError, TopologyError, UnsupportedStrategyError
 from .reduced import ReducedMechanism
 
 __all__ = ["solve_kinematics"]
@@ -44,8 +44,11 @@ def _describe(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) ->
 def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
     """Rows of the constraint Jacobian at rest to keep (redundant ones removed, Sec. 2.2)."""
     free = red.free
-    if len(free) == 0:
-        return np.zeros(0, dtype=np.int64)
+    if len(free) == 0:  # nothing for the kinematics to find: every joint constraint is redundant
+        raise UnsupportedStrategyError(
+            "KSD: every link DOF is prescribed, so step 1 (the kinematics under the joints' database constraints) "
+            "has no unknown and the prescribed motion generally contradicts those constraints; leave the DOFs the "
+            "joints determine free (e.g. prescribe only the rotation) or use method='conventional'")
     scale = np.where(free % 6 < 3, 1.0 / red.length, 1.0)  # unknowns in D0 and rad
     A = np.ascontiguousarray(jac[:, free] / scale)
     rank, null, rows = _rank(A.tobytes(), A.shape)
@@ -92,19 +95,38 @@ def _correction(red: ReducedMechanism, A: np.ndarray, r: np.ndarray):
     return dz
 
 
-def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5):
+#: largest prescribed rotation [rad] of one kinematic step: the intended rotations are followed
+#: through the steps (each changes by less than pi), never wrapped modulo 2 pi
+STEP_ROTATION = 0.5 * np.pi
+
+
+def _unwrapped(theta: np.ndarray, previous: np.ndarray) -> np.ndarray:
+    """``theta`` (atan2, in (-pi, pi]) continued from ``previous``: the branch nearest to it."""
+    return previous + (theta - previous + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5,
+                     stop_beyond_half_turn: bool = False):
     """KSD step 1: link poses satisfying all joint constraints and the prescribed motion.
 
-    Returns ``(poses, info)``; info has iterations, the equations kept/removed and the largest
-    residual of the removed (redundant) equations at the solution.
+    The prescribed motion is applied in steps that turn no link by more than `STEP_ROTATION`
+    and the intended rotations are followed from step to step, so a prescribed 2 pi + 0.3 rad
+    gives 2 pi + 0.3, not 0.3. ``stop_beyond_half_turn``: stop at the first step that turns a
+    joint beyond +-pi, outside any trained range (the caller refuses; intermediate steps may
+    leave a range the end is in, so that is checked on the result only).
+    Returns ``(poses, theta, p, info)``; info has iterations, the equations kept/removed and the
+    largest residual of the removed (redundant) equations at the solution.
     """
     rest = red.rest()
     _, jac0, _, _ = red.constraint_equations(rest, values=False)  # jac0: at the last accepted poses (predictor)
     rows = _independent_rows(red, jac0)
     free = red.free
     at_free, at_pres = (rows[:, None], free), (rows[:, None], red.prescribed)
-    poses, lam, dlam = rest, 0.0, 1.0
+    _, (_, W) = red._moves
+    largest = float(np.max(np.linalg.norm(W, axis=1))) if len(W) else 0.0
+    poses, lam, dlam = rest, 0.0, min(1.0, STEP_ROTATION / largest) if largest > 0.0 else 1.0
     iterations, history = 0, []
+    path_theta = red.constraint_equations(rest, jacobian=False, values=False)[2]  # intended rotations at rest
     while True:
         target = lam + dlam
         trial = red.with_prescribed(poses, target)
@@ -132,9 +154,13 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
             history.append(res)
         if accepted:
             poses, lam = trial, target
+            theta = path_theta = _unwrapped(theta, path_theta)
             if lam >= 1.0 - 1e-14:
                 break
-            dlam = min(2.0 * dlam, 1.0 - lam)
+            if stop_beyond_half_turn and np.any(np.abs(theta) > np.pi):
+                break  # beyond half a turn no database is trained: no need to go on
+            step = STEP_ROTATION / largest if largest > 0.0 else 1.0
+            dlam = min(2.0 * dlam, 1.0 - lam, step)
             jac0 = jac_at()
         else:
             dlam *= 0.5

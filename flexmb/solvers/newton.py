@@ -16,6 +16,7 @@ diverges once the links turn by a few hundredths of a radian.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from typing import ClassVar
 
 import attrs
@@ -24,12 +25,13 @@ import scipy.linalg as sla
 
 from ..closed_form.problem import LinkageProblem
 from .. import _validate as v
+from .. import jit
 from ..errors import ConvergenceError
 from ..fe.model import State
 from ..results import Solution
 from .conventional import above_one, boolean, positive_float, positive_int
 
-__all__ = ["Newton", "TANGENTS"]
+__all__ = ["Newton", "TANGENTS", "ForceSweep"]
 
 TANGENTS = ("full", "first-term", "constant")
 
@@ -74,20 +76,20 @@ class Newton:
         model, free = problem.model, problem.free
         ixf = np.ix_(free, free)
         start = problem.prescribed_state(model.initial_state() if state is None else state)
+        if jit.enabled():
+            return self._finish(compiled, start, *self.run_compiled(problem, start), t0)
         times = {"assemble": 0.0, "solve": 0.0}
         lu = None
         if self.tangent == "constant":
             t = time.perf_counter()
-            _, terms = problem.evaluate(model.initial_state())  # K_T(q_hat): the undeformed configuration
-            K = sum(terms.values())[ixf]
+            K = self.constant_tangent(problem)
             times["assemble"] += time.perf_counter() - t
             t = time.perf_counter()
             lu = sla.lu_factor(K, check_finite=False) if len(free) else None
             times["solve"] += time.perf_counter() - t
         history: list[float] = []
         cur = start
-        converged, message = False, ""
-        first = None
+        status, first = "", None
         for it in range(self.max_iter + 1):
             t = time.perf_counter()
             r, terms = problem.evaluate(cur, tangent=lu is None)
@@ -98,16 +100,12 @@ class Newton:
                 history.append(res)
             first = res if first is None else first
             if res < self.tol:
-                converged = True
-                message = f"converged: residual {res:.3g} < tol {self.tol:.3g} in {it} iterations (tangent={self.tangent})"
-                break
-            if not np.isfinite(res) or res > self.divergence * max(first, self.tol):
-                message = (f"not converged: diverged at iteration {it} (residual {res:.3g}, started at {first:.3g}; "
-                           f"tangent={self.tangent})")
-                break
-            if it == self.max_iter:
-                message = (f"not converged: residual {res:.3g} above tol {self.tol:.3g} after max_iter={self.max_iter} "
-                           f"iterations (tangent={self.tangent})")
+                status = "converged"
+            elif not np.isfinite(res) or res > self.divergence * max(first, self.tol):
+                status = "diverged"
+            elif it == self.max_iter:
+                status = "max_iter"
+            if status:
                 break
             t = time.perf_counter()
             try:
@@ -117,7 +115,7 @@ class Newton:
                     K = terms["I"] if self.tangent == "first-term" else sum(terms.values())
                     dq = np.linalg.solve(K[ixf], -r[free])
             except np.linalg.LinAlgError:
-                message = f"not converged: singular tangent at iteration {it} (tangent={self.tangent})"
+                status = "singular"
                 break
             finally:
                 times["solve"] += time.perf_counter() - t
@@ -125,12 +123,136 @@ class Newton:
             du[free] = dq
             cur = model.apply_increment(cur, du)
         times["total"] = time.perf_counter() - t0
+        return self._finish(compiled, start, status == "converged", self._message(status, it, res, first),
+                            np.array(history), cur, r, times, None)
+
+    def run_compiled(self, problem: LinkageProblem, start: State, K0: np.ndarray | None = None):
+        """The iterations of `solve` as one compiled loop (`flexmb.closed_form.linkage_jit.newton`)
+        from the prescribed ``start``; ``K0`` the constant tangent if already known. Returns
+        (converged, message, history, final state, last residual, wall times)."""
+        from ..closed_form import linkage_jit
+
+        free = problem.free
+        if self.tangent == "constant" and K0 is None:
+            K0 = self.constant_tangent(problem)
+        pos = np.array(start.positions, dtype=float)
+        ang = np.array(start.rotations, dtype=float)
+        history, r = np.empty(self.max_iter), np.empty(problem.model.n_dofs)
+        mode = TANGENTS.index(self.tangent)
+        status, it, res, first = linkage_jit.newton(
+            pos, ang, np.ascontiguousarray(free, dtype=np.int64), *problem.compiled_arrays(), mode,
+            np.ascontiguousarray(K0 if K0 is not None else np.zeros((1, 1))), self.tol, self.max_iter,
+            self.divergence, history, r)
+        message = self._message(linkage_jit.STATUS[status], it, res, first)
+        return status == 0, message, history[:it].copy(), State(pos, ang), r, {}
+
+    def sweep_forces(self, compiled, values: np.ndarray, warm: bool, loads_at) -> ForceSweep:
+        """Solve ``compiled`` at each actuation force of ``values`` [N] with the compiled Newton loop
+        (`flexmb.sweep`'s path when the kernels are compiled), from the last converged solution if
+        ``warm`` (Fig. 12) or the undeformed configuration. ``loads_at(value)`` gives the loads of a
+        value (for the Solutions, built on demand). A failed solve is kept (``converged=False``),
+        also with ``raise_on_failure``, as `flexmb.sweep` keeps it. Nothing that stays the same is rebuilt per value:
+        the flexure and load arrays are made once, only the actuation force changes."""
+        from ..closed_form import linkage_jit
+
+        problem: LinkageProblem = compiled.problem
+        row, direction = compiled.actuation
+        consts = problem.compiled_arrays()
+        lforce = consts[-2].copy()
+        consts = consts[:-2] + (lforce,) + consts[-1:]
+        free = np.ascontiguousarray(problem.free, dtype=np.int64)
+        mode = TANGENTS.index(self.tangent)
+        offset = bool(np.any(problem.loads.offset[row] != 0.0))  # its load stiffness enters K_T(q_hat)
+        K0 = self.constant_tangent(problem) if self.tangent == "constant" else np.zeros((1, 1))
+        rest = problem.prescribed_state(problem.model.initial_state())
+        last = rest
+        n = len(values)
+        out = (np.zeros(n, bool), [""] * n, [None] * n, np.empty((n,) + rest.positions.shape),
+               np.empty((n,) + rest.rotations.shape), np.empty((n, problem.model.n_dofs)), np.empty(n))
+        starts = []
+        history = np.empty(self.max_iter)
+        dir_c = complex(direction[0], direction[1])
+        for k, value in enumerate(values):
+            t = time.perf_counter()
+            lforce[row] = float(value) * dir_c
+            if mode == 2 and offset:
+                K0 = self.constant_tangent(problem.with_loads(loads_at(float(value))))
+            start = last if warm else rest
+            pos, ang = start.positions.copy(), start.rotations.copy()
+            status, it, res, first = linkage_jit.newton(pos, ang, free, *consts, mode, K0, self.tol, self.max_iter,
+                                                        self.divergence, history, out[5][k])
+            ok = status == 0
+            out[0][k], out[1][k], out[2][k] = ok, self._message(linkage_jit.STATUS[status], it, res, first), \
+                history[:it].copy()
+            starts.append(start)
+            if ok:
+                last = State(pos, ang)
+            out[3][k], out[4][k] = (pos, ang) if ok else (start.positions, start.rotations)
+            out[6][k] = time.perf_counter() - t
+        return ForceSweep(self, compiled, values, loads_at, starts, out)
+
+    def constant_tangent(self, problem: LinkageProblem) -> np.ndarray:
+        """K_T(q_hat) on the free DOFs: the tangent at the undeformed configuration (Fig. 11)."""
+        _, terms = problem.evaluate(problem.model.initial_state())
+        return sum(terms.values())[np.ix_(problem.free, problem.free)]
+
+    def _message(self, status: str, it: int, res: float, first: float) -> str:
+        if status == "converged":
+            return f"converged: residual {res:.3g} < tol {self.tol:.3g} in {it} iterations (tangent={self.tangent})"
+        if status == "diverged":
+            return (f"not converged: diverged at iteration {it} (residual {res:.3g}, started at {first:.3g}; "
+                    f"tangent={self.tangent})")
+        if status == "max_iter":
+            return (f"not converged: residual {res:.3g} above tol {self.tol:.3g} after max_iter={self.max_iter} "
+                    f"iterations (tangent={self.tangent})")
+        return f"not converged: singular tangent at iteration {it} (tangent={self.tangent})"
+
+    def _finish(self, compiled, start, converged, message, history, cur, r, times, t0) -> Solution:
+        """The `Solution` of a finished loop (the start state and its residual when not converged)."""
+        problem = compiled.problem
         final = cur if converged else start
         r = r if converged else problem.evaluate(start, tangent=False)[0]
+        if t0 is not None:
+            times["total"] = time.perf_counter() - t0
         sol = Solution(method=self.name, converged=converged, iterations=len(history),
-                       residual_history=np.array(history), load_factor=1.0 if converged else 0.0,
+                       residual_history=history, load_factor=1.0 if converged else 0.0,
                        steps=1 if converged else 0, rejected_steps=0, wall_time=times, message=message,
                        state=final, residual=r, compiled=compiled, tolerance=self.tol, stable=None)
         if self.raise_on_failure and not converged:
             raise ConvergenceError(message, sol)
         return sol
+
+
+class ForceSweep(Sequence):
+    """The solutions of a closed-form force sweep run as compiled Newton loops
+    (`Newton.sweep_forces`): the results are kept as arrays and each `Solution` is built on
+    first access (its per-value problem included), so the sweep itself costs only the loops.
+
+    ``positions`` (n, N, 2) [m], ``rotations`` (n, N) [rad], ``iterations``, ``converged`` (n,).
+    """
+
+    def __init__(self, strategy, compiled, values, loads_at, start_state, results):
+        self._strategy, self._compiled, self._loads_at = strategy, compiled, loads_at
+        self.values = values
+        self._starts = start_state  # per value: the prescribed start state
+        (self.converged, self._messages, self._histories, self.positions, self.rotations, self._residuals,
+         self._times) = results
+        self.iterations = np.array([len(h) for h in self._histories])
+        self._built: dict[int, Solution] = {}
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        k = range(len(self))[k]  # negative indices; IndexError beyond the end
+        if k not in self._built:
+            c = self._compiled
+            problem = c.problem.with_loads(self._loads_at(float(self.values[k])))
+            state = State(self.positions[k].copy(), self.rotations[k].copy())
+            strategy = attrs.evolve(self._strategy, raise_on_failure=False)
+            self._built[k] = strategy._finish(attrs.evolve(c, problem=problem), self._starts[k],
+                                              bool(self.converged[k]), self._messages[k], self._histories[k], state,
+                                              self._residuals[k], {"total": self._times[k]}, None)
+        return self._built[k]

@@ -1,6 +1,7 @@
 """The ``flexmb`` command: ``demo``, ``solve``, ``run``, ``bench``, ``train``, ``joints``.
 
-Errors are one line on stderr (``--debug`` for a traceback). Exit codes:
+Errors are one line on stderr (``--debug`` for a traceback), and so is each warning
+(``flexmb: warning: ConvergenceWarning: ...``). Exit codes:
 
 - 0 success;
 - 1 a flexmb error: flexmb refused a model or solver parameter, a solve did not converge (its
@@ -26,6 +27,7 @@ import os
 import runpy
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import attrs
@@ -274,7 +276,11 @@ def _solve(args) -> int:
     params = dict(_parse_params(args.param))
     mechanism, default = _build(args.case, params)
     method = args.method or default
-    sol = solve(mechanism, method=method, **dict(_parse_params(args.option, "--option")))
+    options = dict(_parse_params(args.option, "--option"))
+    clash = sorted({"mechanism", "method"} & set(options))
+    if clash:
+        raise _UsageError(f"--option {clash[0]}=...: not a solver option (choose the method with --method)")
+    sol = solve(mechanism, method=method, **options)
     report = solution_report(sol, case=args.case, parameters=params)
     if args.json:
         print(json.dumps(strict_json(report), indent=2, allow_nan=False))
@@ -424,7 +430,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     np.set_printoptions(precision=4, suppress=True)
     try:
-        code = args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning
+            code = args.func(args)
         sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
         return code
     except BrokenPipeError:
@@ -435,6 +443,13 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"flexmb: error: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, _UsageError) else 1
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line on stderr, ``flexmb: warning: <kind>: <message>`` (not Python's two
+    lines with the source line)."""
+    text = " ".join(str(message).split())
+    print(f"flexmb: warning: {category.__name__}: {text}", file=sys.stderr if file is None else file)
 
 
 def _silence_stdout() -> None:

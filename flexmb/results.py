@@ -179,7 +179,8 @@ class Solution:
         element at its section's perimeter (`flexmb.fe.stress.element_stresses`), times a
         stress-concentration factor ``concentration`` (a number for all joints or ``{joint:
         factor}``, >= 1; e.g. a notch hinge's K_t), and with a material ``limit`` [Pa] (yield or
-        fatigue strength) the safety factors ``limit / von_mises``. Returns a
+        fatigue strength) the safety factors ``limit / von_mises`` (without it, from the sections'
+        ``yield_stress`` where given: the joints' ``yield_stress``). Returns a
         `flexmb.fe.stress.Stresses`: per element arrays, ``.joint(name)`` and ``.summary()``."""
         from .fe.stress import element_stresses
 

@@ -233,7 +233,8 @@ class Stresses:
 
     ``normal``: peak ``|sigma_x|``; ``shear``: peak ``|tau|`` (torsion and transverse);
     ``von_mises``: peak ``sqrt(sigma_x^2 + 3 tau^2)``; ``concentration``: the factor applied;
-    ``safety``: ``limit / von_mises`` (None without a ``limit``); ``limit`` [Pa];
+    ``safety``: ``limit / von_mises`` (None when no element has a limit; NaN for an element
+    without one); ``limit``: each element's limit [Pa] (NaN: none) or None;
     ``joints``: joint name -> element indices.
     """
 
@@ -242,7 +243,7 @@ class Stresses:
     von_mises: np.ndarray
     concentration: np.ndarray
     safety: np.ndarray | None
-    limit: float | None
+    limit: np.ndarray | None
     joints: dict
 
     def joint(self, name: str) -> dict:
@@ -253,15 +254,20 @@ class Stresses:
             raise ModelError(f"no joint named {name!r}; joints: {', '.join(self.joints)}") from None
         out = {k: float(getattr(self, k)[idx].max()) for k in ("normal", "shear", "von_mises")}
         if self.safety is not None:
-            out["safety"] = float(self.safety[idx].min())
+            out["safety"] = _nanmin(self.safety[idx])
         return out
 
     def summary(self) -> dict:
         """The whole mechanism's peaks (and the minimum safety factor), as in `joint`."""
         out = {k: float(getattr(self, k).max(initial=0.0)) for k in ("normal", "shear", "von_mises")}
         if self.safety is not None:
-            out["safety"] = float(self.safety.min(initial=np.inf))
+            out["safety"] = _nanmin(self.safety)
         return out
+
+
+def _nanmin(a) -> float:
+    a = a[~np.isnan(a)]
+    return float(a.min()) if len(a) else np.nan
 
 
 def _factors(owner, joints, n_elements, concentration):
@@ -292,7 +298,8 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None)
     """Peak normal, shear and von Mises stresses [Pa] of every element (module notes), times a
     stress-concentration factor ``concentration`` (one number for all, or ``{joint: factor}``,
     factors >= 1, default 1), and with a material ``limit`` [Pa] (yield or fatigue strength) the
-    safety factors ``limit / von_mises``. ``joints``: joint name -> element indices."""
+    safety factors ``limit / von_mises``; without ``limit``, each element's section's
+    ``yield_stress`` where given. ``joints``: joint name -> element indices."""
     owner = "stresses"
     el = model.elements
     kt = _factors(owner, joints, len(el.L0), concentration)
@@ -313,9 +320,14 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None)
         idx = np.asarray(idx)
         normal[idx], shear[idx], vm[idx] = perimeter_peaks(s, res[idx])
     normal, shear, vm = kt * normal, kt * shear, kt * vm
-    safety = None
     if limit is not None:
-        with np.errstate(divide="ignore"):
-            safety = np.where(vm > 0, lim / np.where(vm > 0, vm, 1.0), np.inf)
-    return Stresses(normal, shear, vm, kt, safety, None if limit is None else lim,
+        lims = np.full(nE, lim)
+    else:
+        lims = np.array([np.nan if getattr(s, "yield_stress", None) is None else s.yield_stress for s in el.sections],
+                        dtype=float)
+    safety = None
+    if not np.all(np.isnan(lims)):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            safety = np.where(vm > 0, lims / np.where(vm > 0, vm, 1.0), np.where(np.isnan(lims), np.nan, np.inf))
+    return Stresses(normal, shear, vm, kt, safety, None if safety is None else lims,
                     {k: np.asarray(v).copy() for k, v in joints.items()})

@@ -62,7 +62,8 @@ def _manipulator_moments(sol, model) -> np.ndarray:
     """The joint case's three joint moments [N m] from an Exudyn solution (as `joint_moments`)."""
     node = model.compiled.link_node
     M = np.array([sol.reactions[k][3:] for k in ("link1", "link2", "link3")])
-    axes = [np.array([0.0, 0.0, 1.0]), sol.state.rotations[node["link1"]][:, 1], sol.state.rotations[node["link2"]][:, 1]]
+    R = sol.state.rotations
+    axes = [np.array([0.0, 0.0, 1.0]), R[node["link1"]][:, 1], R[node["link2"]][:, 1]]
     return np.array([M[k:].sum(axis=0) @ axes[k] for k in range(3)])
 
 
@@ -149,9 +150,11 @@ def case(name: str, repeats: int, quick: bool) -> dict:
     dx = np.abs(es.positions - sol.node_positions()).max()
     moved = np.abs(sol.node_positions() - mech.compile().problem.model.point_x0).max()
     a, b = ours(sol), theirs(es, ex)
-    return {"name": name, "flexmb_it": sol.iterations, "flexmb_t": float(np.median(tf)), "flexmb_res": sol.residual_history[-1],
+    return {"name": name, "flexmb_it": sol.iterations, "flexmb_t": float(np.median(tf)),
+            "flexmb_res": sol.residual_history[-1],
             "exudyn_it": es.iterations, "exudyn_t": float(np.median(te)),
-            "flexmb_cpu": float(np.median(cf)), "exudyn_cpu": float(np.median(ce)), "exudyn_res": es.residual, "exudyn_steps": es.steps,
+            "flexmb_cpu": float(np.median(cf)), "exudyn_cpu": float(np.median(ce)), "exudyn_res": es.residual,
+            "exudyn_steps": es.steps,
             "best": best, "tried": tried, "dx": dx, "moved": moved, "react": np.abs(a - b).max() / np.abs(a).max(),
             "react_scale": np.abs(a).max(), "what": what, "free": sol.compiled.problem.n_free,
             "exudyn_n": ex.mbs.systemData.GetODE2Coordinates().size + ex.mbs.systemData.GetAECoordinates().size,
@@ -190,13 +193,14 @@ def main(quick: bool = False) -> str:
         "The Exudyn model is `flexmb.peers.ExudynModel` of flexmb's compiled mesh: one geometrically exact beam",
         "(`ObjectBeamGeometricallyExact`) per flexmb element, rigid links and blocks tied exactly (`GenericJoint`,",
         "Lagrange multipliers), prescribed motion by constraints following Exudyn's load factor. Both solve from the",
-        f"undeformed state to a residual 2-norm below {TOL:g} (N, N m) on every step; one thread each. Times: median of",
-        f"{repeats} solves alternating flexmb / Exudyn; flexmb's is a whole `flexmb.solve` (compiling included), Exudyn's",
-        "its `MainSolverStatic.SolveSystem` (model built once). Exudyn's configuration: the fastest converging one of a",
-        "greedy search (node type, load steps, Newton iterations per step before a step is cut, modified Newton, linear",
-        "solver), named in the last column.",
+        f"undeformed state to a residual 2-norm below {TOL:g} (N, N m) on every step; one thread each. Times: median",
+        f"of {repeats} solves alternating flexmb / Exudyn; flexmb's is a whole `flexmb.solve` (compiling included),",
+        "Exudyn's its `MainSolverStatic.SolveSystem` (model built once). Exudyn's configuration: the fastest",
+        "converging one of a greedy search (node type, load steps, Newton iterations per step before a step is",
+        "cut, modified Newton), named in the last column.",
         "",
-        "| case | free DOFs (flexmb) / unknowns (Exudyn) | flexmb it. / ms wall / ms CPU | Exudyn it. / ms wall / ms CPU "
+        "| case | free DOFs (flexmb) / unknowns (Exudyn) | flexmb it. / ms wall / ms CPU "
+        "| Exudyn it. / ms wall / ms CPU "
         "| flexmb / Exudyn wall, CPU | positions max diff [m] (largest displacement) | reaction diff (rel.) | "
         "Exudyn configuration |",
         "|---|---:|---:|---:|---:|---:|---:|---|",
@@ -208,9 +212,11 @@ def main(quick: bool = False) -> str:
         cfg = (f"{b['node_type']} nodes, {b['load_steps']} load steps, {b['max_iterations']} it./step, "
                f"{'modified' if b['modified_newton'] else 'full'} Newton, {b['linear_solver']}")
         lines.append(f"| {r['name']} | {r['free']} / {r['exudyn_n']} | {r['flexmb_it']} / {r['flexmb_t'] * 1e3:.0f} / "
-                     f"{r['flexmb_cpu'] * 1e3:.0f} | {r['exudyn_it']} / {r['exudyn_t'] * 1e3:.0f} / {r['exudyn_cpu'] * 1e3:.0f} | "
+                     f"{r['flexmb_cpu'] * 1e3:.0f} | {r['exudyn_it']} / {r['exudyn_t'] * 1e3:.0f} / "
+                     f"{r['exudyn_cpu'] * 1e3:.0f} | "
                      f"{r['flexmb_t'] / r['exudyn_t']:.2f}, {r['flexmb_cpu'] / r['exudyn_cpu']:.2f} | "
-                     f"{r['dx']:.2e} ({r['moved']:.3g}) | {r['react']:.2e} of {r['react_scale']:.4g} ({r['what']}) | {cfg} |")
+                     f"{r['dx']:.2e} ({r['moved']:.3g}) | {r['react']:.2e} of {r['react_scale']:.4g} ({r['what']}) "
+                     f"| {cfg} |")
         if not r["converged"]:
             lines[-1] += " NOT CONVERGED"
     lines += ["", "Exudyn configurations tried (Newton iterations / ms CPU, or no: not converged to the tolerance). "
@@ -221,15 +227,21 @@ def main(quick: bool = False) -> str:
                           f"{'mod.' if o['modified_newton'] else 'full'} {o['linear_solver']}: "
                           + (f"{it} / {t * 1e3:.0f}" if ok else "no") for o, ok, it, t in r["tried"])
         lines.append(f"- {r['name']}: {tried}")
-    lines += ["", "Timing: wall time is what a user waits; on this shared host (load above) it includes waiting for a core,",
-              "so the CPU time of the process (both codes single-threaded) is the steadier measure of the work done."]
+    lines += ["", "Timing: wall time is what a user waits; on this shared host (load above) it includes waiting for a",
+              "core, so the CPU time of the process (both codes single-threaded) is the steadier measure of the work",
+              "done."]
     lines += ["", "The same-mesh differences are the two beams' discretisation errors: flexmb's element has the exact",
               "two-node Timoshenko stiffness, Exudyn's interpolates linearly with one-point integration. Refined, both",
-              "approach one answer (four-bar actuation force [N]; Exudyn refined by splitting each element of the 5 el./leaf",
-              "mesh, residual below 1e-5 N):", "",
+              "approach one answer (four-bar actuation force [N]; Exudyn refined by splitting each element of the",
+              "5 el./leaf mesh, residual below 1e-5 N):", "",
               "| elements per leaf | flexmb | Exudyn |", "|---:|---:|---:|", *conv]
     return "\n".join(lines)
 
 
 if __name__ == "__main__":
-    run("peers", main, __doc__, "three cases, smaller search, 5 repetitions")
+    import importlib.util
+
+    if importlib.util.find_spec("exudyn") is None:  # `flexmb bench` without the extra: keep the section
+        print("bench_peers: skipped, Exudyn is not installed (python -m pip install 'flexmb[peers]')", file=sys.stderr)
+    else:
+        run("peers", main, __doc__, "three cases, smaller search, 5 repetitions")

@@ -3,6 +3,9 @@
 from . import export, models, plot, study, testing
 from .errors import (
     ConvergenceError,
+    ConvergenceWarning,
+    ExtrapolationWarning,
+    PlausibilityWarning,
     DatabaseError,
     FlexmbError,
     MissingExtraError,
@@ -30,6 +33,9 @@ from ._version import __version__  # noqa: F401 (flexmb.__version__)
 
 __all__ = [
     "ConvergenceError",
+    "ConvergenceWarning",
+    "ExtrapolationWarning",
+    "PlausibilityWarning",
     "Critical",
     "Path",
     "trace",

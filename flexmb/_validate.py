@@ -111,6 +111,33 @@ def rigid_body(owner: str, mass, inertia, center, dim: int):
     return m, J, c
 
 
+def shear_modulus(owner: str, E, G, nu, default=None):
+    """The shear modulus from ``G`` or from Poisson's ratio ``nu`` in (-1, 0.5) (``G = E / (2 (1 + nu))``);
+    ``default`` when neither is given. ``G`` other than ``default`` together with ``nu`` is refused."""
+    if nu is None:
+        if G is None and default is None:
+            raise ParameterError(f"{owner}: give the shear modulus G or Poisson's ratio nu")
+        return default if G is None else G
+    nu = in_open_range(owner, "nu", nu, -1.0, 0.5)
+    if G is not None and G != default:
+        raise ParameterError(f"{owner}: give G or nu, not both (G={G!r}, nu={nu!r})")
+    return positive(owner, "E", E) / (2.0 * (1.0 + nu))
+
+
+def modulus_units(owner: str, E: float, length: float, what: str = "length", stacklevel: int = 4) -> None:
+    """Warn (`PlausibilityWarning`) when Young's modulus looks like GPa with lengths in metres:
+    E < 1e3 with a ``length`` below 1. (GPa in SI puts metals at 40-400; MPa with mm, a consistent
+    system, at 1e3-4e5 and lengths above 1.)"""
+    if E < 1e3 and length < 1.0:
+        import warnings
+
+        from .errors import PlausibilityWarning
+
+        warnings.warn(f"{owner}: E={E:g} with {what} {length:g} looks like a modulus in GPa with lengths in m; in SI, "
+                      f"E is in Pa (steel 2e11). Ignore this if your units are consistent (e.g. kN and mm)",
+                      PlausibilityWarning, stacklevel=stacklevel)
+
+
 def frozen(a) -> np.ndarray:
     """A read-only copy of array ``a``: what a model object stores, so no caller can change it."""
     out = np.array(a, dtype=float)

@@ -169,7 +169,7 @@ def _train(args) -> int:
     for dim in args.dim:
         for n in args.elements:
             j = make_joint(args.kind, elements_per_leaf=n, **params)
-            data = database.train(j, dim, range_deg=range_deg, step_deg=args.step)
+            data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
             name = database.file_name(j.kind, dim, data.key)
             path = database.save(data, out / name)
             res = ", ".join(f"{k} {f.max_residual:.1e}" for k, f in data.functions.items())
@@ -390,6 +390,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="sampling step [deg], positive (default: the joint's own, 5)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="joint shape parameter, repeatable (e.g. --param angle=0.6)")
+    p.add_argument("--eob-table", action="store_true",
+                   help="also tabulate this joint's EOB condensation against the rotation (a side file "
+                        "<name>.eob.bin; KSD-reduced then looks it up for joints with exactly these parameters)")
     p.add_argument("--out", default=None,
                    help="folder (default: the user data folder, flexmb.database.user_path(), where KSD looks before "
                         "the shipped data; $FLEXMB_DATABASE overrides it); another folder: pass it to "

@@ -13,6 +13,9 @@ __all__ = [
     "ConvergenceError",
     "DatabaseError",
     "MissingExtraError",
+    "ConvergenceWarning",
+    "PlausibilityWarning",
+    "ExtrapolationWarning",
 ]
 
 
@@ -62,6 +65,17 @@ class DatabaseError(FlexmbError):
 
 class ExtrapolationWarning(UserWarning):
     """A joint database was queried outside its trained range (the polynomial is extrapolated)."""
+
+
+class ConvergenceWarning(UserWarning):
+    """A solve returned ``converged=False``: its numbers are those of the last converged load step
+    (or NaN), not the answer to the load asked for."""
+
+
+class PlausibilityWarning(UserWarning):
+    """An input or a converged answer outside what the model represents: strains beyond the
+    elastic range of a linear-elastic beam, a stress above the given yield stress, a modulus that
+    looks like another unit, a parasitic motion the closed-form model does not have."""
 
 
 class MissingExtraError(FlexmbError, ImportError):

@@ -138,6 +138,8 @@ class Mechanism:
         ``joint`` is a `Joint` instance or a registered name (then ``params`` go to its constructor).
         The joint frame is placed at ``origin`` [m] (default: link ``a``'s reference point) with
         ``rotation`` (2D: angle [rad]; 3D: rotation vector [rad] or a 3x3 matrix; default none).
+        ``name``: a non-empty string, or None for ``"<kind>_<k>"`` with the first k from the number
+        of joints that no joint has taken.
         """
         self.link(a), self.link(b)
         if a == b:
@@ -151,7 +153,13 @@ class Mechanism:
         if self.dim not in type(joint).dims:
             raise UnsupportedStrategyError(
                 f"joint kind {joint.kind!r} supports dim in {type(joint).dims}, not a dim={self.dim} mechanism")
-        name = name or f"{joint.kind}_{self.graph.number_of_edges()}"
+        if name is None:  # the first free "<kind>_<k>", k from the joint count: never a user's name
+            k = self.graph.number_of_edges()
+            while f"{joint.kind}_{k}" in self.joints:
+                k += 1
+            name = f"{joint.kind}_{k}"
+        elif not isinstance(name, str) or not name:
+            raise ModelError(f"joint name must be a non-empty string (or None for an automatic one), got {name!r}")
         if name in self.joints:
             raise ModelError(f"a joint named {name!r} exists already")
         where = f"joint {name!r}"

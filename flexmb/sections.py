@@ -70,6 +70,9 @@ class Section:
         `rectangle` and `circle`: `flexmb.fe.stress` then gives shear and von Mises stresses at
         the perimeter; None (default): unknown, normal stress at the corners ``(+-ymax, +-zmax)``
         only.
+    yield_stress
+        The material's yield stress [Pa], optional: a solve whose peak normal stress exceeds it
+        warns (`flexmb.PlausibilityWarning`); None (default): not checked.
     """
 
     E: float
@@ -84,9 +87,12 @@ class Section:
     zmax: float | None = None
     density: float = 0.0
     shape: str | None = None
+    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         v.nonnegative("Section", "density", self.density)
+        if self.yield_stress is not None:
+            v.positive("Section", "yield_stress", self.yield_stress)
         if self.shape is not None:
             v.choice("Section", "shape", self.shape, SHAPES)
             for name in ("ymax", "zmax"):
@@ -101,18 +107,20 @@ class Section:
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
 
 
-def rectangle(width: float, thickness: float, E: float, G: float, density: float = 0.0) -> Section:
+def rectangle(width: float, thickness: float, E: float, G: float | None = None, density: float = 0.0, *,
+              nu: float | None = None, yield_stress: float | None = None) -> Section:
     """Rectangular section ``width x thickness`` [m]; local z along the width, local y along the thickness.
 
     So ``Iz = width thickness^3 / 12`` is the compliant (leaf-spring) bending stiffness and
     ``Iy = thickness width^3 / 12`` the stiff one, as in SPACAR's leaf-spring data.
-    Poisson's ratio for the shear coefficient is ``E / (2G) - 1``. ``density`` [kg/m^3] >= 0
-    (0: massless; see `Section`).
+    Poisson's ratio for the shear coefficient is ``E / (2G) - 1``; give ``G`` or ``nu`` (then
+    ``G = E / (2 (1 + nu))``). ``density`` [kg/m^3] >= 0 (0: massless; see `Section`);
+    ``yield_stress`` [Pa] optional (see `Section`).
     """
     width = v.positive("rectangle", "width", width)
     thickness = v.positive("rectangle", "thickness", thickness)
     E = v.positive("rectangle", "E", E)
-    G = v.positive("rectangle", "G", G)
+    G = v.positive("rectangle", "G", v.shear_modulus("rectangle", E, G, nu))
     density = v.nonnegative("rectangle", "density", density)
     w, t = np.float64(width), np.float64(thickness)  # numpy floats overflow to inf, checked below
     with np.errstate(over="ignore", under="ignore"):
@@ -126,17 +134,20 @@ def rectangle(width: float, thickness: float, E: float, G: float, density: float
         )
     k = shear_coefficient_rectangle(nu)
     return Section(E=E, G=G, It=torsion_constant_rectangle(width, thickness), ky=k, kz=k,
-                   ymax=0.5 * float(thickness), zmax=0.5 * float(width), density=density, shape="rectangle", **props)
+                   ymax=0.5 * float(thickness), zmax=0.5 * float(width), density=density, shape="rectangle",
+                   yield_stress=yield_stress, **props)
 
 
-def circle(diameter: float, E: float, G: float, density: float = 0.0) -> Section:
+def circle(diameter: float, E: float, G: float | None = None, density: float = 0.0, *,
+           nu: float | None = None, yield_stress: float | None = None) -> Section:
     """Solid circular section of ``diameter`` [m] (a wire flexure): ``A = pi r^2``,
     ``Iy = Iz = pi r^4 / 4``, torsion constant ``It = pi r^4 / 2`` (exact, the polar moment),
-    Cowper's shear coefficient (`shear_coefficient_circle`), Poisson's ratio ``E / (2G) - 1``;
-    ``density`` [kg/m^3] >= 0 (see `Section`)."""
+    Cowper's shear coefficient (`shear_coefficient_circle`), Poisson's ratio ``E / (2G) - 1`` (or
+    give ``nu``: ``G = E / (2 (1 + nu))``); ``density`` [kg/m^3] >= 0 and ``yield_stress`` [Pa]
+    (optional) as in `Section`."""
     diameter = v.positive("circle", "diameter", diameter)
     E = v.positive("circle", "E", E)
-    G = v.positive("circle", "G", G)
+    G = v.positive("circle", "G", v.shear_modulus("circle", E, G, nu))
     density = v.nonnegative("circle", "density", density)
     r = 0.5 * np.float64(diameter)
     with np.errstate(over="ignore", under="ignore"):
@@ -148,7 +159,8 @@ def circle(diameter: float, E: float, G: float, density: float = 0.0) -> Section
         raise ParameterError(f"circle: E={E:g} Pa and G={G:g} Pa imply Poisson's ratio {nu:.3g}, outside (-1, 0.5); "
                              "check the units of the moduli")
     k = shear_coefficient_circle(nu)
-    return Section(E=E, G=G, ky=k, kz=k, ymax=float(r), zmax=float(r), density=density, shape="circle", **props)
+    return Section(E=E, G=G, ky=k, kz=k, ymax=float(r), zmax=float(r), density=density, shape="circle",
+                   yield_stress=yield_stress, **props)
 
 
 def properties(sections, names) -> np.ndarray:

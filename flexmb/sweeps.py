@@ -13,6 +13,7 @@ from . import _validate as v
 from . import jit
 from .closed_form.problem import TERMS, LinkageProblem
 from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
+from .plausibility import check
 from .problem import PointLoads
 from .results import Solution
 from .solvers import make_strategy
@@ -48,9 +49,9 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     Returns a `SweepResult`: a sequence of one `Solution` per value, in order, whose
     `SweepResult.table` gives the results as arrays and CSV. Nothing is lost to one value: a
     solve that fails is kept (``converged=False``), and so is one where the strategy raises (a
-    `DatabaseError` outside the trained range, a `ConvergenceError` with ``raise_on_failure``,
-    any other error): its Solution's ``message`` names the value and the error, its numbers are
-    NaN. The next value starts from the last converged one.
+    `DatabaseError` outside the trained range, any other error): its Solution's ``message``
+    names the value and the error, its numbers are NaN. The next value starts from the last
+    converged one. Only ``raise_on_failure=True`` stops a sweep, with the `ConvergenceError` asked for.
     ``properties``: design properties added to the table, a sequence of names (``"modes"``,
     ``"buckling"``, ``"compliance"``, ``"stress"``) or a mapping of the keyword arguments of
     `flexmb.design_properties.properties` (e.g. ``{"which": ("modes",), "n_modes": 3}``).
@@ -99,7 +100,7 @@ def _plan(mechanism, values, motion, method, start, options, compiled_loop=False
     slots = None if motion is None else _prescribed_slots(compiled, motion, comps)
     warm = start == "previous" and _warm_starts(strategy)
     if compiled_loop and slots is None and jit.enabled() and hasattr(strategy, "sweep_forces"):
-        return values, _compiled_force_sweep(strategy, compiled, values, warm)
+        return values, _checked(_compiled_force_sweep(strategy, compiled, values, warm))
 
     def solutions():
         last = last_values = None  # the last converged solution and its prescribed values
@@ -117,12 +118,21 @@ def _plan(mechanism, values, motion, method, start, options, compiled_loop=False
                                                            start_values=None if previous is None else last_values)
                     sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
             except Exception as exc:  # kept, with the reason: one value never costs the others
+                if isinstance(exc, ConvergenceError) and getattr(strategy, "raise_on_failure", False):
+                    raise  # asked for: raise_on_failure=True stops the sweep at its first failure
                 sol = _failed(strategy, compiled, value, exc, time.perf_counter() - t0)
             if sol.converged:
                 last, last_values = sol, (None if slots is None else vals)
             yield sol
 
-    return (values if slots is None or len(slots) > 1 else values[:, 0]), solutions()
+    return (values if slots is None or len(slots) > 1 else values[:, 0]), _checked(solutions())
+
+
+def _checked(solutions):
+    """The solutions, each checked as `flexmb.solve` checks (ConvergenceWarning, PlausibilityWarning)."""
+    for sol in solutions:
+        check(sol, stacklevel=4)
+        yield sol
 
 
 _COMPONENTS = {2: {"x": [0], "y": [1], "rotation": [2]}, 3: {"x": [0], "y": [1], "z": [2], "rotation": [3, 4, 5]}}
@@ -168,10 +178,7 @@ def _prescribed_slots(compiled, motion, comps) -> np.ndarray:
 
 
 def _failed(strategy, compiled, value, exc: Exception, seconds: float) -> Solution:
-    """The `Solution` of a value whose solve raised: not converged, the error in its message
-    (a `ConvergenceError`'s own Solution when it carries one)."""
-    if isinstance(exc, ConvergenceError) and isinstance(exc.solution, Solution):
-        return exc.solution
+    """The `Solution` of a value whose solve raised: not converged, the error in its message."""
     method = getattr(strategy, "name", type(strategy).__name__)
     at = np.round(np.asarray(value, dtype=float), 12).tolist()
     return Solution.failed(method, compiled, f"{method} at {at}: {type(exc).__name__}: {exc}", {"total": seconds})
@@ -374,6 +381,10 @@ def tangent_stiffness(mechanism, solution=None, terms: bool = False, *, method: 
     if terms:
         raise UnsupportedStrategyError("tangent_stiffness: terms are defined for the closed-form model "
                                        "(method='newton'), not the finite-element model")
+    if getattr(problem.model, "hinges", None) is not None:
+        raise UnsupportedStrategyError(
+            f"tangent_stiffness: the ideal joints {list(problem.model.hinges.names)} make the links infinitely stiff "
+            "in the directions they constrain; use flexmb.compliance (finite, zero in those directions)")
     _, Kff, _, _ = problem.evaluate(state, 1.0)
     K = Kff.toarray()
     pos = np.searchsorted(problem.free, keep)

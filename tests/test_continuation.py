@@ -88,5 +88,5 @@ def test_manipulator_in_far_fewer_iterations():
     # Fig. 18: 494 iterations at 45 deg (71 steps of ~7); the continuation: 118
     m = flexmb.models.manipulator("joint", np.radians(45))
     paper, default = flexmb.solve(m, step_control="paper"), flexmb.solve(m)
-    assert paper.iterations == 494
+    assert flexmb.solve(m, step_control="paper", tol=5e-7).iterations == 494  # Fig. 18 with the paper's tol
     assert default.iterations <= 0.25 * paper.iterations

@@ -53,7 +53,8 @@ def build(mechanism) -> Compiled:
     flex = FlexureSet(*[c.astype(np.int64) if k < 2 else c for k, c in enumerate(cols)])
     pres, vals, loads, _ = boundary(mechanism, link_node)  # planar: no rotation chains
     problem = LinkageProblem(LinkageModel(x0, flex), pres, vals, loads)
-    return Compiled(problem, link_node, mechanism.points, {}, actuation_row(mechanism, loads))
+    joints = tuple((k, d["joint"], d["placement"], *d["sides"]) for _, _, k, d in mechanism.graph.edges(keys=True, data=True))
+    return Compiled(problem, link_node, mechanism.points, {}, actuation_row(mechanism, loads), joints=joints)
 
 
 def _checked_closed_form(key: str, joint: Joint) -> ClosedForm:

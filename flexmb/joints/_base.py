@@ -120,6 +120,11 @@ class Joint(abc.ABC):
             f"joint kind {self.kind!r} has no finite-element model; it offers {sorted(self.capabilities)}"
         )
 
+    def element_count(self, dim: int) -> int | None:
+        """The number of beam elements `mesh` will hold, when known without meshing (flexmb then
+        refuses a model too big to solve before building it); None: not known (the default)."""
+        return None
+
     def closed_form(self, dim: int) -> ClosedForm:
         """The joint as a constant-stiffness flexure between its two links (see `ClosedForm`)."""
         raise UnsupportedStrategyError(

@@ -18,13 +18,14 @@ def check_leaves(owner: str, joint, names, widths=("width_inner", "width_outer")
     for name in names:
         v.positive(owner, name, getattr(joint, name))
     v.in_open_range(owner, "angle", joint.angle, 0.0, math.pi / 2, " rad")
+    v.modulus_units(owner, joint.E, joint.length, stacklevel=5)
     v.integer(owner, "elements_per_leaf", joint.elements_per_leaf, 1, v.MAX_ELEMENTS)
     if not joint.thickness < joint.length / 10:
         raise ParameterError(f"{owner}: thickness={joint.thickness!r} m is not slender for length={joint.length!r} m "
                              f"(valid range: thickness < length/10 = {joint.length / 10:g} m)")
     for wname in widths:  # derived quantities must be representable (extreme magnitudes overflow)
         try:
-            rectangle(getattr(joint, wname), joint.thickness, joint.E, joint.G)
+            rectangle(getattr(joint, wname), joint.thickness, joint.E, joint.G, yield_stress=joint.yield_stress)
         except ParameterError as exc:
             raise ParameterError(f"{owner}: {wname}={getattr(joint, wname)!r} m, thickness={joint.thickness!r} m, "
                                  f"E={joint.E!r} Pa, G={joint.G!r} Pa: {exc}") from None

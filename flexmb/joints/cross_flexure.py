@@ -44,6 +44,12 @@ class CrossFlexure(Joint):
         Leaf widths w1, w2 [m] (0.04, 0.02).
     E, G
         Young's and shear modulus [Pa] (200e9, 76.9e9); Poisson's ratio ``E/(2G) - 1`` in (-1, 0.5).
+    nu
+        Poisson's ratio in (-1, 0.5) instead of ``G``: ``G = E / (2 (1 + nu))`` is stored (``nu``
+        then reads None).
+    yield_stress
+        Yield stress of the material [Pa], optional: a solve whose peak normal stress exceeds it
+        warns (`flexmb.PlausibilityWarning`).
     elements_per_leaf
         Beam elements per leaf, 1 or more (3).
     gap
@@ -66,9 +72,14 @@ class CrossFlexure(Joint):
     elements_per_leaf: int = 3
     gap: float = 0.0
     density: float = 7800.0
+    nu: float | None = None
+    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         owner = "cross_flexure"
+        if self.nu is not None:  # Poisson's ratio instead of G: stored as G
+            object.__setattr__(self, "G", v.shear_modulus(owner, self.E, self.G, self.nu, 76.9e9))
+            object.__setattr__(self, "nu", None)
         check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
         v.nonnegative(owner, "density", self.density)
         if v.finite(owner, "gap", self.gap) < 0:
@@ -104,6 +115,10 @@ class CrossFlexure(Joint):
             (*leaf(c, -zo), self.width_outer),
         ]
 
+    def element_count(self, dim: int) -> int:
+        """Beam elements of `mesh` (known without meshing)."""
+        return len(self.leaves(dim)) * self.elements_per_leaf
+
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements_per_leaf
         pts, side, elems, secs, ny = [], [], [], [], []
@@ -113,7 +128,7 @@ class CrossFlexure(Joint):
                 pts.append(start + (end - start) * k / n)
                 side.append(SIDE_A if k == 0 else SIDE_B if k == n else INTERNAL)
             elems += [(base + k, base + k + 1) for k in range(n)]
-            sec = rectangle(width, self.thickness, self.E, self.G, self.density)
+            sec = rectangle(width, self.thickness, self.E, self.G, self.density, yield_stress=self.yield_stress)
             secs += [sec] * n
             if dim == 3:
                 ex = (end - start) / self.length  # every leaf has length L by construction

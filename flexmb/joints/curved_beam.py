@@ -37,6 +37,12 @@ class CurvedBeam(Joint):
         Cross-section: ``width`` (b, out of plane) x ``height`` (h, in-plane), so EI = E b h^3 / 12.
     G
         Shear modulus for the finite-element model (default ``E / 2.6``, Poisson 0.3).
+    nu
+        Poisson's ratio in (-1, 0.5) instead of ``G``: ``G = E / (2 (1 + nu))`` is stored (``nu``
+        then reads None).
+    yield_stress
+        Yield stress of the material [Pa], optional: a solve whose peak normal stress exceeds it
+        warns (`flexmb.PlausibilityWarning`).
     elements
         Straight co-rotational beam elements along the arc in the finite-element model (16).
     density
@@ -78,12 +84,18 @@ class CurvedBeam(Joint):
     elements: int = 16
     density: float = 7800.0
     model: str = "partial-nonlinear"
+    nu: float | None = None
+    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         owner = "curved_beam"
+        if self.nu is not None:  # Poisson's ratio instead of G: stored as G
+            object.__setattr__(self, "G", v.shear_modulus(owner, self.E, self.G, self.nu, None))
+            object.__setattr__(self, "nu", None)
         for name in ("radius", "E", "width", "height"):
             v.positive(owner, name, getattr(self, name))
         v.in_open_range(owner, "angle", self.angle, 0.0, 2 * math.pi, " rad")
+        v.modulus_units(owner, self.E, self.radius, "radius")
         if self.G is not None:
             v.positive(owner, "G", self.G)
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
@@ -92,7 +104,7 @@ class CurvedBeam(Joint):
         if not self.height < self.radius:
             raise ParameterError(f"{owner}: height={self.height!r} must be < radius={self.radius!r} (a slender arc)")
         try:
-            rectangle(self.width, self.height, self.E, self.shear_modulus)
+            rectangle(self.width, self.height, self.E, self.shear_modulus, yield_stress=self.yield_stress)
         except ParameterError as exc:
             raise ParameterError(f"{owner}: width={self.width!r}, height={self.height!r}, E={self.E!r}: {exc}") from None
 
@@ -114,11 +126,16 @@ class CurvedBeam(Joint):
     def interface_b(self, dim: int) -> np.ndarray:
         return self.arc_points(1)[1]
 
+    def element_count(self, dim: int) -> int:
+        """Beam elements of `mesh` (known without meshing)."""
+        return self.elements
+
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements
         side = np.full(n + 1, INTERNAL)
         side[0], side[-1] = SIDE_A, SIDE_B
-        sec = rectangle(self.width, self.height, self.E, self.shear_modulus, self.density)
+        sec = rectangle(self.width, self.height, self.E, self.shear_modulus, self.density,
+                        yield_stress=self.yield_stress)
         return JointMesh(points=self.arc_points(n), side=side,
                          elements=np.stack([np.arange(n), np.arange(1, n + 1)], axis=1), sections=(sec,) * n)
 

@@ -30,6 +30,12 @@ class LeafSpring(Joint):
         Cross-section [m] (0.02, 1e-3); ``thickness < length``.
     E, G
         Young's and shear modulus [Pa] (200e9, 76.9e9); Poisson's ratio ``E/(2G) - 1`` in (-1, 0.5).
+    nu
+        Poisson's ratio in (-1, 0.5) instead of ``G``: ``G = E / (2 (1 + nu))`` is stored (``nu``
+        then reads None).
+    yield_stress
+        Yield stress of the material [Pa], optional: a solve whose peak normal stress exceeds it
+        warns (`flexmb.PlausibilityWarning`).
     elements
         Number of beam elements, 1 or more (4).
     density
@@ -54,13 +60,19 @@ class LeafSpring(Joint):
     density: float = 7800.0
     section: Section | None = None
     model: str = "partial-nonlinear"
+    nu: float | None = None
+    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         owner = "leaf_spring"
+        if self.nu is not None:  # Poisson's ratio instead of G: stored as G
+            object.__setattr__(self, "G", v.shear_modulus(owner, self.E, self.G, self.nu, 76.9e9))
+            object.__setattr__(self, "nu", None)
         for name in ("length", "width", "thickness", "E", "G"):
             v.positive(owner, name, getattr(self, name))
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
         v.nonnegative(owner, "density", self.density)
+        v.modulus_units(owner, self.E, self.length)
         if self.thickness >= self.length:
             raise ParameterError(f"{owner}: thickness={self.thickness!r} m must be < length={self.length!r} m")
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
@@ -79,7 +91,12 @@ class LeafSpring(Joint):
 
     def cross_section(self) -> Section:
         """The leaf's `Section`: ``section`` if given, else the ``width`` x ``thickness`` rectangle [m]."""
-        return self.section or rectangle(self.width, self.thickness, self.E, self.G, self.density)
+        return self.section or rectangle(self.width, self.thickness, self.E, self.G, self.density,
+                                         yield_stress=self.yield_stress)
+
+    def element_count(self, dim: int) -> int:
+        """Beam elements of `mesh` (known without meshing)."""
+        return self.elements
 
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements

@@ -64,6 +64,12 @@ class ThreeXInfinity(Joint):
         Number of stages in series, 2 to 100 (3).
     E, G
         Young's and shear modulus [Pa] (200e9, 76.9e9).
+    nu
+        Poisson's ratio in (-1, 0.5) instead of ``G``: ``G = E / (2 (1 + nu))`` is stored (``nu``
+        then reads None).
+    yield_stress
+        Yield stress of the material [Pa], optional: a solve whose peak normal stress exceeds it
+        warns (`flexmb.PlausibilityWarning`).
     elements_per_leaf
         Beam elements per leaf, 1 or more (3: 27 flexible elements for 3 stages).
     density
@@ -93,9 +99,14 @@ class ThreeXInfinity(Joint):
     G: float = 76.9e9
     elements_per_leaf: int = 3
     density: float = 7800.0
+    nu: float | None = None
+    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         owner = "three_x_infinity"
+        if self.nu is not None:  # Poisson's ratio instead of G: stored as G
+            object.__setattr__(self, "G", v.shear_modulus(owner, self.E, self.G, self.nu, 76.9e9))
+            object.__setattr__(self, "nu", None)
         check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
         v.integer(owner, "stages", self.stages, 2, 100)
         v.nonnegative(owner, "density", self.density)
@@ -122,6 +133,10 @@ class ThreeXInfinity(Joint):
     def _require_3d(self, dim: int) -> None:
         if dim != 3:
             raise ParameterError(f"three_x_infinity: a spatial joint; dim={dim!r} must be 3")
+
+    def element_count(self, dim: int) -> int:
+        """Beam elements of `mesh` (known without meshing)."""
+        return self.flexible_elements
 
     def mesh(self, dim: int) -> JointMesh:
         self._require_3d(dim)
@@ -155,7 +170,7 @@ class ThreeXInfinity(Joint):
                     side.append(sd)
                     body.append(bd)
                 elems += [(base + i, base + i + 1) for i in range(n)]
-                secs += [rectangle(width, self.thickness, self.E, self.G, self.density)] * n
+                secs += [rectangle(width, self.thickness, self.E, self.G, self.density, yield_stress=self.yield_stress)] * n
                 ny += [np.cross([0.0, 0.0, 1.0], (b - a) / self.length)] * n
         return JointMesh(points=np.array(pts), side=np.array(side), elements=np.array(elems), sections=tuple(secs),
                          ny0=np.array(ny), body=np.array(body))

@@ -17,7 +17,7 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg import lapack
 
-from ..errors import ConvergenceError, TopologyError
+from ..errors import ConvergenceError, TopologyError, UnsupportedStrategyError
 from .reduced import ReducedMechanism
 
 __all__ = ["solve_kinematics"]
@@ -44,8 +44,11 @@ def _describe(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) ->
 def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
     """Rows of the constraint Jacobian at rest to keep (redundant ones removed, Sec. 2.2)."""
     free = red.free
-    if len(free) == 0:
-        return np.zeros(0, dtype=np.int64)
+    if len(free) == 0:  # nothing for the kinematics to find: every joint constraint is redundant
+        raise UnsupportedStrategyError(
+            "KSD: every link DOF is prescribed, so step 1 (the kinematics under the joints' database constraints) "
+            "has no unknown and the prescribed motion generally contradicts those constraints; leave the DOFs the "
+            "joints determine free (e.g. prescribe only the rotation) or use method='conventional'")
     scale = np.where(free % 6 < 3, 1.0 / red.length, 1.0)  # unknowns in D0 and rad
     A = np.ascontiguousarray(jac[:, free] / scale)
     rank, null, rows = _rank(A.tobytes(), A.shape)

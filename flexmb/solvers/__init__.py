@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..errors import ModelError, ParameterError, UnsupportedStrategyError
+from ..plausibility import check
 from .conventional import Conventional
 from .ksd import KSDFull, KSDReduced
 from .newton import Newton
@@ -20,13 +21,17 @@ def solve(mechanism, method: str | object = "conventional", **options):
     (Cammarata et al. 2022) with ``tangent="full" | "first-term" | "constant"``;
     ``"ksd-reduced"`` / ``"ksd-full"``: the Kinematically Started Deformation method with the
     joint database and EOBs (Dwarshuis et al. 2020), steps 1-4 / 1-5.
-    Options go to the strategy's constructor (e.g. ``tol``, ``max_iter``, ``raise_on_failure``).
-    The mechanism is not modified. Returns a `flexmb.Solution`.
+    Options go to the strategy's constructor (e.g. ``tol``, ``max_iter``, ``raise_on_failure``);
+    every method's options are listed below. ``max_iter`` counts Newton iterations per load step
+    (conventional, ksd-full's step 5) or per solve (newton; ksd's step 3); `Solution.iterations`
+    is the total. The mechanism is not modified. Returns a `flexmb.Solution`.
     """
     strategy = make_strategy(method, options)
     if not hasattr(mechanism, "compile"):
         raise ModelError(f"solve() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
-    return strategy.solve(mechanism.compile(getattr(strategy, "capability", "fe_model")))
+    solution = strategy.solve(mechanism.compile(getattr(strategy, "capability", "fe_model")))
+    check(solution)  # a ConvergenceWarning or PlausibilityWarning where the answer misleads
+    return solution
 
 
 def make_strategy(method: str | object, options: dict):
@@ -51,3 +56,43 @@ def make_strategy(method: str | object, options: dict):
             raise UnsupportedStrategyError("options are given with a method name, not with a strategy instance")
         strategy = method
     return strategy
+
+
+def _first_sentence(text: str) -> str:
+    import re
+
+    text = " ".join(text.split())
+    end = re.search(r"(?<!Fig)(?<!Eq)(?<!e\.g)(?<!i\.e)\. (?=[A-Z`(\"])", text)
+    return text if end is None else text[:end.start() + 1]
+
+
+def options_doc(cls) -> list[tuple[str, object, str]]:
+    """``(option, default, first sentence of its description)`` of a strategy class, read from
+    its attrs fields and the Parameters section of its docstring."""
+    import attrs
+
+    lines = (cls.__doc__ or "").splitlines()
+    described, names, body = {}, None, []
+    for line in lines + ["    X"]:  # a sentinel flushes the last entry
+        if line.startswith("    ") and not line.startswith("     ") and line.strip():
+            if names:
+                for n in names:
+                    described[n] = _first_sentence(" ".join(body))
+            names, body = [n.strip() for n in line.split(",")], []
+        elif line.startswith("        ") and names is not None:
+            body.append(line.strip())
+    return [(f.name, f.default, described.get(f.name, "")) for f in attrs.fields(cls)]
+
+
+def _options_section() -> str:
+    out = ["", "    Options by method (``option=default``: what it sets):", ""]
+    for name, cls in STRATEGIES.items():
+        out.append(f"    ``{name}`` (`flexmb.solvers.{cls.__name__}`):")
+        out.append("")
+        for opt, default, text in options_doc(cls):
+            out.append(f"    - ``{opt}={default!r}``: {text}".rstrip(": "))
+        out.append("")
+    return "\n".join(out)
+
+
+solve.__doc__ += _options_section()

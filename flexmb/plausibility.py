@@ -1,0 +1,113 @@
+"""Warnings where a returned `Solution` is not what it looks like (issue 20, class 7): a solve
+that did not converge, strains a linear-elastic beam model cannot represent, a stress above the
+material's given yield stress, and the parasitic shortening the closed-form model leaves out.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .closed_form.problem import LinkageProblem
+from .errors import ConvergenceWarning, ModelError, PlausibilityWarning
+from .rotations import rot2
+from .sections import properties
+
+__all__ = ["check", "STRAIN_LIMIT", "SHORTENING_LIMIT"]
+
+#: Largest peak normal strain (peak normal stress / E) a converged answer may reach without a
+#: warning: above the elastic strain of every engineering flexure material (spring steel ~0.75 %,
+#: 1.5 GPa / 200 GPa; Ti-6Al-4V ~0.9 %; polymers ~2 %, nylon 70 MPa / 3.8 GPa) and where
+#: small-strain beam theory stops being accurate. The paper cases stay below it (measured: cross
+#: flexure at 75 deg 1.0 %, manipulator at 45 deg 0.22 %, gripper at 50 uN 0.18 %).
+STRAIN_LIMIT = 0.02
+#: Closed-form flexures (``method="newton"``): warn when the shortening a straight beam bent by a
+#: transverse end deflection d over its length L would have, 0.6 d^2 / L (fixed-guided and
+#: end-loaded cantilever alike: (1/2) int w'^2 with the cubic deflection shapes), exceeds this
+#: fraction of d, i.e. d > L / 60.
+SHORTENING_LIMIT = 0.01
+
+
+def check(solution, *, stacklevel: int = 3) -> None:
+    """Warn about ``solution`` (`ConvergenceWarning`, `PlausibilityWarning`) where it misleads."""
+    if not solution.converged:
+        warnings.warn(f"{solution.method} did not converge ({solution.message}). The Solution holds the last converged "
+                      f"state, at load factor {solution.load_factor:.4g} of 1 (NaN if none): its reactions, "
+                      "displacements and stresses are not those of the load asked for", ConvergenceWarning,
+                      stacklevel=stacklevel)
+        return
+    problem = solution.compiled.problem
+    if isinstance(problem, LinkageProblem):
+        _shortening(solution, stacklevel + 1)
+    elif len(getattr(getattr(problem.model, "elements", None), "L0", ())):
+        _strains(solution, problem.model, stacklevel + 1)
+
+
+def _strains(solution, model, stacklevel: int) -> None:
+    from .fe.stress import peak_normal_stress
+
+    try:
+        sigma = peak_normal_stress(model, solution.state)
+    except ModelError:  # a plugin section without extreme-fibre distances: no stresses to check
+        return
+    sections = model.elements.sections
+    E = properties(sections, ("E",))[0]
+    strain = sigma / E
+    k = int(np.argmax(strain))
+    if strain[k] > STRAIN_LIMIT:
+        warnings.warn(f"{solution.method}: peak strain {strain[k]:.3g} ({_where(solution, k)}) is beyond the elastic "
+                      f"range a linear-elastic beam model represents (limit {STRAIN_LIMIT:g}; peak stress "
+                      f"{sigma[k]:.3g}): the answer is not physical. Check the units (a length in mm where m is "
+                      "meant?) and the size of the motion or load", PlausibilityWarning, stacklevel=stacklevel)
+    ys = np.array([np.inf if s.yield_stress is None else s.yield_stress for s in sections], dtype=float)
+    over = sigma / ys
+    k = int(np.argmax(over))
+    if over[k] > 1.0:
+        warnings.warn(f"{solution.method}: peak stress {sigma[k]:.4g} exceeds the yield stress {ys[k]:.4g} "
+                      f"({_where(solution, k)}): the flexure yields, the linear-elastic answer does not hold there",
+                      PlausibilityWarning, stacklevel=stacklevel)
+
+
+def _where(solution, element: int) -> str:
+    for name, idx in solution.compiled.joint_elements.items():
+        if element in idx:
+            return f"joint {name!r}, element {int(np.flatnonzero(idx == element)[0])}"
+    return f"element {element}"
+
+
+def _shortening(solution, stacklevel: int) -> None:
+    """The closed-form (constant-stiffness) model has no shortening of a bent straight flexure
+    (one whose closed-form end lies on its x axis, unrotated: a leaf spring, not a curved beam)."""
+    worst = None
+    for name, joint, placement, side_a, side_b in solution.compiled.joints:
+        if "closed_form" not in joint.capabilities:
+            continue
+        cf = joint.closed_form(2)
+        if cf.end_angle != 0.0 or cf.end[1] != 0.0:
+            continue
+        a0 = placement.origin
+        b0 = placement.to_global(joint.interface_b(2))
+        chord = b0 - a0
+        L = float(np.hypot(*chord))
+        if not L > 0:
+            continue
+        (xa, ta), (xb, tb) = solution.pose(side_a), solution.pose(side_b)
+        ra, rb = rot2(ta), rot2(tb)
+        a = xa + ra @ (a0 - _x0(solution, side_a))
+        b = xb + rb @ (b0 - _x0(solution, side_b))
+        rel = ra.T @ (b - a) - chord  # B's motion relative to A, in A's (undeformed) axes
+        d = abs(chord[0] * rel[1] - chord[1] * rel[0]) / L  # transverse deflection
+        if 0.6 * d / L > SHORTENING_LIMIT and (worst is None or d / L > worst[1] / worst[2]):
+            worst = (name, d, L)
+    if worst is not None:
+        name, d, L = worst
+        warnings.warn(f"{solution.method}: flexure {name!r} deflects {d:.3g} across its length {L:.3g}; a beam bent "
+                      f"that far shortens by about 0.6 d^2/L = {0.6 * d * d / L:.3g}, which the closed-form "
+                      "constant-stiffness model leaves out (no parasitic shortening). Use method='conventional' "
+                      "where parasitic motions matter", PlausibilityWarning, stacklevel=stacklevel)
+
+
+def _x0(solution, link: str) -> np.ndarray:
+    """A link's reference point in the undeformed configuration."""
+    return solution.compiled.problem.model.x0[solution.compiled.link_node[link]]

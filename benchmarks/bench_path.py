@@ -25,6 +25,8 @@ CASES = [
      dict(steps=200, arc_length=1.0, stop=lambda s: -s.displacement("P")[1] > 95.0), "both limit points, snap-back"),
     ("Lee's frame, 40 el./member", lambda: cases.lee_frame(elements=40),
      dict(steps=200, arc_length=1.0, stop=lambda s: -s.displacement("P")[1] > 95.0), "both limit points, snap-back"),
+    ("Lee's frame, 150 el./member (899 DOFs, sparse)", lambda: cases.lee_frame(elements=150),
+     dict(steps=200, arc_length=1.0, stop=lambda s: -s.displacement("P")[1] > 95.0), "both limit points, snap-back"),
     ("215 deg arch, 40 chords", cases.deep_arch,
      dict(steps=400, arc_length=0.25, stop=lambda s: -s.displacement("apex")[1] > 150.0), "limit, snap-back, 2nd limit"),
     ("Qiu bistable, 20 el. (half)", lambda: cases.qiu_bistable(load=F_TOP),

@@ -32,30 +32,37 @@ def _trace(mechanism, **kw):
     return path, time.perf_counter() - t
 
 
-def run() -> dict:
-    """``{case: {"path": Path, "seconds": ..., "x": travel, ...}}`` for the five cases."""
+CASES = ("lee10", "lee40", "arch", "qiu", "strut", "truss")
+
+
+def run(names=CASES) -> dict:
+    """``{case: {"path": Path, "seconds": ..., "u": displacements, ...}}`` for the cases ``names``."""
     out = {}
     EI_L2 = 720.0 * 2.0 / 120.0**2
-    for n in (10, 40):
+    for n in [k for k in (10, 40) if f"lee{k}" in names]:
         path, sec = _trace(cases.lee_frame(elements=n), steps=200, arc_length=1.0,
                            stop=lambda s: -s.displacement("P")[1] > 95.0)
         out[f"lee{n}"] = dict(path=path, seconds=sec, scale=1.0 / EI_L2,
                               u=np.array([s.displacement("P") for s in path]))
-    path, sec = _trace(cases.deep_arch(), steps=400, arc_length=0.25,
-                       stop=lambda s: -s.displacement("apex")[1] > 150.0)
-    out["arch"] = dict(path=path, seconds=sec, scale=1.0, u=np.array([s.displacement("apex") for s in path]))
-    f_top, f_bot = cases.qiu_switching_forces()
-    path, sec = _trace(cases.qiu_bistable(load=f_top), steps=200, arc_length=0.05,
-                       stop=lambda s: -s.displacement("C")[1] > 2.45e-4)
-    out["qiu"] = dict(path=path, seconds=sec, scale=f_top, u=np.array([s.displacement("C") for s in path]),
-                      analytic=(f_top, f_bot))
-    path, sec = _trace(cases.euler_strut(load=math.pi**2 / 4, imperfection=1e-4), steps=300, arc_length=0.05,
-                       stop=lambda s: s.rotation_vector("B")[0] > 2.5)
-    out["strut"] = dict(path=path, seconds=sec, scale=1.0,
-                        alpha=np.array([s.rotation_vector("B")[0] for s in path]))
-    path, sec = _trace(cases.von_mises_truss(), steps=100, arc_length=0.05,
-                       stop=lambda s: -s.displacement("T")[1] > 120.0)
-    out["truss"] = dict(path=path, seconds=sec, scale=1e4, u=np.array([s.displacement("T") for s in path]))
+    if "arch" in names:
+        path, sec = _trace(cases.deep_arch(), steps=400, arc_length=0.25,
+                           stop=lambda s: -s.displacement("apex")[1] > 150.0)
+        out["arch"] = dict(path=path, seconds=sec, scale=1.0, u=np.array([s.displacement("apex") for s in path]))
+    if "qiu" in names:
+        f_top, f_bot = cases.qiu_switching_forces()
+        path, sec = _trace(cases.qiu_bistable(load=f_top), steps=200, arc_length=0.05,
+                           stop=lambda s: -s.displacement("C")[1] > 2.45e-4)
+        out["qiu"] = dict(path=path, seconds=sec, scale=f_top, u=np.array([s.displacement("C") for s in path]),
+                          analytic=(f_top, f_bot))
+    if "strut" in names:
+        path, sec = _trace(cases.euler_strut(load=math.pi**2 / 4, imperfection=1e-4), steps=300, arc_length=0.05,
+                           stop=lambda s: s.rotation_vector("B")[0] > 2.5)
+        out["strut"] = dict(path=path, seconds=sec, scale=1.0,
+                            alpha=np.array([s.rotation_vector("B")[0] for s in path]))
+    if "truss" in names:
+        path, sec = _trace(cases.von_mises_truss(), steps=100, arc_length=0.05,
+                           stop=lambda s: -s.displacement("T")[1] > 120.0)
+        out["truss"] = dict(path=path, seconds=sec, scale=1e4, u=np.array([s.displacement("T") for s in path]))
     return out
 
 
@@ -63,7 +70,7 @@ def table(results: dict) -> str:
     """The critical points, steps, iterations and time per case (Markdown)."""
     rows = ["| case | points | iterations | time [s] | critical points (kind: value) | reference |",
             "|---|---|---|---|---|---|"]
-    refs = {"lee10": "upper 18.5 (P L²/EI; Lee et al. 1968, Schweizerhof & Wriggers 1986, 10 el.)",
+    refs = {"lee10": "upper 18.5 (P L²/EI; as quoted from Schweizerhof & Wriggers 1986, 10 el.)",
             "lee40": "upper 18.5 (P L²/EI)",
             "arch": "9.0 (P R²/EI; DaDeppo & Schmidt 1975)",
             "qiu": "F_top {:.4g} N, F_bot {:.4g} N (Qiu et al. 2004 modal model)",
@@ -97,16 +104,44 @@ def plot(results: dict, path="docs/path_following.png"):
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
 
+    for ax in axes.ravel():
+        ax.set_axis_off()
+    for ax, key in zip(axes.ravel(), ("lee10", "lee10", "arch", "qiu", "strut", "truss")):
+        if key in results:
+            ax.set_axis_on()
+    if "lee10" in results:
+        _plot_lee(results, axes, draw)
+    if "arch" in results:
+        _plot_arch(results, axes, draw)
+    if "qiu" in results:
+        _plot_qiu(results, axes, draw)
+    if "strut" in results:
+        _plot_strut(results, axes, draw)
+    if "truss" in results:
+        _plot_truss(results, axes, draw)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _plot_lee(results, axes, draw):
     r = results["lee10"]
     p = r["path"]
     draw(axes[0, 0], -r["u"][:, 1], p.load_factor * r["scale"], p, lambda s: -s.displacement("P")[1], r["scale"],
          "Lee's frame, 10 el./member: vertical", "-v at the load", "P L²/EI")
     draw(axes[0, 1], r["u"][:, 0], p.load_factor * r["scale"], p, lambda s: s.displacement("P")[0], r["scale"],
          "Lee's frame: horizontal (snap-back)", "u at the load", "P L²/EI")
+
+
+def _plot_arch(results, axes, draw):
     r = results["arch"]
     p = r["path"]
     draw(axes[0, 2], -r["u"][:, 1], p.load_factor, p, lambda s: -s.displacement("apex")[1], 1.0,
          "215° arch (DaDeppo & Schmidt)", "apex deflection (R = 100)", "P R²/EI")
+
+
+def _plot_qiu(results, axes, draw):
     r = results["qiu"]
     p = r["path"]
     d = -r["u"][:, 1]
@@ -115,6 +150,9 @@ def plot(results: dict, path="docs/path_following.png"):
     dd = np.linspace(0, d.max(), 300)
     axes[1, 0].plot(dd * 1e6, cases.qiu_force(dd) * 1e3, "k--", linewidth=1, label="Qiu's modal model")
     axes[1, 0].legend(fontsize=8)
+
+
+def _plot_strut(results, axes, draw):
     r = results["strut"]
     p = r["path"]
     draw(axes[1, 1], r["alpha"], p.load_factor, p, lambda s: s.rotation_vector("B")[0], 1.0,
@@ -122,6 +160,9 @@ def plot(results: dict, path="docs/path_following.png"):
     a = np.linspace(1e-3, r["alpha"].max(), 200)
     axes[1, 1].plot(a, cases.strut_elastica(a)[0], "k--", linewidth=1, label="elastica")
     axes[1, 1].legend(fontsize=8)
+
+
+def _plot_truss(results, axes, draw):
     r = results["truss"]
     p = r["path"]
     w = -r["u"][:, 1]
@@ -130,9 +171,6 @@ def plot(results: dict, path="docs/path_following.png"):
     ww = np.linspace(0, w.max(), 300)
     axes[1, 2].plot(ww, cases.von_mises_force(ww), "k--", linewidth=1, label="closed form")
     axes[1, 2].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    return path
 
 
 results = None

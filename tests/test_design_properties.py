@@ -162,7 +162,8 @@ def test_cross_flexure_buckling_example_and_the_softening_pivot():
     critical force ~5x over the turn free; at 30 deg the path is not linear (the estimate from
     F_cr/2 is higher). Independently, the pivot's rotational stiffness with B otherwise free,
     1 / C_rz,rz from `flexmb.compliance` at 0.9 and 0.95 of the critical force, extrapolates
-    linearly to zero within 0.3 % of it (measured +0.13 %)."""
+    linearly to zero within 0.3 % of it (measured +0.13 %), and `flexmb.trace` of the push finds
+    its bifurcation point there (measured 1e-4 from the estimate from 0)."""
     ex = _example("cross_flexure_buckling")
     r = ex.run(angles=(0.0, 30.0), elements=(3,))
     held, free = r[0.0, 3, "turn held"], r[0.0, 3, "turn free"]
@@ -170,6 +171,7 @@ def test_cross_flexure_buckling_example_and_the_softening_pivot():
     assert 4 < held[0] / free[0] < 6
     assert r[30.0, 3, "turn held"][1] > 1.2 * r[30.0, 3, "turn held"][0]
     assert "| 30 deg | 3 |" in ex.table(r)
+    assert r[0.0, 3, "trace"] == pytest.approx(free[1], rel=1e-3)
     F = np.array([0.9, 0.95]) * free[1]
     k = [1.0 / flexmb.compliance(ex._solve(0.0, f, 3), "B", held="none")[5, 5] for f in F]
     root = F[0] - k[0] * (F[1] - F[0]) / (k[1] - k[0])
@@ -187,3 +189,23 @@ def test_three_x_infinity_range_example():
     np.testing.assert_allclose(t["ratio"], t["f1"] / t["intended"])
     assert t["ratio"][1] > max(t["ratio"][0], t["ratio"][2])
     assert "| +45 deg | 3 |" in ex.table({3: t})
+
+
+def test_properties_of_a_traced_path():
+    """A `flexmb.trace` path is a sequence of solutions like a sweep: `properties` keeps its
+    columns (``load_factor``, ``stable``) and adds the buckling multiplier at every point; on the
+    unturned pivot's linear pre-buckling path, multiplier x load factor is the traced bifurcation
+    load factor at every point before it (to 1e-3)."""
+    J = flexmb.CrossFlexure(elements_per_leaf=3)
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=J.interface_b(3))
+    m.add_joint("A", "B", J, name="pivot")
+    m.apply_force("B", -1200.0 * J.interface_b(3) / np.linalg.norm(J.interface_b(3)))
+    path = flexmb.trace(m, max_load_factor=1.0, steps=60, progress=False)
+    t = flexmb.properties(path, ("buckling", "stress"), held="none")
+    assert {"load_factor", "stable", "buckling", "von_mises"} <= set(t)
+    critical = [c.load_factor for c in path.critical if c.kind == "bifurcation"][0]
+    before = (t["load_factor"] > 0) & (t["load_factor"] < critical)
+    assert before.sum() >= 2
+    np.testing.assert_allclose(t["buckling"][before] * t["load_factor"][before], critical, rtol=1e-3)

@@ -147,3 +147,12 @@ def test_the_table_round_trips_exactly(tmp_path):
     assert back.layout == table.layout and back.degree == table.degree and back.parameters == table.parameters
     np.testing.assert_array_equal(back.values, table.values)
     np.testing.assert_array_equal(back.theta, table.theta)
+
+
+def test_mass_and_strength_parameters_keep_the_table():
+    """Density and yield stress do not enter the stiffness condensation (Eqs. 3.8-3.11), and an
+    unset option (``nu=None`` with ``G`` given) changes nothing: the shipped table still applies;
+    a stiffness parameter (E) does change it."""
+    for joint in (ThreeXInfinity(yield_stress=1.0e9), ThreeXInfinity(density=2700.0)):
+        assert template(joint, 3).lookup is not None
+    assert template(ThreeXInfinity(E=70e9), 3).lookup is None

@@ -67,7 +67,7 @@ def _chain_3d():
     m.add_joint("B", "C", "leaf_spring", elements=3, origin=(0.1, 0.0, 0.0))
     m.apply_force("B", (1.0, -5.0, 2.0), point=(0.12, 0.01, 0.0))
     m.apply_moment("B", (0.1, 0.2, -0.3))
-    m.prescribe("C", x=0.002, rotation=[(0.0, 0.0, 0.3), (0.2, 0.0, 0.0)])  # a chain of rotations
+    m.prescribe("C", x=2e-5, rotation=[(0.0, 0.0, 0.3), (0.2, 0.0, 0.0)])  # a chain of rotations
     return m
 
 
@@ -182,8 +182,8 @@ def test_the_imperfect_strut_follows_the_elastica():
 
 def test_lee_frame_limit_loads_and_snap_back():
     """Lee's frame (E = 720, A = 6, I = 2, L = 120): the upper limit load in P L^2 / EI against
-    the 18.5 reported in the literature (Lee, Manuel & Rossow 1968; Schweizerhof & Wriggers 1986
-    with 10 elements): 18.66 here with 10 elements per member, 18.56 with 40. The lower one has
+    the 18.5 commonly quoted from Schweizerhof & Wriggers (1986, 10 elements; quoted, the paper
+    not at hand): 18.66 here with 10 elements per member, 18.56 with 40. The lower one has
     no published number at hand: against this model's own 40-element value, -9.427 (-9.618 at
     10: mesh convergence). Snap-back: the load point's downward travel turns back on the
     unstable branch while the load keeps falling."""
@@ -394,3 +394,67 @@ def test_the_sparse_inertia_equals_the_dense_one():
     ev = sla.eigvalsh(0.5 * (K + K.T).toarray())
     assert neg == np.sum(ev < 0) == 3
     np.testing.assert_allclose(near, np.sort(ev[np.argsort(np.abs(ev))[:4]]), rtol=1e-8)
+
+
+def test_the_example_traces_its_cases_and_draws_them(tmp_path):
+    """examples/path_following.py (the two quick cases): the table names the critical points and
+    the figure is written."""
+    import importlib.util
+    from pathlib import Path as FilePath
+
+    pytest.importorskip("matplotlib")
+    spec = importlib.util.spec_from_file_location(
+        "ex_path_following", FilePath(__file__).resolve().parents[1] / "examples" / "path_following.py")
+    ex = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ex)
+    res = ex.run(names=("qiu", "truss"))
+    text = ex.table(res)
+    assert "| truss |" in text and "limit: 4001.4" in text and "| qiu |" in text
+    out = ex.plot(res, tmp_path / "paths.png")
+    assert FilePath(out).stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("build", [_lever_2d, _chain_3d])
+def test_the_path_reaches_the_mechanism_as_given_at_load_factor_one(build):
+    """lam = 1 is the mechanism as given: the path's last point at max_load_factor=1 is the
+    equilibrium `flexmb.solve` finds (2D offset loads and prescribed motion; 3D dead moment and a
+    prescribed rotation chain), to the solvers' tolerances."""
+    path = flexmb.trace(build(), arc_length=0.1, max_load_factor=1.0, progress=False)
+    ref = flexmb.solve(build())
+    assert path.stopped_by == "max_load_factor" and path.load_factor[-1] == 1.0
+    np.testing.assert_allclose(path[-1].node_positions(), ref.node_positions(), rtol=0, atol=1e-9)
+    # free components of a reaction are residuals: both below 1e-8 of the reaction's size
+    w = ref.reaction("C")
+    np.testing.assert_allclose(path[-1].reaction("C"), w, rtol=0, atol=1e-8 * np.max(np.abs(w)))
+
+
+def test_the_sparse_kth_eigenvalue_equals_the_dense_one():
+    """Above `DENSE_EIGEN_BELOW` the eigenvalue that crosses zero (the k-th ascending) comes from
+    the negative count and shift-invert ARPACK at 0: the same as LAPACK's, on either side of 0."""
+    import scipy.sparse as sp
+
+    from flexmb.solvers import arclength
+
+    n = arclength.DENSE_EIGEN_BELOW + 100
+    d = np.linspace(0.5, 10.0, n)
+    d[[7, 250, 480]] = [-2.0, -0.3, -5.0]
+    K = sp.diags([d, np.full(n - 1, 0.05), np.full(n - 1, 0.05)], [0, 1, -1]).tocsr()
+
+    class Problem:  # what `_kth_eigenvalue` reads of a problem
+        def evaluate(self, state, lam):
+            return None, K, None, None
+
+        def reduced_tangent(self, Kff):
+            return Kff
+
+    point = _bare_point()
+    ev = sla.eigvalsh(K.toarray())
+    for k in (0, 2, 3, 5):
+        assert arclength._kth_eigenvalue(Problem(), point, k) == pytest.approx(ev[k], rel=1e-9)
+
+
+def _bare_point():
+    """A `PathPoint` with nothing but its place (for functions that evaluate the problem there)."""
+    from flexmb.solvers.arclength import PathPoint
+
+    return PathPoint(None, 0.0, None, None, 0.0, 1.0, 0, np.zeros(0), 0.0, 0.0, 0)

@@ -90,9 +90,20 @@ def lookup_for(tpl, joint):
     """A `Lookup` of the table in ``tpl``'s database when it belongs to this very ``joint`` (same
     `Joint.describe` parameters), else None (the condensation is then computed per solve)."""
     table = getattr(tpl.data, "eob_table", None)
-    if table is None or table.parameters != plain_parameters(joint.describe()):
+    if table is None or _stiffness_parameters(table.parameters) != _stiffness_parameters(
+            plain_parameters(joint.describe())):
         return None
     return Lookup(tpl, table)
+
+
+#: joint parameters that do not enter the EOB condensation (mass, strength)
+_NOT_STIFFNESS = frozenset({"density", "yield_stress"})
+
+
+def _stiffness_parameters(parameters: dict) -> dict:
+    """The parameters the condensation depends on: those set (an unset option such as ``nu=None``,
+    with ``G`` given, changes nothing) other than mass and strength."""
+    return {k: v for k, v in parameters.items() if v is not None and k not in _NOT_STIFFNESS}
 
 
 class Lookup:

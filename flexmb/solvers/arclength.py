@@ -61,27 +61,37 @@ def inertia(Kff, k: int = 4):
 
     The eigenvalues are the ``k`` of smallest magnitude, sorted ascending (signed); dense below
     `DENSE_EIGEN_BELOW` free DOFs, else the count from a sparse LDL^T (Sylvester's law of
-    inertia, `is_stable`'s factorisation) and the eigenvalues from shift-invert ARPACK at 0.
+    inertia, `is_stable`'s factorisation) and the eigenvalues from shift-invert ARPACK at 0
+    (dense LAPACK when either cannot deliver: SuperLU pivoted off the diagonal, ARPACK did not
+    converge or the matrix is singular).
     """
     n = Kff.shape[0]
     if n == 0:
         return 0, np.zeros(0)
     if n < DENSE_EIGEN_BELOW:
-        A = Kff.toarray() if hasattr(Kff, "toarray") else np.asarray(Kff)
-        ev = sla.eigvalsh(0.5 * (A + A.T))
-        near = ev[np.argsort(np.abs(ev))[:k]]
-        return int(np.sum(ev < 0.0)), np.sort(near)
+        return _dense_inertia(Kff, k)
     A = (0.5 * (Kff + Kff.T)).tocsc()
-    near = spla.eigsh(A, k=min(k, n - 1), sigma=0.0, which="LM", return_eigenvectors=False)
+    try:
+        near = np.sort(spla.eigsh(A, k=min(k, n - 1), sigma=0.0, which="LM", return_eigenvectors=False))
+    except (spla.ArpackNoConvergence, RuntimeError, ValueError):
+        return _dense_inertia(A, k)
     if is_stable(A):
-        return 0, np.sort(near)
+        return 0, near
     from scipy.sparse.linalg import splu
 
-    lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    try:
+        lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    except RuntimeError:  # exactly singular
+        return _dense_inertia(A, k)
     if np.array_equal(lu.perm_r, lu.perm_c):
-        return int(np.sum(lu.U.diagonal() < 0.0)), np.sort(near)
-    ev = sla.eigvalsh(A.toarray())  # SuperLU pivoted off the diagonal: no inertia from it
-    return int(np.sum(ev < 0.0)), np.sort(near)
+        return int(np.sum(lu.U.diagonal() < 0.0)), near
+    return _dense_inertia(A, k)  # SuperLU pivoted off the diagonal: no inertia from it
+
+
+def _dense_inertia(K, k: int):
+    A = K.toarray() if hasattr(K, "toarray") else np.asarray(K)
+    ev = sla.eigvalsh(0.5 * (A + A.T))
+    return int(np.sum(ev < 0.0)), np.sort(ev[np.argsort(np.abs(ev))[:k]])
 
 
 def load_tangent(problem, state: State, lam: float, Kfp=None):
@@ -426,8 +436,16 @@ def _kth_eigenvalue(problem, p: PathPoint, k: int) -> float:
     if n < DENSE_EIGEN_BELOW:
         A = Kff.toarray()
         return float(sla.eigvalsh(0.5 * (A + A.T), subset_by_index=[k, k])[0])
-    ev = spla.eigsh((0.5 * (Kff + Kff.T)).tocsc(), k=k + 1, sigma=None, which="SA", return_eigenvectors=False)
-    return float(np.sort(ev)[k])
+    # sparse: the negative count places the k-th eigenvalue among those nearest zero
+    A = (0.5 * (Kff + Kff.T)).tocsc()
+    neg, _ = inertia(A, 1)
+    need = k - neg + 1 if neg <= k else neg - k  # how many on its side of zero, itself included
+    try:
+        ev = spla.eigsh(A, k=min(n - 1, 2 * need + 2), sigma=0.0, which="LM", return_eigenvectors=False)
+        side = np.sort(ev[ev >= 0.0]) if neg <= k else np.sort(ev[ev < 0.0])[::-1]
+        return float(side[need - 1])
+    except (spla.ArpackNoConvergence, RuntimeError, ValueError, IndexError):
+        return float(sla.eigvalsh(A.toarray(), subset_by_index=[k, k])[0])
 
 
 def _split(problem, du: np.ndarray, dl: float, lam: float) -> np.ndarray:

@@ -4,6 +4,8 @@ Dwarshuis et al. (2020), Appendix B and Fig. 18 (SPACAR's scheme): try the whole
 step; after each iteration judge the residual: above the divergence threshold, halve the step
 and start it again from its beginning; between the thresholds, re-linearise and iterate; below
 the accuracy threshold, accept the step and take the next (growing it again after easy steps).
+That is ``step_control="paper"``; the default adds continuation (`newton_steps`): each step
+starts from the extrapolation of the converged path, a corrector that leaves it is rejected.
 """
 
 from __future__ import annotations
@@ -82,17 +84,18 @@ def unit_interval(instance, attribute, value):
 
 #: The adaptive step control's constants, chosen over the benchmark cases (cross flexure 5-75 deg
 #: in 2D and 3D, four-bar 1-5 el./leaf, the 38 manipulator positions; BENCHMARKS.md "Step
-#: control"): 4118 Newton iterations against 10 056 for Fig. 18, every equilibrium within 5.1e-11
-#: (node positions, relative). Path deviation bound 0.4: the twin cross flexures of
+#: control", one run): 3220 Newton iterations against 10 056 for Fig. 18 with the paper's tol,
+#: every equilibrium within 2.0e-11 (node positions, relative). Extrapolation degree, measured on
+#: ten of the cases (iterations): 1 (secant) 4995, 2: 1060, 3 (cubic): 704, 4: 601, 5: 535,
+#: 7: 478, 9: 467, 11: 475, 15: 487. Path deviation bound 0.4: the twin cross flexures of
 #: tests/test_continuation.py at 0.1-0.3 rad follow the small-step path in 2D and 3D with 0.4
 #: only (0.7: the 3D case jumps to the 68.8 N m branch at 0.2 rad; 0.3: 2D lands on 11.89 N m
 #: at 0.1 rad); 0.7 would save 3 % of the iterations.
-#: default relative tolerance: the free residual over the force scale (`StaticProblem.scaled_residual`)
-RTOL = 1e-8
+RTOL = 1e-8  # default relative tolerance (`StaticProblem.scaled_residual`); 1e-9: +6 % iterations
 #: a Newton correction this small (translations over the model length, rotations [rad]) means the
 #: state is at the round-off floor: converged
 CORRECTION_FLOOR = 1e-13
-PATH_POINTS = 4  # converged states the predictor extrapolates from (cubic)
+PATH_POINTS = 10  # converged states the predictor extrapolates from (degree 9)
 GROW_BELOW = 4  # a step that converged in fewer iterations doubles the next
 SMOOTH_PATH = 0.03  # ... as does one whose corrector moved less than this x the predicted step
 SHRINK_ABOVE = 7  # a step that took more iterations shrinks the next to 0.6x
@@ -139,19 +142,22 @@ class Conventional:
     raise_on_failure
         Raise `ConvergenceError` instead of returning ``converged=False``.
     step_control
-        ``"adaptive"`` (default): continuation: every step after the first starts from the cubic
-        extrapolation (in the load factor) of the last four converged states, rotations as spins
-        on SO(3); a corrector that moves farther than 0.4x the predicted step from the predicted
-        state is rejected and the step halved (it is heading for another branch); the next step
-        doubles after fewer than 4 iterations or a corrector that moved < 3 % of the step, shrinks
-        to 0.6x after more than 7. ``"paper"``: Fig. 18 as published (linear predictor,
-        halving, doubling after at most 4 iterations). Measured over the benchmark cases (cross
-        flexure 5-75 deg 2D/3D, four-bar 1-5 el./leaf, 38 manipulator positions): 4118 against
-        10 056 iterations (manipulator 3462 / 9574, four-bar 159 / 153, cross flexure 497 / 329:
-        the deviation bound cuts some one-step solves), manipulator joint case at +-45 deg
-        118 / 121 against 494 / 550, the same equilibria to 5.1e-11 (node positions, relative). The converged tangent reused for the first
-        corrector from the predicted state was measured too and rejected (3x the iterations on
-        the manipulator: its stiff elements' forces change too much between the states).
+        ``"adaptive"`` (default): continuation: every step after the first starts from the
+        polynomial extrapolation (in the load factor) of the last ten converged states,
+        rotations as spins on SO(3) continued along the path; a corrector that moves farther
+        than 0.4x the predicted step from the predicted state is rejected and the step halved
+        (it is heading for another branch); the next step doubles after fewer than 4
+        iterations or a corrector that moved < 3 % of the step, shrinks to 0.6x after more than
+        7. ``"paper"``: Fig. 18 as published (linear predictor, halving, doubling after at most
+        4 iterations). Measured over the benchmark cases (BENCHMARKS.md "Step control", against
+        Fig. 18 with the paper's tol=5e-7): 3220 against 10 056 iterations; manipulator joint
+        case 830 / 3893 (at -45 / 45 deg 54 / 53 against 550 / 494), location case 1746 / 5681,
+        four-bar 1-5 el./leaf 147 / 153; single cross flexures cost more, 497 / 329 (the
+        deviation bound cuts the first of their one-step solves); the same equilibria to
+        2.0e-11 (node positions, relative). Reusing the converged tangent for the first
+        corrector from the predicted state was measured and dropped (3x the iterations on the
+        manipulator: its stiff elements' forces change too much between the states), as was a
+        contraction-rate rejection (+20 %).
     """
 
     name: ClassVar[str] = "conventional"
@@ -214,17 +220,34 @@ def _increment(model, frm: State, to: State) -> np.ndarray:
     return np.concatenate([du.ravel(), to.multipliers - frm.multipliers])  # the hinges' multipliers last
 
 
+def _continued(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """The rotation vectors ``spin + 2 pi k spin / |spin|`` (k = -1, 0, 1) nearest to ``near``
+    (N, 3): the same rotations, continued along a path instead of wrapped to angles in [0, pi]."""
+    angle = np.linalg.norm(spin, axis=1, keepdims=True)
+    axis = np.divide(spin, angle, out=np.zeros_like(spin), where=angle > 0.0)
+    cands = spin[None] + (2.0 * np.pi * np.array([-1.0, 0.0, 1.0]))[:, None, None] * axis[None]
+    best = np.argmin(np.sum((cands - near[None]) ** 2, axis=2), axis=0)
+    return cands[best, np.arange(len(spin))]
+
+
 def _extrapolated(model, path: list, target: float) -> np.ndarray:
     """Predicted increment from the last converged state of ``path`` [(lam, State), ...] to load
-    factor ``target``: the Lagrange polynomial through the converged states (degree len - 1, at
-    most cubic), positions in R^n and rotations as spins about the last state, on SO(3) in 3D."""
+    factor ``target``: the Lagrange polynomial through the converged states (degree len - 1),
+    positions in R^n and rotations as spins about the last state (3D: on SO(3), each continued
+    from its neighbour's along the path, so a path that turns a node beyond pi is not wrapped)."""
     lams = np.array([lam for lam, _ in path])
     last = path[-1][1]
     du = np.zeros(model.n_dofs)
-    for i, (lam_i, s_i) in enumerate(path[:-1]):
+    near = np.zeros((model.n_nodes, 3))
+    for i in range(len(path) - 2, -1, -1):  # from the last state back
+        lam_i, s_i = path[i]
         others = np.delete(lams, i)
         weight = np.prod((target - others) / (lam_i - others))
-        du += weight * _increment(model, last, s_i)
+        d = _increment(model, last, s_i)
+        if model.dim == 3:
+            nodes = d[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # a view: hinge multipliers last
+            nodes[:, 3:] = near = _continued(nodes[:, 3:], near)
+        du += weight * d
     return du
 
 

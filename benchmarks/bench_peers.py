@@ -177,7 +177,7 @@ def refinement() -> list[str]:
 def main(quick: bool = False) -> str:
     repeats = 5 if quick else 7
     names = list(CASES)[:3] if quick else list(CASES)
-    load0 = os.getloadavg()
+    host = machine()  # the load average at the start
     with threadpool_limits(1):
         rows = [case(n, repeats, quick) for n in names]
         conv = refinement()
@@ -187,9 +187,7 @@ def main(quick: bool = False) -> str:
     lines = [
         "## Peers: flexmb's conventional method vs Exudyn on the same mesh (issues 19, 21)",
         "",
-        f"{machine()}; flexmb {flexmb.__version__}, Exudyn {exudyn.__version__}. Host load average (1 min) "
-        f"{load0[0]:.1f} at the start, {load1[0]:.1f} at the end (2 cores shared: times are noisy, ratios "
-        "measured interleaved).",
+        f"{host}; {load1[0]:.1f} at the end. flexmb {flexmb.__version__}, Exudyn {exudyn.__version__}.",
         "The Exudyn model is `flexmb.peers.ExudynModel` of flexmb's compiled mesh: one geometrically exact beam",
         "(`ObjectBeamGeometricallyExact`) per flexmb element, rigid links and blocks tied exactly (`GenericJoint`,",
         "Lagrange multipliers), prescribed motion by constraints following Exudyn's load factor. Both solve from the",

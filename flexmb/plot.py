@@ -329,29 +329,6 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
     return _draw_states(ax, compiled, configs, labels, plates, unit)
 
 
-#: The default deformation scale of `plot_mode`: the largest point displacement of the drawn
-#: mode is this fraction of the mechanism's size (the largest extent of its points).
-MODE_SIZE_FRACTION = 0.1
-
-
-def mode_scale(model, state, shape) -> float:
-    """The scale that makes the largest (linearised) point displacement of ``shape`` (N, ndof)
-    `MODE_SIZE_FRACTION` of the mechanism's size at ``state``; a shape that moves no point (all
-    rotation about the points themselves) is scaled to a largest turn of that fraction [rad]."""
-    from .fe.section_geometry import point_motion
-
-    P = model.point_positions(state)
-    Pp = np.zeros((len(P), 3))
-    Pp[:, :model.dim] = P
-    u = point_motion(model, state, shape, Pp, model.point_master)
-    size = float(np.ptp(P, axis=0).max())
-    big = float(np.linalg.norm(u, axis=1).max())
-    if big > 0 and size > 0:
-        return MODE_SIZE_FRACTION * size / big
-    turn = float(np.abs(np.asarray(shape)[:, model.dim:]).max())
-    return MODE_SIZE_FRACTION / turn if turn > 0 else 1.0
-
-
 def plot_mode(modes, k: int, ax=None, scale: float | None = None, *, solution=None, labels: bool = False,
               plates: bool = True, unit: str = "m"):
     """Draw mode ``k`` of ``modes`` (`flexmb.modes`): the equilibrium (grey, dashed) and the
@@ -372,7 +349,8 @@ def plot_mode(modes, k: int, ax=None, scale: float | None = None, *, solution=No
         2D or 3D axes matching the mechanism, or None (a new figure).
     scale
         Deformation scale (the shapes are mass-normalised, so any scale is a choice); default:
-        the largest point displacement is 10 % of the mechanism's size (`mode_scale`).
+        the largest point displacement is 10 % of the mechanism's size
+        (`flexmb.fe.section_geometry.mode_scale`).
     solution, labels, plates, unit
         The equilibrium (see ``modes``), link names, plates, length unit as in `plot_mechanism`.
 
@@ -381,6 +359,7 @@ def plot_mode(modes, k: int, ax=None, scale: float | None = None, *, solution=No
     The axes; title ``"mode <k+1>: <f> Hz (scale <s>)"``, a legend of the two configurations;
     artists' ``gid`` end in ``-equilibrium`` and ``-mode``.
     """
+    from .fe.section_geometry import mode_scale
     from .modal import Modes
 
     owner = "plot_mode"

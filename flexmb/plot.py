@@ -276,8 +276,19 @@ def _unit(owner: str, unit) -> str:
     return unit
 
 
+def _magnified(model, state0, state, scale: float):
+    """``state`` with its displacements and rotations from ``state0`` times ``scale``."""
+    from .fe.model import State
+    from .rotations import expm_so3, logm_so3
+
+    pos = state0.positions + scale * (state.positions - state0.positions)
+    if model.dim == 2:
+        return State(pos, scale * np.asarray(state.rotations), state.multipliers)
+    return State(pos, expm_so3(scale * logm_so3(state.rotations)), state.multipliers)
+
+
 def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool = True, labels: bool = True,
-                   plates: bool = True, unit: str = "m"):
+                   plates: bool = True, unit: str = "m", scale: float = 1.0):
     """Draw the undeformed and deformed shape of a mechanism.
 
     Beam elements are lines between their end points; every rigid link is shaded as the convex
@@ -306,6 +317,10 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
         Draw rectangle-section elements as plates (3D only; planar figures show lines).
     unit
         The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none.
+    scale
+        Deformation scale: the deformed shape is drawn with every node's displacement and
+        rotation (rotation vector) from the undeformed state times ``scale`` (> 0), to magnify
+        small parasitic motions; the title then says so. Default 1: the true shape.
 
     Returns
     -------
@@ -325,6 +340,10 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
         raise ParameterError(f"{owner}: undeformed=False and deformed=False draws nothing; set one to True")
     dim = compiled.problem.model.dim
     ax = _axes(owner, mfig, ax, dim, (6.0, 6.0) if dim == 3 else (5.0, 5.0))
+    scale = v.positive(owner, "scale", scale)
+    if deformed and scale != 1.0:
+        state = _magnified(compiled.problem.model, state0, state, scale)
+        ax.set_title(f"deformation x {scale:g}")
     configs = ([("undeformed", state0)] if undeformed else []) + ([("deformed", state)] if deformed else [])
     return _draw_states(ax, compiled, configs, labels, plates, unit)
 
@@ -553,7 +572,7 @@ def plot_force_curve(displacement, force, *, reference: np.ndarray | Callable | 
     return ax
 
 
-def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, **line_kw):
+def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, *, unit: str = "m", **line_kw):
     """Path of a link's reference point, or of its named ``point``, over a sequence of solutions.
 
     Parameters
@@ -564,6 +583,8 @@ def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, **l
         The link, and optionally one of its named points (`Mechanism.add_point`).
     ax
         2D axes for planar mechanisms (an x-y line), 3D axes for spatial ones; None: new figure.
+    unit
+        The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none.
     line_kw
         Passed to ``ax.plot`` (default: markers ``"o"``, the label ``point`` or ``link``).
 
@@ -585,16 +606,18 @@ def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, **l
     if len(dims) != 1:
         raise ParameterError(f"{owner}: solutions mix planar and spatial mechanisms (dim {sorted(dims)})")
     dim = dims.pop()
+    unit = _unit(owner, unit)
+    suffix = f" [{unit}]" if unit else ""
     X = np.array([s.pose(link)[0] if point is None else s.point(link, point) for s in sols])
     ax = _axes(owner, mfig, ax, dim, (6.0, 6.0) if dim == 3 else (5.0, 5.0))
     had_data = ax.has_data()
     kw = {"marker": "o", "markersize": 3, "label": link if point is None else point, **line_kw}
     kw.setdefault("gid", "trajectory")
     ax.plot(*X.T, **kw)
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
+    ax.set_xlabel("x" + suffix)
+    ax.set_ylabel("y" + suffix)
     if dim == 3:
-        ax.set_zlabel("z")
+        ax.set_zlabel("z" + suffix)
         _equal_3d(ax, X, had_data)
     else:
         ax.set_aspect("equal", adjustable="datalim")

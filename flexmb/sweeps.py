@@ -296,7 +296,11 @@ class SweepResult(Sequence):
 
     @property
     def converged(self) -> np.ndarray:
-        """Whether each solve converged, (n,) bool."""
+        """Whether each solve converged, (n,) bool (a copy; a compiled sweep's flags without
+        building its Solutions)."""
+        flags = getattr(self.solutions, "converged", None)  # flexmb.solvers.newton.ForceSweep
+        if flags is not None:
+            return np.array(flags, dtype=bool)
         return np.array([s.converged for s in self.solutions])
 
     def table(self, links=None, points=()) -> Table:

@@ -25,7 +25,7 @@ LAYERS = [
                     "flexmb.sections"]),
     ("elements and joints", ["flexmb.fe", "flexmb.fe.beam2d", "flexmb.fe.beam3d", "flexmb.fe.beam2d_jit",
                              "flexmb.fe.beam3d_jit", "flexmb.fe.assembly", "flexmb.fe.model", "flexmb.fe.stress",
-                             "flexmb.fe.mass", "flexmb.fe.ideal", "flexmb.closed_form.flexures", "flexmb.closed_form.linkage_jit",
+                             "flexmb.fe.mass", "flexmb.fe.ideal", "flexmb.fe.section_geometry", "flexmb.closed_form.flexures", "flexmb.closed_form.linkage_jit",
                              "flexmb.joints",
                              "flexmb.joints.*", "flexmb.registry", "flexmb.reference"]),
     ("problems", ["flexmb.linear", "flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),

@@ -1,6 +1,7 @@
 """The ``flexmb`` command: ``demo``, ``solve``, ``run``, ``bench``, ``train``, ``joints``.
 
-Errors are one line on stderr (``--debug`` for a traceback). Exit codes:
+Errors are one line on stderr (``--debug`` for a traceback), and so is each warning
+(``flexmb: warning: ConvergenceWarning: ...``). Exit codes:
 
 - 0 success;
 - 1 a flexmb error: flexmb refused a model or solver parameter, a solve did not converge (its
@@ -26,6 +27,7 @@ import os
 import runpy
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import attrs
@@ -169,7 +171,7 @@ def _train(args) -> int:
     for dim in args.dim:
         for n in args.elements:
             j = make_joint(args.kind, elements_per_leaf=n, **params)
-            data = database.train(j, dim, range_deg=range_deg, step_deg=args.step)
+            data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
             name = database.file_name(j.kind, dim, data.key)
             path = database.save(data, out / name)
             res = ", ".join(f"{k} {f.max_residual:.1e}" for k, f in data.functions.items())
@@ -274,7 +276,11 @@ def _solve(args) -> int:
     params = dict(_parse_params(args.param))
     mechanism, default = _build(args.case, params)
     method = args.method or default
-    sol = solve(mechanism, method=method, **dict(_parse_params(args.option, "--option")))
+    options = dict(_parse_params(args.option, "--option"))
+    clash = sorted({"mechanism", "method"} & set(options))
+    if clash:
+        raise _UsageError(f"--option {clash[0]}=...: not a solver option (choose the method with --method)")
+    sol = solve(mechanism, method=method, **options)
     report = solution_report(sol, case=args.case, parameters=params)
     if args.json:
         print(json.dumps(strict_json(report), indent=2, allow_nan=False))
@@ -390,6 +396,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="sampling step [deg], positive (default: the joint's own, 5)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="joint shape parameter, repeatable (e.g. --param angle=0.6)")
+    p.add_argument("--eob-table", action="store_true",
+                   help="also tabulate this joint's EOB condensation against the rotation (a side file "
+                        "<name>.eob.bin; KSD-reduced then looks it up for joints with exactly these parameters)")
     p.add_argument("--out", default=None,
                    help="folder (default: the user data folder, flexmb.database.user_path(), where KSD looks before "
                         "the shipped data; $FLEXMB_DATABASE overrides it); another folder: pass it to "
@@ -421,7 +430,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     np.set_printoptions(precision=4, suppress=True)
     try:
-        code = args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning
+            code = args.func(args)
         sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
         return code
     except BrokenPipeError:
@@ -432,6 +443,13 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"flexmb: error: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, _UsageError) else 1
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line on stderr, ``flexmb: warning: <kind>: <message>`` (not Python's two
+    lines with the source line)."""
+    text = " ".join(str(message).split())
+    print(f"flexmb: warning: {category.__name__}: {text}", file=sys.stderr if file is None else file)
 
 
 def _silence_stdout() -> None:

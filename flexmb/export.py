@@ -3,7 +3,8 @@
 `to_meshio` turns a finite-element `Solution` into a `meshio.Mesh`; `write_vtk` writes one
 configuration (``.vtu``, XML unstructured grid, or legacy ``.vtk``); `write_series` writes a
 sweep as numbered ``.vtu`` files and a ParaView collection (``.pvd``) that plays them as
-time steps.
+time steps; `mode_mesh` and `write_mode` write a vibration mode (`flexmb.modes`) about its
+equilibrium, the leaves as solids (layout: `mode_mesh`).
 
 Mesh layout
 -----------
@@ -50,11 +51,12 @@ import numpy as np
 
 from .errors import ModelError, ParameterError, UnsupportedStrategyError, require
 from .fe.model import FEModel
+from .fe.section_geometry import mode_scale, point_motion, rectangle_elements, section_corners
 from .fe.stress import peak_normal_stress
 from .results import Solution
 from .rotations import logm_so3
 
-__all__ = ["to_meshio", "write_vtk", "write_series"]
+__all__ = ["to_meshio", "write_vtk", "write_series", "mode_mesh", "write_mode"]
 
 FEATURE = "flexmb.export"
 SUFFIXES = {".vtu": "vtu", ".vtk": "vtk"}  # suffix -> meshio file_format
@@ -261,6 +263,149 @@ def write_series(solutions: Iterable[Solution], path: str | os.PathLike, *,
     finally:
         for tmp, _ in staged:
             _discard(tmp)
+    return path
+
+
+def mode_mesh(modes, k: int, *, solution: Solution | None = None, scale: float | None = None,
+              sections: bool = True):
+    """Mode ``k`` of ``modes`` (`flexmb.modes`) about its equilibrium as a `meshio.Mesh`.
+
+    Layout
+    ------
+    Points
+        The model's points at the equilibrium [m] (as `to_meshio`), then, with ``sections``, the
+        corners of the rectangle-section elements' end sections (`flexmb.fe.section_geometry`;
+        a corner shared by consecutive elements of one leaf is one point).
+    Cells
+        With ``sections``: one ``"hexahedron"`` per rectangle-section element, the box between its
+        end sections, its real width and thickness (planar models: the width out of the plane,
+        z = +-width/2). Hexahedra rather than quads of the mid-surface: the thickness is seen, a
+        twisting leaf's four faces are, and ParaView's solid filters (slice, surface, volume)
+        apply. Then ``"line"`` cells for the other beam elements (every element without
+        ``sections``) and the rigid connections (as `to_meshio`).
+    Point data
+        ``"mode"`` (P, 3): the linearised displacement of each point in the mass-normalised shape,
+        ``du + dphi x r`` (units: length / sqrt(mass)); ``"mode_scaled"`` = ``scale * mode``
+        [m]; ``"mode_rotation"`` (P, 3): the spin of the point's body (2D: ``(0, 0, dtheta)``).
+        ParaView: Warp By Vector on ``mode_scaled`` (scale factor 1 shows the default picture;
+        animate the factor between -1 and 1 to play the vibration).
+    Cell data
+        ``"kind"`` (0 beam element, 1 rigid connection) and ``"joint"`` (as `to_meshio`).
+    Field data
+        ``"frequency"`` [Hz], ``"mode"`` (k), ``"scale"``.
+
+    ``scale`` default: the largest point displacement is 10 % of the mechanism's size
+    (`flexmb.fe.section_geometry.mode_scale`, as `flexmb.plot.plot_mode`: small parasitic motions
+    magnified). ``solution``: the
+    equilibrium, for `Modes` that carry none.
+    """
+    from .modal import Modes
+
+    owner = "mode_mesh"
+    meshio = require("meshio", "export", FEATURE)
+    if not isinstance(modes, Modes):
+        raise ParameterError(f"{owner}: modes must be a flexmb.Modes (from flexmb.modes), got {type(modes).__name__}")
+    n = len(modes.frequencies)
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < n:
+        raise ParameterError(f"{owner}: k={k!r} must be an integer in [0, {n - 1}] (the modes computed)")
+    sol = solution if solution is not None else modes.solution
+    if sol is None:
+        raise ParameterError(f"{owner}: these modes carry no solution; pass solution= (their equilibrium)")
+    model = _fe_model(owner, sol)
+    state = sol.state
+    shape = np.asarray(modes.shapes[k], dtype=float)
+    if shape.shape != (model.n_nodes, model.ndof):
+        raise ParameterError(f"{owner}: the mode shape {shape.shape} does not fit the solution's model "
+                             f"({model.n_nodes} nodes x {model.ndof} DOFs)")
+    x = _pad3(model.point_positions(state))
+    master = np.asarray(model.point_master)
+    el = model.elements
+    plates = rectangle_elements(model) if sections else np.zeros(0, dtype=np.int64)
+    lines = np.setdiff1d(np.arange(len(el.L0)), plates)
+    points, owners = [x], [master]
+    cells, kind, joint = [], [], []
+    if len(plates):
+        C = section_corners(model, state, plates)  # (E, 2, 4, 3)
+        # right-hand normal of corners 0-1-2 towards the far end, as VTK's hexahedron wants
+        nrm = np.cross(C[:, 0, 1] - C[:, 0, 0], C[:, 0, 2] - C[:, 0, 1])
+        flip = np.einsum("ei,ei->e", nrm, C[:, 1].mean(axis=1) - C[:, 0].mean(axis=1)) < 0
+        C[flip] = C[flip][:, :, ::-1]
+        ends = el.ends[plates]
+        key = {}
+        hexes = np.empty((len(plates), 8), dtype=np.int64)
+        corner_pts, corner_master = [], []
+        for e, i in enumerate(plates):
+            sec = el.sections[i]
+            for end in range(2):
+                for c in range(4):
+                    ident = (int(ends[e, end]), id(sec), bool(flip[e]), c, tuple(np.round(C[e, end, c], 12)))
+                    if ident not in key:
+                        key[ident] = len(x) + len(corner_pts)
+                        corner_pts.append(C[e, end, c])
+                        corner_master.append(master[ends[e, end]])
+                    hexes[e, 4 * end + c] = key[ident]
+        points.append(np.array(corner_pts))
+        owners.append(np.array(corner_master, dtype=np.int64))
+        cells.append(("hexahedron", hexes))
+        kind.append(np.full(len(plates), KIND_BEAM))
+        joint.append(np.asarray(el.owner)[plates])
+    if len(lines):
+        cells.append(("line", np.asarray(el.ends, dtype=np.int64)[lines]))
+        kind.append(np.full(len(lines), KIND_BEAM))
+        joint.append(np.asarray(el.owner)[lines])
+    rigid, rmaster = _rigid_connections(model)
+    if len(rigid):
+        joint_of_node = np.full(model.n_nodes, -1)
+        for j, name in enumerate(sol.compiled.joint_elements):
+            joint_of_node[sol.compiled.joint_nodes.get(name, [])] = j
+        cells.append(("line", rigid))
+        kind.append(np.full(len(rigid), KIND_RIGID))
+        joint.append(joint_of_node[rmaster])
+    X = np.concatenate(points)
+    M = np.concatenate(owners)
+    u = point_motion(model, state, shape, X, M)
+    spin = np.zeros((len(X), 3))
+    if model.dim == 3:
+        spin[:] = shape[M, 3:6]
+    else:
+        spin[:, 2] = shape[M, 2]
+    if scale is None:
+        scale = mode_scale(model, state, shape, x, u[:len(x)])
+    else:
+        try:
+            scale = float(scale)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{owner}: scale={scale!r} must be a finite number or None") from None
+        if not math.isfinite(scale):
+            raise ParameterError(f"{owner}: scale={scale!r} must be a finite number or None")
+    i32 = np.int32
+    return meshio.Mesh(
+        X, cells,
+        point_data={"mode": u, "mode_scaled": scale * u, "mode_rotation": spin},
+        cell_data={"kind": [a.astype(i32) for a in kind], "joint": [a.astype(i32) for a in joint]},
+        field_data={"frequency": np.array([float(modes.frequencies[k])]), "mode": np.array([int(k)], dtype=i32),
+                    "scale": np.array([scale])},
+        info={"method": sol.method, "converged": bool(sol.converged), "undeformed": False,
+              "frequency": float(modes.frequencies[k]), "mode": int(k), "scale": scale},
+    )
+
+
+def write_mode(modes, k: int, path: str | os.PathLike, *, solution: Solution | None = None,
+               scale: float | None = None, sections: bool = True) -> pathlib.Path:
+    """Write mode ``k`` of ``modes`` (layout: `mode_mesh`) to ``path`` (``.vtu`` or ``.vtk``, written
+    aside and renamed as `write_vtk`); returns ``path``. In ParaView: Warp By Vector on
+    ``mode_scaled``."""
+    require("meshio", "export", FEATURE)
+    path = _checked_path("write_mode", path, SUFFIXES)
+    mesh = mode_mesh(modes, k, solution=solution, scale=scale, sections=sections)
+    tmp = _staged(path)
+    try:
+        _write(mesh, tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise ParameterError(f"write_mode: cannot write {str(path)!r}: {exc.strerror or exc}") from None
+    finally:
+        _discard(tmp)
     return path
 
 

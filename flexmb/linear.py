@@ -3,7 +3,8 @@
 ``K x = b`` with ``K`` the free-free tangent of one sparsity pattern, solved many times (every
 Newton iteration of every load step). Three paths, chosen by size and by what is installed:
 
-* below `DENSE_BELOW` unknowns: dense LAPACK (SuperLU's set-up costs more there);
+* below `DENSE_BELOW` unknowns (`DENSE_BELOW_LDL` when qdldl is the sparse path): dense LAPACK
+  (the sparse set-up costs more there);
 * with qdldl (the OSQP team's LDL^T, in the ``fast`` extra): the symmetric part
   ``K_s = (K + K^T)/2`` factorised as ``P K_s P^T = L D L^T`` with the AMD ordering and the
   symbolic factorisation computed once per pattern (`qdldl.Solver.update` refactors the numbers
@@ -13,6 +14,10 @@ Newton iteration of every load step). Three paths, chosen by size and by what is
   it, so refinement converges in one or two extra triangular solves;
 * SuperLU (scipy) otherwise, and whenever the LDL^T path cannot deliver (a zero pivot of an
   indefinite ``K_s``, or refinement that does not converge): the fallback is always exact.
+
+The hinges' saddle point ``[[K, G^T], [G, 0]]`` (`flexmb.fe.ideal`) goes the LDL^T way with its
+zero diagonal shifted to ``-SADDLE_SHIFT max|K|`` in the factorisation only (refinement against
+the true matrix removes the shift).
 
 Measured with one BLAS thread on flexmb's own converged tangents (medians of 7, this 2-core host
 under load): four-bar at 5 el./leaf (305 unknowns) SuperLU 0.39 ms, qdldl 0.15 ms; manipulator
@@ -30,11 +35,21 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-__all__ = ["TangentSolver", "DENSE_BELOW", "REFINE_TOL", "available", "single_threaded"]
+__all__ = ["TangentSolver", "DENSE_BELOW", "DENSE_BELOW_LDL", "REFINE_TOL", "available", "single_threaded"]
 
 DENSE_BELOW = 220  # unknowns; crossover of LAPACK and SuperLU ~200-230 (3D cross flexure, four-bar)
+#: The crossover when qdldl's LDL^T (analysis reused) is the sparse path: measured on converged 3D
+#: cantilever tangents in one run (benchmarks/bench_scale.py, one BLAS thread, loaded host), dense /
+#: LDL^T time 0.54 at 48 unknowns, 0.93 at 60, 1.28 at 72, 1.75 at 90, 10 at 120.
+DENSE_BELOW_LDL = 64
 REFINE_TOL = 1e-13  # backward error ||b - K x|| / (||K||_max ||x|| + ||b||) accepted from refinement
 _MAX_REFINE = 6
+#: Shift of a zero diagonal entry in the LDL^T only, relative to max|K| (refinement restores the
+#: exact solve). Measured on hinged leaf loops (2D 60 / 200 el./leaf: 368 / 1208 unknowns; 3D 30
+#: el./leaf: 377): refinement steps over the Newton solves 1e-6: 19 / 31 / 108 (1-2 SuperLU
+#: fallbacks), 1e-8: 9 / 12 / 67, 1e-10: 16 / 15 / 75, 1e-12: 53 / 48 / 161 with 7 / 4 / 6 fallbacks
+#: (cancellation). A solve then takes 0.15 / 0.29 / 0.19 ms against SuperLU's 0.43 / 0.77 / 0.45.
+SADDLE_SHIFT = 1e-8
 
 _HAVE_QDLDL = importlib.util.find_spec("qdldl") is not None
 
@@ -79,7 +94,7 @@ class TangentSolver:
     def solve(self, K: sp.csr_array | sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         """``x`` with ``K x = b`` (``K`` CSR with sorted indices, as `flexmb.fe.assembly` builds it)."""
         n = K.shape[0]
-        if n < DENSE_BELOW:
+        if n < (DENSE_BELOW_LDL if self.use_ldl else DENSE_BELOW):
             self.stats["dense"] += 1
             return np.linalg.solve(K.toarray(), b)
         if self.use_ldl:
@@ -118,12 +133,25 @@ class TangentSolver:
         indptr = np.zeros(n + 1, dtype=np.int64)
         np.add.at(indptr, u_cols[csc] + 1, 1)
         self._upper = sp.csc_matrix((np.zeros(len(csc)), u_rows[csc], np.cumsum(indptr)), shape=(n, n))
-        self._upper.data = 0.5 * (K.data[self._ia] + K.data[self._ib])
+        self._diag = np.flatnonzero(u_rows[csc] == u_cols[csc])
+        self._fill(K)
         try:
             self._ldl = qdldl.Solver(self._upper, upper=True)
         except (ValueError, RuntimeError):  # a zero pivot already at the first matrix
             self._ldl = None
         self._pattern = (K.indptr.copy(), K.indices.copy())
+
+    def _fill(self, K) -> None:
+        """The factorised matrix's numbers: the upper triangle of ``(K + K^T)/2``, its exactly zero
+        diagonal entries (a saddle point's constraint rows: the hinges' multipliers) set to
+        ``-SADDLE_SHIFT max|K|`` so that the LDL^T without pivoting has no zero pivot there;
+        refinement against the true ``K`` removes the shift's effect (or the solve falls back)."""
+        data = 0.5 * (K.data[self._ia] + K.data[self._ib])
+        d = data[self._diag]
+        zero = self._diag[d == 0.0]
+        if len(zero):
+            data[zero] = -SADDLE_SHIFT * np.abs(data).max()
+        self._upper.data = data
 
     def _solve_ldl(self, K, b):
         same = self._pattern is not None and np.array_equal(self._pattern[0], K.indptr) \
@@ -133,9 +161,9 @@ class TangentSolver:
             if not self.use_ldl or self._ldl is None:
                 return None
         else:
-            if self._ldl is None:  # this pattern's first matrix had a zero pivot (e.g. a saddle point)
+            if self._ldl is None:  # this pattern's first matrix had a zero pivot
                 return None
-            self._upper.data = 0.5 * (K.data[self._ia] + K.data[self._ib])
+            self._fill(K)
             try:
                 self._ldl.update(self._upper, upper=True)
             except (ValueError, RuntimeError):

@@ -40,7 +40,7 @@ def material_tangent(solution):
     return full_tangent(solution, element_tangent=Ke, with_loads=False)
 
 
-def buckling(solution, n: int = 1, held="prescribed") -> np.ndarray:
+def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     """The ``n`` lowest positive buckling multipliers of the solution's loads and prescribed
     motions, linearised about its deformed state: ``(K_m + lam K_s) phi = 0`` with ``K_m`` the
     material tangent (`material_tangent`) and ``K_s = K_t - K_m`` the part proportional to the
@@ -50,6 +50,14 @@ def buckling(solution, n: int = 1, held="prescribed") -> np.ndarray:
     linear buckling analysis (e.g. Bathe 2014, Sec. 6.8.2). Returns an array (n,), ascending;
     ``inf`` where fewer than ``n`` positive multipliers exist (no buckling under this load
     direction).
+
+    ``base``: a converged solution of the same mechanism under a preload (e.g. a prescribed turn
+    with the variable force off) that stays as it is: then ``K_m`` is the full tangent at
+    ``base`` and ``K_s = K_t(solution) - K_t(base)`` the change the load increment from ``base``
+    to ``solution`` makes, so ``base + lam (solution - base)`` is the critical load (the
+    linearised pre-buckling analysis about a preloaded state; the secant of the tangent, exact
+    where the tangent is linear in the increment). Without it, a prescribed turn's stresses are
+    scaled with the loads.
     """
     problem = solvable_problem(solution)
     model = problem.model
@@ -59,7 +67,15 @@ def buckling(solution, n: int = 1, held="prescribed") -> np.ndarray:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:
         raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, "
                              f"{nf}, minus one)")
-    Kt, Km = full_tangent(solution), material_tangent(solution)
+    Kt = full_tangent(solution)
+    if base is None:
+        Km = material_tangent(solution)
+    else:
+        bmodel = solvable_problem(base).model
+        if bmodel.n_dofs != model.n_dofs or not np.array_equal(bmodel.x0, model.x0) or \
+                len(bmodel.elements.L0) != len(model.elements.L0):
+            raise ModelError("buckling: base is not a solution of the same mechanism (its nodes or elements differ)")
+        Km = full_tangent(base)
     free, Z = constrained(model, free, Kt)  # hinges: the motions they allow, multipliers out
     Kt, Km = Kt[free][:, free], Km[free][:, free]
     if Z is not None:
@@ -68,18 +84,28 @@ def buckling(solution, n: int = 1, held="prescribed") -> np.ndarray:
     Ks = (Kt - Km).tocsr()
     if abs(Ks).max() == 0.0:
         return np.full(n, np.inf)  # no stress, no load: nothing to buckle
-    symmetric = bool(abs(Ks - Ks.T).max() <= 1e-11 * abs(Km).max())
+    tol = 1e-11 * abs(Km).max()
+    symmetric = bool(abs(Ks - Ks.T).max() <= tol and abs(Km - Km.T).max() <= tol)
     if nf < DENSE_BELOW:
         A, B = Ks.toarray(), Km.toarray()
         # K_s phi = mu K_m phi, mu = -1/lam: the critical (smallest positive) lam has the most negative mu
-        mu = (sla.eigh(0.5 * (A + A.T), 0.5 * (B + B.T), eigvals_only=True) if symmetric
-              else sla.eigvals(A, B))
+        try:
+            mu = sla.eigh(0.5 * (A + A.T), 0.5 * (B + B.T), eigvals_only=True) if symmetric else sla.eigvals(A, B)
+        except np.linalg.LinAlgError:  # K_m not positive definite (an unstable base): the general problem
+            mu = sla.eigvals(A, B)
     else:
+        # ARPACK to 1e-10 relative (its default, machine precision, did not finish in 15 min on
+        # a 10 000-DOF manipulator; 1e-10: 0.9 s)
         k = min(nf - 2, 2 * n + 8)
-        op = 0.5 * (Ks + Ks.T) if symmetric else Ks
-        mu = (spla.eigsh(op.tocsc(), k=k, M=(0.5 * (Km + Km.T)).tocsc(), which="SA", return_eigenvectors=False)
-              if symmetric else spla.eigs(Ks.tocsc(), k=k, M=Km.tocsc(), which="SR", return_eigenvectors=False))
+        if symmetric:
+            mu = spla.eigsh((0.5 * (Ks + Ks.T)).tocsc(), k=k, M=(0.5 * (Km + Km.T)).tocsc(), which="SA",
+                            return_eigenvectors=False, tol=1e-10)
+        else:  # nu = 1/lam of K_m^-1 (-K_s): the largest real parts are the critical multipliers
+            lu = spla.splu(Km.tocsc())
+            op = spla.LinearOperator(Km.shape, matvec=lambda x: lu.solve(-(Ks @ x)), dtype=float)
+            mu = -spla.eigs(op, k=k, which="LR", return_eigenvectors=False, tol=1e-10)
     mu = np.asarray(mu)
+    mu = mu[np.isfinite(mu)]
     real = mu[np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()].real if np.iscomplexobj(mu) else mu
     lam = np.sort(-1.0 / real[real < 0])
     out = np.full(n, np.inf)

@@ -76,6 +76,9 @@ class Modes:
         Whether the problem was solved as symmetric (no dead moment on a free rotation).
     solver
         ``"dense"`` or ``"sparse"``.
+    solution
+        The equilibrium linearised (`flexmb.plot.plot_mode` and `flexmb.export.write_mode` draw
+        and write the shapes about it), or None.
     """
 
     frequencies: np.ndarray
@@ -85,6 +88,7 @@ class Modes:
     held: np.ndarray
     symmetric: bool
     solver: str
+    solution: object = attrs.field(default=None, repr=False)
 
 
 def _full_pattern(model, loads):
@@ -250,7 +254,7 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     shapes = full[:, :model.n_nodes * model.ndof].reshape(n, model.n_nodes, model.ndof)
     freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
     link_shapes = {link: shapes[:, node].copy() for link, node in compiled.link_node.items()}
-    return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, solver)
+    return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, solver, solution)
 
 
 def _dense(K, M, n, symmetric):

@@ -69,13 +69,14 @@ class Path(SweepResult):
 
 def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_load_factor: float | None = None,
           stop=None, method: str = "conventional", progress: bool | None = None, **options) -> Path:
-    """The equilibrium path of ``mechanism``'s loads and prescribed motions scaled by a load
-    factor ``lam`` (``lam = 1``: the mechanism as given; the path starts undeformed at 0).
+    """The equilibrium path of ``mechanism``'s loads, prescribed motions and hinge motors scaled by
+    a load factor ``lam`` (``lam = 1``: the mechanism as given; the path starts undeformed at 0).
 
     Arc-length continuation (Crisfield's spherical constraint, `flexmb.solvers.arclength`) follows
     the path through limit points, snap-through and snap-back; the arc length adapts to the
     corrector's iterations. At every point: stability, from the inertia of the symmetric part of
-    the free tangent (the negative eigenvalues are counted). Limit points (extrema of ``lam``) and
+    the free tangent (the negative eigenvalues are counted; with hinges, of the tangent on the
+    motions they allow). Limit points (extrema of ``lam``) and
     bifurcation points (a change of stability without one) between two points are located on the
     path (regula falsi on the arc length, to ``locate_tol``) and reported in `Path.critical`.
 
@@ -127,9 +128,12 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         raise ModelError(f"{owner}() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
     compiled = mechanism.compile(strategy.capability)
     problem = compiled.problem
-    if not (np.any(problem.loads.force) or np.any(problem.loads.moment) or np.any(problem.values)):
+    hinges = getattr(problem.model, "hinges", None)
+    motors = hinges is not None and np.any(np.nan_to_num(hinges.angle))
+    if not (np.any(problem.loads.force) or np.any(problem.loads.moment) or np.any(problem.values) or motors):
         raise ModelError(f"{owner}: nothing to scale: the mechanism has no load (apply_force, apply_moment, "
-                         "set_actuation with a non-zero value) and no non-zero prescribed motion (prescribe)")
+                         "set_actuation with a non-zero value), no non-zero prescribed motion (prescribe) and no "
+                         "hinge motor (hinge angle)")
     t0 = time.perf_counter()
     metric, t_0, Kff0 = strategy.setup(problem)
     first = strategy.start(problem, metric, t_0, Kff0)

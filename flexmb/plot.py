@@ -14,6 +14,11 @@ ends in ``-undeformed`` or ``-deformed``:
   per flexure, between its two attachment points;
 - ``link-*``: one shape per rigid link, the convex hull of its points;
 - ``body-*``: rigid bodies inside joints (e.g. the intermediate blocks of ``three_x_infinity``);
+- ``plate-*`` (3D): one `Poly3DCollection` per configuration holding, for every beam element of
+  rectangular section, the four long faces of the box between its end sections (width and
+  thickness to scale, turned with the element's nodes: `flexmb.fe.section_geometry`);
+
+`plot_mode` names its two configurations ``-equilibrium`` and ``-mode`` instead.
 
 and the link names are texts with ``gid="label"``.
 """
@@ -30,7 +35,7 @@ import numpy as np
 from . import _validate as v
 from .errors import ModelError, ParameterError, require
 
-__all__ = ["plot_mechanism", "plot_force_curve", "plot_trajectory", "plot_strategies", "plot_map", "save"]
+__all__ = ["plot_mechanism", "plot_mode", "plot_frequencies", "plot_force_curve", "plot_trajectory", "plot_strategies", "plot_map", "save"]
 
 # Styles of the two configurations: the undeformed one recedes (light grey, dashed).
 _STYLE = {
@@ -39,6 +44,10 @@ _STYLE = {
     "deformed": {"beam": dict(color="C0", linestyle="-", linewidth=1.6),
                  "face": "C1", "edge": "C1", "alpha": 0.4, "edgestyle": "-"},
 }
+_STYLE["equilibrium"], _STYLE["mode"] = _STYLE["undeformed"], _STYLE["deformed"]
+# Leaves as plates (3D): face colour, edge colour, opacity per configuration.
+_PLATE = {"undeformed": ("0.8", "0.6", 0.15), "deformed": ("C0", "C0", 0.45)}
+_PLATE["equilibrium"], _PLATE["mode"] = _PLATE["undeformed"], _PLATE["deformed"]
 # Points closer than this fraction of the mechanism's size count as one (rank of a link's hull).
 _RANK_TOL = 1e-9
 
@@ -198,53 +207,31 @@ def _draw_configuration(ax, which: str, P: np.ndarray, master, segments, seg_kin
         _draw_shape(ax, shape, geom, style, f"{kind}-{which}", poly3d)
 
 
-def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool = True, labels: bool = True):
-    """Draw the undeformed and deformed shape of a mechanism.
+def _draw_plates(ax, which: str, model, state, P, poly3d) -> None:
+    """The rectangle-section elements of ``model`` in ``state`` as boxes (``gid="plate-<which>"``)."""
+    from .fe.section_geometry import rectangle_elements, section_corners
 
-    Beam elements are lines between their end points; every rigid link is shaded as the convex
-    hull of all points rigidly attached to it (its reference point, the connector blocks of its
-    joints, its named points): a filled polygon, a thick line when they are collinear, a square
-    when they coincide; rigid bodies inside joints likewise, without a name. The undeformed shape
-    is light grey and dashed, the deformed one in colour. Coordinates are the model's lengths
-    (SI: m), drawn with equal aspect ratio.
+    idx = rectangle_elements(model)
+    if not len(idx):
+        return
+    C = section_corners(model, state, idx, P)  # (E, 2, 4, 3)
+    k = np.arange(4)
+    faces = np.stack([C[:, 0, k], C[:, 0, (k + 1) % 4], C[:, 1, (k + 1) % 4], C[:, 1, k]], axis=2)  # (E, 4, 4, 3)
+    face, edge, alpha = _PLATE[which]
+    coll = poly3d(list(faces.reshape(-1, 4, 3)), facecolor=face, edgecolor=edge, alpha=alpha, linewidth=0.3)
+    coll.set_gid(f"plate-{which}")
+    ax.add_collection3d(coll)
 
-    Parameters
-    ----------
-    solution
-        A solved `flexmb.Solution` or an unsolved `flexmb.Mechanism` (undeformed shape only;
-        ``deformed`` is then ignored). Closed-form solutions (``method="newton"``) have no beam
-        elements: their flexures are drawn as dotted chords between their attachment points.
-    ax
-        Axes to draw on: 2D axes for planar mechanisms, 3D axes
-        (``fig.add_subplot(projection="3d")``) for spatial ones; None makes a new figure.
-    undeformed, deformed
-        Which configurations to draw.
-    labels
-        Write the link names at their reference points (deformed, if drawn).
 
-    Returns
-    -------
-    The axes. See the module docstring for the ``gid`` of each artist.
-    """
-    owner = "plot_mechanism"
-    mfig = _figure_module(owner)
-    undeformed = v.flag(owner, "undeformed", undeformed)
-    deformed = v.flag(owner, "deformed", deformed)
-    labels = v.flag(owner, "labels", labels)
-    compiled, state0, state = _geometry(owner, solution)
-    if state is None:
-        deformed = False
-    if not (undeformed or deformed):
-        raise ParameterError(f"{owner}: undeformed=False and deformed=False draws nothing; set one to True")
+def _draw_states(ax, compiled, configs, labels: bool, plates: bool, unit: str, legend: dict | None = None):
+    """Draw ``configs`` [(which, State)] of ``compiled``'s model on ``ax``; ``legend`` maps a
+    configuration to the label of its first beam line."""
     model = compiled.problem.model
     dim = model.dim
-    ax = _axes(owner, mfig, ax, dim, (6.0, 6.0) if dim == 3 else (5.0, 5.0))
     had_data = ax.has_data()
-    poly3d = require("mpl_toolkits.mplot3d.art3d", "plot", owner).Poly3DCollection if dim == 3 else None
-    master, segments, seg_kind = _topology(owner, model)
+    poly3d = require("mpl_toolkits.mplot3d.art3d", "plot", "plot_mechanism").Poly3DCollection if dim == 3 else None
+    master, segments, seg_kind = _topology("plot_mechanism", model)
     link_of_node = {n: name for name, n in compiled.link_node.items()}
-
-    configs = ([("undeformed", state0)] if undeformed else []) + ([("deformed", state)] if deformed else [])
     drawn = []
     for which, st in configs:
         P = model.point_positions(st)
@@ -259,7 +246,12 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
                 continue  # a joint's internal node on one point: a beam node
             bodies.append(("link" if name is not None else "body", pts))
         tol = _RANK_TOL * max(float(np.ptp(P, axis=0).max()), np.finfo(float).tiny)
+        first = len(ax.lines)
         _draw_configuration(ax, which, P, master, segments, seg_kind, bodies, poly3d, tol)
+        if legend and which in legend and len(ax.lines) > first:
+            ax.lines[first].set_label(legend[which])
+        if plates and dim == 3 and seg_kind == "beam":
+            _draw_plates(ax, which, model, st, P, poly3d)
         drawn.append(P)
         drawn.extend(named.values())
 
@@ -267,13 +259,229 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
         st = configs[-1][1]
         for name, n in compiled.link_node.items():
             ax.text(*st.positions[n], name, fontsize=8, ha="left", va="bottom", gid="label")
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
+    suffix = f" [{unit}]" if unit else ""
+    ax.set_xlabel("x" + suffix)
+    ax.set_ylabel("y" + suffix)
     if dim == 3:
-        ax.set_zlabel("z")
+        ax.set_zlabel("z" + suffix)
         _equal_3d(ax, np.concatenate(drawn), had_data)
     else:
         ax.set_aspect("equal", adjustable="datalim")
+    return ax
+
+
+def _unit(owner: str, unit) -> str:
+    if not isinstance(unit, str):
+        raise ParameterError(f"{owner}: unit={unit!r} must be a string (the model's length unit, e.g. 'm', 'mm')")
+    return unit
+
+
+def _magnified(model, state0, state, scale: float):
+    """``state`` with its displacements and rotations from ``state0`` times ``scale``."""
+    from .fe.model import State
+    from .rotations import expm_so3, logm_so3
+
+    pos = state0.positions + scale * (state.positions - state0.positions)
+    if model.dim == 2:
+        return State(pos, scale * np.asarray(state.rotations), state.multipliers)
+    return State(pos, expm_so3(scale * logm_so3(state.rotations)), state.multipliers)
+
+
+def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool = True, labels: bool = True,
+                   plates: bool = True, unit: str = "m", scale: float = 1.0):
+    """Draw the undeformed and deformed shape of a mechanism.
+
+    Beam elements are lines between their end points; every rigid link is shaded as the convex
+    hull of all points rigidly attached to it (its reference point, the connector blocks of its
+    joints, its named points): a filled polygon, a thick line when they are collinear, a square
+    when they coincide; rigid bodies inside joints likewise, without a name. In 3D, elements of
+    rectangular section (leaf springs) are also drawn as plates of their real width and
+    thickness about their line, turned with their nodes. The undeformed shape is light grey and
+    dashed, the deformed one in colour. Coordinates are the model's lengths (SI: m), drawn with
+    equal aspect ratio.
+
+    Parameters
+    ----------
+    solution
+        A solved `flexmb.Solution` or an unsolved `flexmb.Mechanism` (undeformed shape only;
+        ``deformed`` is then ignored). Closed-form solutions (``method="newton"``) have no beam
+        elements: their flexures are drawn as dotted chords between their attachment points.
+    ax
+        Axes to draw on: 2D axes for planar mechanisms, 3D axes
+        (``fig.add_subplot(projection="3d")``) for spatial ones; None makes a new figure.
+    undeformed, deformed
+        Which configurations to draw.
+    labels
+        Write the link names at their reference points (deformed, if drawn).
+    plates
+        Draw rectangle-section elements as plates (3D only; planar figures show lines).
+    unit
+        The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none.
+    scale
+        Deformation scale: the deformed shape is drawn with every node's displacement and
+        rotation (rotation vector) from the undeformed state times ``scale`` (> 0), to magnify
+        small parasitic motions; the title then says so. Default 1: the true shape.
+
+    Returns
+    -------
+    The axes. See the module docstring for the ``gid`` of each artist.
+    """
+    owner = "plot_mechanism"
+    mfig = _figure_module(owner)
+    undeformed = v.flag(owner, "undeformed", undeformed)
+    deformed = v.flag(owner, "deformed", deformed)
+    labels = v.flag(owner, "labels", labels)
+    plates = v.flag(owner, "plates", plates)
+    unit = _unit(owner, unit)
+    compiled, state0, state = _geometry(owner, solution)
+    if state is None:
+        deformed = False
+    if not (undeformed or deformed):
+        raise ParameterError(f"{owner}: undeformed=False and deformed=False draws nothing; set one to True")
+    dim = compiled.problem.model.dim
+    ax = _axes(owner, mfig, ax, dim, (6.0, 6.0) if dim == 3 else (5.0, 5.0))
+    scale = v.positive(owner, "scale", scale)
+    if deformed and scale != 1.0:
+        state = _magnified(compiled.problem.model, state0, state, scale)
+        ax.set_title(f"deformation x {scale:g}")
+    configs = ([("undeformed", state0)] if undeformed else []) + ([("deformed", state)] if deformed else [])
+    return _draw_states(ax, compiled, configs, labels, plates, unit)
+
+
+def plot_mode(modes, k: int, ax=None, scale: float | None = None, *, solution=None, labels: bool = False,
+              plates: bool = True, unit: str = "m"):
+    """Draw mode ``k`` of ``modes`` (`flexmb.modes`): the equilibrium (grey, dashed) and the
+    configuration displaced by ``scale`` times the mode shape (colour), 2D or 3D.
+
+    The displaced configuration is the equilibrium's nodes moved by ``scale * shape``
+    (positions added, rotations composed with the scaled spins, as a Newton update), so the
+    links stay rigid and the leaves' plates (3D) turn with their nodes.
+
+    Parameters
+    ----------
+    modes
+        A `flexmb.Modes`; its ``solution`` is the equilibrium (give ``solution=`` for a `Modes`
+        built without one).
+    k
+        The mode's index in ``modes.frequencies`` (0: the lowest, the table column ``f1``).
+    ax
+        2D or 3D axes matching the mechanism, or None (a new figure).
+    scale
+        Deformation scale (the shapes are mass-normalised, so any scale is a choice); default:
+        the largest point displacement is 10 % of the mechanism's size
+        (`flexmb.fe.section_geometry.mode_scale`).
+    solution, labels, plates, unit
+        The equilibrium (see ``modes``), link names, plates, length unit as in `plot_mechanism`.
+
+    Returns
+    -------
+    The axes; title ``"mode <k+1>: <f> Hz (scale <s>)"``, a legend of the two configurations;
+    artists' ``gid`` end in ``-equilibrium`` and ``-mode``.
+    """
+    from .fe.section_geometry import mode_scale
+    from .modal import Modes
+
+    owner = "plot_mode"
+    mfig = _figure_module(owner)
+    if not isinstance(modes, Modes):
+        raise ParameterError(f"{owner}: modes must be a flexmb.Modes (from flexmb.modes), got {type(modes).__name__}")
+    n = len(modes.frequencies)
+    k = v.integer(owner, "k", k, 0)
+    if k >= n:
+        raise ParameterError(f"{owner}: k={k} must be in [0, {n - 1}] (the modes computed)")
+    sol = solution if solution is not None else getattr(modes, "solution", None)
+    if sol is None:
+        raise ParameterError(f"{owner}: these modes carry no solution; pass solution= (the equilibrium they were "
+                             "computed at)")
+    compiled, _, state = _geometry(owner, sol)
+    model = compiled.problem.model
+    shape = np.asarray(modes.shapes[k], dtype=float)
+    if shape.shape != (model.n_nodes, model.ndof):
+        raise ParameterError(f"{owner}: mode shape of shape {shape.shape} does not fit the solution's model "
+                             f"({model.n_nodes} nodes x {model.ndof} DOFs)")
+    labels = v.flag(owner, "labels", labels)
+    plates = v.flag(owner, "plates", plates)
+    unit = _unit(owner, unit)
+    scale = mode_scale(model, state, shape) if scale is None else v.finite(owner, "scale", scale)
+    du = np.zeros(model.n_dofs)
+    du[:model.n_node_dofs] = scale * shape.ravel()
+    moved = model.apply_increment(state, du)
+    dim = model.dim
+    ax = _axes(owner, mfig, ax, dim, (6.0, 6.0) if dim == 3 else (5.0, 5.0))
+    f = float(modes.frequencies[k])
+    legend = {"equilibrium": "equilibrium", "mode": f"mode {k + 1} x {scale:.3g}"}
+    _draw_states(ax, compiled, [("equilibrium", state), ("mode", moved)], labels, plates, unit, legend)
+    note = " (unstable: negative eigenvalue)" if f < 0 else ""
+    ax.set_title(f"mode {k + 1}: {f:.4g} Hz{note} (scale {scale:.3g})")
+    ax.legend(loc="best", fontsize=8)
+    return ax
+
+
+def plot_frequencies(table, x: str, columns=None, ax=None, *, xlabel: str | None = None, degrees: bool = False):
+    """Natural frequencies over the stroke (Naves et al. 2017's figure): ``f1`` ... ``fn`` [Hz]
+    of a `flexmb.Table` (`flexmb.properties`, ``sweep(..., properties=)``) against column ``x``.
+
+    Parameters
+    ----------
+    table
+        A `flexmb.Table` or mapping of 1-D columns.
+    x
+        The column on the horizontal axis (e.g. ``"B.rotation_z"`` [rad]).
+    columns
+        The frequency columns to draw; default every ``f<k>`` column, in order of ``k``.
+    ax
+        2D axes or None.
+    xlabel
+        The horizontal axis' label with its unit; default ``x``, with ``[deg]`` when ``degrees``.
+    degrees
+        ``x`` holds radians: draw it in degrees.
+
+    Returns
+    -------
+    The axes; one line per column with ``gid`` and label the column's name (NaN rows, an
+    unconverged configuration or a failed property, leave gaps); a column with no finite value is
+    not drawn and not in the legend.
+    """
+    owner = "plot_frequencies"
+    mfig = _figure_module(owner)
+    if not isinstance(table, Mapping):
+        raise ParameterError(f"{owner}: table must be a flexmb.Table or a mapping of columns, got "
+                             f"{type(table).__name__}")
+    if x not in table:
+        raise ParameterError(f"{owner}: no column {x!r}; columns: {', '.join(table)}")
+    if columns is None:
+        columns = sorted((c for c in table if c[:1] == "f" and c[1:].isdigit()), key=lambda c: int(c[1:]))
+        if not columns:
+            raise ParameterError(f"{owner}: the table has no frequency columns f1, f2, ...; compute them with "
+                                 "flexmb.properties(..., which=('modes',)); columns: " + ", ".join(table))
+    else:
+        columns = _as_list(owner, "columns", columns, "a sequence of column names")
+        missing = [c for c in columns if c not in table]
+        if missing:
+            raise ParameterError(f"{owner}: no column(s) {missing}; columns: {', '.join(table)}")
+    degrees = v.flag(owner, "degrees", degrees)
+    if xlabel is not None and not isinstance(xlabel, str):
+        raise ParameterError(f"{owner}: xlabel={xlabel!r} must be a string or None")
+    xs = _series(owner, x, table[x])
+    if degrees:
+        xs = np.degrees(xs)
+    ax = _axes(owner, mfig, ax, 2, (5.0, 3.5))
+    drawn = 0
+    for c in columns:
+        try:
+            y = np.asarray(table[c], dtype=float)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{owner}: column {c!r} is not numeric") from None
+        if y.shape != xs.shape:
+            raise ParameterError(f"{owner}: column {c!r} has shape {y.shape}, {x!r} {xs.shape}")
+        if not np.isfinite(y).any():
+            continue  # nothing to draw: no legend entry either
+        ax.plot(xs, y, marker="o", markersize=3, label=c, gid=c)
+        drawn += 1
+    ax.set_xlabel(xlabel if xlabel is not None else (f"{x} [deg]" if degrees else x))
+    ax.set_ylabel("frequency [Hz]")
+    if drawn:
+        ax.legend(fontsize=8)
     return ax
 
 
@@ -364,7 +572,7 @@ def plot_force_curve(displacement, force, *, reference: np.ndarray | Callable | 
     return ax
 
 
-def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, **line_kw):
+def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, *, unit: str = "m", **line_kw):
     """Path of a link's reference point, or of its named ``point``, over a sequence of solutions.
 
     Parameters
@@ -375,6 +583,8 @@ def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, **l
         The link, and optionally one of its named points (`Mechanism.add_point`).
     ax
         2D axes for planar mechanisms (an x-y line), 3D axes for spatial ones; None: new figure.
+    unit
+        The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none.
     line_kw
         Passed to ``ax.plot`` (default: markers ``"o"``, the label ``point`` or ``link``).
 
@@ -396,16 +606,18 @@ def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, **l
     if len(dims) != 1:
         raise ParameterError(f"{owner}: solutions mix planar and spatial mechanisms (dim {sorted(dims)})")
     dim = dims.pop()
+    unit = _unit(owner, unit)
+    suffix = f" [{unit}]" if unit else ""
     X = np.array([s.pose(link)[0] if point is None else s.point(link, point) for s in sols])
     ax = _axes(owner, mfig, ax, dim, (6.0, 6.0) if dim == 3 else (5.0, 5.0))
     had_data = ax.has_data()
     kw = {"marker": "o", "markersize": 3, "label": link if point is None else point, **line_kw}
     kw.setdefault("gid", "trajectory")
     ax.plot(*X.T, **kw)
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
+    ax.set_xlabel("x" + suffix)
+    ax.set_ylabel("y" + suffix)
     if dim == 3:
-        ax.set_zlabel("z")
+        ax.set_zlabel("z" + suffix)
         _equal_3d(ax, X, had_data)
     else:
         ax.set_aspect("equal", adjustable="datalim")

@@ -213,6 +213,7 @@ class StaticProblem(BoundaryConditions):
         if m.hinges is not None:
             Fh, Kh = m.hinge_response(state, self.motor_fraction(lam), tangent=tangent)
             r = r + scatter_add(m.hinge_dofs, Fh, m.n_dofs)
+        self.force_scale = self._force_scale(Fe, f_ext)
         if not tangent:
             return r, None, None, sig
         vals = np.concatenate([Ke.ravel(), (-G).ravel()] + ([] if Kh is None else [Kh.ravel()]))
@@ -246,6 +247,45 @@ class StaticProblem(BoundaryConditions):
         du[self.free] = du_free
         du[self.prescribed] = du_pres
         return du
+
+    def broken_constraints(self, state: State, lam: float = 1.0) -> str:
+        """Why ``state`` is not the equilibrium asked for although its residual vanishes, or "": an
+        over-constrained mechanism whose prescribed motion violates the hinges' redundant rows
+        (dropped at build time as dependent, `flexmb.fe.ideal.Hinges.violated`)."""
+        m = self.model
+        if m.hinges is None:
+            return ""
+        size = float(np.ptp(m.x0, axis=0).max()) or 1.0
+        bad = m.hinges.violated(state.positions, state.rotations, self.motor_fraction(lam), size)
+        return ("" if not bad else "the prescribed motion contradicts the over-constrained hinges: their redundant "
+                f"(dropped) constraint rows are violated: {', '.join(bad)} [m, rad]")
+
+    def _force_scale(self, Fe: np.ndarray, f_ext: np.ndarray) -> float:
+        """The problem's force scale [N]: the largest element end force, applied load or moment
+        over `model_length` (reactions are sums of element forces)."""
+        m, L = self.model, self.model_length
+        nd, d = m.ndof, m.dim
+        F = Fe.reshape(len(Fe), 2, nd) if len(Fe) else np.zeros((0, 2, nd))
+        f = f_ext[: m.n_node_dofs].reshape(-1, nd)  # the hinges' multiplier rows last
+        return float(max(np.abs(F[..., :d]).max(initial=0.0), np.abs(F[..., d:]).max(initial=0.0) / L,
+                         np.abs(f[:, :d]).max(initial=0.0), np.abs(f[:, d:]).max(initial=0.0) / L))
+
+    def scaled_residual(self, r_free: np.ndarray) -> float:
+        """``|| [r_F, r_M / L] || / F``: the free residual in units of the force scale of the last
+        `evaluate` (`force_scale`), moments over `model_length`: the same in any consistent unit
+        system."""
+        w = self._free_weights
+        F = getattr(self, "force_scale", 0.0)
+        v = float(np.sqrt(np.sum((r_free * w) ** 2)))
+        return v / F if F > 0.0 else (0.0 if v == 0.0 else np.inf)
+
+    @functools.cached_property
+    def _free_weights(self) -> np.ndarray:
+        m = self.model
+        force = np.tile(np.arange(m.ndof) < m.dim, m.n_nodes)
+        if m.hinges is not None:  # a hinge's position rows are forces, its axis and motor rows moments
+            force = np.concatenate([force, np.nonzero(m.hinges.active)[1] < m.dim])
+        return np.where(force[self.free], 1.0, 1.0 / self.model_length)
 
     @functools.cached_property
     def model_length(self) -> float:

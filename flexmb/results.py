@@ -108,6 +108,18 @@ class Solution:
         model = self.compiled.problem.model
         return self.residual[model.node_dofs[self._node(link)]].copy()
 
+    def joint_wrench(self, joint: str) -> np.ndarray:
+        """The wrench an ideal joint (`flexmb.Hinge`: its constraint forces, motor and spring)
+        applies on its side-B link: force [N] then moment [N m] about the joint's origin, global
+        axes. About the hinge axis the moment is the motor's torque plus the spring's ``-k theta``;
+        its other components (3D) are the moments the bearing carries."""
+        model = self.compiled.problem.model
+        names = () if getattr(model, "hinges", None) is None else model.hinges.names
+        if joint not in names:
+            raise ModelError(f"no ideal joint named {joint!r}; ideal joints: {', '.join(names) or 'none'}")
+        st = self.state
+        return model.hinges.wrench_on_b(names.index(joint), st.positions, st.rotations, st.multipliers)
+
     def point(self, link: str, name: str) -> np.ndarray:
         """Current position [m] of a named point of a link (see `Mechanism.add_point`)."""
         try:
@@ -167,7 +179,8 @@ class Solution:
         element at its section's perimeter (`flexmb.fe.stress.element_stresses`), times a
         stress-concentration factor ``concentration`` (a number for all joints or ``{joint:
         factor}``, >= 1; e.g. a notch hinge's K_t), and with a material ``limit`` [Pa] (yield or
-        fatigue strength) the safety factors ``limit / von_mises``. Returns a
+        fatigue strength) the safety factors ``limit / von_mises`` (without it, from the sections'
+        ``yield_stress`` where given: the joints' ``yield_stress``). Returns a
         `flexmb.fe.stress.Stresses`: per element arrays, ``.joint(name)`` and ``.summary()``."""
         from .fe.stress import element_stresses
 

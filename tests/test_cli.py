@@ -226,6 +226,7 @@ BAD_ARGUMENTS = {
     "solve --param without value": lambda f: ["solve", "cantilever", "--param", "rotation"],  # main: exit 1
     "solve --option without value": lambda f: ["solve", "cantilever", "--option", "tol"],
     "train --param without value": lambda f: ["train", "--param", "angle", "--out", str(f.parent)],
+    "solve --option method": lambda f: ["solve", "cantilever", "--option", "method=newton"],  # main: TypeError
 }
 
 
@@ -297,7 +298,11 @@ def test_json_is_strict_with_non_finite_numbers_as_null(capsys):
         raise AssertionError(f"not JSON: {token}")
 
     assert cli.main(["solve", "fourbar", "--param", "displacement=1e150", "--json"]) == 1
-    report = json.loads(capsys.readouterr().out, parse_constant=refuse)
+    out, err = capsys.readouterr()
+    report = json.loads(out, parse_constant=refuse)
+    *warnings, error = err.splitlines()  # the warnings and the error, one line each
+    assert any(w.startswith("flexmb: warning: ConvergenceWarning: ") for w in warnings)
+    assert all(w.startswith("flexmb: warning: ") for w in warnings) and error.startswith("flexmb: error:")
     assert report["converged"] is False
     assert None in report["residual_history"]  # the diverged iterations' residuals, as null
     assert cli.strict_json({"a": [float("inf"), -float("inf"), float("nan"), 1.5], "b": (2, "x")}) == \

@@ -105,3 +105,123 @@ def test_suite_rejects_a_ksd_wrench_left_in_the_joint_frame(monkeypatch):
     monkeypatch.setattr(JointFrames, "relative", joint_frame_wrench)
     with pytest.raises(AssertionError, match="ksd-reduced: positions not frame invariant"):
         testing.check_strategy_frame_invariance(cross, 3, *where)
+
+
+# -- scale free: the kit at mm and um scale, in SI, mm-N-MPa and um-uN-MPa (issue 19 item 3) --
+#
+# Every class below runs all eight checks on joints drawn at that scale. Moduli in MPa are
+# N/mm^2 = uN/um^2, so the same numbers serve mm-N-MPa and um-uN-MPa; steel: E = 200 GPa,
+# G = 76.9 GPa; silicon <110>: E = 169 GPa, G = 66 GPa (Poisson's ratio 0.28).
+
+STEEL_MPA = {"E": 200e3, "G": 76.9e3}
+SILICON_MPA = {"E": 169e3, "G": 66e3}
+
+
+class TestLeafSpringAt4mmInSI(testing.JointConformance):
+    """The shipped leaf spring at 2-8 mm in SI units (main's kit, which placed it up to 1 m away
+    with absolute tolerances, gave NaN or failed 2-3 of the 8 checks at 4 mm)."""
+
+    joint_class = flexmb.LeafSpring
+    parameter_ranges = {"length": (2e-3, 8e-3), "width": (0.5e-3, 2e-3), "thickness": (2e-5, 1e-4)}
+
+
+class TestLeafSpringInMillimetres(testing.JointConformance):
+    joint_class = flexmb.LeafSpring
+    parameter_ranges = {"length": (2.0, 8.0), "width": (0.5, 2.0), "thickness": (0.02, 0.1)}
+    joint_parameters = STEEL_MPA
+
+
+class TestLeafSpringInMicrometres(testing.JointConformance):
+    joint_class = flexmb.LeafSpring
+    parameter_ranges = {"length": (200.0, 800.0), "width": (20.0, 100.0), "thickness": (2.0, 10.0)}
+    joint_parameters = SILICON_MPA
+
+
+class TestCrossFlexureInMillimetres(testing.JointConformance):
+    joint_class = flexmb.CrossFlexure
+    parameter_ranges = {"length": (5.0, 20.0), "angle": (0.4, 1.2), "thickness": (0.05, 0.2)}
+    joint_parameters = {**STEEL_MPA, "width_inner": 4.0, "width_outer": 2.0}
+
+
+class TestCrossFlexureInMicrometres(testing.JointConformance):
+    """A MEMS cross-axis pivot: silicon leaves of 200-800 um, 5-20 um thick."""
+
+    joint_class = flexmb.CrossFlexure
+    parameter_ranges = {"length": (200.0, 800.0), "angle": (0.4, 1.2), "thickness": (5.0, 20.0)}
+    joint_parameters = {**SILICON_MPA, "width_inner": 50.0, "width_outer": 25.0}
+
+
+class TestCurvedBeamInMicrometres(testing.JointConformance):
+    """The gripper's curved beams (Cammarata et al. 2022) are this size: radius 0.5-2.5 mm in um."""
+
+    joint_class = flexmb.CurvedBeam
+    parameter_ranges = {"radius": (500.0, 2500.0), "angle": (0.5, 3.0), "E": (1e3, 2e5), "width": (20.0, 200.0),
+                        "height": (5.0, 50.0)}
+
+
+class TestThreeXInfinityInMillimetres(testing.JointConformance):
+    joint_class = flexmb.ThreeXInfinity
+    parameter_ranges = {"length": (20.0, 50.0), "thickness": (0.3, 0.6)}
+    joint_parameters = {**STEEL_MPA, "width_inner": 10.0, "width_outer": 5.0, "gap": 1.0, "stage_gap": 2.0}
+
+
+def _plugin():
+    from dummy_plugins import Good
+
+    return Good
+
+
+class TestPluginJointInMillimetres(testing.JointConformance):
+    """A third-party joint (`tests/dummy_plugins.Good`, one Euler-Bernoulli element) in mm-N-MPa."""
+
+    joint_class = _plugin()
+    parameter_ranges = {"length": (2.0, 8.0), "width": (0.5, 2.0), "thickness": (0.02, 0.1)}
+    joint_parameters = STEEL_MPA
+
+
+class TestPluginJointInMicrometres(testing.JointConformance):
+    joint_class = _plugin()
+    parameter_ranges = {"length": (200.0, 800.0), "width": (20.0, 100.0), "thickness": (2.0, 10.0)}
+    joint_parameters = SILICON_MPA
+
+
+def test_the_tolerances_follow_the_joint_not_the_unit_system():
+    """One leaf in SI, mm-N-MPa and um-uN-MPa: the kit's force scale and tolerance are the same
+    physical quantity in each (N, N mm = 1e3 N m ... scaled by the units), so a check passes or fails
+    alike in all three. Reference: the clamped leaf's end compliance in closed form,
+    min(L / (L^3 / 3EI), EI / L) = EI / L here (Timoshenko shear adds < 0.1 % at L/t = 80)."""
+    si = flexmb.LeafSpring(length=4e-3, width=1e-3, thickness=5e-5, E=200e9, G=76.9e9)
+    mm = flexmb.LeafSpring(length=4.0, width=1.0, thickness=0.05, **STEEL_MPA)
+    um = flexmb.LeafSpring(length=4000.0, width=1000.0, thickness=50.0, **STEEL_MPA)
+    EI = 200e9 * 1e-3 * 5e-5**3 / 12
+    for dim in (2, 3):
+        f_si, f_mm, f_um = (testing.force_scale(j, dim) for j in (si, mm, um))
+        assert f_si == pytest.approx(EI / 4e-3, rel=2e-3)  # N m
+        assert f_mm == pytest.approx(f_si * 1e3, rel=1e-9)  # N mm
+        assert f_um == pytest.approx(f_si * 1e12, rel=1e-9)  # uN um
+        t_si, t_mm, t_um = (testing.solver_tolerance(j, dim) for j in (si, mm, um))
+        assert t_mm / f_mm == pytest.approx(t_si / f_si, rel=1e-6)
+        assert t_um / f_um == pytest.approx(t_si / f_si, rel=1e-6)
+
+
+def test_a_plugin_author_can_set_placements_and_solver_options():
+    """The hooks: ``placement_range`` scales the drawn origins by the joint's size and
+    ``solver_options`` reaches every solve."""
+    seen = []
+
+    class Hooked(testing.JointConformance):
+        joint_class = flexmb.LeafSpring
+        parameter_ranges = {"length": (4.0, 4.0), "width": (1.0, 1.0), "thickness": (0.05, 0.05)}
+        joint_parameters = STEEL_MPA
+        placement_range = 3.0
+
+        def solver_options(self, joint, dim):
+            return {"tol": 1e-9 * testing.force_scale(joint, dim), "max_iter": 30}
+
+    def body(j, dim, pl, mo, **options):
+        seen.append((np.abs(pl[0]).max(), options))
+
+    Hooked()._run(body)
+    assert seen and all(reach <= 3.0 * 4.0 for reach, _ in seen)
+    assert max(reach for reach, _ in seen) > 4.0  # beyond one joint size: the range is used
+    assert all(o["max_iter"] == 30 and o["tol"] > 0 for _, o in seen)

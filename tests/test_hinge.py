@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import flexmb
-from flexmb.linear import DENSE_BELOW, TangentSolver
+from flexmb.linear import DENSE_BELOW, TangentSolver, available
 from flexmb.testing import finite_difference_tangent, perturbed_state
 
 # four-bar of rigid links: crank a, coupler b, rocker c, ground d [m] (a Grashof crank-rocker)
@@ -82,6 +82,16 @@ def test_a_planar_loop_in_3d_drops_its_redundant_rows():
     assert (hinges.n_rows, len(hinges.dropped)) == (15, 5)
 
 
+def test_a_prescribed_motion_that_contradicts_redundant_rows_is_not_converged():
+    # the 3D planar four-bar's crank turned about a tilted axis: the ground pin's axis rows were
+    # dropped as dependent (crank orientation prescribed) and are now violated: reported, named
+    m = fourbar(3, "prescribe", 0.0)
+    m.prescribe("crank", rotation=[0.05, 0.0, 0.3])
+    sol = flexmb.solve(m)
+    assert not sol.converged
+    assert "O2.axis_y" in sol.message and "contradicts" in sol.message
+
+
 def test_drive_torque_of_a_loaded_fourbar_is_the_virtual_work_of_the_load():
     # a force P on the coupler's reference point (the crank pin), the crank turned 0.3 rad: the
     # hinges' forces do no work in a motion the hinges allow, so the torque holding the crank is
@@ -96,19 +106,26 @@ def test_drive_torque_of_a_loaded_fourbar_is_the_virtual_work_of_the_load():
     assert sol.reaction("crank")[2] == pytest.approx(-float(P @ dx), rel=1e-10)
     assert np.allclose(sol.reaction("ground")[:2], -P, atol=1e-10)
     assert np.abs(sol.imbalance()).max() < 1e-10
-    # a motor hinge reaches the same configuration
+    # a motor hinge reaches the same configuration and applies that torque on the crank
     m = fourbar(2, "motor", 0.3)
     m.apply_force("coupler", P)
     motor = flexmb.solve(m, tol=1e-11)
     assert np.allclose(motor.node_positions(), sol.node_positions(), atol=1e-12)
+    assert motor.joint_wrench("O2")[2] == pytest.approx(-float(P @ dx), rel=1e-10)
+    # the crank pin carries the force on the coupler: the coupler's hinges balance P
+    assert np.allclose(motor.joint_wrench("A")[:2] - motor.joint_wrench("B")[:2], -P, atol=1e-10)
+    with pytest.raises(flexmb.ModelError, match="no ideal joint named 'crank'"):
+        motor.joint_wrench("crank")
 
 
-def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work():
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("drive", ["prescribe", "motor"])
+def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work(dim, drive):
     # beyond the papers: a pseudo-rigid-body four-bar in mm, N, N mm: every hinge a spring k
     # [N mm/rad]; the drive torque is dU/dth2 = sum k_i theta_i dtheta_i/dth2 (relative angles;
     # velocity analysis of the Freudenstein loop: Norton, Design of Machinery, Eq. 6.18)
     k, dth, mm = 250.0, 0.4, 1000.0
-    sol = flexmb.solve(fourbar(2, "prescribe", dth, k=k, units=mm), tol=1e-9)
+    sol = flexmb.solve(fourbar(dim, drive, dth, k=k, units=mm), tol=1e-9)
     assert sol.converged, sol.message
     th2 = TH20 + dth
     th4, th3 = freudenstein(th2)
@@ -117,7 +134,10 @@ def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work():
     w4 = A_ * np.sin(th2 - th3) / (C_ * np.sin(th4 - th3))
     rel = [(dth, 1.0), ((th3 - th30) - dth, w3 - 1.0), ((th4 - th40) - (th3 - th30), w4 - w3), (-(th4 - th40), -w4)]
     T = sum(k * t * dt for t, dt in rel)
-    assert sol.reaction("crank")[2] == pytest.approx(T, rel=1e-9)
+    if drive == "prescribe":
+        assert sol.reaction("crank")[-1] == pytest.approx(T, rel=1e-9)
+    else:  # the motor's torque T, and the ground pin's own spring -k dth, on the crank
+        assert sol.joint_wrench("O2")[-1] == pytest.approx(T - k * dth, rel=1e-9)
     assert angle_of(sol, "rocker") == pytest.approx(th4 - th40, abs=1e-10)
     assert sol.strain_energy() == pytest.approx(0.5 * k * sum(t * t for t, _ in rel), rel=1e-12)
     assert sol.stable is True
@@ -136,15 +156,20 @@ def test_hinge_spring_gives_moment_k_theta_exactly(dim, turn):
     axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
     rotation = None if dim == 2 else np.cross([0, 0, 1.0], axis) / np.linalg.norm(np.cross([0, 0, 1.0], axis)) \
         * np.arccos(axis[2])
-    m.add_joint("ground", "arm", "hinge", k=k, origin=[0.05, 0.02] + z, rotation=rotation)
+    m.add_joint("ground", "arm", "hinge", k=k, origin=[0.05, 0.02] + z, rotation=rotation, name="spring")
     m.prescribe("arm", rotation=turn if dim == 2 else turn * axis)
     sol = flexmb.solve(m, tol=1e-10)
     assert sol.converged, sol.message
     moment = sol.reaction("arm")[dim:]
     # about the hinge origin the arm needs k theta along the axis (the pin carries the force)
+    # the hinge's own wrench on the arm about its origin: the spring's -k theta about the axis
+    w = sol.joint_wrench("spring")
     if dim == 2:
         assert moment[0] == pytest.approx(k * turn, rel=1e-12)
+        assert w[2] == pytest.approx(-k * turn, rel=1e-12)
     else:
+        assert w[3:] @ axis == pytest.approx(-k * turn, rel=1e-12)
+        assert np.linalg.norm(w[3:] - (w[3:] @ axis) * axis) < 1e-9 * k
         f = sol.reaction("arm")[:3]
         arm = sol.pose("arm")[0] - np.array([0.05, 0.02, 0.3])
         about_pin = moment + np.cross(arm, f)
@@ -253,6 +278,9 @@ def test_saddle_point_tangent_is_solved_exactly_below_and_above_the_dense_limit(
         x = solver.solve(Kff, b)
         # backward error of an exact solve of the indefinite saddle point
         assert np.abs(Kff @ x - b).max() <= 1e-12 * (abs(Kff).max() * np.abs(x).max() + np.abs(b).max())
+    if n >= DENSE_BELOW and available()["qdldl"]:  # the shifted LDL^T took every Newton solve
+        stats = problem._tangent_solver.stats
+        assert stats["ldl"] > 0 and stats["superlu"] == 0
     assert sol.stable is True
 
 
@@ -264,9 +292,14 @@ def test_hinge_reactions_balance_globally():
     assert np.abs(sol.imbalance()).max() < 1e-6
 
 
-def test_ksd_refuses_a_hinge_clearly():
-    with pytest.raises(flexmb.UnsupportedStrategyError, match="hinge"):
-        flexmb.solve(_loop(2, 3), method="ksd-full")
+@pytest.mark.parametrize("method", ["ksd-full", "ksd-reduced"])
+def test_ksd_refuses_a_hinge_clearly(method):
+    m = flexmb.models.fourbar(elements_per_leaf=2, dim=2)
+    m.add_link("pinned", position=(0.5, 0.5))
+    m.add_joint(next(n for n, lk in m.links.items() if lk.fixed), "pinned", "hinge", name="pin", k=1.0,
+                origin=(0.5, 0.5))
+    with pytest.raises(flexmb.UnsupportedStrategyError, match=r"joint 'pin' \(hinge\) is an ideal joint.*conventional"):
+        flexmb.solve(m, method=method)
 
 
 def _column(dim, top, n_el, L=0.1):
@@ -334,3 +367,79 @@ def test_double_pendulum_on_sprung_hinges_vibrates_at_its_closed_form_frequencie
     K = np.array([[k1 + k2, -k2], [-k2, k2]])
     w2 = np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real)
     assert modes.eigenvalues[0] == pytest.approx(w2[0], rel=1e-10)
+
+
+class TestHingeConformance(flexmb.testing.JointConformance):
+    """The conformance kit on the hinge (springs k in [0.5, 50] N m/rad drawn: B hangs on A by the
+    hinge alone). Rest, tangent, rigid motion, frame invariance, work = energy apply as to any
+    joint; Maxwell-Betti is vacuous (one compliant direction; the others are ideal), KSD and the
+    closed-form Newton refuse it (UnsupportedStrategyError), so their frame-invariance check skips."""
+
+    joint_class = flexmb.Hinge
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("top, c", [("pinned", np.pi**2), ("fixed", 20.190728556)])
+def test_hinged_euler_columns_bifurcate_at_their_closed_form_loads_through_trace(dim, top, c):
+    # the same columns loaded to 1.5x their critical load (shear-corrected Euler, as above) and
+    # traced by arc length: the path loses stability at a located bifurcation (no load-factor
+    # extremum), at the critical load to the mesh's order-2 error; stable before, unstable after
+    s = flexmb.LeafSpring().cross_section()
+    P = c * s.E * s.Iz / 0.1**2
+    P = P / (1.0 + P / (s.ky * s.G * s.A))
+    err = []
+    for n_el in (16, 32):
+        m = _column(dim, top, n_el)
+        m.clear_loads()
+        m.apply_force("slider" if top == "pinned" else "top", [-1.5 * P, 0.0] + ([0.0] if dim == 3 else []))
+        path = flexmb.trace(m, steps=40, max_load_factor=1.0, progress=False)
+        assert path.stopped_by == "max_load_factor", path.message
+        (crit,) = path.critical
+        assert crit.kind == "bifurcation"
+        err.append(1.5 * crit.load_factor - 1.0)
+        before = path.load_factor < crit.load_factor
+        assert path.stable[before].all() and not path.stable[~before].any()
+    assert 0 < err[1] < 2e-3
+    assert err[0] / err[1] == pytest.approx(4.0, rel=0.1)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compliance_of_a_sprung_pin_is_one_over_k_about_its_axis_and_zero_elsewhere(dim):
+    k = 8.0
+    z = [] if dim == 2 else [0.0]
+    m = flexmb.Mechanism(dim=dim)
+    m.add_link("ground", position=[0.0, 0.0] + z, fixed=True)
+    m.add_link("arm", position=[0.1, 0.0] + z)
+    m.add_joint("ground", "arm", "hinge", k=k, origin=[0.0, 0.0] + z, name="pin")
+    sol = flexmb.solve(m)
+    C = flexmb.compliance(sol, "arm", point=[0.0, 0.0] + z)  # at the pin
+    expected = np.zeros_like(C)
+    expected[-1, -1] = 1.0 / k  # rotation about z per unit moment
+    assert np.allclose(C, expected, atol=1e-12 / k)
+    tip = flexmb.compliance(sol, "arm")  # 0.1 m from the pin: the tip moves 0.1/k per N m
+    assert tip[1, -1] == pytest.approx(0.1 / k, rel=1e-12)
+    with pytest.raises(flexmb.UnsupportedStrategyError, match=r"\['pin'\]"):
+        flexmb.tangent_stiffness(m)
+
+
+def test_warm_started_sweeps_with_hinges_equal_cold_solves():
+    # a load sweep on a motor-driven PRB four-bar (the motor stays at its angle from the warm
+    # start) and a 3D crank-rotation sweep: the same equilibria as solving each value afresh
+    forces = [0.0, 5.0, 20.0]
+    m = fourbar(2, "motor", 0.5, k=2.0)
+    m.set_actuation("coupler", (0.0, -1.0))
+    for f, warm in zip(forces, flexmb.sweep(m, forces)):
+        cold = fourbar(2, "motor", 0.5, k=2.0)
+        cold.set_actuation("coupler", (0.0, -1.0), value=f)
+        cold = flexmb.solve(cold)
+        assert np.allclose(warm.node_positions(), cold.node_positions(), atol=1e-12)
+        assert warm.joint_wrench("O2")[2] == pytest.approx(cold.joint_wrench("O2")[2], rel=1e-9)
+    turns = [0.2, 0.6, 1.2]
+    m = fourbar(3, "prescribe", 0.0, k=2.0)
+    m.apply_force("coupler", [0.0, -3.0, 0.0])
+    for a, warm in zip(turns, flexmb.sweep(m, [[0.0, 0.0, a] for a in turns], motion=("crank", "rotation"))):
+        cold = fourbar(3, "prescribe", a, k=2.0)
+        cold.apply_force("coupler", [0.0, -3.0, 0.0])
+        cold = flexmb.solve(cold)
+        assert np.allclose(warm.node_positions(), cold.node_positions(), atol=1e-12)
+        assert warm.reaction("crank")[-1] == pytest.approx(cold.reaction("crank")[-1], rel=1e-6)

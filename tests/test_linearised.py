@@ -201,3 +201,44 @@ def test_lateral_torsional_buckling_of_a_cantilever_strip():
     assert np.all(err > 0)
     assert 1.9 < np.log2(err[0] / err[1]) < 2.4 and 1.9 < np.log2(err[1] / err[2]) < 2.4
     assert abs(err[2] - (err[1] - err[2]) / 3.0) < 2e-4
+
+
+def test_buckling_about_a_preloaded_base_state():
+    """``base``: the multiplier scales only the load increment from ``base`` to the solution.
+    On Euler's fixed-free column (a linear pre-buckling path) the preload P1 = 0.6 P_cr plus
+    lam x (1e-3 P_cr) gives the critical load found from the unloaded column to 1e-5; from
+    the unloaded state as base, the same as without base to 1e-4 (K_m at the deformed vs the
+    undeformed state). A base of another mechanism is refused."""
+    s = flexmb.rectangle(0.01, 1e-3, **STEEL)
+    Pe = _euler(s, 1.0, 0.25)
+    small = flexmb.solve(_column(3, 8, 1e-3 * Pe))
+    P_cr = flexmb.buckling(small)[0] * 1e-3 * Pe
+    base = flexmb.solve(_column(3, 8, 0.6 * Pe))
+    sol = flexmb.solve(_column(3, 8, 0.601 * Pe))
+    assert 0.6 * Pe + flexmb.buckling(sol, base=base)[0] * 1e-3 * Pe == pytest.approx(P_cr, rel=1e-5)
+    rest = flexmb.solve(_column(3, 8, 0.0))
+    assert flexmb.buckling(small, base=rest)[0] == pytest.approx(flexmb.buckling(small)[0], rel=1e-4)
+    with pytest.raises(flexmb.ModelError, match="same mechanism"):
+        flexmb.buckling(small, base=flexmb.solve(_column(3, 4, 0.0)))
+
+
+def test_sparse_non_symmetric_buckling_equals_dense(monkeypatch):
+    """A dead moment on a free rotation (the Table 1 pivot turned 30 deg, the turn released)
+    makes the buckling pencil non-symmetric; forced onto the sparse path (Arnoldi on
+    K_m^-1 (-K_s)) it gives the dense multipliers."""
+    import flexmb.linearised as linearised
+
+    def pushed(force):
+        J = flexmb.CrossFlexure(elements_per_leaf=3)
+        m = flexmb.Mechanism(dim=3)
+        m.add_link("A", fixed=True)
+        m.add_link("B", position=J.interface_b(3))
+        m.add_joint("A", "B", J, name="pivot")
+        m.prescribe("B", rotation=(0.0, 0.0, np.radians(30.0)))
+        m.apply_force("B", (0.0, -force, 0.0))
+        return flexmb.solve(m)
+
+    base, sol = pushed(0.0), pushed(1.0)
+    dense = flexmb.buckling(sol, n=2, held="none", base=base)
+    monkeypatch.setattr(linearised, "DENSE_BELOW", 0)
+    np.testing.assert_allclose(flexmb.buckling(sol, n=2, held="none", base=base), dense, rtol=1e-8)

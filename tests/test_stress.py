@@ -189,6 +189,28 @@ def _two_leaves():
     return sol
 
 
+def test_safety_from_the_joints_yield_stress():
+    """Without ``limit`` the safety factors come from the sections' ``yield_stress`` (a joint's
+    ``yield_stress``); a joint without one has NaN safety, ignored in the minima; ``limit``
+    overrides it for all."""
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("base", fixed=True)
+    m.add_link("stage", position=(0.05, 0.01))
+    for name, y, ys in (("left", 0.0, 900e6), ("right", 0.02, None)):
+        m.add_joint("base", "stage", flexmb.joint("leaf_spring", length=0.05, width=0.01, thickness=0.3e-3,
+                                                  elements=6, yield_stress=ys, **STEEL), name=name, origin=(0.0, y))
+    m.prescribe("stage", y=0.012)
+    sol = flexmb.solve(m)
+    s = sol.stresses()
+    left, right = sol.compiled.joint_elements["left"], sol.compiled.joint_elements["right"]
+    np.testing.assert_allclose(s.safety[left], 900e6 / s.von_mises[left], rtol=1e-14)
+    assert np.all(np.isnan(s.safety[right]))
+    assert s.summary()["safety"] == s.joint("left")["safety"] == pytest.approx(900e6 / s.von_mises[left].max())
+    assert np.isnan(s.joint("right")["safety"])
+    np.testing.assert_allclose(sol.stresses(limit=500e6).safety, 500e6 / s.von_mises, rtol=1e-14)
+    assert _two_leaves().stresses().safety is None  # no yield stress anywhere
+
+
 def test_stresses_refuse_bad_input():
     sol = _two_leaves()
     with pytest.raises(flexmb.ParameterError, match="concentration.*>= 1"):

@@ -1,20 +1,23 @@
 """Joint database files: a versioned JSON format with a checksum, and the shipped data.
 
-Format ``flexmb-joint-database`` version 2 (one file per joint kind, dimension and mesh)::
+Format ``flexmb-joint-database`` version 3 (one file per joint kind, dimension and mesh)::
 
-    {"format": "flexmb-joint-database", "format_version": 1, "flexmb_version": "...",
+    {"format": "flexmb-joint-database", "format_version": 3, "flexmb_version": "...",
      "kind": "cross_flexure", "dim": 3, "parameters": {...training joint...},
      "key": {...shape parameters the data belong to...}, "mesh_hash": "...",
      "intended": "rotation about z [rad]", "range": [lo, hi], "samples": [...],
      "length": D0 [m],
      "functions": {name: {"powers": [...], "coefficients": [...], "max_residual": r}},
      "elements": {"powers": [...], "coefficients": [[...]...], "max_residual": r},
-     "nodes": {...same...}, "checksum": sha256 of everything else}
+     "nodes": {...same...}, "eob_table": {...} or null, "checksum": sha256 of everything else}
 
 Functions are dimensionless (positions over D0, the undeformed distance of the interface nodes).
 Element and internal-node orientations (Eq. 3.1) are angles [rad] in 2D and rotation vectors
 [rad] in 3D (Sec. 3.1), one row per element or node and component (element-major: e0x, e0y, e0z,
 e1x, ...). Version 1 stored 3D orientations as angles about z only; such files are refused.
+Version 3 adds ``eob_table``: the EOB condensation tabulated against theta for the training joint
+(`flexmb.database.eob_format`, issue 21); a version 2 file is read as version 3 without a table
+(its data are unchanged: KSD then condenses per solve, as before) and `flexmb train` rewrites it.
 """
 
 from __future__ import annotations
@@ -33,14 +36,18 @@ from pathlib import Path
 import attrs
 import numpy as np
 
+from .._validate import hashable
 from .._version import __version__
+from . import eob_format
 from ..errors import DatabaseError, ExtrapolationWarning
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "Polynomial", "JointData", "save", "load", "mesh_hash", "data_path",
            "shipped", "user_path", "search_path", "locate", "read_bytes", "ENVIRONMENT", "MAX_BYTES"]
 
 FORMAT = "flexmb-joint-database"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
+#: Versions read: 3, and 2 migrated on reading (no EOB table).
+READABLE_VERSIONS = (2, 3)
 #: Environment variable naming the user data folder (`user_path`).
 ENVIRONMENT = "FLEXMB_DATABASE"
 #: Largest database file read [bytes]: the shipped files are 3-20 kB; a 10-stage joint at 20
@@ -110,6 +117,7 @@ class JointData:
     elements: Polynomial
     nodes: Polynomial
     flexmb_version: str = ""
+    eob_table: object = None  # a flexmb.database.eob_format.EOBTable, or None (version 2, or not tabulated)
 
     def check_range(self, theta, *, strict: bool = False) -> None:
         """Warn (``ExtrapolationWarning``) or, with ``strict``, raise when ``theta`` leaves the range."""
@@ -130,15 +138,19 @@ class JointData:
         except KeyError:
             raise DatabaseError(f"{self.kind} database holds {sorted(self.functions)}, not {name!r}") from None
 
-    def to_json(self) -> dict:
-        """The whole record as a JSON-ready dict (format name and version, joint, fits, checksum)."""
+    def to_json(self, values_file: str | None = None) -> dict:
+        """The whole record as a JSON-ready dict (format name and version, joint, fits, checksum);
+        ``values_file`` names the EOB table's side file (default: that of `file_name`)."""
+        if values_file is None:
+            values_file = file_name(self.kind, self.dim, self.key)[:-len(".json")] + eob_format.SUFFIX
 
         body = {"format": FORMAT, "format_version": FORMAT_VERSION, "flexmb_version": __version__,
                 "kind": self.kind, "dim": self.dim, "parameters": self.parameters, "key": self.key,
                 "mesh_hash": self.mesh_hash, "intended": "rotation of node B about z relative to node A [rad]",
                 "range": list(self.range), "samples": np.asarray(self.samples).tolist(), "length": self.length,
                 "functions": {k: f.to_json() for k, f in self.functions.items()},
-                "elements": self.elements.to_json(), "nodes": self.nodes.to_json()}
+                "elements": self.elements.to_json(), "nodes": self.nodes.to_json(),
+                "eob_table": eob_format.to_json(self.eob_table, values_file)}
         body["checksum"] = _checksum(body)
         return body
 
@@ -151,6 +163,17 @@ def _checksum(body: dict) -> str:
 def mesh_hash(joint, dim: int) -> str:
     """Fingerprint of a joint's mesh in the plane of motion (x, y over D0, sides, elements): the
     kinematic data belong to it; data trained on another in-plane mesh are stale."""
+    return _mesh_facts(joint, dim)[0]
+
+
+def _mesh_facts(joint, dim: int) -> tuple[str, int]:
+    """(`mesh_hash`, number of elements) of the joint's mesh; cached per joint value, as joints
+    are frozen values: building the mesh took ~60 % of a KSD-reduced manipulator solve when it
+    was done on every solve (issue 21)."""
+    return _cached_mesh_facts(joint, dim) if hashable(joint) else _compute_mesh_facts(joint, dim)
+
+
+def _compute_mesh_facts(joint, dim: int) -> tuple[str, int]:
     mesh = joint.mesh(dim)
     D0 = float(np.linalg.norm(joint.interface_b(dim)))
     pts = np.round(np.asarray(mesh.points, float)[:, :2] / D0, 9) + 0.0
@@ -158,7 +181,10 @@ def mesh_hash(joint, dim: int) -> str:
     if mesh.body is not None:
         parts.append(np.asarray(mesh.body).tolist())
     blob = json.dumps(parts)
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+    return hashlib.sha256(blob.encode()).hexdigest()[:16], len(mesh.elements)
+
+
+_cached_mesh_facts = functools.lru_cache(maxsize=256)(_compute_mesh_facts)
 
 
 def save(data: JointData, path) -> Path:
@@ -168,9 +194,11 @@ def save(data: JointData, path) -> Path:
     never sees half a file and a failed write leaves the old file as it was. `DatabaseError` when
     the folder cannot be written."""
     path = Path(path)
-    text = json.dumps(data.to_json(), indent=1, sort_keys=True) + "\n"
+    side = path.with_name(path.stem + eob_format.SUFFIX)  # the EOB table's samples, written first
+    text = json.dumps(data.to_json(side.name), indent=1, sort_keys=True) + "\n"
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
+        eob_format.write_values(data.eob_table, side)
         tmp.write_text(text)
         os.replace(tmp, path)
     except OSError as exc:
@@ -226,9 +254,10 @@ def _parse(raw: bytes, where: str) -> JointData:
                             "re-create it with `flexmb train`") from None
     if not isinstance(body, dict) or body.get("format") != FORMAT:
         raise DatabaseError(f"{where} is not a flexmb joint database (format {FORMAT!r})")
-    if body.get("format_version") != FORMAT_VERSION:
+    if body.get("format_version") not in READABLE_VERSIONS:
         raise DatabaseError(f"joint database {where} has format version {body.get('format_version')!r}; this "
-                            f"flexmb reads version {FORMAT_VERSION}: re-create it with `flexmb train`")
+                            f"flexmb reads versions {READABLE_VERSIONS} (2 migrated on reading): re-create it with "
+                            "`flexmb train`")
     try:
         intact = body.get("checksum") == _checksum(body)
     except (TypeError, ValueError, RecursionError):
@@ -237,7 +266,9 @@ def _parse(raw: bytes, where: str) -> JointData:
         raise DatabaseError(f"joint database {where} is corrupted (checksum mismatch): it was edited or damaged; "
                             "re-create it with `flexmb train`")
     try:
-        return _validate(body)
+        data = _validate(body)
+        table = _eob_table(body, Path(where).parent)
+        return data if table is None else attrs.evolve(data, eob_table=table)
     except _Invalid as exc:
         raise DatabaseError(f"joint database {where} is invalid: {exc}; re-create it with `flexmb train`") from None
     except RecursionError:
@@ -389,6 +420,17 @@ def _validate(body: dict) -> JointData:
                      elements=elements, nodes=nodes, flexmb_version=version)
 
 
+def _eob_table(body: dict, folder: Path):
+    """The version 3 ``eob_table`` (None in version 2 files or when absent), checked; its samples
+    are read from ``folder`` when first used."""
+    if body.get("format_version") == 2:
+        return None
+    try:
+        return eob_format.from_json(body.get("eob_table"), folder, lambda d: _plain_dict(d, "eob_table.parameters"))
+    except ValueError as exc:
+        raise _Invalid(str(exc)) from None
+
+
 @functools.cache
 def data_path() -> Path:
     """Folder of the shipped, pre-trained database files (read only: flexmb never writes it)."""
@@ -484,7 +526,7 @@ def _check_joint(data: JointData, joint, dim: int, path: Path) -> None:
         if abs(float(f(0.0)) - b0[k] / D0) > f.max_residual + 1e-9:
             raise DatabaseError(f"joint database {path}: {name} at rest is {float(f(0.0)):.6g}, the joint's "
                                 f"{b0[k] / D0:.6g}; the file does not describe this joint")
-    E = len(joint.mesh(dim).elements) * (1 if dim == 2 else 3)
+    E = _mesh_facts(joint, dim)[1] * (1 if dim == 2 else 3)
     if data.elements.coefficients.shape[0] != E:
         raise DatabaseError(f"joint database {path} holds {data.elements.coefficients.shape[0]} element "
                             f"rotations; the joint's mesh has {E}")

@@ -17,7 +17,8 @@ import numpy as np
 from ..errors import ConvergenceError, DatabaseError, ParameterError
 from ..mechanism import Mechanism
 from ..rotations import logm_so3
-from .store import JointData, Polynomial, mesh_hash, shipped
+from .eob_format import plain_parameters
+from .store import JointData, Polynomial, load, mesh_hash, save, shipped
 
 __all__ = ["TrainingRun", "simulate", "train", "verify", "DEFAULT_RANGE_DEG", "ELEMENT_POWERS", "CONSTRAINT_POWERS",
            "TRAINING", "element_rotations"]
@@ -101,11 +102,13 @@ def element_rotations(model, state) -> np.ndarray:
     return logm_so3(frame @ np.swapaxes(frame0, 1, 2))
 
 
-def train(joint, dim: int, range_deg=None, step_deg: float | None = None) -> JointData:
+def train(joint, dim: int, range_deg=None, step_deg: float | None = None, eob_table: bool = False) -> JointData:
     """Train the database of ``joint`` (a `Joint` with a FE model and a `database_key`) in ``dim``.
 
     The sampling (``range_deg``, ``step_deg``) and the polynomial orders default to the joint's
-    ``training`` settings (`TRAINING` where it sets none)."""
+    ``training`` settings (`TRAINING` where it sets none). ``eob_table``: also tabulate the EOB
+    condensation of this joint against theta (`flexmb.ksd.eob_table`; KSD-reduced then looks it
+    up instead of condensing per solve, for joints with these parameters)."""
     opt = {**TRAINING, **getattr(joint, "training", {})}
     try:
         lo, hi = (float(x) for x in (opt["range_deg"] if range_deg is None else range_deg))
@@ -126,11 +129,34 @@ def train(joint, dim: int, range_deg=None, step_deg: float | None = None) -> Joi
                  for k, name in enumerate(("x/D0", "y/D0", "z/D0")[:dim])}
     functions["D/D0-1"] = Polynomial.fit(theta, np.linalg.norm(pos, axis=1) - 1.0, opt["length_powers"])
     S = len(theta)
-    return JointData(kind=joint.kind, dim=dim, parameters=_plain(joint.describe()), key=key,
+    data = JointData(kind=joint.kind, dim=dim, parameters=plain_parameters(joint.describe()), key=key,
                      mesh_hash=mesh_hash(joint, dim), range=(float(theta[0]), float(theta[-1])), samples=theta,
                      length=D0, functions=functions,
                      elements=Polynomial.fit(theta, run.element_rotation.reshape(S, -1), opt["element_powers"]),
                      nodes=Polynomial.fit(theta, run.node_rotation.reshape(S, -1), opt["element_powers"]))
+    return with_eob_table(joint, data) if eob_table else data
+
+
+def migrate(path) -> JointData:
+    """Rewrite the database file ``path`` (version 2 or 3) as version 3 with the EOB condensation
+    of its training joint tabulated (the joint rebuilt from the recorded kind and parameters;
+    the kinematic fits are kept as they are). How the shipped data were migrated (issue 21)."""
+    from ..registry import joint as make_joint
+
+    data = load(path)
+    joint = make_joint(data.kind, **data.parameters)
+    out = with_eob_table(joint, data)
+    save(out, path)
+    return out
+
+
+def with_eob_table(joint, data: JointData) -> JointData:
+    """``data`` with the EOB condensation of ``joint`` (the joint it was trained on) tabulated
+    (`flexmb.ksd.eob_table.tabulate`): how `train` and the migration of version 2 files add it."""
+    from ..ksd.eob import EOBTemplate
+    from ..ksd.eob_table import tabulate
+
+    return attrs.evolve(data, eob_table=tabulate(EOBTemplate(joint, data.dim, data), plain_parameters(joint.describe())))
 
 
 def verify(joint, dim: int, folder=None, *, samples: int = 3) -> JointData:
@@ -160,6 +186,3 @@ def verify(joint, dim: int, folder=None, *, samples: int = 3) -> JointData:
     return data
 
 
-def _plain(d: dict) -> dict:
-    return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in d.items()
-            if isinstance(v, (int, float, str, bool, np.floating)) or v is None}

@@ -304,7 +304,7 @@ def _hinges(mechanism, hinges: list, link_x0: np.ndarray, elements: BeamElements
             "any flexure (a mechanism, not a structure; its tangent is singular). Prescribe the motion "
             "(Mechanism.prescribe, a hinge's angle=) or give a hinge a torsional stiffness k")
     dropped = [f"{hinges[h][0]}.{row_names(dim)[r]}" for h, r in zip(*np.nonzero(active & ~keep))]
-    return attrs.evolve(probe, active=keep, dropped=tuple(dropped))
+    return attrs.evolve(probe, active=keep, dropped=tuple(dropped), dropped_rows=active & ~keep)
 
 
 def _other_joints(mechanism, names: list):

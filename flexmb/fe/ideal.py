@@ -16,8 +16,8 @@ multiplier's force ``s_i g_i^T mu_i`` on the links' rows (``g_i`` its gradient i
 increments: translations and spins), so the tangent is the symmetric saddle point
 ``[[K + sum mu_i s_i H_i, s G^T], [s G, 0]]``. ``s`` (N/m for positions, N m/rad for rotations)
 puts the constraint rows in the units and the size of the model's own stiffest rows, so the
-residual norm stays a force and the saddle point is balanced; the physical multiplier (the
-constraint force [N] or moment [N m] on link A) is ``s_i mu_i``.
+residual norm stays a force and the saddle point is balanced; ``s_i mu_i`` is the physical
+multiplier [N, N m] (`flexmb.Solution.joint_wrench` turns them into the wrench on link B).
 """
 
 from __future__ import annotations
@@ -75,8 +75,20 @@ class Hinges:
     angle: np.ndarray
     active: np.ndarray
     scale: np.ndarray
-    #: dependent rows dropped at build time, as ``"joint.row"`` names (`row_names`)
+    #: dependent rows dropped at build time, as ``"joint.row"`` names (`row_names`), and their mask
     dropped: tuple = ()
+    dropped_rows: np.ndarray | None = None
+
+    def violated(self, positions, R, lam_angle: float, size: float, tol: float = 1e-8) -> list[str]:
+        """The dropped (dependent) rows that a state violates by more than ``tol`` (positions: times
+        ``size`` [m]; rotations [rad]), as ``"joint.row (value)"``: an over-constrained mechanism
+        whose prescribed motion contradicts its redundant constraints."""
+        if self.dropped_rows is None or not self.dropped_rows.any():
+            return []
+        c = self.residual_rows(positions, R, lam_angle)[0]
+        limit = np.where(np.arange(ROWS[self.dim]) < self.dim, tol * size, tol)
+        bad = self.dropped_rows & (np.abs(c) > limit)
+        return [f"{self.names[h]}.{row_names(self.dim)[r]} ({c[h, r]:+.3g})" for h, r in zip(*np.nonzero(bad))]
 
     @property
     def n_rows(self) -> int:
@@ -189,6 +201,22 @@ class Hinges:
         K[:, rb, ra] += Hsum[:, 1, 0]
         K[:, rb, rb] += Hsum[:, 1, 1]
         return F, K
+
+    def wrench_on_b(self, h: int, positions, R, multipliers) -> np.ndarray:
+        """The wrench hinge ``h`` (its constraints and spring) applies on its link B: force [N]
+        and moment [N m] about the joint origin, global axes ((3,) in 2D, (6,) in 3D)."""
+        dim = self.dim
+        nd = 3 if dim == 2 else 6
+        F = self.response(positions, R, multipliers, 1.0, tangent=False)[0][h, nd:2 * nd]
+        f, m = -F[:dim], -F[dim:]  # the hinge's internal force on B's DOFs, reversed
+        b = self.node[h, 1]
+        if dim == 2:
+            c, s = np.cos(R[b]), np.sin(R[b])
+            d = np.array([c * self.offset[h, 1, 0] - s * self.offset[h, 1, 1], s * self.offset[h, 1, 0]
+                          + c * self.offset[h, 1, 1]])
+            return np.concatenate([f, m - (d[0] * f[1] - d[1] * f[0])])
+        d = R[b] @ self.offset[h, 1]
+        return np.concatenate([f, m - np.cross(d, f)])
 
     def _angle_derivatives(self, R, tangent: bool):
         """Gradient (H, 2 ndof) of the relative angle on the solver's increments and its spin

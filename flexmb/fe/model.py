@@ -102,6 +102,18 @@ class FEModel:
         """Current positions of all points [m], shape (P, dim)."""
         return state.positions[self.point_master] + self.offsets(state, self.point_master, self.point_offset)
 
+    def node_part(self, du: np.ndarray) -> np.ndarray:
+        """The nodes' rows (N, ndof) of a vector on all DOFs (the hinges' multipliers, last, left out)."""
+        return np.asarray(du)[: self.n_node_dofs].reshape(self.n_nodes, self.ndof)
+
+    def multiplier_change(self, frm: State, to: State) -> np.ndarray:
+        """The multipliers' part of the increment from ``frm`` to ``to`` (empty without hinges)."""
+        if self.hinges is None:
+            return np.zeros(0)
+        zero = np.zeros(self.hinges.n_rows)
+        return (zero if to.multipliers is None else to.multipliers) - (zero if frm.multipliers is None
+                                                                         else frm.multipliers)
+
     def apply_increment(self, state: State, du: np.ndarray) -> State:
         """New state after increments ``du`` (n_dofs,): positions add, rotations compose (Eq. A.8),
         the hinges' multipliers (the last DOFs) add."""

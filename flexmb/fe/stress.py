@@ -122,6 +122,29 @@ def _rectangle_torsion(p, q, a, b):
     return tau_p, tau_q
 
 
+def _rectangle_torsion_rim(p, q, a, b):
+    """`_rectangle_torsion` at points on the rim (``|p| = a`` or ``|q| = b``), from the rim's
+    one-dimensional series, each side's distinct distances evaluated once: at ``|p| = a``,
+    ``tau_q = sign(p) (2a - 16a/pi^2 sum 1/n^2 cosh(n pi q/2a)/cosh(n pi b/2a))``, ``tau_p = 0``;
+    at ``|q| = b``, ``tau_p = -sign(q) 16a/pi^2 sum (-1)^((n-1)/2)/n^2 tanh(n pi b/2a)
+    cos(n pi p/2a)``, ``tau_q = 0``; nil at the corners (exactly; the truncated series leaves
+    ~1e-3 of the peak there)."""
+    n = np.arange(1, 2 * TORSION_TERMS, 2, dtype=float)[:, None]
+    sgn = np.where(((n - 1) / 2) % 2 == 0, 1.0, -1.0)
+    k = n * np.pi / (2.0 * a)
+    c = 16.0 * a / np.pi**2
+    tau_p, tau_q = np.zeros_like(p), np.zeros_like(q)
+    long, short = np.abs(p) == a, np.abs(q) == b
+    corner = long & short
+    d, inv = np.unique(np.abs(q[long & ~corner]), return_inverse=True)
+    ch = _cosh_ratio(k * d, k * b)[0]
+    tau_q[long & ~corner] = np.sign(p[long & ~corner]) * (2.0 * a - c * np.sum(ch / n**2, axis=0))[inv]
+    d, inv = np.unique(np.abs(p[short & ~corner]), return_inverse=True)
+    g = c * np.sum(sgn / n**2 * np.tanh(k * b) * np.cos(k * d), axis=0)
+    tau_p[short & ~corner] = -np.sign(q[short & ~corner]) * g[inv]
+    return tau_p, tau_q
+
+
 @functools.lru_cache(maxsize=256)
 def _points(shape: str, ymax: float, zmax: float, A: float, It: float):
     n = PERIMETER_POINTS
@@ -140,15 +163,11 @@ def _points(shape: str, ymax: float, zmax: float, A: float, It: float):
     z = np.concatenate([zmax * (2 * u - 1), np.full_like(u, zmax), zmax * (1 - 2 * u), np.full_like(u, -zmax)])
     # torsion: p the narrow direction (half a), q the long one; (p, q, x) right-handed or not
     if ymax <= zmax:
-        tp, tq = _rectangle_torsion(y, z, ymax, zmax)
+        tp, tq = _rectangle_torsion_rim(y, z, ymax, zmax)
         tT = np.stack([tp, tq], axis=1)
     else:
-        tp, tq = _rectangle_torsion(z, y, zmax, ymax)
+        tp, tq = _rectangle_torsion_rim(z, y, zmax, ymax)
         tT = -np.stack([tq, tp], axis=1)
-    # traction-free sides: the shear is tangential, nil at the corners (exact; the truncated
-    # series leaves ~1e-3 of the peak there)
-    tT[np.abs(y) == ymax, 0] = 0.0
-    tT[np.abs(z) == zmax, 1] = 0.0
     tT = tT / It  # G theta = T / It
     tVy = np.stack([1.5 / A * (1.0 - (y / ymax) ** 2), np.zeros_like(y)], axis=1)
     tVz = np.stack([np.zeros_like(z), 1.5 / A * (1.0 - (z / zmax) ** 2)], axis=1)
@@ -214,7 +233,8 @@ class Stresses:
 
     ``normal``: peak ``|sigma_x|``; ``shear``: peak ``|tau|`` (torsion and transverse);
     ``von_mises``: peak ``sqrt(sigma_x^2 + 3 tau^2)``; ``concentration``: the factor applied;
-    ``safety``: ``limit / von_mises`` (None without a ``limit``); ``limit`` [Pa];
+    ``safety``: ``limit / von_mises`` (None when no element has a limit; NaN for an element
+    without one); ``limit``: each element's limit [Pa] (NaN: none) or None;
     ``joints``: joint name -> element indices.
     """
 
@@ -223,7 +243,7 @@ class Stresses:
     von_mises: np.ndarray
     concentration: np.ndarray
     safety: np.ndarray | None
-    limit: float | None
+    limit: np.ndarray | None
     joints: dict
 
     def joint(self, name: str) -> dict:
@@ -234,15 +254,20 @@ class Stresses:
             raise ModelError(f"no joint named {name!r}; joints: {', '.join(self.joints)}") from None
         out = {k: float(getattr(self, k)[idx].max()) for k in ("normal", "shear", "von_mises")}
         if self.safety is not None:
-            out["safety"] = float(self.safety[idx].min())
+            out["safety"] = _nanmin(self.safety[idx])
         return out
 
     def summary(self) -> dict:
         """The whole mechanism's peaks (and the minimum safety factor), as in `joint`."""
         out = {k: float(getattr(self, k).max(initial=0.0)) for k in ("normal", "shear", "von_mises")}
         if self.safety is not None:
-            out["safety"] = float(self.safety.min(initial=np.inf))
+            out["safety"] = _nanmin(self.safety)
         return out
+
+
+def _nanmin(a) -> float:
+    a = a[~np.isnan(a)]
+    return float(a.min()) if len(a) else np.nan
 
 
 def _factors(owner, joints, n_elements, concentration):
@@ -273,7 +298,8 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None)
     """Peak normal, shear and von Mises stresses [Pa] of every element (module notes), times a
     stress-concentration factor ``concentration`` (one number for all, or ``{joint: factor}``,
     factors >= 1, default 1), and with a material ``limit`` [Pa] (yield or fatigue strength) the
-    safety factors ``limit / von_mises``. ``joints``: joint name -> element indices."""
+    safety factors ``limit / von_mises``; without ``limit``, each element's section's
+    ``yield_stress`` where given. ``joints``: joint name -> element indices."""
     owner = "stresses"
     el = model.elements
     kt = _factors(owner, joints, len(el.L0), concentration)
@@ -294,9 +320,14 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None)
         idx = np.asarray(idx)
         normal[idx], shear[idx], vm[idx] = perimeter_peaks(s, res[idx])
     normal, shear, vm = kt * normal, kt * shear, kt * vm
-    safety = None
     if limit is not None:
-        with np.errstate(divide="ignore"):
-            safety = np.where(vm > 0, lim / np.where(vm > 0, vm, 1.0), np.inf)
-    return Stresses(normal, shear, vm, kt, safety, None if limit is None else lim,
+        lims = np.full(nE, lim)
+    else:
+        lims = np.array([np.nan if getattr(s, "yield_stress", None) is None else s.yield_stress for s in el.sections],
+                        dtype=float)
+    safety = None
+    if not np.all(np.isnan(lims)):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            safety = np.where(vm > 0, lims / np.where(vm > 0, vm, 1.0), np.where(np.isnan(lims), np.nan, np.inf))
+    return Stresses(normal, shear, vm, kt, safety, None if safety is None else lims,
                     {k: np.asarray(v).copy() for k, v in joints.items()})

@@ -39,6 +39,9 @@ class Hinge(Joint):
 
     kind: ClassVar[str] = "hinge"
     motion_range: ClassVar[float] = 1.0
+    #: the conformance kit's joint mechanism (B on A through the hinge alone) needs a spring: a free
+    #: pin there is a free motion, refused
+    parameter_ranges: ClassVar[dict] = {"k": (0.5, 50.0)}
 
     k: float = 0.0
     angle: float | None = None

@@ -220,6 +220,7 @@ class EOBTemplate:
         for c, f in zip(coef, polys):
             c[:, np.searchsorted(powers, f.powers)] = np.atleast_2d(f.coefficients)
         self._powers, self._coef = powers, np.concatenate(coef).T  # (P,), (P, n_orient)
+        self.lookup = None  # the tabulated condensation (`flexmb.ksd.eob_table.lookup_for`), when it applies
 
     def evaluate(self, theta: np.ndarray, b_position: np.ndarray, *, held_a: bool = False) -> EOB:
         """EOBs of J joints at intended rotations ``theta`` (J,) [rad] with node B's near position
@@ -231,17 +232,7 @@ class EOBTemplate:
         dim, nd, N, E = self.dim, self.nd, self.n_nodes, self.n_elements
         theta = np.asarray(theta, dtype=float)
         J = len(theta)
-        orient = (theta[:, None] ** self._powers) @ self._coef  # Eq. (3.1): elements, then internal nodes
-        if dim == 2:
-            beta = orient[:, :E]
-            node_angle = np.concatenate([np.zeros((J, 1)), theta[:, None], orient[:, E:]], axis=1)
-            Re, Rn = rot2(beta), rot2(node_angle)  # (J, E | N, 2, 2)
-        else:  # rotation vectors (Sec. 3.1: elements turning about several axes)
-            R = expm_so3(orient.reshape(J, E + N - 2, 3))
-            Re = R[:, :E]
-            Rn = np.empty((J, N, 3, 3))
-            Rn[:, 0], Rn[:, 1], Rn[:, 2:] = _EYE, rz(theta), R[:, E:]
-            node_angle = None
+        beta, Re, node_angle, Rn = self.orientations(theta)
         Rd = (Re @ self.d[..., None])[..., 0]
         Rpq = Rn[:, self.pq_node]  # (J, E, 2, dim, dim): near rotations of each element's nodes p, q
         arm = (Rpq @ self.s_pq[..., None])[..., 0]
@@ -297,6 +288,32 @@ class EOBTemplate:
             K_T, F_T = K_nodes[:, cols, cols].copy(), F_nodes[:, cols].copy()
             recover = np.zeros((J, 0, nd + 1))
         return EOB(Tb, self.K0, q_hat, lv, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn, markers)
+
+    def orientations(self, theta: np.ndarray, elements: bool = True):
+        """Near orientations at intended rotations ``theta`` (J,) from the database (Eq. 3.1):
+        ``beta`` (J, E) element angles (2D; None in 3D), ``Re`` (J, E, dim, dim) element rotations,
+        ``node_angle`` (J, N) (2D; None in 3D) and ``Rn`` (J, N, dim, dim) of all nodes (A, B,
+        internal); ``elements=False`` skips the elements (``beta`` and ``Re`` None)."""
+        dim, N, E = self.dim, self.n_nodes, self.n_elements
+        J = len(theta)
+        c = 1 if dim == 2 else 3  # orientation components per element or node
+        first = 0 if elements else c * E
+        orient = (theta[:, None] ** self._powers) @ self._coef[:, first:]  # elements, then internal nodes
+        e = E if elements else 0
+        beta = Re = node_angle = None
+        if dim == 2:
+            node_angle = np.concatenate([np.zeros((J, 1)), theta[:, None], orient[:, e:]], axis=1)
+            Rn = rot2(node_angle)  # (J, N, 2, 2)
+            if elements:
+                beta = orient[:, :E]
+                Re = rot2(beta)  # (J, E, 2, 2)
+        else:  # rotation vectors (Sec. 3.1: elements turning about several axes)
+            R = expm_so3(orient.reshape(J, e + N - 2, 3))
+            Rn = np.empty((J, N, 3, 3))
+            Rn[:, 0], Rn[:, 1], Rn[:, 2:] = _EYE, rz(theta), R[:, e:]
+            if elements:
+                Re = R[:, :E]
+        return beta, Re, node_angle, Rn
 
     def axial_force(self, eob: EOB, q: np.ndarray) -> np.ndarray:
         """Axial force [N] (J, E) of every element of the EOBs' linear model, tension positive, at

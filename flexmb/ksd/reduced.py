@@ -20,6 +20,7 @@ from ..fe.model import State
 from ..rotations import cross, expm_so3, skew, unskew
 from . import constraints
 from .eob import EOBTemplate
+from .eob_table import lookup_for
 from .geometry import ACTIVE, JointFrames, LinkPoses, intended_angle
 
 __all__ = ["ReducedMechanism", "template"]
@@ -31,7 +32,13 @@ _DUNSKEW = 0.5 * (np.outer(_EYE.ravel(), _EYE.ravel()) - np.eye(9))
 
 @functools.lru_cache(maxsize=64)
 def _cached_template(joint, dim: int, data) -> EOBTemplate:
-    return EOBTemplate(joint, dim, data)
+    return _with_lookup(EOBTemplate(joint, dim, data), joint)
+
+
+def _with_lookup(tpl: EOBTemplate, joint) -> EOBTemplate:
+    """``tpl`` with its database's tabulated condensation attached when it applies (issue 21)."""
+    tpl.lookup = lookup_for(tpl, joint)
+    return tpl
 
 
 @functools.lru_cache(maxsize=256)
@@ -47,7 +54,7 @@ def template(joint, dim: int, folder=None) -> EOBTemplate:
             f"joint kind {joint.kind!r} has no joint database (KSD needs one); it offers {sorted(joint.capabilities)}")
     data = shipped(joint, dim, folder)  # read on every call; one `JointData` per file content
     if not hashable(joint):  # a plugin joint that is not a value: no caching
-        return EOBTemplate(joint, dim, data)
+        return _with_lookup(EOBTemplate(joint, dim, data), joint)
     return _cached_template(joint, dim, data)
 
 
@@ -94,6 +101,10 @@ class ReducedMechanism:
 
         names, a, b, rot, b0, origin, groups, seen = [], [], [], [], [], [], {}, {}
         for key, jt, pl, side_a, side_b in compiled.joints:
+            if "ideal" in jt.capabilities:
+                raise UnsupportedStrategyError(
+                    f"joint {key!r} ({jt.kind}) is an ideal joint: KSD's kinematic step and reduced model do not "
+                    "include ideal joints yet; solve with method='conventional' (exact hinge constraints)")
             try:
                 tpl = seen[jt] if hashable(jt) and jt in seen else template(jt, dim, folder)
             except DatabaseError as exc:

@@ -13,12 +13,13 @@ any unit system, and the first step's ``ds`` is its load-factor increment. ``psi
 Crisfield's spherical constraint, ``psi = 0`` the cylindrical one. The corrector solves the
 constraint's quadratic in ``dlam`` (Crisfield 1981, Eq. 17) and takes the root whose increment
 makes the smaller angle with the one before (no doubling back); the predictor follows the path
-tangent in the direction of the previous step.
+tangent in the direction of the previous step, and a step whose tangent turns by more than
+``max_turn`` is cut (it may have jumped to a nearby branch).
 
 Along the path: stability is the inertia of the symmetric part of the free tangent ``K_ff``
 (positive definite: stable; the count of negative eigenvalues is kept). Under the dead loads of
 2D mechanisms ``K_ff`` is symmetric already; a 3D dead moment adds a skew part
-``-1/2 skew(m)``, which does no work in a virtual displacement and is left out, as
+``-1/2 skew(m)``, which adds nothing to the quadratic form ``du^T K du`` and is left out, as
 `flexmb.solvers.conventional.is_stable` does. A limit point is a zero of ``dlam/ds`` (the load
 factor's extremum); a bifurcation point is a change of the negative count without one (the
 crossing eigenvalue's zero). Both are located between the two points that bracket them by the
@@ -43,16 +44,16 @@ from .conventional import is_stable, positive_float, positive_int, unit_interval
 __all__ = ["ArcLength", "PathPoint", "load_tangent", "inertia", "DENSE_EIGEN_BELOW"]
 
 #: Below this many free DOFs the eigenvalues of the symmetric tangent come from LAPACK's dense
-#: ``eigvalsh`` (all of them; 0.2 ms at 60, 0.1 s at 1500 DOFs on this host); above, the negative
-#: count from a sparse symmetric LDL^T and the eigenvalues nearest zero from ARPACK.
-DENSE_EIGEN_BELOW = 1500
+#: ``eigvalsh`` (all of them; measured 0.4 ms at 60, 34 ms at 300, 2.2 s at 1500 DOFs, one BLAS
+#: thread, loaded host); above, the negative count from a sparse symmetric LDL^T and the
+#: eigenvalues nearest zero from ARPACK (shift-invert at 0).
+DENSE_EIGEN_BELOW = 400
 
 
 def _nonnegative_float(instance, attribute, value):
-    if value < 0 or not math.isfinite(value):
-        from ..errors import ParameterError
+    from .. import _validate as v
 
-        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} outside the valid range [0, inf)")
+    v.nonnegative(type(instance).name, attribute.name, value)
 
 
 def inertia(Kff, k: int = 4):
@@ -60,27 +61,37 @@ def inertia(Kff, k: int = 4):
 
     The eigenvalues are the ``k`` of smallest magnitude, sorted ascending (signed); dense below
     `DENSE_EIGEN_BELOW` free DOFs, else the count from a sparse LDL^T (Sylvester's law of
-    inertia, `is_stable`'s factorisation) and the eigenvalues from shift-invert ARPACK at 0.
+    inertia, `is_stable`'s factorisation) and the eigenvalues from shift-invert ARPACK at 0
+    (dense LAPACK when either cannot deliver: SuperLU pivoted off the diagonal, ARPACK did not
+    converge or the matrix is singular).
     """
     n = Kff.shape[0]
     if n == 0:
         return 0, np.zeros(0)
     if n < DENSE_EIGEN_BELOW:
-        A = Kff.toarray() if hasattr(Kff, "toarray") else np.asarray(Kff)
-        ev = sla.eigvalsh(0.5 * (A + A.T))
-        near = ev[np.argsort(np.abs(ev))[:k]]
-        return int(np.sum(ev < 0.0)), np.sort(near)
+        return _dense_inertia(Kff, k)
     A = (0.5 * (Kff + Kff.T)).tocsc()
-    near = spla.eigsh(A, k=min(k, n - 1), sigma=0.0, which="LM", return_eigenvectors=False)
+    try:
+        near = np.sort(spla.eigsh(A, k=min(k, n - 1), sigma=0.0, which="LM", return_eigenvectors=False))
+    except (spla.ArpackNoConvergence, RuntimeError, ValueError):
+        return _dense_inertia(A, k)
     if is_stable(A):
-        return 0, np.sort(near)
+        return 0, near
     from scipy.sparse.linalg import splu
 
-    lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    try:
+        lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    except RuntimeError:  # exactly singular
+        return _dense_inertia(A, k)
     if np.array_equal(lu.perm_r, lu.perm_c):
-        return int(np.sum(lu.U.diagonal() < 0.0)), np.sort(near)
-    ev = sla.eigvalsh(A.toarray())  # SuperLU pivoted off the diagonal: no inertia from it
-    return int(np.sum(ev < 0.0)), np.sort(near)
+        return int(np.sum(lu.U.diagonal() < 0.0)), near
+    return _dense_inertia(A, k)  # SuperLU pivoted off the diagonal: no inertia from it
+
+
+def _dense_inertia(K, k: int):
+    A = K.toarray() if hasattr(K, "toarray") else np.asarray(K)
+    ev = sla.eigvalsh(0.5 * (A + A.T))
+    return int(np.sum(ev < 0.0)), np.sort(ev[np.argsort(np.abs(ev))[:k]])
 
 
 def load_tangent(problem, state: State, lam: float, Kfp=None):
@@ -98,7 +109,33 @@ def load_tangent(problem, state: State, lam: float, Kfp=None):
     vp = _prescribed_rate(problem, lam)
     if Kfp is None:
         Kfp = problem.evaluate(state, lam)[2]
-    return -q[problem.free] + Kfp @ vp, vp
+    return (_motor_rate(problem) - q)[problem.free] + Kfp @ vp, vp
+
+
+def _motor_rate(problem) -> np.ndarray:
+    """d r / d lam of the hinges' motors (`flexmb.joints.Hinge`): a motor row's constraint is
+    ``theta - lam angle`` (scaled), so its rate is ``-angle scale`` while the motor ramps."""
+    model = problem.model
+    hinges = getattr(model, "hinges", None)
+    out = np.zeros(model.n_dofs)
+    if hinges is None or problem.motor_fraction(0.0) == 1.0:
+        return out
+    rows = hinges.active.shape[1]
+    n = model.hinge_dofs.shape[1]
+    F = np.zeros((len(hinges.node), n))
+    F[:, n - 1] = np.where(hinges.active[:, -1], -np.nan_to_num(hinges.angle) * hinges.scale[rows - 1], 0.0)
+    np.add.at(out, model.hinge_dofs.ravel(), F.ravel())
+    return out
+
+
+def _translational(model) -> np.ndarray:
+    """Which DOFs (all, multipliers last) are translations or carry forces (True) rather than
+    rotations or moments: a hinge's position rows are forces, its axis and motor rows moments."""
+    node = np.tile(np.arange(model.ndof) < model.dim, model.n_nodes)
+    hinges = getattr(model, "hinges", None)
+    if hinges is None:
+        return node
+    return np.concatenate([node, np.nonzero(hinges.active)[1] < model.dim])
 
 
 def _prescribed_rate(problem, lam: float) -> np.ndarray:
@@ -167,6 +204,11 @@ class ArcLength:
     max_rotation
         A corrector that turns a node by more than this [rad] cuts the step (it is leaving the
         branch; as in `Conventional`), None disables the check (1.0).
+    max_turn
+        A step whose end tangent turns from its start tangent by more than this [rad] is cut in
+        half (0.2): the path keeps its resolution through sharp turns and does not jump to a
+        nearby branch (Qiu's bistable with a 1e-3 imperfection, where two branches pass close:
+        at 0.5 the path jumped onto the other and went round it; at 0.2 it snaps through).
     locate_tol
         Critical points are located to this fraction of the arc length between the two
         bracketing points (1e-6).
@@ -183,6 +225,7 @@ class ArcLength:
     max_arc: float = attrs.field(default=1000.0, validator=positive_float)
     max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(positive_float))
     locate_tol: float = attrs.field(default=1e-6, validator=unit_interval)
+    max_turn: float = attrs.field(default=0.2, validator=positive_float)
 
     # -- the pieces --------------------------------------------------------------------------
     def setup(self, problem):
@@ -202,7 +245,7 @@ class ArcLength:
         """The undeformed configuration as the path's first point (load factor 0)."""
         state = problem.model.initial_state()
         r = problem.evaluate(state, 0.0, tangent=False)[0]
-        neg, near = inertia(Kff0)
+        neg, near = inertia(problem.reduced_tangent(Kff0))  # hinges: on the motions they allow
         t, tl = t0
         direction = 1.0 if tl >= 0 else -1.0  # towards positive load factors
         return PathPoint(state, 0.0, r, t, tl, direction, neg, near, direction * tl, 0.0, 0)
@@ -271,7 +314,7 @@ class ArcLength:
         chord_u, chord_l = metric.difference(state, a.state), lam - a.lam
         # the path runs through the new point the way the chord from the last one points
         direction = 1.0 if metric.dot(t, chord_u) + metric.psi2 * tl * chord_l >= 0.0 else -1.0
-        neg, near = inertia(Kff)
+        neg, near = inertia(problem.reduced_tangent(Kff))  # hinges: on the motions they allow
         arc = a.arc + metric.length(chord_u, chord_l)
         return PathPoint(state, lam, r, t, tl, direction, neg, near, direction * tl, arc, iterations,
                          tuple(history), seconds)
@@ -283,12 +326,9 @@ class ArcLength:
         free = problem.free
         if self.tol is not None:
             return float(np.linalg.norm(r[free])) <= self.tol
-        m = problem.model
         f_ext = problem.external_force(state, lam)[0]
         f_int = r + f_ext
-        tr = np.zeros(m.ndof, dtype=bool)
-        tr[: m.dim] = True
-        is_tr = np.tile(tr, m.n_nodes)
+        is_tr = _translational(problem.model)
         F = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
         M = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]), F * metric.size)
         if F == 0.0 and M == 0.0:
@@ -314,6 +354,8 @@ class ArcLength:
         a, ds = first, ds0
         while True:
             b = self.step(problem, metric, a, ds)
+            if b is not None and ds > self.min_arc * ds0 and self._turn(metric, a, b) > self.max_turn:
+                b = None  # the path turns too sharply for this step: it may have jumped to another branch
             if b is None:
                 ds *= 0.5
                 if ds < self.min_arc * ds0:
@@ -325,30 +367,35 @@ class ArcLength:
             yield ("point", b, ds)
             a, ds = b, self.next_arc(ds, b.iterations, ds0)
 
+    @staticmethod
+    def _turn(metric, a: PathPoint, b: PathPoint) -> float:
+        """The angle [rad] between the oriented unit tangents at ``a`` and ``b``."""
+        c = (metric.dot(a.tangent, b.tangent) + metric.psi2 * a.tangent_lam * b.tangent_lam) / (1.0 + metric.psi2)
+        return math.acos(max(-1.0, min(1.0, a.direction * b.direction * c)))
+
     def _critical(self, problem, metric, a: PathPoint, b: PathPoint, ds: float):
         """The limit and bifurcation points between consecutive points ``a`` and ``b``, in path order.
 
         Each eigenvalue (ascending order) that changes sign between them is located by its zero;
-        the limit point, if ``dlam/ds`` changes sign, by that zero. The eigenvalue crossing at
-        the limit point (the same arc length within ``locate_tol``) is the limit's own; every
-        other crossing is a bifurcation point."""
+        the limit point, if ``dlam/ds`` changes sign, by that zero. The eigenvalue crossing
+        nearest the limit point is the limit's own (the two zeros agree only to the equilibrium's
+        accuracy: the eigenvalue is flat there); every other crossing is a bifurcation point."""
         found = []
         if np.sign(a.dlam_ds) != np.sign(b.dlam_ds):
             p = self.locate(problem, metric, a, ds, a.dlam_ds, b.dlam_ds, lambda x: x.dlam_ds)
             if p is not None:
                 found.append(("limit", p))
-        limit_arc = found[0][1].arc if found else None
+        crossings = []
         for k in range(min(a.negative, b.negative), max(a.negative, b.negative)):
             def crossing(x, k=k):
                 return _kth_eigenvalue(problem, x, k)
 
             p = self.locate(problem, metric, a, ds, crossing(a), crossing(b), crossing)
-            if p is None:
-                continue
-            if limit_arc is not None and abs(p.arc - limit_arc) <= 1e3 * self.locate_tol * ds:
-                limit_arc = None  # the limit point's own eigenvalue
-                continue
-            found.append(("bifurcation", p))
+            if p is not None:
+                crossings.append(p)
+        if found and crossings:  # the crossing nearest the limit point is the limit's own eigenvalue
+            crossings.remove(min(crossings, key=lambda p: abs(p.arc - found[0][1].arc)))
+        found += [("bifurcation", p) for p in crossings]
         for kind, p in sorted(found, key=lambda f: f[1].arc):
             yield ("critical", kind, p)
 
@@ -384,13 +431,21 @@ class ArcLength:
 
 def _kth_eigenvalue(problem, p: PathPoint, k: int) -> float:
     """The ``k``-th (0-based, ascending) eigenvalue of the symmetric free tangent at ``p``."""
-    Kff = problem.evaluate(p.state, p.lam)[1]
+    Kff = problem.reduced_tangent(problem.evaluate(p.state, p.lam)[1])
     n = Kff.shape[0]
     if n < DENSE_EIGEN_BELOW:
         A = Kff.toarray()
         return float(sla.eigvalsh(0.5 * (A + A.T), subset_by_index=[k, k])[0])
-    ev = spla.eigsh((0.5 * (Kff + Kff.T)).tocsc(), k=k + 1, sigma=None, which="SA", return_eigenvectors=False)
-    return float(np.sort(ev)[k])
+    # sparse: the negative count places the k-th eigenvalue among those nearest zero
+    A = (0.5 * (Kff + Kff.T)).tocsc()
+    neg, _ = inertia(A, 1)
+    need = k - neg + 1 if neg <= k else neg - k  # how many on its side of zero, itself included
+    try:
+        ev = spla.eigsh(A, k=min(n - 1, 2 * need + 2), sigma=0.0, which="LM", return_eigenvectors=False)
+        side = np.sort(ev[ev >= 0.0]) if neg <= k else np.sort(ev[ev < 0.0])[::-1]
+        return float(side[need - 1])
+    except (spla.ArpackNoConvergence, RuntimeError, ValueError, IndexError):
+        return float(sla.eigvalsh(A.toarray(), subset_by_index=[k, k])[0])
 
 
 def _split(problem, du: np.ndarray, dl: float, lam: float) -> np.ndarray:
@@ -404,12 +459,12 @@ def _negligible(model, du: np.ndarray, size: float) -> bool:
     """Whether an increment moves no node by more than 1e-12 of the mechanism's size (nor turns
     one by 1e-12 rad): round-off in the positions; measured on a strut with EA L^2 / EI = 1e7,
     whose residual stalls at 3.5e-8 of the applied load while the corrections reach 1e-16."""
-    d = du.reshape(model.n_nodes, model.ndof)
+    d = model.node_part(du)
     return bool(np.max(np.abs(d[:, : model.dim])) <= 1e-12 * size and np.max(np.abs(d[:, model.dim:])) <= 1e-12)
 
 
 def _largest_rotation(model, du: np.ndarray) -> float:
-    rot = du.reshape(model.n_nodes, model.ndof)[:, model.dim:]
+    rot = model.node_part(du)[:, model.dim:]
     return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
 
 
@@ -442,7 +497,7 @@ def _unit_tangent(problem, metric, state, lam, Kff, Kfp):
 @attrs.frozen
 class _Metric:
     """The scaled metric of the arc-length constraint (module notes): translations over ``size``,
-    rotations in rad, divided by ``scale`` (the initial tangent's size)."""
+    rotations in rad, divided by ``scale`` (the initial tangent's size); multipliers weigh 0."""
 
     model: object
     size: float
@@ -456,7 +511,10 @@ class _Metric:
     def _weights(self) -> np.ndarray:
         w = np.ones(self.model.ndof)
         w[: self.model.dim] = 1.0 / self.size
-        return np.tile(w, self.model.n_nodes) / self.scale
+        w = np.tile(w, self.model.n_nodes) / self.scale
+        if self.model.hinges is not None:  # the hinges' multipliers follow the motion: no weight
+            w = np.concatenate([w, np.zeros(self.model.hinges.n_rows)])
+        return w
 
     def dot(self, a: np.ndarray, b: np.ndarray) -> float:
         w = self._weights()
@@ -479,7 +537,7 @@ class _Metric:
             out[:, 2] = state.rotations - start.rotations
         else:
             out[:, 3:] = logm_so3(state.rotations @ start.rotations.transpose(0, 2, 1))
-        return out.ravel()
+        return np.concatenate([out.ravel(), m.multiplier_change(start, state)])
 
     def root(self, Du, Dl, dr, dt, ds) -> float:
         """``dlam`` of the corrector on the constraint ``|(Du + dr + dlam dt, Dl + dlam)| = ds``

@@ -4,6 +4,8 @@ Dwarshuis et al. (2020), Appendix B and Fig. 18 (SPACAR's scheme): try the whole
 step; after each iteration judge the residual: above the divergence threshold, halve the step
 and start it again from its beginning; between the thresholds, re-linearise and iterate; below
 the accuracy threshold, accept the step and take the next (growing it again after easy steps).
+That is ``step_control="paper"``; the default adds continuation (`newton_steps`): each step
+starts from the extrapolation of the converged path, a corrector that leaves it is rejected.
 """
 
 from __future__ import annotations
@@ -80,6 +82,28 @@ def unit_interval(instance, attribute, value):
         raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} outside the valid range (0, 1]")
 
 
+#: The adaptive step control's constants, chosen over the benchmark cases (cross flexure 5-75 deg
+#: in 2D and 3D, four-bar 1-5 el./leaf, the 38 manipulator positions; BENCHMARKS.md "Step
+#: control", one run): 3220 Newton iterations against 10 056 for Fig. 18 with the paper's tol,
+#: every equilibrium within 2.0e-11 (node positions, relative). Extrapolation degree, measured on
+#: ten of the cases (iterations): 1 (secant) 4995, 2: 1060, 3 (cubic): 704, 4: 601, 5: 535,
+#: 7: 478, 9: 467, 11: 475, 15: 487. Path deviation bound 0.4: the twin cross flexures of
+#: tests/test_continuation.py at 0.1-0.3 rad follow the small-step path in 2D and 3D with 0.4
+#: only (0.7: the 3D case jumps to the 68.8 N m branch at 0.2 rad; 0.3: 2D lands on 11.89 N m
+#: at 0.1 rad); 0.7 would save 3 % of the iterations.
+RTOL = 1e-8  # default relative tolerance (`StaticProblem.scaled_residual`); 1e-9: +6 % iterations
+#: a Newton correction this small (translations over the model length, rotations [rad]) means the
+#: state is at the round-off floor: converged
+CORRECTION_FLOOR = 1e-13
+PATH_POINTS = 10  # converged states the predictor extrapolates from (degree 9)
+GROW_BELOW = 4  # a step that converged in fewer iterations doubles the next
+SMOOTH_PATH = 0.03  # ... as does one whose corrector moved less than this x the predicted step
+SHRINK_ABOVE = 7  # a step that took more iterations shrinks the next to 0.6x
+PATH_DEVIATION = 0.4  # a corrector farther from the predicted state than this x the step is rejected
+SAME_PATH = 1e-6  # ... unless it is closer than this (translations over the model length, rad): a step
+# that predicts no motion (nothing applied) is never rejected for its round-off corrections
+
+
 @attrs.frozen(kw_only=True)
 class Conventional:
     """Full-model Newton-Raphson with step halving [``conventional``].
@@ -87,7 +111,18 @@ class Conventional:
     Parameters
     ----------
     tol
-        Convergence threshold on the 2-norm of the free residual [N, N m] (5e-7, the paper's).
+        Absolute convergence threshold on the 2-norm of the free residual [N, N m] (the paper's
+        is 5e-7); None (default): the relative test of ``rtol``.
+    rtol
+        Relative convergence threshold (used when ``tol`` is None): the free residual, moments
+        divided by the model's length (bounding-box diagonal), over the problem's force scale
+        (largest element end force or applied load, moments over the length), 1e-8; or a Newton
+        correction (predictor included) below 1e-13 (translations over the model length,
+        rotations [rad]): the round-off floor, where the residual cannot fall further. Unit
+        free: tested in SI, mm-N-MPa and um-uN-MPa (same answers to 1e-9, same iterations); a
+        200-element cantilever under 1 N converges in 4 iterations (the absolute 5e-7 halved
+        its step for 361 and gave up), a 10 000-element one at F L^2 / EI = 5 matches the
+        elastica to 1e-6 L. 1e-8 over 1e-9: 6 % fewer iterations on the benchmark cases.
     max_iter
         Iterations allowed per step before the step is halved.
     divergence
@@ -107,19 +142,22 @@ class Conventional:
     raise_on_failure
         Raise `ConvergenceError` instead of returning ``converged=False``.
     step_control
-        ``"adaptive"`` (default): continuation: every step after the first starts from the cubic
-        extrapolation (in the load factor) of the last four converged states, rotations as spins
-        on SO(3); a corrector that moves farther than 0.4x the predicted step from the predicted
-        state is rejected and the step halved (it is heading for another branch); the next step
-        doubles after fewer than 4 iterations or a corrector that moved < 3 % of the step, shrinks
-        to 0.6x after more than 7. ``"paper"``: Fig. 18 as published (linear predictor,
-        halving, doubling after at most 4 iterations). Measured over the benchmark cases (cross
-        flexure 5-75 deg 2D/3D, four-bar 1-5 el./leaf, 38 manipulator positions): 4118 against
-        10 056 iterations (manipulator 3462 / 9574, four-bar 159 / 153, cross flexure 497 / 329:
-        the deviation bound cuts some one-step solves), manipulator joint case at +-45 deg
-        118 / 121 against 494 / 550, the same equilibria to 5.1e-11 (node positions, relative). The converged tangent reused for the first
-        corrector from the predicted state was measured too and rejected (3x the iterations on
-        the manipulator: its stiff elements' forces change too much between the states).
+        ``"adaptive"`` (default): continuation: every step after the first starts from the
+        polynomial extrapolation (in the load factor) of the last ten converged states,
+        rotations as spins on SO(3) continued along the path; a corrector that moves farther
+        than 0.4x the predicted step from the predicted state is rejected and the step halved
+        (it is heading for another branch); the next step doubles after fewer than 4
+        iterations or a corrector that moved < 3 % of the step, shrinks to 0.6x after more than
+        7. ``"paper"``: Fig. 18 as published (linear predictor, halving, doubling after at most
+        4 iterations). Measured over the benchmark cases (BENCHMARKS.md "Step control", against
+        Fig. 18 with the paper's tol=5e-7): 3220 against 10 056 iterations; manipulator joint
+        case 830 / 3893 (at -45 / 45 deg 54 / 53 against 550 / 494), location case 1746 / 5681,
+        four-bar 1-5 el./leaf 147 / 153; single cross flexures cost more, 497 / 329 (the
+        deviation bound cuts the first of their one-step solves); the same equilibria to
+        2.0e-11 (node positions, relative). Reusing the converged tangent for the first
+        corrector from the predicted state was measured and dropped (3x the iterations on the
+        manipulator: its stiff elements' forces change too much between the states), as was a
+        contraction-rate rejection (+20 %).
     """
 
     name: ClassVar[str] = "conventional"
@@ -127,7 +165,8 @@ class Conventional:
     #: joint capabilities every joint must offer, and the mechanism dimensions handled
     needs: ClassVar[tuple[str, ...]] = ("fe_model",)
     dims: ClassVar[tuple[int, ...]] = (2, 3)
-    tol: float = attrs.field(default=5e-7, validator=positive_float)
+    tol: float | None = attrs.field(default=None, validator=attrs.validators.optional(positive_float))
+    rtol: float = attrs.field(default=RTOL, validator=positive_float)
     max_iter: int = attrs.field(default=20, validator=positive_int)
     divergence: float = attrs.field(default=1e3, validator=above_one)
     min_step: float = attrs.field(default=1e-5, validator=unit_interval)
@@ -144,9 +183,10 @@ class Conventional:
         with single_threaded():
             out = newton_steps(problem, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
                                min_step=self.min_step, initial_step=self.initial_step, max_rotation=self.max_rotation,
-                               control=self.step_control)
+                               control=self.step_control, rtol=self.rtol)
         out["wall_time"]["total"] = time.perf_counter() - t0
-        sol = Solution(method=self.name, compiled=compiled, tolerance=self.tol, **out)
+        tolerance = out.pop("tolerance", self.tol if self.tol is not None else np.nan)
+        sol = Solution(method=self.name, compiled=compiled, tolerance=tolerance, **out)
         if self.raise_on_failure and not sol.converged:
             raise ConvergenceError(sol.message, sol)
         return sol
@@ -180,37 +220,40 @@ def _increment(model, frm: State, to: State) -> np.ndarray:
     return np.concatenate([du.ravel(), to.multipliers - frm.multipliers])  # the hinges' multipliers last
 
 
+def _continued(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """The rotation vectors ``spin + 2 pi k spin / |spin|`` (k = -1, 0, 1) nearest to ``near``
+    (N, 3): the same rotations, continued along a path instead of wrapped to angles in [0, pi]."""
+    angle = np.linalg.norm(spin, axis=1, keepdims=True)
+    axis = np.divide(spin, angle, out=np.zeros_like(spin), where=angle > 0.0)
+    cands = spin[None] + (2.0 * np.pi * np.array([-1.0, 0.0, 1.0]))[:, None, None] * axis[None]
+    best = np.argmin(np.sum((cands - near[None]) ** 2, axis=2), axis=0)
+    return cands[best, np.arange(len(spin))]
+
+
 def _extrapolated(model, path: list, target: float) -> np.ndarray:
     """Predicted increment from the last converged state of ``path`` [(lam, State), ...] to load
-    factor ``target``: the Lagrange polynomial through the converged states (degree len - 1, at
-    most cubic), positions in R^n and rotations as spins about the last state, on SO(3) in 3D."""
+    factor ``target``: the Lagrange polynomial through the converged states (degree len - 1),
+    positions in R^n and rotations as spins about the last state (3D: on SO(3), each continued
+    from its neighbour's along the path, so a path that turns a node beyond pi is not wrapped)."""
     lams = np.array([lam for lam, _ in path])
     last = path[-1][1]
     du = np.zeros(model.n_dofs)
-    for i, (lam_i, s_i) in enumerate(path[:-1]):
+    near = np.zeros((model.n_nodes, 3))
+    for i in range(len(path) - 2, -1, -1):  # from the last state back
+        lam_i, s_i = path[i]
         others = np.delete(lams, i)
         weight = np.prod((target - others) / (lam_i - others))
-        du += weight * _increment(model, last, s_i)
+        d = _increment(model, last, s_i)
+        if model.dim == 3:
+            nodes = d[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # a view: hinge multipliers last
+            nodes[:, 3:] = near = _continued(nodes[:, 3:], near)
+        du += weight * d
     return du
 
 
-#: The adaptive step control's constants, chosen over the benchmark cases (cross flexure 5-75 deg
-#: in 2D and 3D, four-bar 1-5 el./leaf, the 38 manipulator positions; BENCHMARKS.md "Step
-#: control"): 4118 Newton iterations against 10 056 for Fig. 18, every equilibrium within 5.1e-11
-#: (node positions, relative). Path deviation bound 0.4: the twin cross flexures of
-#: tests/test_continuation.py at 0.1-0.3 rad follow the small-step path in 2D and 3D with 0.4
-#: only (0.7: the 3D case jumps to the 68.8 N m branch at 0.2 rad; 0.3: 2D lands on 11.89 N m
-#: at 0.1 rad); 0.7 would save 3 % of the iterations.
-PATH_POINTS = 4  # converged states the predictor extrapolates from (cubic)
-GROW_BELOW = 4  # a step that converged in fewer iterations doubles the next
-SMOOTH_PATH = 0.03  # ... as does one whose corrector moved less than this x the predicted step
-SHRINK_ABOVE = 7  # a step that took more iterations shrinks the next to 0.6x
-PATH_DEVIATION = 0.4  # a corrector farther from the predicted state than this x the step is rejected
-
-
-def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: int, divergence: float,
+def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max_iter: int, divergence: float,
                  min_step: float, initial_step: float, lam0: float = 0.0, max_rotation: float | None = 1.0,
-                 first_geometric_stress=None, control: str = "adaptive") -> dict:
+                 first_geometric_stress=None, control: str = "adaptive", rtol: float = RTOL) -> dict:
     """Drive ``problem`` from ``state`` at load factor ``lam0`` to 1; returns Solution fields.
 
     ``control="paper"``: Fig. 18 (linear predictor from the converged tangent, halving, doubling
@@ -218,6 +261,9 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
     extrapolation of the last converged states (`_extrapolated`), a corrector that leaves the
     predicted path (`PATH_DEVIATION`) is rejected and the step cut, and the step grows or shrinks
     with the iterations it took and how far its corrector moved.
+    ``tol``: absolute threshold on the free residual's 2-norm [N, N m]; None: relative, the
+    scaled residual (`StaticProblem.scaled_residual`) below ``rtol``, or a corrector below
+    `CORRECTION_FLOOR` (the round-off floor: Newton cannot improve the state further).
     ``first_geometric_stress``: the geometric-stiffness stresses of the first tangent only
     (`StaticProblem.evaluate`), where ``state``'s own are known to be off (KSD step 5)."""
     adaptive = control == "adaptive"
@@ -241,7 +287,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
         r = problem.evaluate(state, 1.0, tangent=False)[0]
         res = float(np.linalg.norm(r[free]))
         history.append(res)
-        return finish(res < tol, "already in equilibrium" if res < tol else f"residual {res:.3g} above tol {tol:.3g}", r)
+        ok = res < tol if tol is not None else problem.scaled_residual(r[free]) <= rtol
+        return finish(ok, "already in equilibrium" if ok else f"residual {res:.3g} above the tolerance", r)
     while True:
         dlam = min(dlam, problem.max_load_step)
         target = lam + dlam
@@ -255,7 +302,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
         else:
             trial = state
         prev = first = np.inf
-        accepted = False
+        floor = accepted = False
         stalled = None
         for it in range(1 if extrapolate else 0, max_iter + 1):
             t = time.perf_counter()
@@ -270,10 +317,10 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
                 history.append(res)
                 if not np.isfinite(res) or (it > 1 and res > divergence * prev):
                     break
-                if res < tol:
+                if (res < tol) if tol is not None else (floor or problem.scaled_residual(rf) <= rtol):
                     accepted = True
                     break
-                if it > 2 and res > 0.5 * prev and res < 1e-10 * first:
+                if tol is not None and it > 2 and res > 0.5 * prev and res < 1e-10 * first:
                     stalled = res  # Newton stopped gaining: roundoff floor of this model
                     break
                 if it == 1:
@@ -292,6 +339,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
             if not np.all(np.isfinite(du_f)):
                 break
             du = problem.full_increment(du_f, du_p if it == 0 else np.zeros_like(du_p))
+            floor = _size(model, du, length) <= CORRECTION_FLOOR  # the predictor too: a step with nothing to do
             if it > 0 and max_rotation is not None and _largest_rotation(model, du) > max_rotation:
                 break  # a corrector that turns a node this far has left the branch: cut the step
             if adaptive:
@@ -299,7 +347,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
                     predicted, moved = _size(model, du, length), np.zeros(model.n_dofs)
                 else:
                     moved += du
-                    if _size(model, moved, length) > PATH_DEVIATION * predicted:
+                    if _size(model, moved, length) > max(PATH_DEVIATION * predicted, SAME_PATH):
                         break  # the corrector leaves the predicted path (another branch): cut the step
             trial = model.apply_increment(trial, du)
         if accepted:
@@ -308,7 +356,18 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
             steps += 1
             if lam >= 1.0 - 1e-14:
                 lam = 1.0
-                out = finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
+                broken = problem.broken_constraints(state)  # "" without hinges
+                if broken:
+                    return finish(False, f"not converged: {broken}", r)
+                if tol is not None:
+                    out = finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
+                    out["tolerance"] = tol
+                else:
+                    scaled = problem.scaled_residual(r[free])
+                    why = f"the round-off floor: last correction below {CORRECTION_FLOOR:g}" if floor else f"rtol {rtol:g}"
+                    out = finish(True, f"converged: residual {history[-1]:.3g}, {scaled:.2g} of the force scale "
+                                       f"{problem.force_scale:.3g} ({why}) in {steps} steps", r)
+                    out["tolerance"] = max(rtol * problem.force_scale, history[-1])
                 out["stable"] = is_stable(problem.reduced_tangent(Kff))  # Kff itself without hinges
                 if out["stable"] is False:
                     out["message"] += ("; the equilibrium is UNSTABLE (tangent not positive definite): another "
@@ -322,7 +381,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float, max_iter: 
             dlam = min(grow * dlam, 1.0 - lam)
         elif stalled is not None:
             return finish(False, f"not converged: the residual stalls at {stalled:.3g}, the roundoff floor of this "
-                                 f"model, above tol={tol:.3g}; raise tol (load factor reached {lam:.6g})")
+                                 f"model, above tol={tol:.3g}; raise tol or leave it None (relative; load factor "
+                                 f"reached {lam:.6g})")
         else:
             rejected += 1
             dlam *= 0.5

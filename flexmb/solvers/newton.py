@@ -150,7 +150,8 @@ class Newton:
         """Solve ``compiled`` at each actuation force of ``values`` [N] with the compiled Newton loop
         (`flexmb.sweep`'s path when the kernels are compiled), from the last converged solution if
         ``warm`` (Fig. 12) or the undeformed configuration. ``loads_at(value)`` gives the loads of a
-        value (for the Solutions, built on demand). Nothing that stays the same is rebuilt per value:
+        value (for the Solutions, built on demand). A failed solve is kept (``converged=False``),
+        also with ``raise_on_failure``, as `flexmb.sweep` keeps it. Nothing that stays the same is rebuilt per value:
         the flexure and load arrays are made once, only the actuation force changes."""
         from ..closed_form import linkage_jit
 
@@ -188,9 +189,6 @@ class Newton:
                 last = State(pos, ang)
             out[3][k], out[4][k] = (pos, ang) if ok else (start.positions, start.rotations)
             out[6][k] = time.perf_counter() - t
-            if not ok and self.raise_on_failure:
-                self._finish(attrs.evolve(compiled, problem=problem.with_loads(loads_at(float(value)))), start,
-                             False, out[1][k], out[2][k], State(pos, ang), out[5][k], {"total": out[6][k]}, None)
         return ForceSweep(self, compiled, values, loads_at, starts, out)
 
     def constant_tangent(self, problem: LinkageProblem) -> np.ndarray:

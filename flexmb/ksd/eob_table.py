@@ -1,0 +1,136 @@
+"""The EOB condensation tabulated against the intended rotation (issue 21 item 4).
+
+KSD-reduced needs per joint the condensed stiffness and force of node B with node A held
+(Eq. 2.4) and the recovery of the internal nodes (Eq. 2.6): `flexmb.ksd.eob.EOBTemplate.evaluate`
+assembles the EOB and solves the interior (Craig-Bampton) for them, ~1 ms for the manipulator's
+three joints. They depend on theta alone, up to terms exactly linear in node B's near position,
+so they are sampled once on a grid (`tabulate`, stored in the joint's database file,
+`flexmb.database.eob_format`) and interpolated (`Lookup`).
+
+Grid and degree, measured on three_x_infinity (3D, 3 el./leaf, +-45 deg) against direct
+evaluation at 60 random angles, largest error relative to each quantity's largest entry:
+cubic splines on 0.25 deg 2.9e-9 (K_T) / 1.1e-8 (recovery), on 1 deg 1.4e-6 / 3.8e-6; quintic
+on 1 deg 7.5e-9 / 1.8e-8; degree 7 on 1 deg 1.0e-10 / 2.8e-10 (a Chebyshev series needs degree
+> 48 for 1e-6: the condensation varies too locally). Default: degree 7 on a 1 deg grid, halved
+where needed for 1e-9 (`tabulate`): 91 samples of 1320 numbers for that joint, 0.96 MB in the
+database's side file.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import make_interp_spline
+
+from ..database.eob_format import NAMES, EOBTable
+from ..database.eob_format import plain_parameters
+from .eob import EOB
+
+__all__ = ["tabulate", "Lookup", "lookup_for", "STEP_DEG", "FINEST_DEG", "DEGREE", "TOL"]
+
+STEP_DEG = 1.0  # first grid step [deg]
+FINEST_DEG = 0.125  # finest grid step [deg]
+DEGREE = 7  # spline degree
+TOL = 1e-9  # interpolation error accepted, relative to each quantity's largest entry
+
+
+def _sample(tpl, theta: np.ndarray) -> dict:
+    """The quantities of `flexmb.database.eob_format` at ``theta`` (S,): {name: (S, rows, cols)}."""
+    S, dim = len(theta), tpl.dim
+    zero = tpl.evaluate(theta, np.zeros((S, dim)), held_a=True)
+    unit = [tpl.evaluate(theta, np.tile(np.eye(dim)[k], (S, 1)), held_a=True) for k in range(dim)]
+    parts = {"K_T": zero.K_T, "F0": zero.F_hat_T[..., None],
+             "G": np.stack([u.F_hat_T - zero.F_hat_T for u in unit], axis=-1),
+             "RK": zero.recover[:, :, :-1], "r0": zero.recover[:, :, -1:],
+             "rG": np.stack([u.recover[:, :, -1] - zero.recover[:, :, -1] for u in unit], axis=-1),
+             "P0": zero.node_position[:, 2:]}
+    return parts
+
+
+def tabulate(tpl, parameters: dict, step_deg: float | None = None, degree: int = DEGREE,
+             tol: float = TOL) -> EOBTable:
+    """Sample the condensation of ``tpl`` (an `EOBTemplate`) over its database's range;
+    ``parameters`` the joint's (`Joint.describe`) that the table belongs to. ``step_deg`` None:
+    from `STEP_DEG`, halved (to at most `FINEST_DEG`) until the spline through the grid
+    reproduces the samples half-way between to ``tol`` relative to each quantity's largest entry,
+    i.e. where its error is largest (the 2D cross flexure needs 0.5 deg: a sharp feature near
+    2 deg; three_x_infinity 1 deg)."""
+    lo, hi = tpl.data.range
+
+    def grid(step):
+        return np.linspace(lo, hi, int(round((hi - lo) / np.radians(step))) + 1)
+
+    def rows(theta):
+        parts = _sample(tpl, theta)
+        return parts, np.concatenate([parts[n].reshape(len(theta), -1) for n in NAMES], axis=1)
+
+    step = STEP_DEG if step_deg is None else step_deg
+    theta = grid(step)
+    parts, values = rows(theta)
+    while step_deg is None and step > FINEST_DEG:
+        mid = 0.5 * (theta[1:] + theta[:-1])
+        _, between = rows(mid)
+        err = np.abs(make_interp_spline(theta, values, k=degree, axis=0)(mid) - between)
+        scale = np.maximum(np.abs(values).max(axis=0), 1e-300)
+        at, worst = 0, 0.0
+        for n in NAMES:  # error relative to each quantity's largest entry
+            w = parts[n].shape[1] * parts[n].shape[2]
+            worst = max(worst, float(err[:, at:at + w].max(initial=0.0) / scale[at:at + w].max(initial=1e-300)))
+            at += w
+        if worst <= tol:
+            break
+        step /= 2
+        theta = grid(step)
+        parts, values = rows(theta)
+    layout = tuple((n, parts[n].shape[1], parts[n].shape[2]) for n in NAMES)
+    values.flags.writeable = False
+    return EOBTable(dict(parameters), theta, degree, layout, values)
+
+
+def lookup_for(tpl, joint):
+    """A `Lookup` of the table in ``tpl``'s database when it belongs to this very ``joint`` (same
+    `Joint.describe` parameters), else None (the condensation is then computed per solve)."""
+    table = getattr(tpl.data, "eob_table", None)
+    if table is None or _stiffness_parameters(table.parameters) != _stiffness_parameters(
+            plain_parameters(joint.describe())):
+        return None
+    return Lookup(tpl, table)
+
+
+#: joint parameters that do not enter the EOB condensation (mass, strength)
+_NOT_STIFFNESS = frozenset({"density", "yield_stress"})
+
+
+def _stiffness_parameters(parameters: dict) -> dict:
+    """The parameters the condensation depends on: those set (an unset option such as ``nu=None``,
+    with ``G`` given, changes nothing) other than mass and strength."""
+    return {k: v for k, v in parameters.items() if v is not None and k not in _NOT_STIFFNESS}
+
+
+class Lookup:
+    """Interpolation of an `EOBTable` for one template (the spline built once)."""
+
+    def __init__(self, tpl, table: EOBTable):
+        self.tpl, self.table = tpl, table
+        self.range = (float(table.theta[0]), float(table.theta[-1]))
+        self._spline = make_interp_spline(table.theta, table.values, k=table.degree, axis=0)
+
+    def covers(self, theta: np.ndarray) -> bool:
+        """Whether every ``theta`` [rad] lies on the grid's range (else: evaluate directly)."""
+        return bool(np.all((theta >= self.range[0]) & (theta <= self.range[1])))
+
+    def __call__(self, theta: np.ndarray, b_position: np.ndarray) -> EOB:
+        """The condensation at ``theta`` (J,) with node B's near position ``b_position`` (J, dim),
+        as an `EOB` evaluated with node A held whose element-level fields (``rotation``, ``K0``,
+        ``q_hat``, ``lever``, ``K_nodes``, ``F_hat_nodes``, ``marker_position``) are None: what
+        KSD-reduced reads (``K_T``, ``F_hat_T``, ``recover``, the nodes' near poses)."""
+        tpl = self.tpl
+        p = self.table.split(self._spline(theta))
+        b = np.asarray(b_position, dtype=float)
+        F = p["F0"][..., 0] + (p["G"] @ b[..., None])[..., 0]
+        rec = np.concatenate([p["RK"], p["r0"] + p["rG"] @ b[..., None]], axis=2)
+        J = len(theta)
+        x = np.zeros((J, tpl.n_nodes, tpl.dim))
+        x[:, 1] = b
+        x[:, 2:] = p["P0"] + np.where(tpl.root[:, None] == 1, b[:, None, :], 0.0)
+        _, _, node_angle, Rn = tpl.orientations(theta, elements=False)
+        return EOB(None, None, None, None, None, None, p["K_T"], F, rec, x, node_angle, Rn, None)

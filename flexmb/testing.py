@@ -82,10 +82,13 @@ SOLVE_RESIDUAL = 1e-10
 
 def joint_size(joint, dim: int) -> float:
     """The joint's own length scale [length units]: the distance of node B from node A, or the
-    extent of its mesh when B sits on A."""
+    extent of its mesh when B sits on A, or 1 for a joint of no extent (an ideal hinge: its
+    placement_range is then in length units)."""
     size = float(np.linalg.norm(joint.interface_b(dim)))
     if size > 0:
         return size
+    if "fe_model" not in joint.capabilities:
+        return 1.0
     pts = np.asarray(joint.mesh(dim).points, dtype=float)
     return float(np.ptp(pts, axis=0).max()) or 1.0
 
@@ -229,8 +232,11 @@ def check_rest(joint, dim: int) -> None:
     # zero up to the roundoff of coordinates (~1e-16 x model size) times the stiffness
     res = np.abs(rest.r).max()
     assert res <= 1e-13 * rest.internal, f"{joint.kind} {dim}D: residual at rest {res:.3g}"
-    d = np.sqrt(np.abs(np.diag(rest.K)))
-    asym = np.abs((rest.K - rest.K.T) / np.outer(d, d)).max()  # unit free: scaled by the diagonal
+    # unit free: scaled by the diagonal (a row without one, an ideal joint's multiplier, by its largest entry)
+    d = np.abs(np.diag(rest.K))
+    d = np.sqrt(np.where(d > 0, d, np.abs(rest.K).max(axis=1)))
+    d[d == 0] = 1.0
+    asym = np.abs((rest.K - rest.K.T) / np.outer(d, d)).max()
     assert asym <= 1e-12, f"{joint.kind} {dim}D: tangent at rest not symmetric ({asym:.3g}, scaled)"
     # on the motions an ideal joint's constraints allow (the saddle point's Z^T K Z; K itself otherwise)
     K = rest.compiled.problem.reduced_tangent(sp.csr_array(rest.K))

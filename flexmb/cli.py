@@ -1,7 +1,7 @@
 """The ``flexmb`` command: ``demo``, ``solve``, ``run``, ``bench``, ``train``, ``joints``.
 
 Errors are one line on stderr (``--debug`` for a traceback), and so is each warning
-(``flexmb: warning: ConvergenceWarning: ...``). Exit codes:
+(``flexmb: warning: RuntimeWarning: ...``). Exit codes:
 
 - 0 success;
 - 1 a flexmb error: flexmb refused a model or solver parameter, a solve did not converge (its
@@ -280,7 +280,11 @@ def _solve(args) -> int:
     clash = sorted({"mechanism", "method"} & set(options))
     if clash:
         raise _UsageError(f"--option {clash[0]}=...: not a solver option (choose the method with --method)")
-    sol = solve(mechanism, method=method, **options)
+    from .errors import ConvergenceWarning
+
+    with warnings.catch_warnings():  # a solve that does not converge is the error line below
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        sol = solve(mechanism, method=method, **options)
     report = solution_report(sol, case=args.case, parameters=params)
     if args.json:
         print(json.dumps(strict_json(report), indent=2, allow_nan=False))

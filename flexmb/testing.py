@@ -63,27 +63,32 @@ def perturbed_state(problem: StaticProblem, state: State, rng: np.random.Generat
 # Every check builds the smallest mechanism around one joint: link "A" fixed, link "B" free at the
 # joint's interface node B, the joint frame placed at ``origin`` with ``rotation``. The checks are
 # scale free: every tolerance is relative to the joint's own size (`joint_size`) and stiffness
-# (`force_scale`), and the solves converge to `solver_tolerance`, so a joint passes alike in SI,
-# mm-N-MPa or um-uN-MPa and at 4 mm or 4 um. A failed check raises AssertionError saying what broke.
+# (`force_scale`), and the solves converge relative to the problem's own forces (the conventional
+# method's default) or to `solver_tolerance` (strategies with an absolute ``tol``), so a joint
+# passes alike in SI, mm-N-MPa or um-uN-MPa, at mm or um scale (tests/test_conformance.py). A
+# failed check raises AssertionError saying what broke.
 
 #: Central differences (step 1e-6 relative): truncation ~1e-12, cancellation ~eps/h ~ 1e-10.
 FD_TOLERANCE = 1e-6
-#: Relative agreement of two solves converged to `solver_tolerance`: their position errors are
-#: ~1e-10 of the joint size (`SOLVE_RESIDUAL`), far below 1e-7 of it.
+#: Relative agreement of two solves: the conventional method's default relative criterion
+#: (``rtol`` 1e-8 of the problem's force scale) and `solver_tolerance` for the other strategies
+#: leave position errors of ~1e-10-1e-8 of the joint size, below 1e-7 of it.
 SOLVE_TOLERANCE = 1e-7
-#: The kit's solves stop at this fraction of the joint's force scale (`force_scale`): the residual
-#: then moves B by ~1e-10 of the joint size in its softest direction (linear theory), three orders
-#: below `SOLVE_TOLERANCE`, and stays above the round-off floor of the shipped joints (1e-14 of
-#: their largest stiffness times their size) in SI, mm-N-MPa and um-uN-MPa (tests/test_conformance.py).
+#: Strategies with an absolute ``tol`` (KSD, the closed-form Newton) stop at this fraction of the
+#: joint's force scale (`force_scale`): the residual then moves B by ~1e-10 of the joint size in
+#: its softest direction (linear theory), three orders below `SOLVE_TOLERANCE`.
 SOLVE_RESIDUAL = 1e-10
 
 
 def joint_size(joint, dim: int) -> float:
     """The joint's own length scale [length units]: the distance of node B from node A, or the
-    extent of its mesh when B sits on A."""
+    extent of its mesh when B sits on A, or 1 for a joint of no extent (an ideal hinge: its
+    placement_range is then in length units)."""
     size = float(np.linalg.norm(joint.interface_b(dim)))
     if size > 0:
         return size
+    if "fe_model" not in joint.capabilities:
+        return 1.0
     pts = np.asarray(joint.mesh(dim).points, dtype=float)
     return float(np.ptp(pts, axis=0).max()) or 1.0
 
@@ -121,24 +126,34 @@ def _rotation(dim: int, rotation) -> np.ndarray:
 
 
 def _solve(mechanism, joint, dim: int, origin=None, **options):
-    """Solve ``mechanism`` (built around ``joint`` placed at ``origin``) to `solver_tolerance`
-    unless ``tol`` is given. When the solver cannot get below the kit's tolerance because the
-    residual's roundoff floor lies above it (the residual stalls), but that floor is still below
-    half `SOLVE_TOLERANCE` of the joint's force scale (it moves B by less than that fraction of
-    its size), the solve is repeated with 2x, then 4x the floor met."""
+    """Solve ``mechanism`` (built around ``joint`` placed at ``origin``). A strategy that judges
+    its residual relative to the problem's own force scale (it has an ``rtol`` option, as the
+    conventional method) keeps its default; any other gets ``tol`` = `solver_tolerance` unless
+    ``options`` set one. When that tolerance lies below the roundoff floor the solver meets (the
+    residual stalls) but the floor is below half `SOLVE_TOLERANCE` of the joint's force scale (it
+    moves B by less than that fraction of its size), the solve is repeated with 2x, then 4x it."""
     from .solvers import solve
 
-    given = "tol" in options
-    options.setdefault("tol", solver_tolerance(joint, dim, origin))
+    derived = "tol" not in options and not _relative(options.get("method", "conventional"))
+    if derived:
+        options["tol"] = solver_tolerance(joint, dim, origin)
     sol = solve(mechanism, **options)
-    if not sol.converged and not given and len(sol.residual_history):
+    if not sol.converged and derived and len(sol.residual_history):
         floor = float(np.min(sol.residual_history))
         for factor in (2.0, 4.0):  # the floor is noisy: a residual may dip below its typical level
-            if sol.converged or factor * floor > 0.5 * SOLVE_TOLERANCE * force_scale(joint, dim):
+            if sol.converged or factor * floor > 0.5 * SOLVE_TOLERANCE * _scales(joint, dim)[0]:
                 break
             sol = solve(mechanism, **{**options, "tol": factor * floor})
     assert sol.converged, f"conformance: the joint mechanism did not converge: {sol.message}"
     return sol
+
+
+def _relative(method: str) -> bool:
+    """Whether the strategy ``method`` judges its residual relative (has an ``rtol`` option)."""
+    from .solvers import STRATEGIES
+
+    cls = STRATEGIES.get(method)
+    return cls is not None and attrs.has(cls) and "rtol" in attrs.fields_dict(cls)
 
 
 @attrs.frozen(eq=False)
@@ -184,14 +199,15 @@ def _rest_compliance(joint, dim: int):
 
 
 def force_scale(joint, dim: int) -> float:
-    """The joint's own force scale [force units, or force x length for moments: the residual's]:
-    the smaller of the force that moves node B by `joint_size` in its softest direction and the
-    moment that turns it 1 rad about its softest axis (linear, at rest, node A fixed)."""
-    return _scales(joint, dim)[0]
+    """The joint's own force scale [force units]: the force that moves node B by `joint_size` in
+    its softest direction (linear, at rest, node A fixed)."""
+    C0, _ = _rest_compliance(joint, dim)
+    return float(joint_size(joint, dim) / np.abs(np.diag(C0))[:dim].max())
 
 
 def solver_tolerance(joint, dim: int, origin=None) -> float:
-    """The residual tolerance of the kit's solves: `SOLVE_RESIDUAL` x `force_scale`, at least 10x
+    """The residual tolerance of the kit's solves with strategies that have an absolute ``tol``:
+    `SOLVE_RESIDUAL` x the smaller of `force_scale` and the moment that turns B 1 rad, at least 10x
     the round-off floor of the joint's residual (1e-16 of its internal force scale: its stiffness
     times its size, per force and moment rows), which grows with the distance of its ``origin``
     from the global origin (coordinates carry roundoff in proportion to their magnitude)."""
@@ -201,7 +217,8 @@ def solver_tolerance(joint, dim: int, origin=None) -> float:
 
 
 def _scales(joint, dim: int) -> tuple[float, float]:
-    """`force_scale` and the residual's round-off floor."""
+    """The residual's scale (the smaller of `force_scale` and the moment that turns B 1 rad about
+    its softest axis: a tolerance on the residual's norm must resolve both) and its roundoff floor."""
     C0, floor = _rest_compliance(joint, dim)
     d = np.abs(np.diag(C0))
     return float(min(joint_size(joint, dim) / d[:dim].max(), 1.0 / d[dim:].max())), float(floor)
@@ -215,8 +232,11 @@ def check_rest(joint, dim: int) -> None:
     # zero up to the roundoff of coordinates (~1e-16 x model size) times the stiffness
     res = np.abs(rest.r).max()
     assert res <= 1e-13 * rest.internal, f"{joint.kind} {dim}D: residual at rest {res:.3g}"
-    d = np.sqrt(np.abs(np.diag(rest.K)))
-    asym = np.abs((rest.K - rest.K.T) / np.outer(d, d)).max()  # unit free: scaled by the diagonal
+    # unit free: scaled by the diagonal (a row without one, an ideal joint's multiplier, by its largest entry)
+    d = np.abs(np.diag(rest.K))
+    d = np.sqrt(np.where(d > 0, d, np.abs(rest.K).max(axis=1)))
+    d[d == 0] = 1.0
+    asym = np.abs((rest.K - rest.K.T) / np.outer(d, d)).max()
     assert asym <= 1e-12, f"{joint.kind} {dim}D: tangent at rest not symmetric ({asym:.3g}, scaled)"
     # on the motions an ideal joint's constraints allow (the saddle point's Z^T K Z; K itself otherwise)
     K = rest.compiled.problem.reduced_tangent(sp.csr_array(rest.K))
@@ -227,7 +247,7 @@ def check_tangent(joint, dim: int, origin=None, rotation=None, *, motion: float 
                   **options) -> float:
     """Analytic tangent = central differences of the residual in a deformed configuration (the
     solved intended motion ``motion``, then randomly perturbed); returns the scaled error.
-    ``options`` go to the solve (default ``tol``: `solver_tolerance`)."""
+    ``options`` go to the solve (default: see `_solve`)."""
     sol = _solve(joint_mechanism(joint, dim, origin, rotation, motion=motion), joint, dim, origin, **options)
     problem = sol.compiled.problem
     size = float(np.ptp(problem.model.x0)) or 1.0
@@ -344,7 +364,8 @@ def _b_displacement(sol, dim):
 def check_reciprocity(joint, dim: int, rotation=None, **options) -> None:
     """Maxwell-Betti for small loads on node B: displacement j under load i equals displacement i
     under load j (the compliance is symmetric), from full non-linear solves (``options`` go to
-    them; default ``tol``: 1e-8 of each load, at least the round-off floor)."""
+    them; the conventional method's relative criterion follows the small loads, another strategy
+    gets ``tol`` 1e-8 of each load, at least the round-off floor)."""
     C0, floor = _rest_compliance(joint, dim)
     n = len(C0)
     size = joint_size(joint, dim)
@@ -369,7 +390,8 @@ def check_reciprocity(joint, dim: int, rotation=None, **options) -> None:
             w = T[:, i] * sign * eps
             sol = _solve(joint_mechanism(joint, dim, None, rotation, force=w[:dim],
                                          moment=w[dim] if dim == 2 else w[dim:]), joint, dim,
-                         **{"tol": max(1e-8 * eps, floor), **options})
+                         **({} if _relative(options.get("method", "conventional"))
+                            else {"tol": max(1e-8 * eps, floor)}), **options)
             u.append(T.T @ _b_displacement(sol, dim))
         C[:, i] = (u[0] - u[1]) / (2.0 * eps)
     d = np.sqrt(np.abs(np.diag(C)))
@@ -382,8 +404,7 @@ def check_energy(joint, dim: int, rotation=None, *, deflection: float = 0.1, ste
     axis (so it turns B about the joint axis also when B sits on that axis), swept from 0 to a
     value that would move its point by ``deflection`` times the size in linear theory: the work
     of the load (Simpson's rule over ``steps`` equal load steps) equals the strain energy
-    stored, as for any conservative joint. ``options`` go to the solves (default ``tol``:
-    `solver_tolerance`)."""
+    stored, as for any conservative joint. ``options`` go to the solves (default: see `_solve`)."""
     C0, _ = _rest_compliance(joint, dim)
     size = joint_size(joint, dim)
     Q = _rotation(dim, rotation)
@@ -421,7 +442,8 @@ def check_energy(joint, dim: int, rotation=None, *, deflection: float = 0.1, ste
 def check_strategies(joint, dim: int, motion: float = 0.2, **options) -> dict:
     """Every registered strategy either solves the joint mechanism or raises the documented
     `FlexmbError` (a joint without the model a strategy needs: `UnsupportedStrategyError`);
-    ``options`` go to every solve (default ``tol``: `solver_tolerance`)."""
+    ``options`` go to every solve (default: the conventional method's relative criterion,
+    `solver_tolerance` for strategies with an absolute ``tol``)."""
     from .errors import FlexmbError, UnsupportedStrategyError
     from .solvers import STRATEGIES, solve
 
@@ -429,7 +451,8 @@ def check_strategies(joint, dim: int, motion: float = 0.2, **options) -> dict:
     for name, cls in STRATEGIES.items():
         m = joint_mechanism(joint, dim, motion=motion)
         try:
-            out[name] = solve(m, method=name, **{"tol": solver_tolerance(joint, dim), **options})
+            extra = {} if "tol" in options or _relative(name) else {"tol": solver_tolerance(joint, dim)}
+            out[name] = solve(m, method=name, **extra, **options)
         except UnsupportedStrategyError as exc:
             can = set(getattr(cls, "needs", ())) <= joint.capabilities and dim in getattr(cls, "dims", (dim,))
             assert not can, f"{joint.kind} {dim}D: {name} refused a joint that offers what it needs: {exc}"
@@ -444,7 +467,7 @@ def check_strategies(joint, dim: int, motion: float = 0.2, **options) -> dict:
 # These checks linearise the joint mechanism with its leaves' own mass (the sections' density);
 # a joint without mass has nothing to check and returns None.
 
-#: Relative agreement of frequencies of two solves converged to `solver_tolerance`.
+#: Relative agreement of frequencies of two solves converged to the default criterion.
 MODES_TOLERANCE = 1e-6
 
 
@@ -625,8 +648,8 @@ class JointConformance:
         return joint_size(joint, dim)
 
     def solver_options(self, joint, dim: int) -> dict:
-        """Options of every solve of the checks (default none: each solve converges to
-        `solver_tolerance` of the joint at its placement)."""
+        """Options of every solve of the checks (default none: the conventional method's relative
+        criterion, `solver_tolerance` for strategies with an absolute ``tol``)."""
         return {}
 
     @staticmethod

@@ -124,12 +124,12 @@ def stiffness_and_mass(solution) -> tuple[sp.csr_array, sp.csr_array]:
     return full_tangent(solution), mass_matrix(model, solution.state, model.rigid_masses)
 
 
-def solvable_problem(solution):
+def solvable_problem(solution, owner: str = "modes"):
     """The solution's `StaticProblem`, if the solution is a converged full FE equilibrium
     (`UnsupportedStrategyError` for KSD-reduced and closed-form solutions, `ConvergenceError`
-    for an unconverged one)."""
+    for an unconverged one); messages name the property ``owner``."""
     if solution.method == "ksd-reduced":
-        raise UnsupportedStrategyError("modes need the full FE equilibrium: solve with method='ksd-full' or "
+        raise UnsupportedStrategyError(f"{owner} need the full FE equilibrium: solve with method='ksd-full' or "
                                        "'conventional' (KSD-reduced's internal nodes are first-order only)")
     problem = solution.compiled.problem
     if not hasattr(problem.model, "elements"):

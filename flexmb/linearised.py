@@ -15,9 +15,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import _validate as v
-from .errors import ConvergenceError, ModelError, ParameterError
+from .errors import ModelError, ParameterError
 from .ksd.properties import reduced_tangent
-from .modal import DENSE_BELOW, constrained, full_tangent, held_dofs, solvable_problem
+from .modal import DENSE_BELOW, _converged, constrained, full_tangent, held_dofs, solvable_problem
 
 __all__ = ["buckling", "compliance", "material_tangent"]
 
@@ -115,14 +115,6 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     return out
 
 
-def _converged_ksd_reduced(solution, owner: str):
-    """The problem of a converged KSD-reduced solution (`ConvergenceError` if not converged)."""
-    if not solution.converged:
-        raise ConvergenceError(f"{owner} of an unconverged solution ({solution.message}): linearise about an "
-                               "equilibrium", solution)
-    return solution.compiled.problem
-
-
 def compliance(solution, link: str, point=None, axes: str = "global", held="prescribed") -> np.ndarray:
     """Compliance (6, 6) in 3D, (3, 3) in 2D, of a point of ``link`` at the solution's deformed
     state with the ``held`` DOFs held (as in `flexmb.modes`; default the prescribed ones): the point's displacement and rotation [m, rad] per unit
@@ -141,7 +133,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     0.95 % at d = 0.1 m and 7.3 % at 0.3 m; the joints' stress stiffening is not in the EOB's
     material stiffness (a cross flexure turned 0.3 rad: rotation compliance +1.46 %)."""
     reduced = solution.method == "ksd-reduced"
-    problem = _converged_ksd_reduced(solution, "compliance") if reduced else solvable_problem(solution)
+    problem = _converged(solution, "compliance") if reduced else solvable_problem(solution)
     compiled, model, state = solution.compiled, problem.model, solution.state
     if link not in compiled.link_node:
         raise ModelError(f"compliance: no link named {link!r}; links: {', '.join(compiled.link_node)}")

@@ -15,12 +15,16 @@ from __future__ import annotations
 import weakref
 
 import numpy as np
+import scipy.linalg as sla
 
+from ..fe.mass import RigidMasses, mass_matrix, rigid_mass
+from ..fe.model import State
+from .eob import lever
 from .geometry import ACTIVE, LinkPoses, rz
 from .kinematics import solve_kinematics
 from .reduced import ReducedMechanism
 
-__all__ = ["reduced_tangent", "link_poses"]
+__all__ = ["reduced_tangent", "reduced_mass", "condensed_joint_mass", "link_poses", "near"]
 
 
 def link_poses(red: ReducedMechanism, state) -> LinkPoses:
@@ -77,3 +81,125 @@ def reduced_tangent(solution, database=None):
     poses = link_poses(red, solution.state)
     _, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent=True)
     return Kr[np.ix_(red.emb_dofs, red.emb_dofs)], red
+
+
+_JOINT_MODELS = weakref.WeakKeyDictionary()
+
+
+def _joint_model(tpl, joint):
+    """The FE model of a template's joint alone, nodes numbered as the EOB's (A, B, internal):
+    the mechanism `EOBTemplate` builds, kept for its mass."""
+    try:
+        return _JOINT_MODELS[tpl]
+    except KeyError:
+        pass
+    from ..mechanism import Mechanism
+
+    m = Mechanism(dim=tpl.dim)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=joint.interface_b(tpl.dim))
+    m.add_joint("A", "B", joint, name="joint")
+    return _JOINT_MODELS.setdefault(tpl, m.compile().problem.model)
+
+
+def condensed_joint_mass(tpl, joint, eob, j: int, n_fixed: int = 0):
+    """Joint ``j``'s mass (2 nd, 2 nd) on its interface nodes A and B, in the joint frame at its EOB
+    near configuration: the joint's consistent mass (`flexmb.fe.mass.mass_matrix`, beams and
+    intermediate bodies at the near poses) condensed with the Craig-Bampton transformation of the
+    EOB's stiffness, ``T = [I; -K_ii^-1 K_ib]`` (Craig & Bampton 1968, static constraint modes on
+    both interface nodes), ``M_b = T^T M T``. The constraint modes carry the joint's rigid motions
+    exactly, so its mass and inertia are kept. With ``n_fixed`` > 0 also the lowest ``n_fixed``
+    fixed-interface modes ``Phi`` (mass-normalised, ``K_ii Phi = M_ii Phi diag(omega^2)``):
+    returns ``M_b``, their coupling ``Phi^T M T`` (n_fixed, 2 nd), ``omega^2`` and the interior
+    transformation ``(X, Phi)`` with interior DOFs ``= X q_b + Phi eta``."""
+    model = _joint_model(tpl, joint)
+    rot = eob.node_angle[j] if tpl.dim == 2 else eob.node_rotation[j]
+    M = mass_matrix(model, State(eob.node_position[j].copy(), rot.copy()), model.rigid_masses).toarray()
+    K = eob.K_nodes[j]
+    b = 2 * tpl.nd
+    n_fixed = min(n_fixed, K.shape[0] - b)
+    X = -np.linalg.solve(K[b:, b:], K[b:, :b]) if K.shape[0] > b else np.zeros((0, b))
+    T = np.vstack([np.eye(b), X])
+    Mb = T.T @ M @ T
+    Mb = 0.5 * (Mb + Mb.T)
+    if n_fixed <= 0:
+        return Mb, np.zeros((0, b)), np.zeros(0), (X, np.zeros((len(X), 0)))
+    w2, Phi = sla.eigh(0.5 * (K[b:, b:] + K[b:, b:].T), 0.5 * (M[b:, b:] + M[b:, b:].T),
+                       subset_by_index=[0, n_fixed - 1])
+    return Mb, Phi.T @ M[b:] @ T, w2, (X, Phi)
+
+
+def reduced_mass(solution, database=None) -> np.ndarray:
+    """The KSD-reduced solution's mass (n_links ndof, n_links ndof) on the links' FE DOFs: each
+    joint's `condensed_joint_mass`, carried from its interface nodes to the links by the joint's
+    current frame and the levers from the links' reference points, plus the links' rigid masses
+    (`flexmb.fe.mass.rigid_mass`) at their current poses."""
+    return reduced_modal_model(solution, 0, database)[1]
+
+
+def reduced_modal_model(solution, n_fixed: int, database=None):
+    """The KSD-reduced mechanism for free vibration: stiffness and mass (n, n) on the links' FE
+    DOFs (n_links ndof) followed by ``n_fixed`` fixed-interface modal coordinates per joint (in
+    joint order), and a function mapping a vector of those (n, k) to the full model's DOFs
+    (n_dofs, k): links as they are, joint interiors from the Craig-Bampton transformation."""
+    red, (eobs, _, _, p_hat, _, theta) = near(solution, database)
+    poses = link_poses(red, solution.state)
+    fr = red.frames
+    oA, F = fr.frame_a(poses)
+    _, _, geo = fr.relative(poses)
+    emb, nL, J = red.active, red.n_links, len(red.joint_names)
+    model = solution.compiled.problem.model
+    nl = nL * model.ndof
+    M6 = np.zeros((6 * nL, 6 * nL))
+    joints = {key: jt for key, jt, *_ in red.compiled.joints}
+    coupling, w2, recover = [None] * J, [None] * J, [None] * J
+    for (tpl, _, idx), e in zip(red.groups, eobs):
+        if getattr(e, "K_nodes", None) is None:  # a tabulated EOB: the near configuration's full EOB
+            e = tpl.evaluate(theta[idx], p_hat[idx, :red.dim])
+        for k, j in enumerate(idx):
+            Mb, C, w2[j], (X, Phi) = condensed_joint_mass(tpl, joints[red.joint_names[j]], e, k, n_fixed)
+            nd = tpl.nd
+            Ft = np.zeros((6, 6))
+            Ft[:3, :3] = Ft[3:, 3:] = F[j].T
+            G = np.zeros((2 * nd, 6 * nL))
+            for side, (link, arm) in enumerate(((fr.a[j], oA[j] - poses.x[fr.a[j]]), (fr.b[j], geo["rb"][j]))):
+                G[side * nd:(side + 1) * nd, 6 * link:6 * link + 6] = (Ft @ lever(arm, 3))[emb]
+            M6 += G.T @ Mb @ G
+            coupling[j] = (C @ G)[:, red.emb_dofs]
+            recover[j] = (G[:, red.emb_dofs], X, Phi, F[j])
+    nm = [len(w) for w in w2]
+    n = nl + sum(nm)
+    M, K = np.zeros((n, n)), np.zeros((n, n))
+    M[:nl, :nl] = M6[np.ix_(red.emb_dofs, red.emb_dofs)]
+    K[:nl, :nl] = reduced_tangent(solution, database)[0]
+    at = nl + np.concatenate([[0], np.cumsum(nm)])
+    for j in range(J):
+        sl = slice(at[j], at[j + 1])
+        M[sl, :nl], M[:nl, sl] = coupling[j], coupling[j].T
+        M[sl, sl] = np.eye(nm[j])
+        K[sl, sl] = np.diag(w2[j])
+    rigid = model.rigid_masses
+    if rigid is not None and (rigid.node < nL).any():
+        on = rigid.node < nL
+        sub = RigidMasses(rigid.node[on], rigid.offset[on], rigid.mass[on], rigid.inertia[on])
+        for d, blk in zip(model.node_dofs[sub.node], rigid_mass(model, solution.state, sub)):
+            M[np.ix_(d, d)] += blk
+
+    def to_full(v):
+        v = np.asarray(v, dtype=float).reshape(n, -1)
+        out = np.zeros((model.n_dofs, v.shape[1]))
+        out[:nl] = v[:nl]
+        nd, dim = model.ndof, model.dim
+        for j in range(J):
+            Gl, X, Phi, Fj = recover[j]
+            q = X @ (Gl @ v[:nl]) + Phi @ v[at[j]:at[j + 1]]  # interior DOFs in the joint frame
+            q = q.reshape(-1, nd, v.shape[1])
+            R = Fj[:dim, :dim]
+            g = np.empty_like(q)
+            g[:, :dim] = np.einsum("ab,nbk->nak", R, q[:, :dim])
+            g[:, dim:] = np.einsum("ab,nbk->nak", Fj, q[:, 3:]) if dim == 3 else q[:, 2:]
+            nodes = np.asarray(red.joint_nodes[j])
+            out[(nodes[:, None] * nd + np.arange(nd)).ravel()] = g.reshape(-1, v.shape[1])
+        return out
+
+    return K, 0.5 * (M + M.T), to_full

@@ -117,16 +117,30 @@ def condensed_joint_mass(tpl, joint, eob, j: int, n_fixed: int = 0):
     M = mass_matrix(model, State(eob.node_position[j].copy(), rot.copy()), model.rigid_masses).toarray()
     K = eob.K_nodes[j]
     b = 2 * tpl.nd
-    n_fixed = min(n_fixed, K.shape[0] - b)
-    X = -np.linalg.solve(K[b:, b:], K[b:, :b]) if K.shape[0] > b else np.zeros((0, b))
+    ni = K.shape[0] - b
+    n_fixed = max(0, min(n_fixed, ni))
+    Kii, Mii = K[b:, b:], M[b:, b:]
+    # the interior falls apart into chains only the interface nodes couple (`EOBTemplate._blocks`,
+    # a leaf each); elements and bodies never join two chains, so K_ii and M_ii are block diagonal
+    X = np.zeros((ni, b))
+    found = []  # (omega^2, interior DOFs, mode) of each chain's lowest fixed-interface modes
+    for group in tpl._blocks:
+        for idx in group:
+            at = np.ix_(idx, idx)
+            X[idx] = -np.linalg.solve(Kii[at], K[b + idx, :b])
+            if n_fixed:
+                w, V = sla.eigh(0.5 * (Kii[at] + Kii[at].T), 0.5 * (Mii[at] + Mii[at].T),
+                                subset_by_index=[0, min(n_fixed, len(idx)) - 1])
+                found += [(w[k], idx, V[:, k]) for k in range(len(w))]
     T = np.vstack([np.eye(b), X])
     Mb = T.T @ M @ T
     Mb = 0.5 * (Mb + Mb.T)
-    if n_fixed <= 0:
-        return Mb, np.zeros((0, b)), np.zeros(0), (X, np.zeros((len(X), 0)))
-    w2, Phi = sla.eigh(0.5 * (K[b:, b:] + K[b:, b:].T), 0.5 * (M[b:, b:] + M[b:, b:].T),
-                       subset_by_index=[0, n_fixed - 1])
-    return Mb, Phi.T @ M[b:] @ T, w2, (X, Phi)
+    found.sort(key=lambda item: item[0])
+    found = found[:n_fixed]
+    Phi = np.zeros((ni, len(found)))
+    for k, (_, idx, vec) in enumerate(found):
+        Phi[idx, k] = vec
+    return Mb, Phi.T @ M[b:] @ T, np.array([w for w, _, _ in found]), (X, Phi)
 
 
 def reduced_mass(solution, database=None) -> np.ndarray:

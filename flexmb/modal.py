@@ -51,7 +51,9 @@ DENSE_BELOW = 250
 DENSE_BELOW_NONSYMMETRIC = 90
 
 #: Fixed-interface modes per joint in a KSD-reduced solution's `modes` (with the joints'
-#: Craig-Bampton constraint modes, `flexmb.ksd.properties.reduced_modal_model`).
+#: Craig-Bampton constraint modes, `flexmb.ksd.properties.reduced_modal_model`). Measured on the
+#: manipulator at 30 deg, first three frequencies against the full model: 0 modes +5.0/+21/+24 %,
+#: 2: -0.10/-0.24/-0.28 %, 6: -0.17/-0.25/-0.28 %, 10: -0.18/-0.26/-0.28 %.
 KSD_FIXED_INTERFACE_MODES = 6
 
 _COMPONENTS = {2: {"x": (0,), "y": (1,), "rotation": (2,)},
@@ -212,6 +214,13 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     """The ``n`` lowest undamped natural frequencies [Hz] and mass-normalised mode shapes of a
     converged equilibrium (``method="conventional"`` or ``"ksd-full"``), linearised as the
     module notes state (dead loads, mass at the deformed state; ``held`` as there).
+
+    A KSD-reduced solution gives the reduced mechanism's modes
+    (`flexmb.ksd.properties.reduced_modal_model`): the links' DOFs with the reduced equilibrium's
+    tangent, each joint's mass condensed with its EOB's Craig-Bampton transformation (constraint
+    modes plus `KSD_FIXED_INTERFACE_MODES` fixed-interface modes), shapes recovered on every node.
+    Measured against the full model: the manipulator's first three parasitic frequencies over
+    +-45 deg within 0.55 %, the four-bar's 0.46 % at d = 0.1 m (6.8 % at 0.3 m).
 
     Dense LAPACK below `DENSE_BELOW` free DOFs (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
     tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises `ConvergenceError` for an unconverged

@@ -11,11 +11,13 @@ import warnings
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import _validate as v
 from .errors import ModelError, ParameterError
-from .modal import DENSE_BELOW, constrained, full_tangent, held_dofs, solvable_problem
+from .ksd.properties import reduced_tangent
+from .modal import DENSE_BELOW, _converged, constrained, full_tangent, held_dofs, solvable_problem
 
 __all__ = ["buckling", "compliance", "material_tangent"]
 
@@ -59,7 +61,7 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     where the tangent is linear in the increment). Without it, a prescribed turn's stresses are
     scaled with the loads.
     """
-    problem = solvable_problem(solution)
+    problem = solvable_problem(solution, "buckling")
     model = problem.model
     held_idx = held_dofs(solution, held, "buckling")
     free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
@@ -121,8 +123,17 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     free DOFs (dead loads). ``point``: a named point of the link (`Mechanism.add_point`) or its
     undeformed global position [m] (default: the link's reference point). ``axes``: ``"global"``
     (SPACAR's CMglob) or ``"link"`` (CMloc: the link's current axes). Held components of the
-    link's node give zero rows and columns."""
-    problem = solvable_problem(solution)
+    link's node give zero rows and columns.
+
+    A KSD-reduced solution gives the reduced mechanism's compliance: ``K_ff`` is then the tangent
+    of KSD step 3's equilibrium on the links' DOFs (`flexmb.ksd.properties.reduced_tangent`: each
+    joint's Craig-Bampton EOB stiffness at its near configuration, carried through the joints'
+    current frames). Measured against the full model at the conventional solution: the
+    manipulator's end link over +-45 deg within 0.72 % (median 0.16 %), the four-bar's top link
+    0.95 % at d = 0.1 m and 7.3 % at 0.3 m; the joints' stress stiffening is not in the EOB's
+    material stiffness (a cross flexure turned 0.3 rad: rotation compliance +1.46 %)."""
+    reduced = solution.method == "ksd-reduced"
+    problem = _converged(solution, "compliance") if reduced else solvable_problem(solution)
     compiled, model, state = solution.compiled, problem.model, solution.state
     if link not in compiled.link_node:
         raise ModelError(f"compliance: no link named {link!r}; links: {', '.join(compiled.link_node)}")
@@ -140,7 +151,12 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
         offset = v.vector(f"compliance of link {link!r}", "point", point, dim) - model.x0[node]
     free = problem.free if isinstance(held, str) and held == "prescribed" else \
         np.setdiff1d(np.arange(model.n_dofs), held_dofs(solution, held, "compliance"))
-    K = full_tangent(solution)[free][:, free].tocsc()
+    if reduced:  # the reduced mechanism's tangent on the links' DOFs (flexmb.ksd.properties)
+        K_links, _ = reduced_tangent(solution)
+        free = free[free < K_links.shape[0]]
+        K = sp.csc_array(K_links[np.ix_(free, free)])
+    else:
+        K = full_tangent(solution)[free][:, free].tocsc()
     dofs = model.node_dofs[node]
     cols = np.searchsorted(free, dofs)
     is_free = (cols < len(free)) & (free[np.minimum(cols, len(free) - 1)] == dofs)

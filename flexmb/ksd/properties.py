@@ -1,0 +1,219 @@
+"""Linearised properties of a KSD-reduced solution (issue 22 item 6): the reduced mechanism's
+tangent on the links' DOFs, from which `flexmb.compliance` takes a link point's compliance.
+
+The tangent is the Jacobian of the equilibrium KSD step 3 solves (`ReducedMechanism.equilibrium`):
+each joint's Craig-Bampton stiffness ``K_T`` (node A held, Eq. 2.5) at its EOB near configuration
+(the intended rotation and node B's position from step 1), carried to the links through the
+joints' current frames (the moments of the joint wrenches about the links' reference points:
+their geometric part), and the dead loads at offset points. The EOBs are rebuilt from step 1 as
+the solve built them (the tabulated condensation where the solve used it), so the tangent is the
+one the solve converged with. Rotation DOFs are spins (3D) or the angle (2D), as in the full model.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..fe.mass import RigidMasses, mass_matrix, rigid_mass
+from ..fe.model import State
+from .eob import lever
+from .geometry import ACTIVE, LinkPoses, rz
+from .kinematics import solve_kinematics
+from .reduced import ReducedMechanism
+
+__all__ = ["reduced_tangent", "reduced_mass", "condensed_joint_mass", "link_poses", "near"]
+
+
+def link_poses(red: ReducedMechanism, state) -> LinkPoses:
+    """The links' poses (3D form) of a full-model `State` whose first nodes are the links."""
+    nL, dim = red.n_links, red.dim
+    x = np.zeros((nL, 3))
+    x[:, :dim] = state.positions[:nL]
+    if dim == 2:
+        angle = np.asarray(state.rotations[:nL], dtype=float)
+        return LinkPoses(x, rz(angle), angle.copy())
+    R = np.array(state.rotations[:nL], dtype=float)
+    return LinkPoses(x, R, np.arctan2(R[:, 1, 0], R[:, 0, 0]))
+
+
+def near_configuration(red: ReducedMechanism, table: bool = True):
+    """KSD steps 1-2 as the KSD-reduced solve does them: per group of joints its EOB, and the
+    stiffness ``K`` (J, 6, 6), preload ``F_hat`` (J, 6), node B's near position ``p_hat`` (J, 3)
+    and rotation ``R_hat`` (J, 3, 3) in the joint frames, and the intended rotations (J,)."""
+    _, theta, p_hat, _ = solve_kinematics(red, tol=1e-10)
+    dim = red.dim
+    emb = ACTIVE[dim]
+    J = len(red.joint_names)
+    K, Fh, eobs = np.zeros((J, 6, 6)), np.zeros((J, 6)), []
+    for tpl, _, idx in red.groups:
+        if table and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
+            e = tpl.lookup(theta[idx], p_hat[idx, :dim])
+        else:
+            e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
+        K[idx[:, None, None], emb[:, None], emb] = e.K_T
+        Fh[idx[:, None], emb] = e.F_hat_T
+        eobs.append(e)
+    return eobs, K, Fh, p_hat, rz(theta), theta
+
+
+_NEAR = weakref.WeakKeyDictionary()
+
+
+def near(solution, database=None):
+    """The solution's `ReducedMechanism` and `near_configuration`, built once per solution and
+    database (measured on the manipulator: 7 ms of a 10 ms compliance; a second property of the
+    same solution skips it)."""
+    per = _NEAR.setdefault(solution, {})
+    if database not in per:
+        red = ReducedMechanism(solution.compiled, database)
+        per[database] = red, near_configuration(red)
+    return per[database]
+
+
+def reduced_tangent(solution, database=None):
+    """The KSD-reduced solution's tangent (n_links ndof, n_links ndof) on the links' FE DOFs
+    (link k's DOFs ``k ndof ..``, as in the full model), symmetric up to the dead loads' part,
+    and the `ReducedMechanism`. ``database``: the folder the solve used (default: shipped data)."""
+    red, (_, K, Fh, p_hat, R_hat, _) = near(solution, database)
+    poses = link_poses(red, solution.state)
+    _, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent=True)
+    return Kr[np.ix_(red.emb_dofs, red.emb_dofs)], red
+
+
+_JOINT_MODELS = weakref.WeakKeyDictionary()
+
+
+def _joint_model(tpl, joint):
+    """The FE model of a template's joint alone, nodes numbered as the EOB's (A, B, internal):
+    the mechanism `EOBTemplate` builds, kept for its mass."""
+    try:
+        return _JOINT_MODELS[tpl]
+    except KeyError:
+        pass
+    from ..mechanism import Mechanism
+
+    m = Mechanism(dim=tpl.dim)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=joint.interface_b(tpl.dim))
+    m.add_joint("A", "B", joint, name="joint")
+    return _JOINT_MODELS.setdefault(tpl, m.compile().problem.model)
+
+
+def condensed_joint_mass(tpl, joint, eob, j: int, n_fixed: int = 0):
+    """Joint ``j``'s mass (2 nd, 2 nd) on its interface nodes A and B, in the joint frame at its EOB
+    near configuration: the joint's consistent mass (`flexmb.fe.mass.mass_matrix`, beams and
+    intermediate bodies at the near poses) condensed with the Craig-Bampton transformation of the
+    EOB's stiffness, ``T = [I; -K_ii^-1 K_ib]`` (Craig & Bampton 1968, static constraint modes on
+    both interface nodes), ``M_b = T^T M T``. The constraint modes carry the joint's rigid motions
+    exactly, so its mass and inertia are kept. With ``n_fixed`` > 0 also the lowest ``n_fixed``
+    fixed-interface modes ``Phi`` (mass-normalised, ``K_ii Phi = M_ii Phi diag(omega^2)``):
+    returns ``M_b``, their coupling ``Phi^T M T`` (n_fixed, 2 nd), ``omega^2`` and the interior
+    transformation ``(X, Phi)`` with interior DOFs ``= X q_b + Phi eta``."""
+    model = _joint_model(tpl, joint)
+    rot = eob.node_angle[j] if tpl.dim == 2 else eob.node_rotation[j]
+    M = mass_matrix(model, State(eob.node_position[j].copy(), rot.copy()), model.rigid_masses).toarray()
+    K = eob.K_nodes[j]
+    b = 2 * tpl.nd
+    ni = K.shape[0] - b
+    n_fixed = max(0, min(n_fixed, ni))
+    Kii, Mii = K[b:, b:], M[b:, b:]
+    # the interior falls apart into chains only the interface nodes couple (`EOBTemplate._blocks`,
+    # a leaf each); elements and bodies never join two chains, so K_ii and M_ii are block diagonal
+    X = np.zeros((ni, b))
+    found = []  # (omega^2, interior DOFs, mode) of each chain's lowest fixed-interface modes
+    for group in tpl._blocks:
+        for idx in group:
+            at = np.ix_(idx, idx)
+            X[idx] = -np.linalg.solve(Kii[at], K[b + idx, :b])
+            if n_fixed:
+                w, V = sla.eigh(0.5 * (Kii[at] + Kii[at].T), 0.5 * (Mii[at] + Mii[at].T),
+                                subset_by_index=[0, min(n_fixed, len(idx)) - 1])
+                found += [(w[k], idx, V[:, k]) for k in range(len(w))]
+    T = np.vstack([np.eye(b), X])
+    Mb = T.T @ M @ T
+    Mb = 0.5 * (Mb + Mb.T)
+    found.sort(key=lambda item: item[0])
+    found = found[:n_fixed]
+    Phi = np.zeros((ni, len(found)))
+    for k, (_, idx, vec) in enumerate(found):
+        Phi[idx, k] = vec
+    return Mb, Phi.T @ M[b:] @ T, np.array([w for w, _, _ in found]), (X, Phi)
+
+
+def reduced_mass(solution, database=None) -> np.ndarray:
+    """The KSD-reduced solution's mass (n_links ndof, n_links ndof) on the links' FE DOFs: each
+    joint's `condensed_joint_mass`, carried from its interface nodes to the links by the joint's
+    current frame and the levers from the links' reference points, plus the links' rigid masses
+    (`flexmb.fe.mass.rigid_mass`) at their current poses."""
+    return reduced_modal_model(solution, 0, database)[1]
+
+
+def reduced_modal_model(solution, n_fixed: int, database=None):
+    """The KSD-reduced mechanism for free vibration: stiffness and mass (n, n) on the links' FE
+    DOFs (n_links ndof) followed by ``n_fixed`` fixed-interface modal coordinates per joint (in
+    joint order), and a function mapping a vector of those (n, k) to the full model's DOFs
+    (n_dofs, k): links as they are, joint interiors from the Craig-Bampton transformation."""
+    red, (eobs, _, _, p_hat, _, theta) = near(solution, database)
+    poses = link_poses(red, solution.state)
+    fr = red.frames
+    oA, F = fr.frame_a(poses)
+    _, _, geo = fr.relative(poses)
+    emb, nL, J = red.active, red.n_links, len(red.joint_names)
+    model = solution.compiled.problem.model
+    nl = nL * model.ndof
+    M6 = np.zeros((6 * nL, 6 * nL))
+    joints = {key: jt for key, jt, *_ in red.compiled.joints}
+    coupling, w2, recover = [None] * J, [None] * J, [None] * J
+    for (tpl, _, idx), e in zip(red.groups, eobs):
+        if getattr(e, "K_nodes", None) is None:  # a tabulated EOB: the near configuration's full EOB
+            e = tpl.evaluate(theta[idx], p_hat[idx, :red.dim])
+        for k, j in enumerate(idx):
+            Mb, C, w2[j], (X, Phi) = condensed_joint_mass(tpl, joints[red.joint_names[j]], e, k, n_fixed)
+            nd = tpl.nd
+            Ft = np.zeros((6, 6))
+            Ft[:3, :3] = Ft[3:, 3:] = F[j].T
+            G = np.zeros((2 * nd, 6 * nL))
+            for side, (link, arm) in enumerate(((fr.a[j], oA[j] - poses.x[fr.a[j]]), (fr.b[j], geo["rb"][j]))):
+                G[side * nd:(side + 1) * nd, 6 * link:6 * link + 6] = (Ft @ lever(arm, 3))[emb]
+            M6 += G.T @ Mb @ G
+            coupling[j] = (C @ G)[:, red.emb_dofs]
+            recover[j] = (G[:, red.emb_dofs], X, Phi, F[j])
+    nm = [len(w) for w in w2]
+    n = nl + sum(nm)
+    M, K = np.zeros((n, n)), np.zeros((n, n))
+    M[:nl, :nl] = M6[np.ix_(red.emb_dofs, red.emb_dofs)]
+    K[:nl, :nl] = reduced_tangent(solution, database)[0]
+    at = nl + np.concatenate([[0], np.cumsum(nm)])
+    for j in range(J):
+        sl = slice(at[j], at[j + 1])
+        M[sl, :nl], M[:nl, sl] = coupling[j], coupling[j].T
+        M[sl, sl] = np.eye(nm[j])
+        K[sl, sl] = np.diag(w2[j])
+    rigid = model.rigid_masses
+    if rigid is not None and (rigid.node < nL).any():
+        on = rigid.node < nL
+        sub = RigidMasses(rigid.node[on], rigid.offset[on], rigid.mass[on], rigid.inertia[on])
+        for d, blk in zip(model.node_dofs[sub.node], rigid_mass(model, solution.state, sub)):
+            M[np.ix_(d, d)] += blk
+
+    def to_full(v):
+        v = np.asarray(v, dtype=float).reshape(n, -1)
+        out = np.zeros((model.n_dofs, v.shape[1]))
+        out[:nl] = v[:nl]
+        nd, dim = model.ndof, model.dim
+        for j in range(J):
+            Gl, X, Phi, Fj = recover[j]
+            q = X @ (Gl @ v[:nl]) + Phi @ v[at[j]:at[j + 1]]  # interior DOFs in the joint frame
+            q = q.reshape(-1, nd, v.shape[1])
+            R = Fj[:dim, :dim]
+            g = np.empty_like(q)
+            g[:, :dim] = np.einsum("ab,nbk->nak", R, q[:, :dim])
+            g[:, dim:] = np.einsum("ab,nbk->nak", Fj, q[:, 3:]) if dim == 3 else q[:, 2:]
+            nodes = np.asarray(red.joint_nodes[j])
+            out[(nodes[:, None] * nd + np.arange(nd)).ravel()] = g.reshape(-1, v.shape[1])
+        return out
+
+    return K, 0.5 * (M + M.T), to_full

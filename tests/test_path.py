@@ -258,6 +258,21 @@ def test_a_path_that_cannot_continue_is_reported_with_its_points():
     assert len(path) == 1 and path[0].converged and path.load_factor[0] == 0.0
 
 
+def test_a_stop_predicate_that_raises_ends_the_path_with_its_points():
+    """A bug in the user's ``stop`` (here a ZeroDivisionError from the third point on) does not
+    discard the points already traced: the path ends there, says why, and warns."""
+    calls = []
+
+    def stop(solution):
+        calls.append(solution.load_factor)
+        return len(calls) > 2 and 1 / 0
+
+    with pytest.warns(UserWarning, match="stop\\(\\) raised ZeroDivisionError"):
+        path = flexmb.trace(cases.von_mises_truss(), steps=10, arc_length=0.05, stop=stop, progress=False)
+    assert path.stopped_by == "failure" and "ZeroDivisionError" in path.message
+    assert len(path) == 4 and all(s.converged for s in path)  # the start and the three points stop() saw
+
+
 def test_qiu_bistable_snaps_through_between_two_stable_states():
     """Qiu, Lang & Slocum's (2004) double curved beam (Q = h/t = 12) under force control, with a
     1e-3 third-mode imperfection: stable up to the forward switching force, unstable on the way

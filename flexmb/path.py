@@ -15,6 +15,7 @@ import numpy as np
 
 from . import _validate as v
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
+from .plausibility import check
 from .results import Solution
 from .solvers.arclength import ArcLength
 from .sweeps import SweepResult
@@ -196,6 +197,14 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
                 break
     finally:
         bar.close()
+    for sol in sols:  # the first implausible point warns (strain, yield), as a sweep's solutions do
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            check(sol)
+        if caught:
+            warnings.warn(f"trace, at load factor {sol.load_factor:.6g}: {caught[0].message}", caught[0].category,
+                          stacklevel=2)
+            break
     path = Path(sols, points, critical, message, stopped_by)
     path.wall_time = time.perf_counter() - t0
     return path

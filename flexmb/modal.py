@@ -143,6 +143,9 @@ def solvable_problem(solution, owner: str = "modes"):
     """The solution's `StaticProblem`, if the solution is a converged full FE equilibrium
     (`UnsupportedStrategyError` for KSD-reduced and closed-form solutions, `ConvergenceError`
     for an unconverged one); messages name the property ``owner``."""
+    if not hasattr(solution, "compiled") or not hasattr(solution, "method"):
+        raise ParameterError(f"linearisation needs a Solution (flexmb.solve, sweep or trace), got "
+                             f"{type(solution).__name__}: solve the mechanism first")
     if solution.method == "ksd-reduced":
         raise UnsupportedStrategyError(f"{owner} need the full FE equilibrium: solve with method='ksd-full' or "
                                        "'conventional' (KSD-reduced's internal nodes are first-order only)")

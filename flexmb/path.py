@@ -8,12 +8,14 @@ the way; the result is a `Path`, a sequence of `Solution` s like a `SweepResult`
 from __future__ import annotations
 
 import time
+import warnings
 
 import attrs
 import numpy as np
 
 from . import _validate as v
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
+from .plausibility import check
 from .results import Solution
 from .solvers.arclength import ArcLength
 from .sweeps import SweepResult
@@ -92,7 +94,8 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         computed and is the last point). None: no limit.
     stop
         A predicate ``stop(solution) -> bool`` called with every new point; True ends the path
-        (that point included).
+        (that point included); if it raises, the path ends there (``stopped_by="failure"``, the
+        exception in `Path.message`, a UserWarning), its points kept.
     method
         ``"conventional"``: the full finite-element model (the only one with a tangent in every
         direction; KSD and the closed forms cannot follow a path).
@@ -180,13 +183,28 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
             n += 1
             bar.update(1)
             bar.set_postfix(load_factor=f"{p.lam:.4g}")
-            if stop is not None and stop(sols[-1]):
+            try:
+                stopping = stop is not None and stop(sols[-1])
+            except Exception as exc:  # the user's predicate failed: keep the points reached, say why
+                message, stopped_by = (f"stop() raised {type(exc).__name__}: {exc} at load factor {p.lam:.6g}; "
+                                       "the points reached are kept"), "failure"
+                warnings.warn(f"trace: {message}", UserWarning, stacklevel=2)
+                break
+            if stopping:
                 message, stopped_by = f"stop() at load factor {p.lam:.6g}", "stop"
                 break
             if n >= steps:
                 break
     finally:
         bar.close()
+    for sol in sols:  # the first implausible point warns (strain, yield), as a sweep's solutions do
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            check(sol)
+        if caught:
+            warnings.warn(f"trace, at load factor {sol.load_factor:.6g}: {caught[0].message}", caught[0].category,
+                          stacklevel=2)
+            break
     path = Path(sols, points, critical, message, stopped_by)
     path.wall_time = time.perf_counter() - t0
     return path

@@ -230,6 +230,25 @@ def test_bad_hinge_parameters_raise(params):
         flexmb.joint("hinge", **params)
 
 
+@pytest.mark.parametrize("angle", [2 * np.pi + 0.3, -3.5])
+def test_a_3d_motor_beyond_half_a_turn_is_refused_not_wrapped(angle):
+    """A 3D rotation has no turn count: a motor asked for 2 pi + 0.3 converged at 0.3 rad (the
+    leaf's moment 3.26 N m instead of a leaf wound 377 deg, which in 2D does not converge). The
+    same motor angle in 2D turns the crank that far (`angle_of` below)."""
+    def pivot(dim, angle):
+        m = flexmb.Mechanism(dim=dim)
+        m.add_link("g", fixed=True)
+        m.add_link("b", position=[0.05, 0.0] + [0.0] * (dim - 2))
+        m.add_joint("g", "b", "hinge", angle=angle, name="motor")
+        m.add_joint("g", "b", "leaf_spring", length=0.05, thickness=0.0005, elements=4)
+        return m
+
+    with pytest.raises(flexmb.ParameterError, match="'motor'.*within one turn"):
+        flexmb.solve(pivot(3, angle))
+    m2 = pivot(2, 0.5 * angle)  # half of it, in the plane: reached exactly
+    assert angle_of(flexmb.solve(m2), "b") == pytest.approx(0.5 * angle, abs=1e-9)
+
+
 def _loop(dim, n_el):
     """Flexures and hinges in one loop, loaded: ground -pin(k)- P -leaf- Q -motor hinge- R -leaf- ground."""
     z = [] if dim == 2 else [0.0]

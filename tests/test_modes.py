@@ -625,3 +625,14 @@ def test_dead_forces_keep_the_tangent_symmetric_dead_moments_do_not():
             r = sol.compiled.problem.model.node_dofs[sol.compiled.link_node["tip"]][3:]
             Kr = K[np.ix_(r, r)]
             np.testing.assert_allclose(0.5 * (Kr - Kr.T), -0.5 * skew(moment), atol=1e-6)
+
+
+@pytest.mark.parametrize("call", [lambda m, s: flexmb.modes(m), lambda m, s: flexmb.buckling(m),
+                                  lambda m, s: flexmb.compliance(m, "tip"), lambda m, s: flexmb.buckling(s, base=m)])
+def test_linearising_a_mechanism_instead_of_a_solution_is_a_parameter_error(call):
+    """A Mechanism passed where a Solution belongs (modes(m) for modes(flexmb.solve(m))) is
+    named, not an AttributeError from inside."""
+    m = flexmb.models.cantilever(dim=2)
+    s = flexmb.solve(m)
+    with pytest.raises(flexmb.errors.ParameterError, match="needs a Solution"):
+        call(m, s)

@@ -6,6 +6,7 @@ Lang & Slocum's (2004) modal model of the double curved-beam bistable.
 """
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -256,6 +257,41 @@ def test_a_path_that_cannot_continue_is_reported_with_its_points():
     path = flexmb.trace(cases.lee_frame(), steps=5, arc_length=1.0, max_rotation=1e-12, progress=False)
     assert path.stopped_by == "failure" and "cannot continue from load factor 0" in path.message
     assert len(path) == 1 and path[0].converged and path.load_factor[0] == 0.0
+
+
+def test_a_path_beyond_the_elastic_range_warns_as_solve_and_sweep_do():
+    """A steel leaf 50 x 10 x 0.5 mm (SI) under 10 kN at its tip (kN typed for N): the path runs
+    at strains a linear-elastic beam cannot represent; `solve` and `sweep` say so
+    (PlausibilityWarning), and so must `trace`, once, naming the load factor; 1 N stays quiet."""
+    def leaf(force):
+        m = flexmb.Mechanism(dim=2)
+        m.add_link("g", fixed=True)
+        m.add_link("t", position=(0.05, 0.0))
+        m.add_joint("g", "t", "leaf_spring", length=0.05, thickness=0.0005, width=0.01, elements=8)
+        m.apply_force("t", (0.0, force))
+        return m
+
+    with pytest.warns(flexmb.errors.PlausibilityWarning, match="trace, at load factor .*peak strain"):
+        path = flexmb.trace(leaf(1e4), steps=30, progress=False)  # strain 0.021 at load factor 0.0075
+    assert len(path) == 31  # the path itself is kept whole
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", flexmb.errors.PlausibilityWarning)
+        flexmb.trace(leaf(1.0), steps=5, progress=False)
+
+
+def test_a_stop_predicate_that_raises_ends_the_path_with_its_points():
+    """A bug in the user's ``stop`` (here a ZeroDivisionError from the third point on) does not
+    discard the points already traced: the path ends there, says why, and warns."""
+    calls = []
+
+    def stop(solution):
+        calls.append(solution.load_factor)
+        return len(calls) > 2 and 1 / 0
+
+    with pytest.warns(UserWarning, match="stop\\(\\) raised ZeroDivisionError"):
+        path = flexmb.trace(cases.von_mises_truss(), steps=10, arc_length=0.05, stop=stop, progress=False)
+    assert path.stopped_by == "failure" and "ZeroDivisionError" in path.message
+    assert len(path) == 4 and all(s.converged for s in path)  # the start and the three points stop() saw
 
 
 def test_qiu_bistable_snaps_through_between_two_stable_states():

@@ -132,7 +132,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     manipulator's end link over +-45 deg within 0.72 % (median 0.16 %), the four-bar's top link
     0.95 % at d = 0.1 m and 7.3 % at 0.3 m; the joints' stress stiffening is not in the EOB's
     material stiffness (a cross flexure turned 0.3 rad: rotation compliance +1.46 %)."""
-    reduced = solution.method == "ksd-reduced"
+    reduced = getattr(solution, "method", None) == "ksd-reduced"  # not a Solution: solvable_problem names it
     problem = _converged(solution, "compliance") if reduced else solvable_problem(solution)
     compiled, model, state = solution.compiled, problem.model, solution.state
     if link not in compiled.link_node:

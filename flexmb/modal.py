@@ -230,7 +230,7 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     solution, `ParameterError` for ``n`` outside [1, free DOFs - 1], `ModelError` naming a free
     DOF without mass.
     """
-    reduced = solution.method == "ksd-reduced"
+    reduced = getattr(solution, "method", None) == "ksd-reduced"  # not a Solution: solvable_problem names it
     problem = _converged(solution) if reduced else solvable_problem(solution)
     compiled, model = solution.compiled, problem.model
     held_idx = held_dofs(solution, held)

@@ -84,7 +84,7 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
         Kt, Km = Z.T @ Kt @ Z, Z.T @ Km @ Z
         nf = Kt.shape[0]
     Ks = (Kt - Km).tocsr()
-    if abs(Ks).max() == 0.0:
+    if Ks.nnz == 0 or abs(Ks).max() == 0.0:
         return np.full(n, np.inf)  # no stress, no load: nothing to buckle
     tol = 1e-11 * abs(Km).max()
     symmetric = bool(abs(Ks - Ks.T).max() <= tol and abs(Km - Km.T).max() <= tol)

@@ -67,9 +67,9 @@ def _check_reachable(red: ReducedMechanism) -> None:
     comp = red.prescribed % 6
     rot = np.abs(np.asarray(red.values, dtype=float)[comp >= 3])
     if rot.size and rot.max() > reach + 2 * np.pi:
-        raise DatabaseError(f"KSD: a prescribed rotation of {rot.max():.6g} rad is outside its trained range: beyond the "
-                            f"trained ranges of all the mechanism's joints together and a full turn ({reach:.4g} + 2 pi rad); use method='conventional' or retrain with "
-                            "`flexmb train --range`")
+        raise DatabaseError(f"KSD: a prescribed rotation of {rot.max():.6g} rad is beyond the trained ranges of all the "
+                            f"mechanism's joints together and a full turn ({reach:.4g} + 2 pi rad), so outside its trained "
+                            "range; use method='conventional' or retrain with `flexmb train --range`")
 
 
 @attrs.frozen(kw_only=True)

@@ -175,15 +175,7 @@ def write_vtk(solution: Solution, path: str | os.PathLike, *, undeformed: bool =
     require("meshio", "export", FEATURE)
     path = _checked_path("write_vtk", path, SUFFIXES)
     mesh = to_meshio(solution, undeformed=undeformed)
-    tmp = _staged(path)
-    try:
-        _write(mesh, tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise ParameterError(f"write_vtk: cannot write {str(path)!r}: {exc.strerror or exc}") from None
-    finally:
-        _discard(tmp)
-    return path
+    return _write_atomically("write_vtk", mesh, path)
 
 
 def write_series(solutions: Iterable[Solution], path: str | os.PathLike, *,
@@ -398,15 +390,7 @@ def write_mode(modes, k: int, path: str | os.PathLike, *, solution: Solution | N
     require("meshio", "export", FEATURE)
     path = _checked_path("write_mode", path, SUFFIXES)
     mesh = mode_mesh(modes, k, solution=solution, scale=scale, sections=sections)
-    tmp = _staged(path)
-    try:
-        _write(mesh, tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise ParameterError(f"write_mode: cannot write {str(path)!r}: {exc.strerror or exc}") from None
-    finally:
-        _discard(tmp)
-    return path
+    return _write_atomically("write_mode", mesh, path)
 
 
 # -- helpers -----------------------------------------------------------------------------------
@@ -432,6 +416,19 @@ def _checked_path(where: str, path, suffixes: dict) -> pathlib.Path:
     if p.suffix.lower() not in suffixes:
         raise ParameterError(f"{where}: path={str(p)!r} has suffix {p.suffix!r}; valid: {', '.join(suffixes)}")
     return p
+
+
+def _write_atomically(where: str, mesh, path: pathlib.Path) -> pathlib.Path:
+    """Write ``mesh`` aside and rename it to ``path`` (a failed write leaves no partial file)."""
+    tmp = _staged(path)
+    try:
+        _write(mesh, tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise ParameterError(f"{where}: cannot write {str(path)!r}: {exc.strerror or exc}") from None
+    finally:
+        _discard(tmp)
+    return path
 
 
 def _staged(path: pathlib.Path) -> pathlib.Path:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import attrs
 import numpy as np
 
-from ..rotations import cross, expm_so3, rot2, skew
+from ..rotations import cross, expm_so3, logm_so3, rot2, skew
 from . import beam2d, beam3d
 from .assembly import scatter_add
 
@@ -113,6 +113,20 @@ class FEModel:
         zero = np.zeros(self.hinges.n_rows)
         return (zero if to.multipliers is None else to.multipliers) - (zero if frm.multipliers is None
                                                                          else frm.multipliers)
+
+    def increment(self, frm: State, to: State) -> np.ndarray:
+        """The increment ``du`` (n_dofs,) with ``apply_increment(frm, du) == to``: translations
+        subtract, rotations as spatial spins ``log(R_to R_frm^T)`` (3D, Eq. A.8) or angles (2D),
+        the hinges' multipliers subtract."""
+        du = np.empty((self.n_nodes, self.ndof))
+        du[:, : self.dim] = to.positions - frm.positions
+        if self.dim == 2:
+            du[:, 2] = to.rotations - frm.rotations
+        else:
+            du[:, 3:] = logm_so3(to.rotations @ frm.rotations.transpose(0, 2, 1))
+        if self.hinges is None:
+            return du.ravel()
+        return np.concatenate([du.ravel(), self.multiplier_change(frm, to)])
 
     def apply_increment(self, state: State, du: np.ndarray) -> State:
         """New state after increments ``du`` (n_dofs,): positions add, rotations compose (Eq. A.8),

@@ -38,7 +38,6 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..fe.model import State
-from ..rotations import logm_so3
 from .conventional import is_stable, positive_float, positive_int, unit_interval
 
 __all__ = ["ArcLength", "PathPoint", "load_tangent", "inertia", "DENSE_EIGEN_BELOW"]
@@ -528,16 +527,8 @@ class _Metric:
         return math.sqrt((self.dot(du, du) + self.psi2 * dlam * dlam) / (1.0 + self.psi2))
 
     def difference(self, state: State, start: State) -> np.ndarray:
-        """The increment from ``start`` to ``state`` on all DOFs (3D rotations: the spin
-        ``log(R R_start^T)``)."""
-        m = self.model
-        out = np.zeros((m.n_nodes, m.ndof))
-        out[:, : m.dim] = state.positions - start.positions
-        if m.dim == 2:
-            out[:, 2] = state.rotations - start.rotations
-        else:
-            out[:, 3:] = logm_so3(state.rotations @ start.rotations.transpose(0, 2, 1))
-        return np.concatenate([out.ravel(), m.multiplier_change(start, state)])
+        """The increment from ``start`` to ``state`` on all DOFs (`FEModel.increment`)."""
+        return self.model.increment(start, state)
 
     def root(self, Du, Dl, dr, dt, ds) -> float:
         """``dlam`` of the corrector on the constraint ``|(Du + dr + dlam dt, Dl + dlam)| = ds``

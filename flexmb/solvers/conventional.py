@@ -23,7 +23,6 @@ from ..fe.model import State
 from ..linear import single_threaded
 from ..problem import StaticProblem
 from ..results import Solution
-from ..rotations import logm_so3
 
 __all__ = ["Conventional", "newton_steps", "is_stable", "STEP_CONTROLS"]
 
@@ -205,21 +204,6 @@ def _size(model, du: np.ndarray, length: float) -> float:
     return max(float(t), _largest_rotation(model, du))
 
 
-def _increment(model, frm: State, to: State) -> np.ndarray:
-    """The increment ``du`` (all DOFs) with ``apply_increment(frm, du) == to``: translations
-    subtract, rotations as spatial spins ``log(R_to R_frm^T)`` (3D, Eq. A.8) or angles (2D), the
-    hinges' multipliers subtract."""
-    du = np.empty((model.n_nodes, model.ndof))
-    du[:, :model.dim] = to.positions - frm.positions
-    if model.dim == 2:
-        du[:, 2] = to.rotations - frm.rotations
-    else:
-        du[:, 3:] = logm_so3(to.rotations @ frm.rotations.transpose(0, 2, 1))
-    if model.hinges is None:
-        return du.ravel()
-    return np.concatenate([du.ravel(), to.multipliers - frm.multipliers])  # the hinges' multipliers last
-
-
 def _continued(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
     """The rotation vectors ``spin + 2 pi k spin / |spin|`` (k = -1, 0, 1) nearest to ``near``
     (N, 3): the same rotations, continued along a path instead of wrapped to angles in [0, pi]."""
@@ -243,7 +227,7 @@ def _extrapolated(model, path: list, target: float) -> np.ndarray:
         lam_i, s_i = path[i]
         others = np.delete(lams, i)
         weight = np.prod((target - others) / (lam_i - others))
-        d = _increment(model, last, s_i)
+        d = model.increment(last, s_i)
         if model.dim == 3:
             nodes = d[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # a view: hinge multipliers last
             nodes[:, 3:] = near = _continued(nodes[:, 3:], near)

@@ -281,11 +281,7 @@ class StaticProblem(BoundaryConditions):
 
     @functools.cached_property
     def _free_weights(self) -> np.ndarray:
-        m = self.model
-        force = np.tile(np.arange(m.ndof) < m.dim, m.n_nodes)
-        if m.hinges is not None:  # a hinge's position rows are forces, its axis and motor rows moments
-            force = np.concatenate([force, np.nonzero(m.hinges.active)[1] < m.dim])
-        return np.where(force[self.free], 1.0, 1.0 / self.model_length)
+        return np.where(self.model.force_dofs[self.free], 1.0, 1.0 / self.model_length)
 
     @functools.cached_property
     def model_length(self) -> float:

@@ -114,6 +114,15 @@ class FEModel:
         return (zero if to.multipliers is None else to.multipliers) - (zero if frm.multipliers is None
                                                                          else frm.multipliers)
 
+    @property
+    def force_dofs(self) -> np.ndarray:
+        """Which DOFs (n_dofs,) are translations, whose residuals are forces (True), rather than
+        rotations (moments); a hinge's position rows are forces, its axis and motor rows moments."""
+        node = np.tile(np.arange(self.ndof) < self.dim, self.n_nodes)
+        if self.hinges is None:
+            return node
+        return np.concatenate([node, np.nonzero(self.hinges.active)[1] < self.dim])
+
     def increment(self, frm: State, to: State) -> np.ndarray:
         """The increment ``du`` (n_dofs,) with ``apply_increment(frm, du) == to``: translations
         subtract, rotations as spatial spins ``log(R_to R_frm^T)`` (3D, Eq. A.8) or angles (2D),

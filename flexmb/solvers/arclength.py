@@ -127,16 +127,6 @@ def _motor_rate(problem) -> np.ndarray:
     return out
 
 
-def _translational(model) -> np.ndarray:
-    """Which DOFs (all, multipliers last) are translations or carry forces (True) rather than
-    rotations or moments: a hinge's position rows are forces, its axis and motor rows moments."""
-    node = np.tile(np.arange(model.ndof) < model.dim, model.n_nodes)
-    hinges = getattr(model, "hinges", None)
-    if hinges is None:
-        return node
-    return np.concatenate([node, np.nonzero(hinges.active)[1] < model.dim])
-
-
 def _prescribed_rate(problem, lam: float) -> np.ndarray:
     from ..rotations import expm_so3
 
@@ -327,7 +317,7 @@ class ArcLength:
             return float(np.linalg.norm(r[free])) <= self.tol
         f_ext = problem.external_force(state, lam)[0]
         f_int = r + f_ext
-        is_tr = _translational(problem.model)
+        is_tr = problem.model.force_dofs
         F = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
         M = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]), F * metric.size)
         if F == 0.0 and M == 0.0:

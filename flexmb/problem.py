@@ -180,9 +180,12 @@ class StaticProblem(BoundaryConditions):
     def external_force(self, state: State, lam: float = 1.0):
         """Assembled external load vector at load factor ``lam`` and the load-stiffness blocks."""
         m = self.model
-        d = m.offsets(state, self.loads.node, self.loads.offset)
-        w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
-        f = scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs)
+        if len(self.loads.node):
+            d = m.offsets(state, self.loads.node, self.loads.offset)
+            w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
+            f = scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs)
+        else:  # prescribed motion only
+            f, G = np.zeros(m.n_dofs), np.zeros((0, m.nrot, m.nrot))
         if self._offset is not None and lam != 1.0:
             if callable(self._offset):
                 self._offset = self._offset()
@@ -272,10 +275,9 @@ class StaticProblem(BoundaryConditions):
         over `model_length` (reactions are sums of element forces)."""
         m, L = self.model, self.model_length
         nd, d = m.ndof, m.dim
-        F = Fe.reshape(len(Fe), 2, nd) if len(Fe) else np.zeros((0, 2, nd))
-        f = f_ext[: m.n_node_dofs].reshape(-1, nd)  # the hinges' multiplier rows last
-        return float(max(np.abs(F[..., :d]).max(initial=0.0), np.abs(F[..., d:]).max(initial=0.0) / L,
-                         np.abs(f[:, :d]).max(initial=0.0), np.abs(f[:, d:]).max(initial=0.0) / L))
+        F = np.abs(Fe).reshape(-1, nd).max(axis=0, initial=0.0)  # per DOF kind
+        f = np.abs(f_ext[: m.n_node_dofs]).reshape(-1, nd).max(axis=0, initial=0.0)  # the hinges' rows last
+        return float(max(F[:d].max(), F[d:].max() / L, f[:d].max(), f[d:].max() / L))
 
     def scaled_residual(self, r_free: np.ndarray) -> float:
         """``|| [r_F, r_M / L] || / F``: the free residual in units of the force scale of the last

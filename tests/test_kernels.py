@@ -129,6 +129,27 @@ def test_compiled_assembly_equals_numpy(kernels, dim, override):
     assert out["numba"][1].shape == (problem.n_free, problem.n_free)
 
 
+def test_compiled_rotation_updates_equal_numpy(kernels):
+    # the spin update R <- exp(w) R (Eq. A.8) and its inverse log(R_to R_from^T), at angles up to
+    # and across the near-pi branch of the logarithm (within 1e-3 of pi)
+    model = flexmb.models.fourbar(1).compile().problem.model
+    rng = np.random.default_rng(7)
+    du = rng.normal(size=model.n_dofs)
+    w = du.reshape(model.n_nodes, 6)[:, 3:]
+    w *= (np.linspace(0.0, np.pi, model.n_nodes) / np.linalg.norm(w, axis=1))[:, None]  # 0 ... pi
+    w[1] *= 1e-9 / np.linalg.norm(w[1])
+    w[-2] *= (np.pi - 5e-4) / np.linalg.norm(w[-2])
+    start = model.apply_increment(model.initial_state(), 0.3 * rng.normal(size=model.n_dofs))
+    out = {}
+    for path in ("numpy", "numba"):
+        kernels(path)
+        moved = model.apply_increment(start, du)
+        out[path] = (moved.rotations, model.increment(start, moved))
+    assert _rel(out["numpy"][0], out["numba"][0]) < 1e-14
+    assert np.abs(out["numpy"][1] - out["numba"][1]).max() < 1e-12
+    assert np.abs(out["numba"][1] - du).max() < 1e-9  # the logarithm inverts the update (angles < pi)
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_whole_solves_agree_with_either_path(kernels, dim):
     # a case no paper has: a two-leaf cross flexure in mm-N-MPa units turned 40 degrees

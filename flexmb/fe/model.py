@@ -134,6 +134,13 @@ class FEModel:
         du[:, : self.dim] = to.positions - frm.positions
         if self.dim == 2:
             du[:, 2] = to.rotations - frm.rotations
+        elif jit.enabled():
+            from . import model_jit
+
+            spin = np.empty((self.n_nodes, 3))
+            model_jit.spin3d(np.ascontiguousarray(to.rotations, dtype=float),
+                             np.ascontiguousarray(frm.rotations, dtype=float), spin)
+            du[:, 3:] = spin
         else:
             du[:, 3:] = logm_so3(to.rotations @ frm.rotations.transpose(0, 2, 1))
         if self.hinges is None:
@@ -153,6 +160,13 @@ class FEModel:
         pos = state.positions + du[:, : self.dim]
         if self.dim == 2:
             return State(pos, state.rotations + du[:, 2], mult)
+        if jit.enabled():  # the same formula compiled (tests/test_kernels.py: equal to 1e-15)
+            from . import model_jit
+
+            rot = np.empty((self.n_nodes, 3, 3))
+            model_jit.compose3d(np.ascontiguousarray(state.rotations, dtype=float),
+                                np.ascontiguousarray(du[:, 3:6], dtype=float), rot)
+            return State(pos, rot, mult)
         return State(pos, expm_so3(du[:, 3:6]) @ state.rotations, mult)
 
     # -- forces ----------------------------------------------------------------------------
@@ -265,7 +279,8 @@ class FEModel:
         slots = pattern.slots[:nE * n2 * n2].reshape(nE, n2 * n2) if tangent else np.zeros((1, 1), dtype=np.int64)
         F, e, sig = np.empty((nE, n2)), np.empty((nE, nm)), np.empty((nE, nm))
         kernel = model_jit.assemble3d if self.dim == 3 else model_jit.assemble2d
-        kernel(state.positions, state.rotations, master, offset, moved, *self._element_data, tangent, given, sg,
+        kernel(np.ascontiguousarray(state.positions, dtype=float), np.ascontiguousarray(state.rotations, dtype=float),
+               master, offset, moved, *self._element_data, tangent, given, sg,
                self.element_dofs, slots, f, *data, F, e, sig)
         return (f,) + (data if tangent else (None, None)) + (F, e, sig)
 

@@ -90,6 +90,22 @@ def available() -> dict:
     return {"qdldl": _HAVE_QDLDL, "superlu": True}
 
 
+def _backward_error(K, x: np.ndarray, b: np.ndarray):
+    """``r = b - K x`` and the backward error ``max|r| / (max|K| max|x| + max|b|)`` (inf when ``x``
+    is not finite); one compiled pass with numba."""
+    if jit.enabled():
+        from . import linear_jit
+
+        r = np.empty(len(b))
+        error = linear_jit.backward_error(K.indptr, K.indices, np.ascontiguousarray(K.data, dtype=float),
+                                          np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(b, dtype=float), r)
+        return r, error
+    if not np.all(np.isfinite(x)):
+        return None, np.inf
+    r = b - K @ x
+    return r, np.abs(r).max() / (np.abs(K.data).max() * np.abs(x).max() + np.abs(b).max())
+
+
 class TangentSolver:
     """Solves ``K x = b`` for matrices of one sparsity pattern (CSR, square), reusing the analysis.
 
@@ -185,11 +201,18 @@ class TangentSolver:
         diagonal entries (a saddle point's constraint rows: the hinges' multipliers) set to
         ``-SADDLE_SHIFT max|K|`` so that the LDL^T without pivoting has no zero pivot there;
         refinement against the true ``K`` removes the shift's effect (or the solve falls back)."""
-        data = 0.5 * (K.data[self._ia] + K.data[self._ib])
-        d = data[self._diag]
-        zero = self._diag[d == 0.0]
-        if len(zero):
-            data[zero] = -SADDLE_SHIFT * np.abs(data).max()
+        if jit.enabled():
+            from . import linear_jit
+
+            data = np.empty(len(self._ia))
+            linear_jit.symmetric_upper(np.ascontiguousarray(K.data, dtype=float), self._ia, self._ib, self._diag,
+                                       SADDLE_SHIFT, data)
+        else:
+            data = 0.5 * (K.data[self._ia] + K.data[self._ib])
+            d = data[self._diag]
+            zero = self._diag[d == 0.0]
+            if len(zero):
+                data[zero] = -SADDLE_SHIFT * np.abs(data).max()
         self._upper.data = data
 
     def _solve_ldl(self, K, b, stall: float):
@@ -213,16 +236,12 @@ class TangentSolver:
         """``x`` refined with the approximate inverse ``solve`` until its backward error against
         the true ``K`` is below `REFINE_TOL`; None after `_MAX_REFINE` steps, or as soon as a step
         cuts the error by less than the factor ``stall``."""
-        scale = np.abs(K.data).max()
         previous = np.inf
         for k in range(_MAX_REFINE + 1):
-            if not np.all(np.isfinite(x)):
-                return None
-            r = b - K @ x
-            error = np.abs(r).max() / (scale * np.abs(x).max() + np.abs(b).max())
+            r, error = _backward_error(K, x, b)
             if error <= REFINE_TOL:
                 return x
-            if k == _MAX_REFINE or error > stall * previous:
+            if not np.isfinite(error) or k == _MAX_REFINE or error > stall * previous:
                 return None
             previous = error
             x = x + solve(r)

@@ -114,3 +114,40 @@ def solve(n, perm, Lp, Li, Lx, Ux, D, b, x):
         w[c] = v
     for i in range(n):
         x[perm[i]] = w[i]
+
+
+@njit
+def backward_error(indptr, indices, data, x, b, r):
+    """``r = b - K x`` (``K`` CSR) and the backward error ``max|r| / (max|K| max|x| + max|b|)``;
+    inf when ``x`` has a non-finite entry."""
+    n = b.shape[0]
+    xmax = 0.0
+    for i in range(n):
+        if not np.isfinite(x[i]):
+            return np.inf
+        xmax = max(xmax, abs(x[i]))
+    kmax = 0.0
+    rmax = 0.0
+    bmax = 0.0
+    for i in range(n):
+        v = b[i]
+        for p in range(indptr[i], indptr[i + 1]):
+            v -= data[p] * x[indices[p]]
+            kmax = max(kmax, abs(data[p]))
+        r[i] = v
+        rmax = max(rmax, abs(v))
+        bmax = max(bmax, abs(b[i]))
+    return rmax / (kmax * xmax + bmax)
+
+
+@njit
+def symmetric_upper(data, ia, ib, diag, shift, out):
+    """``out = (data[ia] + data[ib]) / 2`` (the upper triangle of ``(K + K^T)/2``), its exactly
+    zero ``diag`` entries set to ``-shift max|out|``."""
+    big = 0.0
+    for p in range(ia.shape[0]):
+        out[p] = 0.5 * (data[ia[p]] + data[ib[p]])
+        big = max(big, abs(out[p]))
+    for p in diag:
+        if out[p] == 0.0:
+            out[p] = -shift * big

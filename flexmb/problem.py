@@ -274,10 +274,9 @@ class StaticProblem(BoundaryConditions):
         """The problem's force scale [N]: the largest element end force, applied load or moment
         over `model_length` (reactions are sums of element forces)."""
         m, L = self.model, self.model_length
-        nd, d = m.ndof, m.dim
-        F = np.abs(Fe).reshape(-1, nd).max(axis=0, initial=0.0)  # per DOF kind
-        f = np.abs(f_ext[: m.n_node_dofs]).reshape(-1, nd).max(axis=0, initial=0.0)  # the hinges' rows last
-        return float(max(F[:d].max(), F[d:].max() / L, f[:d].max(), f[d:].max() / L))
+        F, M = m.largest_by_kind(Fe)
+        f, moment = m.largest_by_kind(f_ext[: m.n_node_dofs])  # the hinges' rows last
+        return max(F, M / L, f, moment / L)
 
     def scaled_residual(self, r_free: np.ndarray) -> float:
         """``|| [r_F, r_M / L] || / F``: the free residual in units of the force scale of the last

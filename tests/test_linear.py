@@ -115,8 +115,8 @@ def test_compiled_ldu_solves_a_non_symmetric_matrix_exactly(use_ldl):
 def test_manipulator_tangents_never_need_superlu(monkeypatch):
     # Dwarshuis et al. (2020) Sec. 4.4, joint case at 45 deg: at predicted states the symmetric part
     # of K_ff is indefinite (smallest eigenvalue -1.9e7 N/m against +0.18 at equilibrium) and its
-    # LDL^T refinement diverges; the exact L D U takes those solves: the same iterations and
-    # equilibrium as with SuperLU taking them
+    # LDL^T refinement diverges; the exact L D U takes those solves: the same equilibrium as with
+    # SuperLU taking them
     def solve():
         return flexmb.solve(flexmb.models.manipulator("joint", np.radians(45.0)))
 
@@ -127,4 +127,7 @@ def test_manipulator_tangents_never_need_superlu(monkeypatch):
     ref = solve()
     assert ref.compiled.problem._tangent_solver.stats["superlu"] > 0
     x0 = ref.node_positions()
-    assert sol.iterations == ref.iterations and np.abs(sol.node_positions() - x0).max() <= 1e-12 * np.abs(x0).max()
+    assert np.abs(sol.node_positions() - x0).max() <= 1e-12 * np.abs(x0).max()
+    # its last steps end just below rtol (6.5e-9 of the force scale against 1e-8): two exact solvers,
+    # differing in the last bits, may need one iteration more or less there (measured 53 and 54)
+    assert abs(sol.iterations - ref.iterations) <= 1

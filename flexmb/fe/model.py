@@ -241,6 +241,19 @@ class FEModel:
         return (np.ascontiguousarray(self.point_master[el.ends], dtype=np.int64), offset,
                 np.ascontiguousarray(np.any(offset != 0.0, axis=2)))
 
+    def largest_by_kind(self, v: np.ndarray) -> tuple[float, float]:
+        """The largest magnitude of the translation and of the rotation entries of ``v`` (rows of
+        ``ndof``: element end forces (E, 2 ndof), or node vectors): forces [N] and moments [N m]."""
+        v = np.ravel(v)
+        if jit.enabled():
+            from . import model_jit
+
+            out = np.empty(2)
+            model_jit.largest_by_kind(np.ascontiguousarray(v, dtype=float), self.ndof, self.dim, out)
+            return float(out[0]), float(out[1])
+        a = np.abs(v).reshape(-1, self.ndof).max(axis=0, initial=0.0)
+        return float(a[: self.dim].max()), float(a[self.dim:].max())
+
     @functools.cached_property
     def _element_data(self):
         """The element arrays the compiled kernels take, contiguous: 3D ``ny0, nz0, L0, S``; 2D

@@ -203,3 +203,16 @@ def spin3d(R_to, R_from, out):
         else:
             f = t / (s if s > 0.0 else 1.0)
             out[n, 0], out[n, 1], out[n, 2] = f * v0, f * v1, f * v2
+
+
+@njit
+def largest_by_kind(v, ndof, dim, out):
+    """``out = (max |v_translation|, max |v_rotation|)`` over ``v`` viewed as rows of ``ndof``
+    (translations first); 0 for an empty ``v``."""
+    out[0] = 0.0
+    out[1] = 0.0
+    for i in range(v.shape[0]):
+        k = 0 if i % ndof < dim else 1
+        a = abs(v[i])
+        if a > out[k] or a != a:  # NaN wins, as in numpy's max
+            out[k] = a

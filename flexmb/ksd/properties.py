@@ -15,17 +15,16 @@ from __future__ import annotations
 import weakref
 
 import numpy as np
-import scipy.linalg as sla
 
-from ..fe.mass import RigidMasses, mass_matrix, rigid_mass
-from ..fe.model import State
+from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
+from .joint_mass import condensed
 from ..rotations import unskew
 from .geometry import ACTIVE, LinkPoses, rz
 from .kinematics import solve_kinematics
 from .reduced import ReducedMechanism
 
-__all__ = ["reduced_tangent", "reduced_mass", "condensed_joint_mass", "link_poses", "near", "full_eobs",
+__all__ = ["reduced_tangent", "reduced_mass", "link_poses", "near", "full_eobs",
            "node_displacements", "eob_axial_forces"]
 
 
@@ -130,69 +129,9 @@ def reduced_tangent(solution, database=None):
     return Kr[np.ix_(red.emb_dofs, red.emb_dofs)], red
 
 
-_JOINT_MODELS = weakref.WeakKeyDictionary()
-
-
-def _joint_model(tpl, joint):
-    """The FE model of a template's joint alone, nodes numbered as the EOB's (A, B, internal):
-    the mechanism `EOBTemplate` builds, kept for its mass."""
-    try:
-        return _JOINT_MODELS[tpl]
-    except KeyError:
-        pass
-    from ..mechanism import Mechanism
-
-    m = Mechanism(dim=tpl.dim)
-    m.add_link("A", fixed=True)
-    m.add_link("B", position=joint.interface_b(tpl.dim))
-    m.add_joint("A", "B", joint, name="joint")
-    return _JOINT_MODELS.setdefault(tpl, m.compile().problem.model)
-
-
-def condensed_joint_mass(tpl, joint, eob, j: int, n_fixed: int = 0):
-    """Joint ``j``'s mass (2 nd, 2 nd) on its interface nodes A and B, in the joint frame at its EOB
-    near configuration: the joint's consistent mass (`flexmb.fe.mass.mass_matrix`, beams and
-    intermediate bodies at the near poses) condensed with the Craig-Bampton transformation of the
-    EOB's stiffness, ``T = [I; -K_ii^-1 K_ib]`` (Craig & Bampton 1968, static constraint modes on
-    both interface nodes), ``M_b = T^T M T``. The constraint modes carry the joint's rigid motions
-    exactly, so its mass and inertia are kept. With ``n_fixed`` > 0 also the lowest ``n_fixed``
-    fixed-interface modes ``Phi`` (mass-normalised, ``K_ii Phi = M_ii Phi diag(omega^2)``):
-    returns ``M_b``, their coupling ``Phi^T M T`` (n_fixed, 2 nd), ``omega^2`` and the interior
-    transformation ``(X, Phi)`` with interior DOFs ``= X q_b + Phi eta``."""
-    model = _joint_model(tpl, joint)
-    rot = eob.node_angle[j] if tpl.dim == 2 else eob.node_rotation[j]
-    M = mass_matrix(model, State(eob.node_position[j].copy(), rot.copy()), model.rigid_masses).toarray()
-    K = eob.K_nodes[j]
-    b = 2 * tpl.nd
-    ni = K.shape[0] - b
-    n_fixed = max(0, min(n_fixed, ni))
-    Kii, Mii = K[b:, b:], M[b:, b:]
-    # the interior falls apart into chains only the interface nodes couple (`EOBTemplate._blocks`,
-    # a leaf each); elements and bodies never join two chains, so K_ii and M_ii are block diagonal
-    X = np.zeros((ni, b))
-    found = []  # (omega^2, interior DOFs, mode) of each chain's lowest fixed-interface modes
-    for group in tpl._blocks:
-        for idx in group:
-            at = np.ix_(idx, idx)
-            X[idx] = -np.linalg.solve(Kii[at], K[b + idx, :b])
-            if n_fixed:
-                w, V = sla.eigh(0.5 * (Kii[at] + Kii[at].T), 0.5 * (Mii[at] + Mii[at].T),
-                                subset_by_index=[0, min(n_fixed, len(idx)) - 1])
-                found += [(w[k], idx, V[:, k]) for k in range(len(w))]
-    T = np.vstack([np.eye(b), X])
-    Mb = T.T @ M @ T
-    Mb = 0.5 * (Mb + Mb.T)
-    found.sort(key=lambda item: item[0])
-    found = found[:n_fixed]
-    Phi = np.zeros((ni, len(found)))
-    for k, (_, idx, vec) in enumerate(found):
-        Phi[idx, k] = vec
-    return Mb, Phi.T @ M[b:] @ T, np.array([w for w, _, _ in found]), (X, Phi)
-
-
 def reduced_mass(solution, database=None) -> np.ndarray:
     """The KSD-reduced solution's mass (n_links ndof, n_links ndof) on the links' FE DOFs: each
-    joint's `condensed_joint_mass`, carried from its interface nodes to the links by the joint's
+    joint's condensed mass (`flexmb.ksd.joint_mass.condensed`), carried from its interface nodes to the links by the joint's
     current frame and the levers from the links' reference points, plus the links' rigid masses
     (`flexmb.fe.mass.rigid_mass`) at their current poses."""
     return reduced_modal_model(solution, 0, database)[1]
@@ -214,9 +153,11 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
     M6 = np.zeros((6 * nL, 6 * nL))
     joints = {key: jt for key, jt, *_ in red.compiled.joints}
     coupling, w2, recover = [None] * J, [None] * J, [None] * J
-    for (tpl, _, idx), e in zip(red.groups, full_eobs(solution, database)):
+    theta = near(solution, database)[1][5]
+    for tpl, _, idx in red.groups:
+        Mbs, Cs, ws, (Xs, Phis) = condensed(tpl, joints[red.joint_names[idx[0]]], theta[idx], n_fixed)
         for k, j in enumerate(idx):
-            Mb, C, w2[j], (X, Phi) = condensed_joint_mass(tpl, joints[red.joint_names[j]], e, k, n_fixed)
+            Mb, C, w2[j], X, Phi = Mbs[k], Cs[k], ws[k], Xs[k], Phis[k]
             nd = tpl.nd
             Ft = np.zeros((6, 6))
             Ft[:3, :3] = Ft[3:, 3:] = F[j].T

@@ -267,3 +267,23 @@ def test_tabulated_condensed_mass_matches_direct_condensation():
     for j in range(12):
         exact = sla.eigh(eob.K_nodes[j][b:, b:], M[j][b:, b:], eigvals_only=True, subset_by_index=[0, 5])
         np.testing.assert_allclose(w2_d[j], exact, rtol=1e-5)
+
+
+def test_buckling_of_a_reduced_solution_points_to_ksd_full():
+    """KSD-reduced has no geometric stiffness of its joints' leaves (stress-free EOBs, first-order
+    step 4): `buckling` refuses and names what to use; KSD-full, the alternative it names, gives the
+    conventional solution's critical force (the Table 1 cross flexure pushed along its axis by
+    100 N, B's turn free, not in the paper: 961 N at 5 el./leaf, README's buckling table)."""
+    joint = flexmb.CrossFlexure(elements_per_leaf=5)
+    axis = joint.interface_b(3) / np.linalg.norm(joint.interface_b(3))
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=joint.interface_b(3))
+    m.add_joint("A", "B", joint, name="pivot")
+    m.prescribe("B", rotation=(0.0, 0.0, 0.0))
+    m.apply_force("B", -100.0 * axis)
+    with pytest.raises(flexmb.UnsupportedStrategyError, match="method='ksd-full'"):
+        flexmb.buckling(flexmb.solve(m, method="ksd-reduced"), held="none")
+    full = flexmb.buckling(flexmb.solve(m, method="ksd-full"), held="none")[0]
+    assert full == pytest.approx(flexmb.buckling(flexmb.solve(m), held="none")[0], rel=1e-6)
+    assert 100.0 * full == pytest.approx(961.0, rel=0.002)

@@ -318,13 +318,16 @@ class ArcLength:
         f_ext = problem.external_force(state, lam)[0]
         f_int = r + f_ext
         is_tr = problem.model.force_dofs
-        F = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
-        M = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]), F * metric.size)
+        # forces and moments measure each other through the size: a mechanism loaded by moments
+        # alone (a sprung hinge turned) has forces of round-off size, no scale of their own
+        F0 = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
+        M0 = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]))
+        F, M = max(F0, M0 / metric.size), max(M0, F0 * metric.size)
         if F == 0.0 and M == 0.0:
             return float(np.linalg.norm(r[free])) == 0.0
         rf_tr = r[free][is_tr[free]]
         rf_rot = r[free][~is_tr[free]]
-        a, b = np.linalg.norm(rf_tr) / F if F else 0.0, np.linalg.norm(rf_rot) / M
+        a, b = np.linalg.norm(rf_tr) / F, np.linalg.norm(rf_rot) / M
         if a <= self.rtol and b <= self.rtol:
             return True
         return None if max(a, b) <= 1e-5 else False

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import attrs
 import numpy as np
+import scipy.sparse as sp
 
 from ..rotations import cross, skew
 
@@ -333,8 +334,6 @@ def constrained_basis(G):
     """A sparse basis ``Z`` (n, n - rank) of the motions the constraint rows ``G`` (m, n) allow
     (``G Z = 0``): identity on the columns ``G`` does not touch, a dense orthonormal null-space
     basis (SVD) on the few link DOFs it does."""
-    import scipy.sparse as sp
-
     G = sp.csr_array(G)
     n = G.shape[1]
     touched = np.unique(G.indices)
@@ -346,11 +345,20 @@ def constrained_basis(G):
                         shape=(n, len(others) + Zt.shape[1]))
 
 
-def constrained(model, free: np.ndarray, K):
+def constrained(model, free: np.ndarray, K, state=None):
     """The free DOFs' split for an analysis on the motions the hinges allow: the free *node* DOFs
     ``fn`` and a basis ``Z`` (len(fn), m) of their motions that keep the hinges' constraints to
-    first order (rows of ``K``'s multiplier-node block), or ``(free, None)`` without hinges."""
+    first order (rows of ``K``'s multiplier-node block), or ``(free, None)`` without hinges.
+    ``state``: the rows dropped at build time (`Hinges.dropped_rows`) hold too; dependent only
+    while the prescribed DOFs are held, they keep a released link on its hinge's axis (without
+    them a 3D pendulum whose turn was prescribed swung at 0 Hz with ``held="none"``)."""
     if model.hinges is None:
         return free, None
     fn, fm = free[free < model.n_node_dofs], free[free >= model.n_node_dofs]
-    return fn, constrained_basis(K[fm][:, fn])
+    G = sp.csr_array(K[fm][:, fn])
+    h = model.hinges
+    if state is not None and h.dropped_rows is not None and h.dropped_rows.any():
+        g = h.residual_rows(state.positions, state.rotations, 1.0, angles=state.hinge_angles)[1]
+        rows = dense_rows(g, h.node, model.ndof, model.n_node_dofs)[h.dropped_rows.ravel()][:, fn]
+        G = sp.vstack([G, sp.csr_array(rows)]).tocsr()
+    return fn, constrained_basis(G)

@@ -38,7 +38,7 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..fe.model import State
-from .conventional import is_stable, positive_float, positive_int, unit_interval
+from .conventional import is_stable, positive_float, positive_int, relative_tolerance, unit_interval
 
 __all__ = ["ArcLength", "PathPoint", "load_tangent", "inertia", "DENSE_EIGEN_BELOW"]
 
@@ -180,7 +180,7 @@ class ArcLength:
     rtol
         Relative threshold: the free residual's forces against the largest of the internal and
         applied forces (all DOFs, reactions included), its moments against the moments or the
-        forces times the mechanism's size (1e-9; round-off sits near 1e-13 on Lee's frame).
+        forces times the mechanism's size (1e-9, in (0, 1); round-off sits near 1e-13 on Lee's frame).
     max_iter
         Corrector iterations before the step is cut in half (12).
     desired_iterations
@@ -206,7 +206,7 @@ class ArcLength:
     name: ClassVar[str] = "arc-length"
     capability: ClassVar[str] = "fe_model"
     tol: float | None = attrs.field(default=None, validator=attrs.validators.optional(positive_float))
-    rtol: float = attrs.field(default=1e-9, validator=positive_float)
+    rtol: float = attrs.field(default=1e-9, validator=relative_tolerance)
     max_iter: int = attrs.field(default=12, validator=positive_int)
     desired_iterations: int = attrs.field(default=5, validator=positive_int)
     psi: float = attrs.field(default=1.0, validator=_nonnegative_float)

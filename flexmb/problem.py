@@ -266,7 +266,8 @@ class StaticProblem(BoundaryConditions):
         if m.hinges is None:
             return ""
         size = float(np.ptp(m.x0, axis=0).max()) or 1.0
-        bad = m.hinges.violated(state.positions, state.rotations, self.motor_fraction(lam), size)
+        bad = m.hinges.violated(state.positions, state.rotations, self.motor_fraction(lam), size,
+                               angles=state.hinge_angles)
         return ("" if not bad else "the prescribed motion contradicts the over-constrained hinges: their redundant "
                 f"(dropped) constraint rows are violated: {', '.join(bad)} [m, rad]")
 

@@ -35,11 +35,15 @@ class State:
     rotations: np.ndarray
     #: scaled Lagrange multipliers of the ideal joints' constraint rows (`flexmb.fe.ideal`), or None
     multipliers: np.ndarray | None = None
+    #: 3D hinges' relative angles [rad] (H,), counted past a half turn along the increments that
+    #: led here (a rotation matrix has no turn count; `FEModel.apply_increment`), or None (2D: the
+    #: nodes' angles count turns themselves; a state built without increments: within one turn)
+    hinge_angles: np.ndarray | None = None
 
     def copy(self) -> State:
-        """An independent copy (positions, rotations and multipliers copied)."""
-        return State(self.positions.copy(), self.rotations.copy(),
-                     None if self.multipliers is None else self.multipliers.copy())
+        """An independent copy (every array copied)."""
+        return State(*(None if a is None else a.copy()
+                       for a in (self.positions, self.rotations, self.multipliers, self.hinge_angles)))
 
 
 @attrs.frozen(eq=False)
@@ -91,7 +95,10 @@ class FEModel:
     def initial_state(self) -> State:
         """The undeformed configuration: reference positions [m], zero rotations."""
         rot = np.zeros(self.n_nodes) if self.dim == 2 else np.tile(np.eye(3), (self.n_nodes, 1, 1))
-        return State(self.x0.copy(), rot, None if self.hinges is None else np.zeros(self.hinges.n_rows))
+        if self.hinges is None:
+            return State(self.x0.copy(), rot)
+        return State(self.x0.copy(), rot, np.zeros(self.hinges.n_rows),
+                     None if self.dim == 2 else np.zeros(len(self.hinges.node)))
 
     def rotation_matrices(self, state: State) -> np.ndarray:
         """Nodal rotation matrices (N, 2, 2) in 2D or (N, 3, 3) in 3D."""
@@ -149,7 +156,9 @@ class FEModel:
 
     def apply_increment(self, state: State, du: np.ndarray) -> State:
         """New state after increments ``du`` (n_dofs,): positions add, rotations compose (Eq. A.8),
-        the hinges' multipliers (the last DOFs) add."""
+        the hinges' multipliers (the last DOFs) add; a 3D hinge's relative angle moves by the
+        increment's spin about its axis, to the turn of the new rotations nearest to that
+        (`flexmb.fe.ideal.Hinges.advance`: a spring turned past pi keeps its turn count)."""
         du = np.asarray(du)
         mult = state.multipliers
         if self.hinges is not None:
@@ -160,14 +169,17 @@ class FEModel:
         pos = state.positions + du[:, : self.dim]
         if self.dim == 2:
             return State(pos, state.rotations + du[:, 2], mult)
-        if jit.enabled():  # the same formula compiled (tests/test_kernels.py: equal to 1e-15)
+        if jit.enabled():  # the same formula compiled (tests/test_kernels.py: equal to 1e-14)
             from . import model_jit
 
             rot = np.empty((self.n_nodes, 3, 3))
             model_jit.compose3d(np.ascontiguousarray(state.rotations, dtype=float),
                                 np.ascontiguousarray(du[:, 3:6], dtype=float), rot)
+        else:
+            rot = expm_so3(du[:, 3:6]) @ state.rotations
+        if self.hinges is None:
             return State(pos, rot, mult)
-        return State(pos, expm_so3(du[:, 3:6]) @ state.rotations, mult)
+        return State(pos, rot, mult, self.hinges.advance(state.rotations, state.hinge_angles, du[:, 3:6], rot))
 
     # -- forces ----------------------------------------------------------------------------
     def transfer(self, wrench: np.ndarray, d: np.ndarray):
@@ -301,7 +313,8 @@ class FEModel:
         """The hinges' block forces and tangents on `hinge_dofs` (`flexmb.fe.ideal.Hinges.response`);
         ``motor``: the fraction of the hinges' motor angles reached."""
         mult = np.zeros(self.hinges.n_rows) if state.multipliers is None else state.multipliers
-        return self.hinges.response(state.positions, state.rotations, mult, motor, tangent=tangent, material=material)
+        return self.hinges.response(state.positions, state.rotations, mult, motor, tangent=tangent, material=material,
+                                    angles=state.hinge_angles)
 
     def internal_force(self, state: State, motor: float = 1.0) -> np.ndarray:
         """Assembled internal force vector (n_dofs,): the elements', and the hinges' (their
@@ -318,5 +331,5 @@ class FEModel:
         _, _, e, sig = self.element_response(state, tangent=False)
         energy = 0.5 * float(np.sum(e * sig))
         if self.hinges is not None:
-            energy += 0.5 * float(np.sum(self.hinges.k * self.hinges.relative_angle(state.rotations) ** 2))
+            energy += 0.5 * float(np.sum(self.hinges.k * self.hinges.relative_angle(state.rotations, state.hinge_angles) ** 2))
         return energy

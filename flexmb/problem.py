@@ -210,12 +210,12 @@ class StaticProblem(BoundaryConditions):
 
         Returns ``(r, K_ff, K_fp, sigma)``; ``r`` contains NaN when an element left its valid
         range (a relative rotation of 90 degrees or more within one 3D element).
-        ``geometric_stress``: a function of the elements' stresses returning those of the
-        geometric stiffness, if not their own (`FEModel.element_response`).
+        ``geometric_stress``: the stresses of the geometric stiffness (E, modes), if not the
+        elements' own, or a function of their own returning them (`FEModel.assemble`).
         """
         m = self.model
         pattern = self._pattern if tangent else None
-        f_int, data_ff, data_fp, Fe, _, sig = m.assemble(state, pattern, geometric_stress=geometric_stress)
+        f_int, data_ff, data_fp, _, _, sig, largest = m.assemble(state, pattern, geometric_stress=geometric_stress)
         f_ext, G = self.external_force(state, lam)
         r = f_int - f_ext
         if tangent and len(G):
@@ -225,7 +225,7 @@ class StaticProblem(BoundaryConditions):
             r += scatter_add(m.hinge_dofs, Fh, m.n_dofs)
             if tangent:
                 pattern.split(Kh, first=len(pattern.slots) - Kh.size, out=(data_ff, data_fp))
-        self.force_scale = self._force_scale(Fe, f_ext)
+        self.force_scale = self._force_scale(largest, f_ext)
         if not tangent:
             return r, None, None, sig
         return (r,) + pattern.matrices(data_ff, data_fp) + (sig,)
@@ -271,12 +271,14 @@ class StaticProblem(BoundaryConditions):
         return ("" if not bad else "the prescribed motion contradicts the over-constrained hinges: their redundant "
                 f"(dropped) constraint rows are violated: {', '.join(bad)} [m, rad]")
 
-    def _force_scale(self, Fe: np.ndarray, f_ext: np.ndarray) -> float:
-        """The problem's force scale [N]: the largest element end force, applied load or moment
-        over `model_length` (reactions are sums of element forces)."""
+    def _force_scale(self, largest: tuple[float, float], f_ext: np.ndarray) -> float:
+        """The problem's force scale [N]: the largest element end force (``largest``: force and
+        moment, `FEModel.largest_by_kind` of the end forces), applied load or moment over
+        `model_length` (reactions are sums of element forces)."""
         m, L = self.model, self.model_length
-        F, M = m.largest_by_kind(Fe)
-        f, moment = m.largest_by_kind(f_ext[: m.n_node_dofs])  # the hinges' rows last
+        F, M = largest
+        f, moment = (m.largest_by_kind(f_ext[: m.n_node_dofs])  # the hinges' rows last
+                     if len(self.loads.node) or self._offset is not None else (0.0, 0.0))
         return max(F, M / L, f, moment / L)
 
     def scaled_residual(self, r_free: np.ndarray) -> float:

@@ -122,9 +122,12 @@ def test_compiled_assembly_equals_numpy(kernels, dim, override):
     for path in ("numpy", "numba"):
         kernels(path)
         r, Kff, Kfp, sig = problem.evaluate(state, 0.7, geometric_stress=override)
+        if override is not None:  # the geometric stresses given as an array: the same tangent
+            Kff_held = problem.evaluate(state, 0.7, geometric_stress=override(sig))[1]
+            assert _rel(Kff_held.toarray(), Kff.toarray()) < 1e-12
         forces = problem.model.assemble(state)
         out[path] = (r, Kff.toarray(), Kfp.toarray(), sig, forces[0], forces[3], forces[4], forces[5],
-                     np.array(problem.model.largest_by_kind(forces[3])))
+                     np.array(problem.model.largest_by_kind(forces[3])), np.array(forces[6]))
     for a, b in zip(out["numpy"], out["numba"]):
         assert _rel(a, b) < 1e-12
     assert out["numba"][1].shape == (problem.n_free, problem.n_free) and np.isfinite(out["numba"][0]).all()

@@ -279,18 +279,23 @@ class FEModel:
         (`flexmb.fe.assembly.PartitionedPattern`, whose first entries are the elements' blocks in
         the layout of `element_response`), their tangents summed into its two CSR data arrays.
 
-        Returns ``(f, data_ff, data_fp, F, e, sigma)``: ``f`` (n_dofs,), the data arrays (None
-        without ``pattern``), ``F`` (E, 2 ndof) master end forces, deformations and stresses. One
+        Returns ``(f, data_ff, data_fp, F, e, sigma, largest)``: ``f`` (n_dofs,), the data arrays
+        (None without ``pattern``), ``F`` (E, 2 ndof) master end forces, deformations, stresses and
+        `largest_by_kind` of ``F``. ``geometric_stress``: the stresses (E, modes) of the geometric
+        stiffness, or a function of the elements' own returning them (None: their own). One
         compiled pass (`flexmb.fe.model_jit`) when `flexmb.jit.enabled`, else `element_response`
         and ``np.bincount``: equal to 1e-12 (tests/test_kernels.py)."""
         el = self.elements
         nE, n2 = len(el.L0), 2 * self.ndof
         tangent = pattern is not None
         if nE == 0 or not jit.enabled():
-            F, K, e, sig = self.element_response(state, tangent=tangent, geometric_stress=geometric_stress)
+            held = geometric_stress
+            if geometric_stress is not None and not callable(geometric_stress):
+                held = lambda _: np.asarray(geometric_stress, dtype=float)  # noqa: E731
+            F, K, e, sig = self.element_response(state, tangent=tangent, geometric_stress=held)
             f = scatter_add(self.element_dofs, F, self.n_dofs)
             data = pattern.split(K) if tangent else (None, None)
-            return (f,) + data + (F, e, sig)
+            return (f,) + data + (F, e, sig, self.largest_by_kind(F))
         from . import model_jit  # imports numba: on first use, not with flexmb
 
         master, offset, moved = self._ends
@@ -298,16 +303,18 @@ class FEModel:
         given = tangent and geometric_stress is not None
         sg = np.zeros((1, nm))
         if given:
-            sg = np.ascontiguousarray(geometric_stress(self.element_response(state, tangent=False)[3]), dtype=float)
+            sg = geometric_stress(self.element_response(state, tangent=False)[3]) if callable(geometric_stress) \
+                else geometric_stress
+            sg = np.ascontiguousarray(sg, dtype=float)
         f = np.zeros(self.n_dofs)
         data = (np.zeros(pattern.nnz[0]), np.zeros(pattern.nnz[1])) if tangent else (np.zeros(0), np.zeros(0))
         slots = pattern.slots[:nE * n2 * n2].reshape(nE, n2 * n2) if tangent else np.zeros((1, 1), dtype=np.int64)
-        F, e, sig = np.empty((nE, n2)), np.empty((nE, nm)), np.empty((nE, nm))
+        F, e, sig, largest = np.empty((nE, n2)), np.empty((nE, nm)), np.empty((nE, nm)), np.empty(2)
         kernel = model_jit.assemble3d if self.dim == 3 else model_jit.assemble2d
         kernel(np.ascontiguousarray(state.positions, dtype=float), np.ascontiguousarray(state.rotations, dtype=float),
                master, offset, moved, *self._element_data, tangent, given, sg,
-               self.element_dofs, slots, f, *data, F, e, sig)
-        return (f,) + (data if tangent else (None, None)) + (F, e, sig)
+               self.element_dofs, slots, f, *data, F, e, sig, largest)
+        return (f,) + (data if tangent else (None, None)) + (F, e, sig, (float(largest[0]), float(largest[1])))
 
     def hinge_response(self, state: State, motor: float = 1.0, tangent: bool = True, material: bool = False):
         """The hinges' block forces and tangents on `hinge_dofs` (`flexmb.fe.ideal.Hinges.response`);

@@ -40,12 +40,12 @@ def _scatter(k, dofs, slots, Fm, K, tangent, r, data_ff, data_fp):
 
 @njit
 def assemble3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, tangent, sg_given, sg_in, dofs, slots,
-               r, data_ff, data_fp, Fm, e_out, sig_out):
+               r, data_ff, data_fp, Fm, e_out, sig_out, largest):
     """3D: ``pos`` (N, 3), ``rot`` (N, 3, 3) node states; ``master`` (E, 2) the ends' nodes,
     ``offset`` (E, 2, 3) their undeformed offsets, ``moved`` (E, 2) offset non-zero; element data
     as `flexmb.fe.beam3d_jit`; ``dofs`` (E, 12) master DOFs, ``slots`` (E, 144) (see `_scatter`).
     Adds into ``r``, ``data_ff``, ``data_fp``; writes ``Fm`` (E, 12) master end forces, ``e_out``,
-    ``sig_out`` (E, 6)."""
+    ``sig_out`` (E, 6) and ``largest`` (2,) `largest_by_kind` of ``Fm``."""
     nE = L0.shape[0]
     xp = np.empty((nE, 3))
     xq = np.empty((nE, 3))
@@ -104,11 +104,12 @@ def assemble3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, tangent, sg_giv
                 for j in range(3):
                     Kk[o + 3 + i, o + 3 + j] += dv[i] * fv[j] - (df if i == j else 0.0)
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
+    largest_by_kind(Fm.ravel(), 6, 3, largest)
 
 
 @njit
 def assemble2d(pos, rot, master, offset, moved, alpha0, L0, S, tangent, sg_given, sg_in, dofs, slots,
-               r, data_ff, data_fp, Fm, e_out, sig_out):
+               r, data_ff, data_fp, Fm, e_out, sig_out, largest):
     """2D: as `assemble3d` with ``rot`` (N,) angles, ``offset`` (E, 2, 2), ``dofs`` (E, 6),
     ``slots`` (E, 36), element data as `flexmb.fe.beam2d_jit`."""
     nE = L0.shape[0]
@@ -151,6 +152,7 @@ def assemble2d(pos, rot, master, offset, moved, alpha0, L0, S, tangent, sg_given
                 Kk[o + 2, col] += -d1 * Kk[o, col] + d0 * Kk[o + 1, col]
             Kk[o + 2, o + 2] -= d0 * f0 + d1 * f1
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
+    largest_by_kind(Fm.ravel(), 3, 2, largest)
 
 
 @njit

@@ -145,6 +145,48 @@ class TangentSolver:
         self.stats["superlu"] += 1
         return splu(K.tocsc()).solve(b)
 
+    def positive_definite(self, K) -> bool | None:
+        """Whether the symmetric part of ``K`` is positive definite, from the signs of the pivots
+        of its ``L D L^T`` on this solver's analysis (Sylvester's law of inertia; no pivoting, as
+        `flexmb.solvers.conventional.is_stable`'s SuperLU in symmetric mode): the compiled
+        factorisation, else qdldl's. None where this cannot tell (below the dense limit, no
+        sparse path, a pattern not structurally symmetric, a zero diagonal or pivot): the caller
+        decides another way. Measured: chain of 64 cross flexures (4988 unknowns) 1.3 ms against
+        is_stable's 15 ms; four-bar (305) 0.06 against 0.65 ms."""
+        compiled = jit.enabled()
+        if K.shape[0] < DENSE_BELOW_LDL or not (compiled or self.use_ldl):
+            return None
+        if not self._same_pattern(K):
+            self._analyse(K)
+        if self._upper is None:
+            return None
+        data = np.ascontiguousarray(K.data, dtype=float)
+        sym = np.empty_like(data)
+        sym[self._ia] = sym[self._ib] = 0.5 * (data[self._ia] + data[self._ib])
+        if np.any(sym[self._ia[self._diag]] == 0.0):
+            return None
+        if compiled:
+            from . import linear_jit
+
+            if self._ldu is None:
+                self._ldu_analyse()
+            if self._ldu is False:
+                return None
+            n, Up, Ui, upper_at, lower_at, diag_at, parent, Lp, perm, Li, Lx, Ux, D = self._ldu
+            if not linear_jit.factor(n, sym, Up, Ui, upper_at, lower_at, diag_at, parent, Lp, Li, Lx, Ux, D):
+                return None
+            self._fresh = False  # the L D U's arrays now hold this factorisation (the LDL^T is untouched)
+            return bool(np.all(D > 0.0))
+        if self._ldl is None:
+            return None
+        self._upper.data = sym[self._ia]
+        try:
+            self._ldl.update(self._upper, upper=True)
+        except (ValueError, RuntimeError):
+            return None
+        self._fresh = False
+        return bool(np.all(self._ldl.factors()[1] > 0.0))
+
     def _same_pattern(self, K) -> bool:
         """Whether ``K`` has the pattern of the current analysis (the same index arrays as last
         time: no comparison; `flexmb.fe.assembly.PartitionedPattern` shares them)."""

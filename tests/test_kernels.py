@@ -148,10 +148,11 @@ def test_compiled_rotation_updates_equal_numpy(kernels):
     for path in ("numpy", "numba"):
         kernels(path)
         moved = model.apply_increment(start, du)
-        out[path] = (moved.rotations, model.increment(start, moved))
+        out[path] = (moved.rotations, model.increment(start, moved), np.array(model.largest_motion(du)))
     assert _rel(out["numpy"][0], out["numba"][0]) < 1e-14
     assert np.abs(out["numpy"][1] - out["numba"][1]).max() < 1e-12
     assert np.abs(out["numba"][1] - du).max() < 1e-9  # the logarithm inverts the update (angles < pi)
+    assert np.array_equal(out["numpy"][2], out["numba"][2]) and out["numba"][2][1] == pytest.approx(np.pi)
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -131,3 +131,29 @@ def test_manipulator_tangents_never_need_superlu(monkeypatch):
     # its last steps end just below rtol (6.5e-9 of the force scale against 1e-8): two exact solvers,
     # differing in the last bits, may need one iteration more or less there (measured 53 and 54)
     assert abs(sol.iterations - ref.iterations) <= 1
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_positive_definite_from_the_solvers_pivots_agrees_with_is_stable(compiled):
+    # the four-bar's converged tangent (Dwarshuis et al. 2020 Sec. 4.3, 5 el./leaf: stable), and the
+    # same shifted along its diagonal by 0.5 and 1.5 times its smallest eigenvalue (still positive
+    # definite; one negative eigenvalue): Sylvester's law on the pivots against SuperLU's inertia
+    from flexmb.solvers.conventional import is_stable
+
+    if compiled and not jit._AVAILABLE or not compiled and not linear.available()["qdldl"]:
+        pytest.skip("needs numba / qdldl")
+    previous = jit.use("numba" if compiled else "numpy")
+    try:
+        sol = flexmb.solve(flexmb.models.fourbar(5, displacement=0.3))
+        problem = sol.compiled.problem
+        K = problem.evaluate(sol.state, 1.0)[1]
+        lowest = np.linalg.eigvalsh(0.5 * (K + K.T).toarray())[0]
+        assert lowest > 0.0
+        for factor, expected in ((0.0, True), (0.5, True), (1.5, False)):
+            shifted = K.copy()
+            diagonal = np.flatnonzero(np.repeat(np.arange(K.shape[0]), np.diff(K.indptr)) == K.indices)
+            shifted.data[diagonal] -= factor * lowest
+            assert problem.positive_definite(shifted) is expected
+            assert is_stable(shifted) is expected
+    finally:
+        jit.use("auto" if previous else "numpy")

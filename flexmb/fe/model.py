@@ -253,6 +253,21 @@ class FEModel:
         return (np.ascontiguousarray(self.point_master[el.ends], dtype=np.int64), offset,
                 np.ascontiguousarray(np.any(offset != 0.0, axis=2)))
 
+    def largest_motion(self, du: np.ndarray) -> tuple[float, float]:
+        """The largest nodal translation [m] and rotation [rad] (Euclidean norms per node) of an
+        increment on all DOFs (the hinges' multipliers, last, left out)."""
+        if jit.enabled():
+            from . import model_jit
+
+            out = np.empty(2)
+            model_jit.largest_motion(np.ascontiguousarray(du, dtype=float), self.n_nodes, self.ndof, self.dim, out)
+            return float(out[0]), float(out[1])
+        d = self.node_part(du)
+        if not len(d):
+            return 0.0, 0.0
+        return (float(np.sqrt(np.max(np.sum(d[:, : self.dim] ** 2, axis=1)))),
+                float(np.sqrt(np.max(np.sum(d[:, self.dim:] ** 2, axis=1)))))
+
     def largest_by_kind(self, v: np.ndarray) -> tuple[float, float]:
         """The largest magnitude of the translation and of the rotation entries of ``v`` (rows of
         ``ndof``: element end forces (E, 2 ndof), or node vectors): forces [N] and moments [N m]."""

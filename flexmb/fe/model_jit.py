@@ -218,3 +218,23 @@ def largest_by_kind(v, ndof, dim, out):
         a = abs(v[i])
         if a > out[k] or a != a:  # NaN wins, as in numpy's max
             out[k] = a
+
+
+@njit
+def largest_motion(du, n_nodes, ndof, dim, out):
+    """``out = (max_n |du_n translation|, max_n |du_n rotation|)`` over the nodes' rows of ``du``."""
+    out[0] = 0.0
+    out[1] = 0.0
+    for n in range(n_nodes):
+        t = 0.0
+        for i in range(dim):
+            t += du[n * ndof + i] * du[n * ndof + i]
+        r = 0.0
+        for i in range(dim, ndof):
+            r += du[n * ndof + i] * du[n * ndof + i]
+        if t > out[0] or t != t:
+            out[0] = t
+        if r > out[1] or r != r:
+            out[1] = r
+    out[0] = np.sqrt(out[0])
+    out[1] = np.sqrt(out[1])

@@ -318,8 +318,7 @@ class FEModel:
         given = tangent and geometric_stress is not None
         sg = np.zeros((1, nm))
         if given:
-            sg = geometric_stress(self.element_response(state, tangent=False)[3]) if callable(geometric_stress) \
-                else geometric_stress
+            sg = geometric_stress(self.stresses(state)[1]) if callable(geometric_stress) else geometric_stress
             sg = np.ascontiguousarray(sg, dtype=float)
         f = np.zeros(self.n_dofs)
         data = (np.zeros(pattern.nnz[0]), np.zeros(pattern.nnz[1])) if tangent else (np.zeros(0), np.zeros(0))
@@ -330,6 +329,11 @@ class FEModel:
                master, offset, moved, *self._element_data, tangent, given, sg,
                self.element_dofs, slots, f, *data, F, e, sig, largest)
         return (f,) + (data if tangent else (None, None)) + (F, e, sig, (float(largest[0]), float(largest[1])))
+
+    def stresses(self, state: State) -> tuple[np.ndarray, np.ndarray]:
+        """The elements' deformations ``e`` and generalised stresses ``sigma = S e`` (E, modes) in
+        ``state`` (`assemble` without a tangent: compiled when `flexmb.jit.enabled`)."""
+        return self.assemble(state)[4:6]
 
     def hinge_response(self, state: State, motor: float = 1.0, tangent: bool = True, material: bool = False):
         """The hinges' block forces and tangents on `hinge_dofs` (`flexmb.fe.ideal.Hinges.response`);
@@ -342,15 +346,14 @@ class FEModel:
         """Assembled internal force vector (n_dofs,): the elements', and the hinges' (their
         constraint forces and springs on the link rows, their scaled constraint values on the
         multiplier rows; ``motor``: the fraction of the motor angles reached)."""
-        F = self.element_response(state, tangent=False)[0]
-        f = scatter_add(self.element_dofs, F, self.n_dofs)
+        f = self.assemble(state)[0]
         if self.hinges is not None:
             f = f + scatter_add(self.hinge_dofs, self.hinge_response(state, motor, tangent=False)[0], self.n_dofs)
         return f
 
     def strain_energy(self, state: State) -> float:
         """Total strain energy [J], ``sum 1/2 e^T S e`` and the hinges' springs ``k theta^2 / 2``."""
-        _, _, e, sig = self.element_response(state, tangent=False)
+        e, sig = self.stresses(state)
         energy = 0.5 * float(np.sum(e * sig))
         if self.hinges is not None:
             energy += 0.5 * float(np.sum(self.hinges.k * self.hinges.relative_angle(state.rotations, state.hinge_angles) ** 2))

@@ -71,7 +71,7 @@ def peak_normal_stress(model, state, axial=None) -> np.ndarray:
         raise ModelError("peak stress needs the extreme-fibre distances ymax, zmax of every section "
                          "(flexmb.sections.rectangle sets them)")
     ymax, A, Iz, *zy = properties(el.sections, ("ymax", "A", "Iz") + (("zmax", "Iy") if model.dim == 3 else ()))
-    sig = _with_axial(model.element_response(state, tangent=False)[3], axial)
+    sig = _with_axial(model.stresses(state)[1], axial)
     axial = np.abs(sig[:, 0]) / A
     L0 = el.L0[:, None]
     if model.dim == 2:
@@ -90,7 +90,7 @@ def section_resultants(model, state, axial=None) -> np.ndarray:
     ``[N, Vy, Vz, T, My, Mz]`` [N, N m], (E, 2, 3) in 2D as ``[N, Vy, Mz]`` (see the module notes);
     ``axial`` as in `peak_normal_stress`."""
     el = model.elements
-    _, _, e, sig = model.element_response(state, tangent=False)
+    e, sig = model.stresses(state)
     sig = _with_axial(sig, axial)
     L0 = el.L0
     l = L0 + e[:, 0]

@@ -103,7 +103,9 @@ RESTART_RATIO = 0.75  # ... and when halving did not bring it nearer than this x
 #: the corrector's tangent takes the last converged state's stresses in its geometric part until the
 #: scaled residual falls below this (the predicted state's own stresses are the predictor's error)
 REFERENCE_STRESS_UNTIL = 0.1
-INTERMEDIATE_RTOL = 1e-5  # relative tolerance of the steps before the last (the last: rtol)
+REFERENCE_STRESS_ITERATIONS = 4  # ... and for at most this many correctors
+INTERMEDIATE_RTOL = 1e-5
+  # relative tolerance of the steps before the last (the last: rtol)
 SAME_PATH = 1e-6  # ... unless it is closer than this (translations over the model length, rad): a step
 # that predicts no motion (nothing applied) is never rejected for its round-off corrections
 
@@ -150,7 +152,8 @@ class Conventional:
         polynomial extrapolation (in the load factor) of the last ten converged states,
         rotations as spins on SO(3) continued along the path; the corrector's tangent takes the
         last converged state's stresses in its geometric stiffness until the residual is below
-        0.1 of the force scale (the predicted state's own stresses are the predictor's error: a
+        0.1 of the force scale, for at most 4 correctors (the predicted state's own stresses are
+        the predictor's error: a
         straight-line predictor stretches turning leaves, and their spurious axial forces made
         the tangent indefinite and steered Newton onto buckled branches); a corrector that
         moves farther than 0.4x the predicted step from the predicted state (after a linear
@@ -336,7 +339,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
                 if (res < tol) if tol is not None else (floor or scaled <= accept_rtol):
                     accepted = True
                     break
-                physical = physical or scaled < REFERENCE_STRESS_UNTIL
+                physical = physical or scaled < REFERENCE_STRESS_UNTIL or it >= REFERENCE_STRESS_ITERATIONS
                 if tol is not None and it > 2 and res > 0.5 * prev and res < 1e-10 * first:
                     stalled = res  # Newton stopped gaining: roundoff floor of this model
                     break

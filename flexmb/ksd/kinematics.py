@@ -37,6 +37,19 @@ def _describe(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) ->
     return ", ".join(parts)
 
 
+def _hinges_in(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) -> str:
+    """The hinges a free motion turns, as the end of `_independent_rows`' refusal ('' if none)."""
+    if red.hinges is None:
+        return ""
+    moving = set(columns[np.abs(vector) > 0.2 * np.abs(vector).max()] // 6)
+    names = [n for n, (a, b) in zip(red.hinges.names, red.hinges.node) if a in moving or b in moving]
+    if not names:
+        return ""
+    return (f" (hinge {', '.join(map(repr, names))} turns with it: a hinge's rotation that only its spring and the "
+            "flexures' stiffness decide is such a motion; KSD's step 1 needs the prescribed motion and the motors "
+            "to determine every joint rotation)")
+
+
 def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
     """Rows of the constraint Jacobian at rest to keep (redundant ones removed, Sec. 2.2)."""
     free = red.free
@@ -52,7 +65,7 @@ def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
         raise TopologyError(
             f"the mechanism is kinematically indeterminate for KSD ({len(free)} unknown link coordinates, "
             f"{rank} independent joint constraints): this motion is free: {_describe(red, free, null)}. "
-            "Prescribe it (Mechanism.prescribe) or use method='conventional'")
+            "Prescribe it (Mechanism.prescribe) or use method='conventional'" + _hinges_in(red, free, null))
     return rows
 
 
@@ -109,7 +122,7 @@ def kinematic_start(red: ReducedMechanism):
     start = getattr(red, "_kinematic_start", None)
     if start is None:
         rest = red.rest()
-        _, jac0, theta0, _ = red.constraint_equations(rest, values=False)
+        _, jac0, theta0, _ = red.constraint_equations(rest, values=False, lam=0.0)
         rows = _independent_rows(red, jac0)
         _, (_, W) = red._moves
         largest = float(np.max(np.linalg.norm(W, axis=1))) if len(W) else 0.0
@@ -141,12 +154,12 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
         trial = red.with_prescribed(poses, target)
         # linear predictor from the last solution: the free motion that keeps the constraints
         # satisfied to first order under the prescribed increment (a prescribed rotation keeps its axis)
-        dz = _correction(red, jac0[at_free], jac0[at_pres] @ (dlam * red.values))
+        dz = _correction(red, jac0[at_free], jac0[at_pres] @ (dlam * red.values) + dlam * red.lam_rate[rows])
         if dz is not None:
             trial = trial.moved(dz)
         accepted, prev = False, np.inf
         for _ in range(max_iter):
-            c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred")
+            c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred", lam=target)
             res = _norm(c[rows])
             if not np.isfinite(res) or res > prev:  # Newton must gain in every iteration, else cut the
                 break  # step: a large prescribed motion otherwise wanders onto another assembly branch

@@ -23,7 +23,6 @@ from __future__ import annotations
 import os
 import time
 import warnings
-import weakref
 from typing import ClassVar
 
 import attrs
@@ -31,7 +30,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError
 from ..ksd.geometry import ACTIVE, rz
-from ..ksd.kinematics import _correction, _norm, solve_kinematics
+from ..ksd.kinematics import _correction, _gesv, _norm, solve_kinematics
 from ..ksd.reduced import ReducedMechanism
 from ..linear import single_threaded
 from ..results import Solution
@@ -63,8 +62,14 @@ def _check_reachable(red: ReducedMechanism) -> None:
     """Refuse (`DatabaseError`) a prescribed rotation component larger than the trained ranges of
     all joints together plus a full turn: no joint rotations within their ranges reach it, and
     step 1 would grind through thousands of load steps first (a prescribed 1e300 rad: minutes).
-    Nearer rotations are left to step 1, which names the joint out of its range."""
+    Nearer rotations are left to step 1, which names the joint out of its range. A hinge's motor
+    adds its angle; a hinge without one turns freely (no bound)."""
     reach = sum(max(abs(lo), abs(hi)) * len(idx) for tpl, _, idx in red.groups for lo, hi in [tpl.data.range])
+    if red.hinges is not None:
+        motors = red.hinges.angle
+        if not np.all(np.isfinite(motors)):
+            return
+        reach += float(np.abs(motors).sum())
     comp = red.prescribed % 6
     rot = np.abs(np.asarray(red.values, dtype=float)[comp >= 3])
     if rot.size and rot.max() > reach + 2 * np.pi:
@@ -73,21 +78,17 @@ def _check_reachable(red: ReducedMechanism) -> None:
                             "range; use method='conventional' or retrain with `flexmb train --range`")
 
 
-_SETUPS = weakref.WeakKeyDictionary()  # Compiled -> {database folder: ReducedMechanism}
-
-
 def reduced_mechanism(compiled, folder=None) -> ReducedMechanism:
     """The `ReducedMechanism` of ``compiled`` (steps 1-2's set-up: joint frames, templates,
     constraint sets, the start of step 1), built once per compiled mechanism and database folder
     (`flexmb.solve` keeps the compiled model of an unchanged mechanism, `flexmb.compiled`) and
     rebuilt when a joint database it read has changed (`ReducedMechanism.current`)."""
-    key = None if folder is None else os.fspath(folder)
-    built = _SETUPS.get(compiled)
-    red = None if built is None else built.get(key)
+    key = ("ksd", None if folder is None else os.fspath(folder))
+    derived = getattr(compiled, "derived", {})
+    red = derived.get(key)
     if red is not None and red.current():
         return red
-    red = ReducedMechanism(compiled, folder)
-    _SETUPS.setdefault(compiled, {})[key] = red
+    red = derived[key] = ReducedMechanism(compiled, folder)
     return red
 
 
@@ -179,12 +180,12 @@ class _KSD:
         R_hat = rz(theta)
         t = lap("eob", t)
 
-        poses3, ok3, hist3, r3 = self._reduced(red, poses, K, Fh, p_hat, R_hat)
+        poses3, ok3, hist3, r3, mu = self._reduced(red, poses, K, Fh, p_hat, R_hat)
         stages["reduced"] = {"iterations": len(hist3), "residual": hist3[-1] if hist3 else np.nan,
                              "converged": ok3, "history": hist3}
         t = lap("reduced", t)
 
-        state, q_nodes = self._internal(red, poses3, eobs, p_hat, R_hat)
+        state, q_nodes = self._internal(red, poses3, eobs, p_hat, R_hat, mu)
         t = lap("internal", t)
         for key in ("kinematics", "eob", "reduced", "internal"):
             stages.setdefault(key, {})["time"] = times[key]
@@ -228,7 +229,10 @@ class _KSD:
         return sol
 
     def _reduced(self, red, poses, K, Fh, p_hat, R_hat):
-        """Step 3: Newton on the reduced mechanism; returns poses, converged, history, residual."""
+        """Step 3: Newton on the reduced mechanism; returns poses, converged, history, the links'
+        residual and the hinges' multipliers (None without hinges)."""
+        if red.hinges is not None:
+            return self._reduced_hinged(red, poses, K, Fh, p_hat, R_hat)
         free = red.free
         at_free = (free[:, None], free)
         history, prev = [], np.inf
@@ -236,7 +240,7 @@ class _KSD:
         res = _norm(r[free])
         for _ in range(self.max_iter):
             if res < self.tol and history:
-                return poses, True, history, r
+                return poses, True, history, r, None
             dz = _correction(red, Kr()[at_free], r[free])
             if dz is None:
                 break
@@ -247,9 +251,49 @@ class _KSD:
             # as the conventional method: the divergence test starts after the first correction
             if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
                 break
-        return poses, res < self.tol, history, r
+        return poses, res < self.tol, history, r, None
 
-    def _internal(self, red, poses, eobs, p_hat, R_hat):
+    def _reduced_hinged(self, red, poses, K, Fh, p_hat, R_hat):
+        """Step 3 with hinges: Newton on the links' free coordinates and the hinges' multipliers,
+        the saddle point of the full model's hinges (`flexmb.fe.ideal`) on the reduced mechanism.
+        Step 1 left the hinges' constraints satisfied; the multipliers start at zero."""
+        n_links = 6 * red.n_links
+        free = np.concatenate([red.free, n_links + np.arange(red.hinges.n_rows)])
+        at_free = (free[:, None], free)
+        mu = np.zeros(red.hinges.n_rows)
+
+        def evaluate(poses, mu):
+            r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
+            rh, Kh = red.hinge_response(poses, mu)
+            rh[:n_links] += r
+
+            def tangent():
+                out = Kh()
+                out[:n_links, :n_links] += Kr()
+                return out
+
+            return rh, tangent
+
+        history, prev = [], np.inf
+        r, Kr = evaluate(poses, mu)
+        res = _norm(r[free])
+        for _ in range(self.max_iter):
+            if res < self.tol and history:
+                return poses, True, history, r[:n_links], mu
+            *_, x, info = _gesv(Kr()[at_free], -r[free])
+            if info != 0:
+                break
+            dz = np.zeros(n_links)
+            dz[red.free] = x[:len(red.free)]
+            poses, mu = poses.moved(dz), mu + x[len(red.free):]
+            r, Kr = evaluate(poses, mu)
+            prev, res = res, _norm(r[free])
+            history.append(res)
+            if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
+                break
+        return poses, res < self.tol, history, r[:n_links], mu
+
+    def _internal(self, red, poses, eobs, p_hat, R_hat, multipliers=None):
         """Step 4: internal nodes of every joint from its interface displacement (Eq. 2.6). Returns
         the full model's `State` and, per group of joints, the node displacements (Jg, N nd) from
         the EOBs' near poses."""
@@ -270,7 +314,7 @@ class _KSD:
             else:
                 rot = expm_so3(xi[..., 3:]) @ e.node_rotation[:, 2:]
             internal.append((idx, x, rot))
-        return red.fe_state(poses, internal), q_nodes
+        return red.fe_state(poses, internal, multipliers), q_nodes
 
     @staticmethod
     def _eob_axial(red, eobs, q_nodes):

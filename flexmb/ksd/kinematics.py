@@ -141,8 +141,9 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     gives 2 pi + 0.3, not 0.3. ``stop_beyond_half_turn``: stop at the first step that turns a
     joint beyond +-pi, outside any trained range (the caller refuses; intermediate steps may
     leave a range the end is in, so that is checked on the result only).
-    Returns ``(poses, theta, p, info)``; info has iterations, the equations kept/removed and the
-    largest residual of the removed (redundant) equations at the solution.
+    Returns ``(poses, theta, p, info)``; info has iterations, the fraction of the prescribed
+    motion reached (``load_factor``: 1 unless stopped beyond half a turn), the equations
+    kept/removed and the largest residual of the removed (redundant) equations at the solution.
     """
     rest, jac0, rows, path_theta, largest = kinematic_start(red)  # jac0: at the last accepted poses (predictor)
     free = red.free
@@ -199,7 +200,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                       f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
                       "rad); the kinematic start and KSD-reduced are approximate there (KSD-full is not affected)",
                       RuntimeWarning, stacklevel=3)
-    info = {"iterations": iterations, "residual": res, "equations": len(c), "removed": len(removed),
+    info = {"iterations": iterations, "residual": res, "load_factor": lam, "equations": len(c), "removed": len(removed),
             "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
             "removed_equations": [red.rows[k] for k in removed], "history": history}
     return poses, theta, p, info

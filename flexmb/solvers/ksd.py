@@ -45,13 +45,28 @@ def _folder_or_none(instance, attribute, value):
                              "(the shipped data)")
 
 
-def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool) -> None:
+def _requested(red: ReducedMechanism) -> str:
+    """The prescribed link rotations, as asked for ([rad]; 3D: rotation vectors)."""
+    names = list(red.compiled.link_node)
+    lr, W = red._moves[1]
+    parts = [f"link {names[k]!r} rotation " + (f"{w[2]:.6g} rad" if red.dim == 2 else f"{np.round(w, 6).tolist()} rad")
+             for k, w in zip(lr, W) if np.any(w)]
+    return ", ".join(parts) or "no prescribed rotation"
+
+
+def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool, reached: float = 1.0) -> None:
+    """Refuse or warn of an intended joint rotation outside its trained range; ``reached``: the
+    fraction of the prescribed motion step 1 reached (it stops beyond half a turn): the message
+    then names the requested motion and where step 1 stopped, not only that angle."""
     for tpl, _, idx in red.groups:
         lo, hi = tpl.data.range
         for j in idx:
             if not lo - 1e-9 <= theta[j] <= hi + 1e-9:  # 1e-9 rad: the kinematic solve's roundoff
-                msg = (f"joint {red.joint_names[j]!r} ({tpl.data.kind}): intended rotation {np.degrees(theta[j]):.2f} "
-                       f"deg is outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg")
+                trained = f"outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg"
+                head = f"joint {red.joint_names[j]!r} ({tpl.data.kind}): the requested motion ({_requested(red)}) turns it"
+                msg = (f"{head} to {np.degrees(theta[j]):.2f} deg, {trained}" if reached >= 1.0 - 1e-14 else
+                       f"{head} {trained}: step 1 stopped at {np.degrees(theta[j]):.2f} deg, {100 * reached:.3g} % of "
+                       "the way")
                 if strict:
                     raise DatabaseError(msg + " (KSD cannot extrapolate the joint database; use "
                                               "method='conventional' or retrain with `flexmb train --range`)")
@@ -159,7 +174,7 @@ class _KSD:
             if self.raise_on_failure:
                 raise ConvergenceError(sol.message, sol) from None
             return sol
-        _check_range(red, theta, self.strict_range)
+        _check_range(red, theta, self.strict_range, info["load_factor"])
         stages["kinematics"] = info
         t = lap("kinematics", t)
 

@@ -125,7 +125,10 @@ def kinematic_start(red: ReducedMechanism):
         _, jac0, theta0, _ = red.constraint_equations(rest, values=False, lam=0.0)
         rows = _independent_rows(red, jac0)
         _, (_, W) = red._moves
-        largest = float(np.max(np.linalg.norm(W, axis=1))) if len(W) else 0.0
+        turns = list(np.linalg.norm(W, axis=1))
+        if red.hinges is not None:  # a motor turns its link as a prescribed rotation does
+            turns += list(np.abs(red.hinges.angle[np.isfinite(red.hinges.angle)]))
+        largest = float(max(turns)) if turns else 0.0
         for a in (rest.x, rest.R, rest.angle, jac0, theta0):
             a.flags.writeable = False
         start = red._kinematic_start = (rest, jac0, rows, theta0, largest)
@@ -142,7 +145,8 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     joint beyond +-pi, outside any trained range (the caller refuses; intermediate steps may
     leave a range the end is in, so that is checked on the result only).
     Returns ``(poses, theta, p, info)``; info has iterations, the fraction of the prescribed
-    motion reached (``load_factor``: 1 unless stopped beyond half a turn), the equations
+    motion reached (``load_factor``: 1 unless stopped beyond half a turn), the 3D hinges' angles
+    (``hinge_angles``, turns counted; None in 2D or without hinges), the equations
     kept/removed and the largest residual of the removed (redundant) equations at the solution.
     """
     rest, jac0, rows, path_theta, largest = kinematic_start(red)  # jac0: at the last accepted poses (predictor)
@@ -150,6 +154,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     at_free, at_pres = (rows[:, None], free), (rows[:, None], red.prescribed)
     poses, lam, dlam = rest, 0.0, min(1.0, STEP_ROTATION / largest) if largest > 0.0 else 1.0
     iterations, history = 0, []
+    hinge_path = red.hinge_angles(rest)  # 3D hinges' angles, turns counted from step to step
     while True:
         target = lam + dlam
         trial = red.with_prescribed(poses, target)
@@ -160,7 +165,8 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
             trial = trial.moved(dz)
         accepted, prev = False, np.inf
         for _ in range(max_iter):
-            c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred", lam=target)
+            c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred", lam=target,
+                                                           hinge_angles=hinge_path)
             res = _norm(c[rows])
             if not np.isfinite(res) or res > prev:  # Newton must gain in every iteration, else cut the
                 break  # step: a large prescribed motion otherwise wanders onto another assembly branch
@@ -178,6 +184,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
         if accepted:
             poses, lam = trial, target
             theta = path_theta = _unwrapped(theta, path_theta)
+            hinge_path = red.hinge_angles(poses, hinge_path)
             if lam >= 1.0 - 1e-14:
                 break
             if stop_beyond_half_turn and np.any(np.abs(theta) > np.pi):
@@ -200,7 +207,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                       f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
                       "rad); the kinematic start and KSD-reduced are approximate there (KSD-full is not affected)",
                       RuntimeWarning, stacklevel=3)
-    info = {"iterations": iterations, "residual": res, "load_factor": lam, "equations": len(c), "removed": len(removed),
+    info = {"iterations": iterations, "residual": res, "load_factor": lam, "hinge_angles": hinge_path, "equations": len(c), "removed": len(removed),
             "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
             "removed_equations": [red.rows[k] for k in removed], "history": history}
     return poses, theta, p, info

@@ -246,14 +246,23 @@ class ReducedMechanism:
         """The links' positions (n, dim) and rotations as the full model holds them (2D angles, 3D matrices)."""
         return poses.x[:, :self.dim], (poses.angle if self.dim == 2 else poses.R)
 
+    def hinge_angles(self, poses: LinkPoses, near=None):
+        """The 3D hinges' relative angles [rad] (H,) at ``poses``, each the branch nearest to ``near``
+        (the angles a step started from: turns counted as the full model counts them,
+        `flexmb.fe.ideal.Hinges.advance`); None in 2D (link angles count turns) or without hinges."""
+        if self.hinges is None or self.dim == 2:
+            return None
+        return self.hinges.relative_angle(poses.R, near)
+
     def constraint_equations(self, poses: LinkPoses, jacobian: bool | str = True, values: bool = True,
-                             lam: float = 1.0):
+                             lam: float = 1.0, hinge_angles=None):
         """Values (m,) and Jacobian (m, 6 n_links) of all joints' kinematic constraints; the
         intended rotations ``theta`` (J,) and relative positions ``p`` (J, 3).
         ``jacobian="deferred"`` returns a function that computes the Jacobian when called (a
         converged iterate never needs it); False returns None. ``values=False`` returns None
         for the values. The hinges' kept rows come last (`flexmb.fe.ideal`; positions over
-        `length`), their motors at the fraction ``lam`` of their angles."""
+        `length`), their motors at the fraction ``lam`` of their angles, a 3D hinge's angle taken
+        nearest to ``hinge_angles`` (`hinge_angles`; None: within one turn)."""
         fr = self.frames
         p, R, geo = fr.relative(poses)
         theta, dth = intended_angle(R)
@@ -263,7 +272,7 @@ class ReducedMechanism:
                                         np.concatenate([v.ravel() for v, _ in parts]))
         if self.hinges is not None:
             h, k = self._hinge_rows
-            ch, gh, _ = self.hinges.residual_rows(*self._fe_pose(poses), lam)
+            ch, gh, _ = self.hinges.residual_rows(*self._fe_pose(poses), lam, angles=hinge_angles)
             if values:
                 vals = np.concatenate([vals, (ch * self._hinge_row_scale)[h, k]])
 
@@ -331,11 +340,12 @@ class ReducedMechanism:
             return r, None
         return r, (jacobian if tangent == "deferred" else jacobian())
 
-    def hinge_response(self, poses: LinkPoses, multipliers: np.ndarray, tangent: bool = True):
+    def hinge_response(self, poses: LinkPoses, multipliers: np.ndarray, tangent: bool = True, angles=None):
         """The hinges' forces (6 n_links + n_rows,): their multipliers' forces and springs' moments
         on the links' rows, their scaled constraint values on the multiplier rows (last), and the
-        tangent (a function, as `equilibrium`'s deferred one), at the full motors' angles."""
-        F, K = self.hinges.response(*self._fe_pose(poses), multipliers, 1.0, tangent=tangent)
+        tangent (a function, as `equilibrium`'s deferred one), at the full motors' angles; ``angles``
+        as `constraint_equations`' ``hinge_angles``."""
+        F, K = self.hinges.response(*self._fe_pose(poses), multipliers, 1.0, tangent=tangent, angles=angles)
         n = 6 * self.n_links + self.hinges.n_rows
         at = self.hinge_dofs
         r = np.bincount(at.ravel(), F.ravel(), minlength=n)
@@ -347,11 +357,12 @@ class ReducedMechanism:
         return r, jacobian
 
     # -- step 4: back to the full model -----------------------------------------------------
-    def fe_state(self, poses: LinkPoses, internal, multipliers: np.ndarray | None = None):
+    def fe_state(self, poses: LinkPoses, internal, multipliers: np.ndarray | None = None, hinge_angles=None):
         """The full model's `State`: link nodes from ``poses``; ``internal`` is a list of
         ``(idx, x, rot)`` per group of joints sharing a mesh: joint indices (Jg,), internal node
         positions (Jg, n, dim) and rotations in each joint's frame (angles [rad] (Jg, n) in 2D,
-        matrices (Jg, n, 3, 3) in 3D). ``multipliers``: the hinges' (step 3), None without hinges."""
+        matrices (Jg, n, 3, 3) in 3D). ``multipliers``, ``hinge_angles``: the hinges' (step 3; None
+        without hinges, angles None in 2D)."""
         model = self.compiled.problem.model
         dim = self.dim
         pos = model.x0.copy()
@@ -373,7 +384,10 @@ class ReducedMechanism:
                 rot[nodes] = poses.angle[self.frames.a[idx]][:, None] + Rl
             else:
                 rot[nodes] = F[idx, None] @ Rl @ np.swapaxes(self.frames.P[idx], 1, 2)[:, None]
-        return State(pos, rot, None if self.hinges is None else np.array(multipliers, dtype=float))
+        if self.hinges is None:
+            return State(pos, rot)
+        return State(pos, rot, np.array(multipliers, dtype=float),
+                     None if hinge_angles is None else np.array(hinge_angles, dtype=float))
 
     def reaction_vector(self, r_links: np.ndarray) -> np.ndarray:
         """The full model's residual layout with the reduced residual on the link DOFs."""

@@ -195,12 +195,12 @@ class _KSD:
         R_hat = rz(theta)
         t = lap("eob", t)
 
-        poses3, ok3, hist3, r3, mu = self._reduced(red, poses, K, Fh, p_hat, R_hat)
+        poses3, ok3, hist3, r3, mu, angles = self._reduced(red, poses, K, Fh, p_hat, R_hat, info["hinge_angles"])
         stages["reduced"] = {"iterations": len(hist3), "residual": hist3[-1] if hist3 else np.nan,
                              "converged": ok3, "history": hist3}
         t = lap("reduced", t)
 
-        state, q_nodes = self._internal(red, poses3, eobs, p_hat, R_hat, mu)
+        state, q_nodes = self._internal(red, poses3, eobs, p_hat, R_hat, mu, angles)
         t = lap("internal", t)
         for key in ("kinematics", "eob", "reduced", "internal"):
             stages.setdefault(key, {})["time"] = times[key]
@@ -243,11 +243,11 @@ class _KSD:
             raise ConvergenceError(sol.message, sol)
         return sol
 
-    def _reduced(self, red, poses, K, Fh, p_hat, R_hat):
+    def _reduced(self, red, poses, K, Fh, p_hat, R_hat, hinge_angles=None):
         """Step 3: Newton on the reduced mechanism; returns poses, converged, history, the links'
-        residual and the hinges' multipliers (None without hinges)."""
+        residual and the hinges' multipliers and 3D angles (None without hinges)."""
         if red.hinges is not None:
-            return self._reduced_hinged(red, poses, K, Fh, p_hat, R_hat)
+            return self._reduced_hinged(red, poses, K, Fh, p_hat, R_hat, hinge_angles)
         free = red.free
         at_free = (free[:, None], free)
         history, prev = [], np.inf
@@ -255,7 +255,7 @@ class _KSD:
         res = _norm(r[free])
         for _ in range(self.max_iter):
             if res < self.tol and history:
-                return poses, True, history, r, None
+                return poses, True, history, r, None, None
             dz = _correction(red, Kr()[at_free], r[free])
             if dz is None:
                 break
@@ -266,12 +266,13 @@ class _KSD:
             # as the conventional method: the divergence test starts after the first correction
             if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
                 break
-        return poses, res < self.tol, history, r, None
+        return poses, res < self.tol, history, r, None, None
 
-    def _reduced_hinged(self, red, poses, K, Fh, p_hat, R_hat):
+    def _reduced_hinged(self, red, poses, K, Fh, p_hat, R_hat, angles):
         """Step 3 with hinges: Newton on the links' free coordinates and the hinges' multipliers,
         the saddle point of the full model's hinges (`flexmb.fe.ideal`) on the reduced mechanism.
-        Step 1 left the hinges' constraints satisfied; the multipliers start at zero."""
+        Step 1 left the hinges' constraints satisfied; the multipliers start at zero; the 3D
+        hinges' angles (``angles`` from step 1) follow the iterates, turns counted."""
         n_links = 6 * red.n_links
         free = np.concatenate([red.free, n_links + np.arange(red.hinges.n_rows)])
         at_free = (free[:, None], free)
@@ -279,7 +280,7 @@ class _KSD:
 
         def evaluate(poses, mu):
             r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
-            rh, Kh = red.hinge_response(poses, mu)
+            rh, Kh = red.hinge_response(poses, mu, angles=angles)
             rh[:n_links] += r
 
             def tangent():
@@ -294,21 +295,22 @@ class _KSD:
         res = _norm(r[free])
         for _ in range(self.max_iter):
             if res < self.tol and history:
-                return poses, True, history, r[:n_links], mu
+                return poses, True, history, r[:n_links], mu, angles
             *_, x, info = _gesv(Kr()[at_free], -r[free])
             if info != 0:
                 break
             dz = np.zeros(n_links)
             dz[red.free] = x[:len(red.free)]
             poses, mu = poses.moved(dz), mu + x[len(red.free):]
+            angles = red.hinge_angles(poses, angles)
             r, Kr = evaluate(poses, mu)
             prev, res = res, _norm(r[free])
             history.append(res)
             if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
                 break
-        return poses, res < self.tol, history, r[:n_links], mu
+        return poses, res < self.tol, history, r[:n_links], mu, angles
 
-    def _internal(self, red, poses, eobs, p_hat, R_hat, multipliers=None):
+    def _internal(self, red, poses, eobs, p_hat, R_hat, multipliers=None, hinge_angles=None):
         """Step 4: internal nodes of every joint from its interface displacement (Eq. 2.6). Returns
         the full model's `State` and, per group of joints, the node displacements (Jg, N nd) from
         the EOBs' near poses."""
@@ -329,7 +331,7 @@ class _KSD:
             else:
                 rot = expm_so3(xi[..., 3:]) @ e.node_rotation[:, 2:]
             internal.append((idx, x, rot))
-        return red.fe_state(poses, internal, multipliers), q_nodes
+        return red.fe_state(poses, internal, multipliers, hinge_angles), q_nodes
 
     @staticmethod
     def _eob_axial(red, eobs, q_nodes):

@@ -484,6 +484,24 @@ def test_an_unchanged_mechanism_is_compiled_once_and_gives_the_same_answer():
     assert again.stages["kinematics"]["iterations"] == first.stages["kinematics"]["iterations"] > 0
 
 
+class _NotAValue(flexmb.CrossFlexure):  # a plugin joint that does not hash: it could change unseen
+    __hash__ = None
+
+
+def test_a_mechanism_with_a_joint_that_is_not_a_value_is_compiled_every_time():
+    from flexmb.compiled import compiled_for
+
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("A", fixed=True)
+    joint = _NotAValue(elements_per_leaf=2)
+    m.add_link("B", position=joint.interface_b(2))
+    m.add_joint("A", "B", joint)
+    m.prescribe("B", rotation=0.2)
+    assert compiled_for(m) is not compiled_for(m)
+    sols = [flexmb.solve(m, method="ksd-reduced") for _ in range(2)]
+    assert sols[0].compiled is not sols[1].compiled and _same(*sols)
+
+
 def _pivot(rotation=0.3, force=None, moment=None):
     m = flexmb.models.cross_flexure_pivot(2, dim=2, rotation=rotation)
     if force is not None:

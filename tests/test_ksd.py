@@ -480,7 +480,8 @@ def test_an_unchanged_mechanism_is_compiled_once_and_gives_the_same_answer():
     assert first.compiled is again.compiled is c
     assert _same(first, again)
     # the set-up's time is reported as a stage of its own; steps 1 and 2 are computed every solve
-    assert {"kinematics", "eob", "reduced", "internal"} <= again.stages.keys()
+    assert {"setup", "kinematics", "eob", "reduced", "internal"} <= again.stages.keys()
+    assert again.stages["eob"]["joints"] == 1 and again.stages["setup"]["time"] > 0
     assert again.stages["kinematics"]["iterations"] == first.stages["kinematics"]["iterations"] > 0
 
 

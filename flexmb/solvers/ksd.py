@@ -183,16 +183,18 @@ class _KSD:
         J = len(red.joint_names)
         K = np.zeros((J, 6, 6))
         Fh = np.zeros((J, 6))
-        eobs = []
+        eobs, tabulated = [], 0
         for tpl, _, idx in red.groups:
             if not self.full and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
                 e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
+                tabulated += len(idx)
             else:
                 e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
             K[idx[:, None, None], emb[:, None], emb] = e.K_T
             Fh[idx[:, None], emb] = e.F_hat_T
             eobs.append(e)
         R_hat = rz(theta)
+        stages["eob"] = {"joints": J, "tabulated": tabulated}  # step 2: EOBs built, of them looked up
         t = lap("eob", t)
 
         poses3, ok3, hist3, r3, mu, angles = self._reduced(red, poses, K, Fh, p_hat, R_hat, info["hinge_angles"])
@@ -202,7 +204,7 @@ class _KSD:
 
         state, q_nodes = self._internal(red, poses3, eobs, p_hat, R_hat, mu, angles)
         t = lap("internal", t)
-        for key in ("kinematics", "eob", "reduced", "internal"):
+        for key in ("setup", "kinematics", "eob", "reduced", "internal"):  # setup: kept per compiled model
             stages.setdefault(key, {})["time"] = times[key]
 
         if not self.full:

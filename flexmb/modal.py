@@ -238,8 +238,10 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     held_idx = held_dofs(solution, held)
     free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
     if reduced:  # the reduced mechanism: the links' DOFs and the joints' modal coordinates
+        if model.hinges is not None:
+            raise UnsupportedStrategyError("modes of a KSD-reduced solution with hinges are not available: solve with "
+                                           "method='ksd-full' or 'conventional'")
         K, M, to_full = reduced_modal_model(solution, KSD_FIXED_INTERFACE_MODES)
-        K, M = sp.csr_array(K), sp.csr_array(M)
         nl = len(compiled.link_node) * model.ndof
         size = K.shape[0]
         free = np.concatenate([free[free < nl], np.arange(nl, size)])
@@ -247,10 +249,12 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:
         raise ParameterError(f"modes: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, {nf}, "
                              "minus one)")
-    if not reduced:
+    if reduced:  # small and dense: no sparse bookkeeping (measured 1-2 ms of a 4 ms call)
+        K, M, Z = K[np.ix_(free, free)], M[np.ix_(free, free)], None
+    else:
         K, M = stiffness_and_mass(solution)
-    free, Z = constrained(model, free, K)  # hinges: the motions they allow (Z), multipliers out
-    K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
+        free, Z = constrained(model, free, K)  # hinges: the motions they allow (Z), multipliers out
+        K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
     if Z is not None:
         K, M = (Z.T @ K @ Z).tocsr(), (Z.T @ M @ Z).tocsr()
         nf = K.shape[0]
@@ -272,10 +276,10 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     tol = max(10.0 * solution.tolerance, 1e-11 * abs(K).max())
     symmetric = bool(asym <= tol)
     if nf < (DENSE_BELOW if symmetric else DENSE_BELOW_NONSYMMETRIC):
-        lam, vec = _dense(K.toarray(), M.toarray(), n, symmetric)
+        lam, vec = _dense(*(A.toarray() if sp.issparse(A) else A for A in (K, M)), n, symmetric)
         solver = "dense"
     else:
-        lam, vec = _sparse(K, M, n, symmetric)
+        lam, vec = _sparse(sp.csr_array(K), sp.csr_array(M), n, symmetric)
         solver = "sparse"
     # mass-normalise (eigh's are already), sign: largest component positive
     norm = np.sqrt(np.einsum("ik,ik->k", vec, M @ vec))

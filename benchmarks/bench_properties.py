@@ -145,7 +145,7 @@ def tables(rows, rotations) -> tuple[str, str, dict]:
 
 
 def main(quick: bool = False) -> str:
-    repeats = 1 if quick else 5
+    repeats = 1 if quick else 11
     rotations = tuple(range(-45, 46, 15)) if quick else tuple(range(-45, 46, 5))
     rows = positions(rotations, repeats)
     freq, other, tot = tables(rows, rotations)

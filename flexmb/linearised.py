@@ -92,7 +92,7 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
                 len(bmodel.elements.L0) != len(model.elements.L0):
             raise ModelError("buckling: base is not a solution of the same mechanism (its nodes or elements differ)")
         Km = full_tangent(base)
-    free, Z = constrained(model, free, Kt)  # hinges: the motions they allow, multipliers out
+    free, Z = constrained(model, free, Kt, solution.state)  # hinges: the motions they allow, multipliers out
     Kt, Km = Kt[free][:, free], Km[free][:, free]
     if Z is not None:
         Kt, Km = Z.T @ Kt @ Z, Z.T @ Km @ Z

@@ -118,7 +118,7 @@ class Solution:
         if joint not in names:
             raise ModelError(f"no ideal joint named {joint!r}; ideal joints: {', '.join(names) or 'none'}")
         st = self.state
-        return model.hinges.wrench_on_b(names.index(joint), st.positions, st.rotations, st.multipliers)
+        return model.hinges.wrench_on_b(names.index(joint), st.positions, st.rotations, st.multipliers, st.hinge_angles)
 
     def point(self, link: str, name: str) -> np.ndarray:
         """Current position [m] of a named point of a link (see `Mechanism.add_point`)."""

@@ -1,5 +1,7 @@
-"""Linearised properties of a KSD-reduced solution (issue 22 item 6): the reduced mechanism's
-tangent on the links' DOFs, from which `flexmb.compliance` takes a link point's compliance.
+"""Properties of a KSD-reduced solution (issue 22 item 6): the reduced mechanism's tangent on the
+links' DOFs, from which `flexmb.compliance` takes a link point's compliance; with the joints'
+condensed mass (`flexmb.ksd.joint_mass`) the model `flexmb.modes` solves; and the joint
+elements' axial forces from the EOBs' element forces, which `Solution.stresses` uses.
 
 The tangent is the Jacobian of the equilibrium KSD step 3 solves (`ReducedMechanism.equilibrium`):
 each joint's Craig-Bampton stiffness ``K_T`` (node A held, Eq. 2.5) at its EOB near configuration

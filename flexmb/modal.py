@@ -60,9 +60,16 @@ _COMPONENTS = {2: {"x": (0,), "y": (1,), "rotation": (2,)},
                3: {"x": (0,), "y": (1,), "z": (2,), "rx": (3,), "ry": (4,), "rz": (5,), "rotation": (3, 4, 5)}}
 
 
+def _read_only(a) -> np.ndarray:
+    """A read-only copy of ``a``, its dtype kept (a `Modes` is a result: no caller changes it)."""
+    out = np.array(a)
+    out.flags.writeable = False
+    return out
+
+
 @attrs.frozen(eq=False)
 class Modes:
-    """Vibration modes of a configuration (`modes`).
+    """Vibration modes of a configuration (`modes`); its arrays are read-only copies.
 
     Attributes
     ----------
@@ -88,11 +95,11 @@ class Modes:
         and write the shapes about it), or None.
     """
 
-    frequencies: np.ndarray
-    eigenvalues: np.ndarray
-    shapes: np.ndarray
-    link_shapes: dict
-    held: np.ndarray
+    frequencies: np.ndarray = attrs.field(converter=_read_only)
+    eigenvalues: np.ndarray = attrs.field(converter=_read_only)
+    shapes: np.ndarray = attrs.field(converter=_read_only)
+    link_shapes: dict = attrs.field(converter=lambda d: {k: _read_only(a) for k, a in d.items()})
+    held: np.ndarray = attrs.field(converter=_read_only)
     symmetric: bool
     solver: str
     solution: object = attrs.field(default=None, repr=False)

@@ -268,12 +268,12 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     massless = np.flatnonzero(~(dM > 1e-14 * scale)) if scale > 0 else np.arange(nf)
     if len(massless) and Z is not None:
         raise ModelError(f"modes: {len(massless)} of the motions the hinges allow carry no mass; give the links "
-                         "mass (add_link(..., mass=, inertia=)) or the joints density, or hold them (held=...)")
+                         "mass (add_link(..., mass=, inertia=)) or the joints (their sections) density, or hold them (held=...)")
     if len(massless):
         listed = ", ".join(_dof_name(compiled, free[i]) for i in massless[:6])
         raise ModelError(f"modes: {len(massless)} free direction(s) carry no mass: {listed}"
                          f"{' ...' if len(massless) > 6 else ''}; give the links mass (add_link(..., mass=, "
-                         "inertia=)) or the joints density, or hold those DOFs (held=...)")
+                         "inertia=)) or the joints (their sections) density, or hold those DOFs (held=...)")
     asym = abs(K - K.T).max()
     tol = max(10.0 * solution.tolerance, 1e-11 * abs(K).max())
     symmetric = bool(asym <= tol)

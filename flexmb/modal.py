@@ -53,7 +53,9 @@ DENSE_BELOW_NONSYMMETRIC = 90
 #: Fixed-interface modes per joint in a KSD-reduced solution's `modes` (with the joints'
 #: Craig-Bampton constraint modes, `flexmb.ksd.properties.reduced_modal_model`). Measured on the
 #: manipulator at 30 deg, first three frequencies against the full model: 0 modes +5.0/+21/+24 %,
-#: 2: -0.10/-0.24/-0.28 %, 6: -0.17/-0.25/-0.28 %, 10: -0.18/-0.26/-0.28 %.
+#: 1: +0.96/+0.06/-0.27 %, 2: -0.10/-0.24/-0.28 %, 6: -0.17/-0.25/-0.28 %, 10: -0.18/-0.26/-0.28 %
+#: (at -45 deg 6: -0.39/-0.35/-0.55 %, 10: -0.41/-0.36/-0.57 %): 6 is converged (10 moves the first
+#: three by at most 0.02 %); what is left is the EOB stiffness's (no stress stiffening).
 KSD_FIXED_INTERFACE_MODES = 6
 
 _COMPONENTS = {2: {"x": (0,), "y": (1,), "rotation": (2,)},

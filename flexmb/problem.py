@@ -14,7 +14,7 @@ import attrs
 import numpy as np
 import scipy.sparse as sp
 
-from .fe.assembly import SparsePattern, scatter_add
+from .fe.assembly import PartitionedPattern, scatter_add
 from .fe.model import FEModel, State
 from .linear import TangentSolver
 from .rotations import chain_rotation, expm_so3, logm_so3
@@ -93,17 +93,22 @@ class StaticProblem(BoundaryConditions):
         self._rotation_lines = ()
 
     @functools.cached_property
-    def _patterns(self) -> tuple[SparsePattern, SparsePattern]:
-        """Sparsity of K_ff and K_fp (element blocks, then the load-stiffness blocks), built once
-        on the first tangent evaluation and shared by `with_loads` copies made after it."""
-        model, (slot_f, slot_p, nf, npres) = self.model, self._slots
-        ed = model.element_dofs
-        lr = model.node_dofs[self.loads.node][:, model.dim:]  # (K, nrot)
-        blocks = (ed, lr) if model.hinges is None else (ed, lr, model.hinge_dofs)
-        rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in blocks])
-        cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in blocks])
-        return (SparsePattern(slot_f[rows], slot_f[cols], (nf, nf)),
-                SparsePattern(slot_f[rows], slot_p[cols], (nf, npres)))
+    def _pattern(self) -> PartitionedPattern:
+        """Sparsity of K_ff and K_fp (element blocks, then the load-stiffness blocks, then the
+        hinges'), built once on the first tangent evaluation and shared by `with_loads` copies
+        made after it."""
+        slot_f, slot_p = self._slots[:2]
+        rows, cols = zip(*[(np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel(),
+                            np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel()) for a in self._blocks])
+        return PartitionedPattern(np.concatenate(rows), np.concatenate(cols), slot_f, slot_p)
+
+    @property
+    def _blocks(self) -> tuple:
+        """The DOFs of the tangent's blocks, in the order of `_pattern`: elements (E, 2 ndof), load
+        points' rotations (K, nrot), hinges (H, 2 ndof + rows)."""
+        m = self.model
+        lr = m.node_dofs[self.loads.node][:, m.dim:]
+        return (m.element_dofs, lr) if m.hinges is None else (m.element_dofs, lr, m.hinge_dofs)
 
     def with_loads(self, loads: PointLoads, start: PointLoads | None = None) -> StaticProblem:
         """A copy under other ``loads`` (same points, other values; patterns shared). With
@@ -206,19 +211,21 @@ class StaticProblem(BoundaryConditions):
         geometric stiffness, if not their own (`FEModel.element_response`).
         """
         m = self.model
-        Fe, Ke, _, sig = m.element_response(state, tangent=tangent, geometric_stress=geometric_stress)
+        pattern = self._pattern if tangent else None
+        f_int, data_ff, data_fp, Fe, _, sig = m.assemble(state, pattern, geometric_stress=geometric_stress)
         f_ext, G = self.external_force(state, lam)
-        r = scatter_add(m.element_dofs, Fe, m.n_dofs) - f_ext
-        Kh = None
+        r = f_int - f_ext
+        if tangent and len(G):
+            pattern.split(-G, first=m.element_dofs.size * m.element_dofs.shape[1], out=(data_ff, data_fp))
         if m.hinges is not None:
             Fh, Kh = m.hinge_response(state, self.motor_fraction(lam), tangent=tangent)
-            r = r + scatter_add(m.hinge_dofs, Fh, m.n_dofs)
+            r += scatter_add(m.hinge_dofs, Fh, m.n_dofs)
+            if tangent:
+                pattern.split(Kh, first=len(pattern.slots) - Kh.size, out=(data_ff, data_fp))
         self.force_scale = self._force_scale(Fe, f_ext)
         if not tangent:
             return r, None, None, sig
-        vals = np.concatenate([Ke.ravel(), (-G).ravel()] + ([] if Kh is None else [Kh.ravel()]))
-        ff, fp = self._patterns
-        return r, ff.matrix(vals), fp.matrix(vals), sig
+        return (r,) + pattern.matrices(data_ff, data_fp) + (sig,)
 
     def prescribed_increment(self, dlam: float, lam: float = 0.0) -> np.ndarray:
         """Increments of the prescribed DOFs for a load-factor step from ``lam`` to ``lam + dlam``

@@ -24,6 +24,9 @@ def test_registered_joint_conforms(kind, check):
 # -- mutants: the suite must reject a broken element/joint -----------------------------------
 
 def _mutate(monkeypatch, module, change):
+    # the mutant is a Python-level element: run the numpy kernels, which call it (the compiled
+    # model assembly, flexmb.fe.model_jit, inlines the element and would bypass the mutation)
+    monkeypatch.setattr(flexmb.jit, "_enabled", False)  # as flexmb.jit.use("numpy"); restored after the test
     original = module.internal_force_and_tangent
 
     def mutant(*args, **kwargs):

@@ -456,3 +456,139 @@ def test_speed_study_reports_single_and_steady_ratios_from_one_run():
     for r in rows[1:]:
         assert r["speedup"] == conv["time"] / r["time"]
         assert r["speedup_steady"] == conv["time_steady"] / r["time_steady"]
+
+
+# -- the per-mechanism cache of the compiled model and KSD's set-up (issue 21 item 4) --------------
+
+def _fresh_answer(build, method):
+    return flexmb.solve(build(), method=method)
+
+
+def _same(a, b):
+    return np.array_equal(a.node_positions(), b.node_positions()) and np.array_equal(a.residual, b.residual)
+
+
+def test_an_unchanged_mechanism_is_compiled_once_and_gives_the_same_answer():
+    from flexmb.compiled import compiled_for
+    from flexmb.solvers.ksd import reduced_mechanism
+
+    m = flexmb.models.cross_flexure_pivot(2, dim=2, rotation=0.3)
+    c = compiled_for(m)
+    assert compiled_for(m) is c
+    assert reduced_mechanism(c) is reduced_mechanism(c)
+    first, again = flexmb.solve(m, method="ksd-reduced"), flexmb.solve(m, method="ksd-reduced")
+    assert first.compiled is again.compiled is c
+    assert _same(first, again)
+    # the set-up's time is reported as a stage of its own; steps 1 and 2 are computed every solve
+    assert {"kinematics", "eob", "reduced", "internal"} <= again.stages.keys()
+    assert again.stages["kinematics"]["iterations"] == first.stages["kinematics"]["iterations"] > 0
+
+
+def _pivot(rotation=0.3, force=None, moment=None):
+    m = flexmb.models.cross_flexure_pivot(2, dim=2, rotation=rotation)
+    if force is not None:
+        m.apply_force("B", force)
+    if moment is not None:
+        m.apply_moment("B", moment)
+    return m
+
+
+@pytest.mark.filterwarnings("ignore:KSD step 1:RuntimeWarning")  # the second pivot over-constrains
+@pytest.mark.parametrize("method", ["ksd-reduced", "ksd-full", "conventional"])
+@pytest.mark.parametrize("change", ["prescribe", "apply_force", "apply_moment", "clear_loads", "graph link",
+                                    "add_joint", "add_point"])
+def test_a_mutated_mechanism_gives_the_new_answer_never_a_stale_one(method, change):
+    """Every change through the mechanism's methods, or of its graph directly, compiles anew: the
+    answer after the change is that of a mechanism built that way from the start (bit for bit)."""
+    m = _pivot(force=(0.0, 1.0))
+    before = flexmb.solve(m, method=method)
+    if change == "prescribe":
+        m.prescribe("B", rotation=0.2)
+        expected = _fresh_answer(lambda: _pivot(0.2, force=(0.0, 1.0)), method)
+    elif change == "apply_force":
+        m.apply_force("B", (2.0, 0.0))
+        expected = _fresh_answer(lambda: _with(_pivot(force=(0.0, 1.0)), (2.0, 0.0)), method)
+    elif change == "apply_moment":
+        m.apply_moment("B", 0.05)
+        expected = _fresh_answer(lambda: _pivot(force=(0.0, 1.0), moment=0.05), method)
+    elif change == "clear_loads":
+        m.clear_loads()
+        expected = _fresh_answer(lambda: _pivot(), method)
+    elif change == "graph link":  # a link replaced in the graph itself: B's reference point moved
+        lk = m.graph.nodes["B"]["link"]
+        m.graph.nodes["B"]["link"] = attrs.evolve(lk, position=lk.position + 1e-3)
+
+        def build():
+            f = _pivot(force=(0.0, 1.0))
+            lk = f.graph.nodes["B"]["link"]
+            f.graph.nodes["B"]["link"] = attrs.evolve(lk, position=lk.position + 1e-3)
+            return f
+
+        expected = _fresh_answer(build, method)
+    elif change == "add_joint":  # a second pivot in parallel, 5 mm away: a stiffer mechanism
+        def add(mech):
+            mech.add_joint("A", "B", "cross_flexure", elements_per_leaf=2, name="second", origin=(0.0, 0.005))
+            return mech
+
+        add(m)
+        expected = _fresh_answer(lambda: add(_pivot(force=(0.0, 1.0))), method)
+    else:  # a named point changes no equilibrium, but the compiled maps to points
+        m.add_point("B", "tip", (0.01, 0.0))
+        expected = _fresh_answer(lambda: _pivot(force=(0.0, 1.0)), method)
+        assert "tip" in flexmb.solve(m, method=method).compiled.points
+    after = flexmb.solve(m, method=method)
+    assert after.converged == expected.converged
+    assert _same(after, expected)
+    if change != "add_point":
+        assert not _same(after, before)
+
+
+def _with(m, force):
+    m.apply_force("B", force)
+    return m
+
+
+def test_the_shared_compiled_model_cannot_be_changed_through_a_solution():
+    m = _pivot(force=(0.0, 1.0))
+    sol = flexmb.solve(m, method="ksd-reduced")
+    problem = sol.compiled.problem
+    for a in (problem.values, problem.prescribed, problem.loads.force, problem.model.x0):
+        with pytest.raises(ValueError, match="read-only"):
+            a[...] = 0.0
+    assert _same(flexmb.solve(m, method="ksd-reduced"), sol)
+
+
+def test_the_ksd_set_up_is_rebuilt_when_its_joint_database_changes(tmp_path):
+    """The set-up is kept with the database content it was built from (as `template`, keyed on
+    the content, not the time stamps): a file replaced with its time stamp restored is seen."""
+    import os
+    import shutil
+
+    from flexmb.compiled import compiled_for
+    from flexmb.database import store
+    from flexmb.solvers.ksd import reduced_mechanism
+
+    m = flexmb.models.cross_flexure_pivot(2, dim=2, rotation=0.3)
+    joint = next(iter(m.joints.values()))
+    src = store.locate(joint, 2)
+    for f in src.parent.glob(src.stem + "*"):  # the database and its EOB table
+        shutil.copy2(f, tmp_path / f.name)
+    c = compiled_for(m)
+    red = reduced_mechanism(c, tmp_path)
+    assert reduced_mechanism(c, tmp_path) is red
+    path = tmp_path / src.name
+    stamp = path.stat().st_mtime_ns
+    data = store.load(path)
+    forged = attrs.evolve(data, elements=attrs.evolve(data.elements, coefficients=1.001 * data.elements.coefficients))
+    store.save(forged, path)
+    os.utime(path, ns=(stamp, stamp))
+    again = reduced_mechanism(c, tmp_path)
+    assert again is not red
+    np.testing.assert_allclose(again.groups[0][0].data.elements.coefficients,
+                               1.001 * red.groups[0][0].data.elements.coefficients, rtol=1e-15)
+    assert reduced_mechanism(c, tmp_path) is again
+    path.unlink()  # gone: the next folder of the search path (the shipped data) is used again
+    shipped = reduced_mechanism(c, tmp_path)
+    assert shipped is not again
+    np.testing.assert_array_equal(shipped.groups[0][0].data.elements.coefficients,
+                                  red.groups[0][0].data.elements.coefficients)

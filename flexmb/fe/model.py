@@ -10,12 +10,15 @@ constraints (master-slave), never stiff springs::
 
 from __future__ import annotations
 
+import functools
+
 import attrs
 import numpy as np
 
 from ..rotations import cross, expm_so3, logm_so3, rot2, skew
 from . import beam2d, beam3d
-from .assembly import scatter_add
+from .. import jit
+from .assembly import PartitionedPattern, scatter_add
 
 __all__ = ["State", "BeamElements", "FEModel"]
 
@@ -227,6 +230,56 @@ class FEModel:
         K[:, self.dim:nd, self.dim:nd] += G[:, 0]
         K[:, nd + self.dim:, nd + self.dim:] += G[:, 1]
         return Fm, K, e, sig
+
+    @functools.cached_property
+    def _ends(self):
+        """The elements' end masters (E, 2), undeformed offsets (E, 2, dim) and which are non-zero."""
+        el = self.elements
+        offset = np.ascontiguousarray(self.point_offset[el.ends], dtype=float)
+        return (np.ascontiguousarray(self.point_master[el.ends], dtype=np.int64), offset,
+                np.ascontiguousarray(np.any(offset != 0.0, axis=2)))
+
+    @functools.cached_property
+    def _element_data(self):
+        """The element arrays the compiled kernels take, contiguous: 3D ``ny0, nz0, L0, S``; 2D
+        ``alpha0, L0, S``."""
+        el = self.elements
+        data = (el.ny0, el.nz0) if self.dim == 3 else (el.alpha0,)
+        return tuple(np.ascontiguousarray(a, dtype=float) for a in data + (el.L0, el.S))
+
+    def assemble(self, state: State, pattern: PartitionedPattern | None = None, geometric_stress=None):
+        """The elements' internal forces summed on all DOFs and, given the ``pattern`` of the tangent
+        (`flexmb.fe.assembly.PartitionedPattern`, whose first entries are the elements' blocks in
+        the layout of `element_response`), their tangents summed into its two CSR data arrays.
+
+        Returns ``(f, data_ff, data_fp, F, e, sigma)``: ``f`` (n_dofs,), the data arrays (None
+        without ``pattern``), ``F`` (E, 2 ndof) master end forces, deformations and stresses. One
+        compiled pass (`flexmb.fe.model_jit`) when `flexmb.jit.enabled`, else `element_response`
+        and ``np.bincount``: equal to 1e-12 (tests/test_kernels.py)."""
+        el = self.elements
+        nE, n2 = len(el.L0), 2 * self.ndof
+        tangent = pattern is not None
+        if nE == 0 or not jit.enabled():
+            F, K, e, sig = self.element_response(state, tangent=tangent, geometric_stress=geometric_stress)
+            f = scatter_add(self.element_dofs, F, self.n_dofs)
+            data = pattern.split(K) if tangent else (None, None)
+            return (f,) + data + (F, e, sig)
+        from . import model_jit  # imports numba: on first use, not with flexmb
+
+        master, offset, moved = self._ends
+        nm = el.S.shape[-1]
+        given = tangent and geometric_stress is not None
+        sg = np.zeros((1, nm))
+        if given:
+            sg = np.ascontiguousarray(geometric_stress(self.element_response(state, tangent=False)[3]), dtype=float)
+        f = np.zeros(self.n_dofs)
+        data = (np.zeros(pattern.nnz[0]), np.zeros(pattern.nnz[1])) if tangent else (np.zeros(0), np.zeros(0))
+        slots = pattern.slots[:nE * n2 * n2].reshape(nE, n2 * n2) if tangent else np.zeros((1, 1), dtype=np.int64)
+        F, e, sig = np.empty((nE, n2)), np.empty((nE, nm)), np.empty((nE, nm))
+        kernel = model_jit.assemble3d if self.dim == 3 else model_jit.assemble2d
+        kernel(state.positions, state.rotations, master, offset, moved, *self._element_data, tangent, given, sg,
+               self.element_dofs, slots, f, *data, F, e, sig)
+        return (f,) + (data if tangent else (None, None)) + (F, e, sig)
 
     def hinge_response(self, state: State, motor: float = 1.0, tangent: bool = True, material: bool = False):
         """The hinges' block forces and tangents on `hinge_dofs` (`flexmb.fe.ideal.Hinges.response`);

@@ -61,6 +61,7 @@ class CrossFlexure(Joint):
     kind: ClassVar[str] = "cross_flexure"
     parameter_ranges: ClassVar[dict] = {"length": (0.05, 0.2), "angle": (0.4, 1.2), "thickness": (5e-4, 2e-3)}
     motion_range: ClassVar[float] = 1.0
+    mesh_parameter: ClassVar[str] = "elements_per_leaf"
 
     length: float = 0.1
     angle: float = math.pi / 4

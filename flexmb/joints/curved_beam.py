@@ -74,6 +74,7 @@ class CurvedBeam(Joint):
     parameter_ranges: ClassVar[dict] = {"radius": (0.02, 0.1), "angle": (0.5, 3.0), "E": (1e9, 2e11), "width": (2e-3, 2e-2),
                          "height": (2e-4, 2e-3)}
     motion_range: ClassVar[float] = 0.3
+    mesh_parameter: ClassVar[str] = "elements"
 
     radius: float
     angle: float

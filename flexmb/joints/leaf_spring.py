@@ -50,6 +50,7 @@ class LeafSpring(Joint):
     kind: ClassVar[str] = "leaf_spring"
     parameter_ranges: ClassVar[dict] = {"length": (0.05, 0.2), "width": (0.01, 0.04), "thickness": (5e-4, 2e-3)}
     motion_range: ClassVar[float] = 0.5
+    mesh_parameter: ClassVar[str] = "elements"
 
     length: float = 0.1
     width: float = 0.02

@@ -83,6 +83,7 @@ class ThreeXInfinity(Joint):
     dims: ClassVar[tuple[int, ...]] = (3,)
     parameter_ranges: ClassVar[dict] = {"length": (0.02, 0.05), "thickness": (3e-4, 6e-4)}
     motion_range: ClassVar[float] = math.radians(45.0)
+    mesh_parameter: ClassVar[str] = "elements_per_leaf"
     #: Sec. 4.4: 19 rotations from -45 to 45 deg, fourth-order polynomials throughout.
     training: ClassVar[dict] = {"range_deg": (-45.0, 45.0), "step_deg": 5.0, "element_powers": (1, 2, 3, 4),
                                 "constraint_powers": (0, 1, 2, 3, 4), "length_powers": (2, 4)}

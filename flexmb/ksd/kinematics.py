@@ -20,13 +20,9 @@ from scipy.linalg import lapack
 from ..errors import ConvergenceError, TopologyError, UnsupportedStrategyError
 from .reduced import ReducedMechanism
 
-__all__ = ["solve_kinematics"]
+__all__ = ["solve_kinematics", "kinematic_start"]
 
 _gesv = lapack.get_lapack_funcs("gesv", (np.zeros(1),))
-_COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
-
-
-
 _COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
 
 
@@ -105,6 +101,24 @@ def _unwrapped(theta: np.ndarray, previous: np.ndarray) -> np.ndarray:
     return previous + (theta - previous + np.pi) % (2.0 * np.pi) - np.pi
 
 
+def kinematic_start(red: ReducedMechanism):
+    """What step 1 starts from, which depends on the mechanism alone: the rest poses, the
+    constraint Jacobian there, the independent equations (redundant ones removed), the intended
+    rotations at rest and the largest prescribed link rotation [rad]. Kept on ``red`` (built once
+    per compiled mechanism, `flexmb.solvers.ksd`): repeated solves decide once, identically."""
+    start = getattr(red, "_kinematic_start", None)
+    if start is None:
+        rest = red.rest()
+        _, jac0, theta0, _ = red.constraint_equations(rest, values=False)
+        rows = _independent_rows(red, jac0)
+        _, (_, W) = red._moves
+        largest = float(np.max(np.linalg.norm(W, axis=1))) if len(W) else 0.0
+        for a in (rest.x, rest.R, rest.angle, jac0, theta0):
+            a.flags.writeable = False
+        start = red._kinematic_start = (rest, jac0, rows, theta0, largest)
+    return start
+
+
 def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5,
                      stop_beyond_half_turn: bool = False):
     """KSD step 1: link poses satisfying all joint constraints and the prescribed motion.
@@ -117,16 +131,11 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     Returns ``(poses, theta, p, info)``; info has iterations, the equations kept/removed and the
     largest residual of the removed (redundant) equations at the solution.
     """
-    rest = red.rest()
-    _, jac0, _, _ = red.constraint_equations(rest, values=False)  # jac0: at the last accepted poses (predictor)
-    rows = _independent_rows(red, jac0)
+    rest, jac0, rows, path_theta, largest = kinematic_start(red)  # jac0: at the last accepted poses (predictor)
     free = red.free
     at_free, at_pres = (rows[:, None], free), (rows[:, None], red.prescribed)
-    _, (_, W) = red._moves
-    largest = float(np.max(np.linalg.norm(W, axis=1))) if len(W) else 0.0
     poses, lam, dlam = rest, 0.0, min(1.0, STEP_ROTATION / largest) if largest > 0.0 else 1.0
     iterations, history = 0, []
-    path_theta = red.constraint_equations(rest, jacobian=False, values=False)[2]  # intended rotations at rest
     while True:
         target = lam + dlam
         trial = red.with_prescribed(poses, target)

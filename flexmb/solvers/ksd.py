@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 import time
 import warnings
+import weakref
 from typing import ClassVar
 
 import attrs
@@ -70,6 +71,24 @@ def _check_reachable(red: ReducedMechanism) -> None:
         raise DatabaseError(f"KSD: a prescribed rotation of {rot.max():.6g} rad is beyond the trained ranges of all the "
                             f"mechanism's joints together and a full turn ({reach:.4g} + 2 pi rad), so outside its trained "
                             "range; use method='conventional' or retrain with `flexmb train --range`")
+
+
+_SETUPS = weakref.WeakKeyDictionary()  # Compiled -> {database folder: ReducedMechanism}
+
+
+def reduced_mechanism(compiled, folder=None) -> ReducedMechanism:
+    """The `ReducedMechanism` of ``compiled`` (steps 1-2's set-up: joint frames, templates,
+    constraint sets, the start of step 1), built once per compiled mechanism and database folder
+    (`flexmb.solve` keeps the compiled model of an unchanged mechanism, `flexmb.compiled`) and
+    rebuilt when a joint database it read has changed (`ReducedMechanism.current`)."""
+    key = None if folder is None else os.fspath(folder)
+    built = _SETUPS.get(compiled)
+    red = None if built is None else built.get(key)
+    if red is not None and red.current():
+        return red
+    red = ReducedMechanism(compiled, folder)
+    _SETUPS.setdefault(compiled, {})[key] = red
+    return red
 
 
 @attrs.frozen(kw_only=True)
@@ -125,7 +144,7 @@ class _KSD:
             times[key] = now - t
             return now
 
-        red = ReducedMechanism(compiled, self.database)
+        red = reduced_mechanism(compiled, self.database)
         t = lap("setup", t0)
 
         if self.strict_range:

@@ -215,24 +215,18 @@ class Conventional:
 
 def _largest_rotation(model, du: np.ndarray) -> float:
     """Largest nodal rotation [rad] in an increment (all DOFs)."""
-    rot = du[:model.n_nodes * model.ndof].reshape(model.n_nodes, model.ndof)[:, model.dim:]  # hinge multipliers last
-    return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
+    return model.largest_motion(du)[1]
 
 
 def _translation(model, du: np.ndarray, length: float) -> float:
     """The largest nodal translation of an increment over ``length``."""
-    d = du[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # hinge multipliers last
-    return float(np.sqrt(np.max(np.sum(d[:, :model.dim] ** 2, axis=1))) / length) if len(d) else 0.0
+    return model.largest_motion(du)[0] / length
 
 
 def _size(model, du: np.ndarray, length: float) -> float:
     """Size of an increment: the largest nodal translation over ``length`` or rotation [rad]."""
-    return max(_translation(model, du, length), _largest_rotation(model, du))
-
-
-def _held(sigma: np.ndarray):
-    """A ``geometric_stress`` function (`StaticProblem.evaluate`) returning ``sigma`` whatever the state's."""
-    return lambda _: sigma
+    translation, rotation = model.largest_motion(du)  # one compiled pass (FEModel.largest_motion)
+    return max(translation / length, rotation)
 
 
 def _continued(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
@@ -326,7 +320,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
             t = time.perf_counter()
             geometric = first_geometric_stress
             if geometric is None and adaptive and it > 0 and not physical and reference is not None:
-                geometric = _held(reference)
+                geometric = reference  # held: the stresses themselves, not the iterate's
             r, Kff, Kfp, sigma = problem.evaluate(trial, target, tangent=True, geometric_stress=geometric)
             first_geometric_stress = None
             if reference is None:
@@ -397,7 +391,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
                     out = finish(True, f"converged: residual {history[-1]:.3g}, {scaled:.2g} of the force scale "
                                        f"{problem.force_scale:.3g} ({why}) in {steps} steps", r)
                     out["tolerance"] = max(rtol * problem.force_scale, history[-1])
-                out["stable"] = is_stable(problem.reduced_tangent(Kff))  # Kff itself without hinges
+                stable = problem.positive_definite(Kff)  # from the solver's own analysis, None: cannot tell
+                out["stable"] = is_stable(problem.reduced_tangent(Kff)) if stable is None else stable
                 if out["stable"] is False:
                     out["message"] += ("; the equilibrium is UNSTABLE (tangent not positive definite): another "
                                        "branch may be the physical one, try initial_step < 1")

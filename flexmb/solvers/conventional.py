@@ -90,7 +90,7 @@ def unit_interval(instance, attribute, value):
 #: tests/test_continuation.py at 0.1-0.3 rad follow the small-step path in 2D and 3D with 0.4
 #: only (0.7: the 3D case jumps to the 68.8 N m branch at 0.2 rad; 0.3: 2D lands on 11.89 N m
 #: at 0.1 rad); 0.7 would save 3 % of the iterations.
-RTOL = 1e-8  # default relative tolerance (`StaticProblem.scaled_residual`); 1e-9: +6 % iterations
+RTOL = 1e-9  # default relative tolerance of the last step (`StaticProblem.scaled_residual`)
 #: a Newton correction this small (translations over the model length, rotations [rad]) means the
 #: state is at the round-off floor: converged
 CORRECTION_FLOOR = 1e-13
@@ -122,13 +122,16 @@ class Conventional:
     rtol
         Relative convergence threshold (used when ``tol`` is None): the free residual, moments
         divided by the model's length (bounding-box diagonal), over the problem's force scale
-        (largest element end force or applied load, moments over the length), 1e-8; or a Newton
+        (largest element end force or applied load, moments over the length), 1e-9; or a Newton
         correction (predictor included) below 1e-13 (translations over the model length,
         rotations [rad]): the round-off floor, where the residual cannot fall further. Unit
         free: tested in SI, mm-N-MPa and um-uN-MPa (same answers to 1e-9, same iterations); a
-        200-element cantilever under 1 N converges in 4 iterations (the absolute 5e-7 halved
+        200-element cantilever under 1 N converges in 5 iterations (the absolute 5e-7 halved
         its step for 361 and gave up), a 10 000-element one at F L^2 / EI = 5 matches the
-        elastica to 1e-6 L. 1e-8 over 1e-9: 6 % fewer iterations on the benchmark cases.
+        elastica to 1e-6 L. The steps before the last converge to 1e-5 only (`INTERMEDIATE_RTOL`),
+        so 1e-9 costs 1 % more iterations than 1e-8 on the benchmark cases (when every step
+        converged to rtol, 6 %), and a free DOF's reaction of a one-step cross flexure at
+        60 deg is 1e-13 N instead of 5e-7 N.
     max_iter
         Iterations allowed per step before the step is halved.
     divergence

@@ -19,6 +19,7 @@ from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSprin
 from .mechanism import Link, Mechanism
 from .linearised import buckling, compliance
 from .design_properties import properties
+from .discretisation import DiscretisationEstimate, discretisation_error
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
 from .results import Solution
@@ -37,6 +38,7 @@ __all__ = [
     "ExtrapolationWarning",
     "PlausibilityWarning",
     "Critical",
+    "DiscretisationEstimate",
     "Path",
     "trace",
     "CrossFlexure",
@@ -64,6 +66,7 @@ __all__ = [
     "available_joints",
     "buckling",
     "compliance",
+    "discretisation_error",
     "export",
     "grid",
     "parameter_study",

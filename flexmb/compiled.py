@@ -1,10 +1,15 @@
-"""`Compiled`: a mechanism turned into a problem a strategy can solve, with the maps back to links."""
+"""`Compiled`: a mechanism turned into a problem a strategy can solve, with the maps back to links;
+`compiled_for`: the compiled problem of a mechanism, built once while the mechanism is unchanged."""
 
 from __future__ import annotations
 
-import attrs
+import threading
+import weakref
 
-__all__ = ["Compiled"]
+import attrs
+import numpy as np
+
+__all__ = ["Compiled", "compiled_for", "fingerprint"]
 
 
 @attrs.frozen(eq=False)
@@ -21,3 +26,107 @@ class Compiled:
     joint_nodes: dict = attrs.field(factory=dict)  # joint name -> FE node indices of its internal nodes
     joints: tuple = ()  # (name, joint, placement, side A link, side B link) at compile time
     fixed: tuple = ()  # names of the fixed links (the ground)
+    #: what strategies derive from this problem alone and keep with it (KSD's set-up, by database
+    #: folder); a new dict in every copy (`attrs.evolve` with another problem starts empty)
+    derived: dict = attrs.field(init=False, factory=dict, repr=False)
+
+
+def fingerprint(mechanism) -> tuple:
+    """What compiling ``mechanism`` (a `flexmb.Mechanism`) reads: ``(key, objects)``, ``key``
+    comparable with ``==`` (the counts that give the structure, then the identities of the
+    objects), ``objects`` to keep alive with it (so their ids are not reused).
+
+    Links, joints, placements, load rows, prescribed-motion dicts and their values, points, the
+    actuation, names: all are immutable (frozen attrs, read-only arrays, strings) or replaced,
+    never changed, by the mechanism's methods (`Mechanism.prescribe` builds a new dict per call).
+    The graph's own node and edge data dicts are read item by item, so replacing a link or a joint
+    in ``mechanism.graph`` directly is seen too. An equal value in a new object counts as a change
+    (a needless compile, never a stale one)."""
+    graph = mechanism.graph
+    objs, counts = [], [mechanism.dim, len(graph), graph.number_of_edges()]
+    for name, data in graph.nodes(data=True):
+        objs.append(name)
+        objs.extend(data.keys())
+        objs.extend(data.values())
+        counts.append(len(data))
+    for a, b, name, data in graph.edges(keys=True, data=True):
+        objs += (a, b, name)
+        objs.extend(data.keys())
+        objs.extend(data.values())
+        counts.append(len(data))
+    state = vars(mechanism)
+    loads, prescribed, points = state.get("_loads", ()), state.get("_prescribed", {}), state.get("_points", {})
+    objs.extend(loads)
+    objs.extend(prescribed.keys())
+    for motion in prescribed.values():  # a link's prescribed components: floats or read-only arrays
+        objs.append(motion)
+        objs.extend(motion.keys())
+        objs.extend(motion.values())
+        counts.append(len(motion))
+    objs.extend(points.keys())
+    objs.extend(points.values())
+    objs.append(state.get("_actuation"))
+    counts += (len(loads), len(prescribed), len(points))
+    return (tuple(counts), tuple(map(id, objs))), objs
+
+
+def _values_only(mechanism) -> bool:
+    """Whether every joint of ``mechanism`` is an immutable value (hashable): a plugin joint that is
+    not one could change unseen, so its mechanism is compiled every time."""
+    for *_, joint in mechanism.graph.edges(data="joint"):
+        try:
+            hash(joint)
+        except TypeError:
+            return False
+    return True
+
+
+def _read_only(compiled: Compiled) -> None:
+    """Make the arrays of a compiled problem that describe the mechanism read-only (the prescribed
+    DOFs and values, the loads, the reference positions, the maps to links and joints): a
+    `Compiled` shared by the solves of one mechanism cannot be changed through one
+    `Solution.compiled`. The element batches stay as they are (the compiled kernels are typed on
+    writeable arrays)."""
+    problem = compiled.problem
+    model = getattr(problem, "model", None)
+    arrays = [getattr(problem, k, None) for k in ("prescribed", "values", "free")]
+    arrays += [getattr(model, k, None) for k in ("x0", "point_x0", "point_master", "point_offset")]
+    loads = getattr(problem, "loads", None)
+    arrays += [getattr(loads, k, None) for k in ("node", "offset", "force", "moment")]
+    arrays += list(compiled.joint_elements.values()) + list(compiled.joint_nodes.values())
+    arrays += [offset for _, offset in compiled.points.values()]
+    for a in arrays:
+        if isinstance(a, np.ndarray):
+            a.flags.writeable = False
+
+
+_LOCAL = threading.local()  # one cache per thread: a compiled problem carries its solver's analysis
+
+
+def compiled_for(mechanism, capability: str = "fe_model") -> Compiled:
+    """``mechanism.compile(capability)``, kept while the mechanism is unchanged (its `fingerprint`)
+    and reused by the next solve of it: compiling the manipulator costs ~0.3 ms, a KSD-reduced
+    solve ~1 ms. Any change through the mechanism's methods or its graph compiles anew; a
+    mechanism with a joint that is not a value is compiled every time. The cached problem's
+    arrays are read-only. One cache per thread and per mechanism (held weakly)."""
+    try:
+        cache = _LOCAL.cache
+    except AttributeError:
+        cache = _LOCAL.cache = weakref.WeakKeyDictionary()
+    if getattr(type(mechanism).compile, "__qualname__", "") != "Mechanism.compile":  # not flexmb's own compile
+        return mechanism.compile(capability)
+    try:
+        key, pins = fingerprint(mechanism)
+    except (AttributeError, TypeError):  # not a flexmb.Mechanism's data: no cache
+        return mechanism.compile(capability)
+    entry = cache.get(mechanism)
+    if entry is not None and entry[0] == key and capability in entry[2]:
+        return entry[2][capability]
+    compiled = mechanism.compile(capability)
+    if not _values_only(mechanism):
+        return compiled
+    _read_only(compiled)
+    built = entry[2] if entry is not None and entry[0] == key else {}
+    built[capability] = compiled
+    cache[mechanism] = (key, pins, built)
+    return compiled

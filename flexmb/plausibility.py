@@ -46,9 +46,22 @@ def check(solution, *, stacklevel: int = 3) -> None:
         _strains(solution, problem.model, stacklevel + 1)
 
 
+def _moduli(solution, model, stacklevel: int) -> None:
+    """A modulus that looks like GPa with lengths in m (`flexmb._validate.modulus_units`), wherever
+    it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here."""
+    E = properties(model.elements.sections, ("E",))[0]
+    k = int(np.argmin(E))
+    L = float(model.elements.L0[k] * len(np.flatnonzero(model.elements.owner == model.elements.owner[k])))
+    if E[k] < 1e3 and L < 1.0:
+        warnings.warn(f"{solution.method}: E={E[k]:g} ({_where(solution, k)}, length {L:.3g}) looks like a modulus "
+                      "in GPa with lengths in m; in SI, E is in Pa (steel 2e11). Ignore this if your units are "
+                      "consistent (e.g. kN and mm)", PlausibilityWarning, stacklevel=stacklevel)
+
+
 def _strains(solution, model, stacklevel: int) -> None:
     from .fe.stress import peak_normal_stress
 
+    _moduli(solution, model, stacklevel + 1)
     try:
         sigma = peak_normal_stress(model, solution.state)
     except ModelError:  # a plugin section without extreme-fibre distances: no stresses to check

@@ -530,6 +530,15 @@ def test_invalid_solver_option_value_is_rejected_naming_it(option, value):
         flexmb.solve(pivot_2d(), **{option: value})
 
 
+@pytest.mark.parametrize("value", [1.0, 5.0, 0.0, -1e-3, NAN, INF])
+def test_a_relative_tolerance_outside_zero_to_one_is_refused_naming_the_range(value):
+    # rtol >= 1 accepted every state as converged (the undeformed one included): a silent wrong answer
+    with pytest.raises(flexmb.ParameterError, match=r"rtol=.*(valid range \(0, 1\)|finite)"):
+        flexmb.solve(pivot_2d(), rtol=value)
+    with pytest.raises(flexmb.ParameterError, match=r"rtol=.*(valid range \(0, 1\)|finite)"):
+        flexmb.trace(pivot_2d(), rtol=value, progress=False)
+
+
 # ---------------------------------------------------------------------------
 # Non-convergence is reported, not hidden
 # ---------------------------------------------------------------------------

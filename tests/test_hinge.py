@@ -120,11 +120,14 @@ def test_drive_torque_of_a_loaded_fourbar_is_the_virtual_work_of_the_load():
 
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("drive", ["prescribe", "motor"])
-def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work(dim, drive):
+@pytest.mark.parametrize("dth", [0.4, 4.0, -4.0])
+def test_prb_fourbar_in_mm_drive_torque_is_the_springs_virtual_work(dim, drive, dth):
     # beyond the papers: a pseudo-rigid-body four-bar in mm, N, N mm: every hinge a spring k
     # [N mm/rad]; the drive torque is dU/dth2 = sum k_i theta_i dtheta_i/dth2 (relative angles;
-    # velocity analysis of the Freudenstein loop: Norton, Design of Machinery, Eq. 6.18)
-    k, dth, mm = 250.0, 0.4, 1000.0
+    # velocity analysis of the Freudenstein loop: Norton, Design of Machinery, Eq. 6.18). The crank
+    # turned +-4 rad winds the ground and coupler pins' springs past half a turn (3D counts the
+    # turns as 2D does: issue 19; a 3D motor at 4 rad was refused before, fe38220)
+    k, mm = 250.0, 1000.0
     sol = flexmb.solve(fourbar(dim, drive, dth, k=k, units=mm), tol=1e-9)
     assert sol.converged, sol.message
     th2 = TH20 + dth
@@ -230,23 +233,31 @@ def test_bad_hinge_parameters_raise(params):
         flexmb.joint("hinge", **params)
 
 
-@pytest.mark.parametrize("angle", [2 * np.pi + 0.3, -3.5])
-def test_a_3d_motor_beyond_half_a_turn_is_refused_not_wrapped(angle):
-    """A 3D rotation has no turn count: a motor asked for 2 pi + 0.3 converged at 0.3 rad (the
-    leaf's moment 3.26 N m instead of a leaf wound 377 deg, which in 2D does not converge). The
-    same motor angle in 2D turns the crank that far (`angle_of` below)."""
-    def pivot(dim, angle):
+@pytest.mark.parametrize("angle", [4.0, -3.5])
+def test_a_3d_motor_beyond_half_a_turn_turns_its_link_that_far(angle):
+    """A 3D rotation has no turn count, the hinge's state has (`flexmb.fe.model.State.hinge_angles`):
+    a motor asked for 4 rad turns its link 4 rad, against a sprung pin in series the motor's
+    torque is k angle as in 2D (closed form); before, a motor beyond pi was refused (fe38220) or,
+    earlier, converged at the angle less a turn."""
+    def pivot(dim, angle, k=3.0):
+        z = [0.0] * (dim - 2)
         m = flexmb.Mechanism(dim=dim)
         m.add_link("g", fixed=True)
-        m.add_link("b", position=[0.05, 0.0] + [0.0] * (dim - 2))
+        m.add_link("b", position=[0.05, 0.0] + z)
+        m.add_link("c", position=[0.1, 0.0] + z)
         m.add_joint("g", "b", "hinge", angle=angle, name="motor")
-        m.add_joint("g", "b", "leaf_spring", length=0.05, thickness=0.0005, elements=4)
+        m.add_joint("b", "c", "hinge", k=k, name="spring", origin=[0.05, 0.0] + z)
+        m.prescribe("c", rotation=0.0 if dim == 2 else [0.0, 0.0, 0.0])
         return m
 
-    with pytest.raises(flexmb.ParameterError, match="'motor'.*within one turn"):
-        flexmb.solve(pivot(3, angle))
-    m2 = pivot(2, 0.5 * angle)  # half of it, in the plane: reached exactly
-    assert angle_of(flexmb.solve(m2), "b") == pytest.approx(0.5 * angle, abs=1e-9)
+    for dim in (2, 3):
+        sol = flexmb.solve(pivot(dim, angle))
+        assert sol.converged, sol.message
+        assert np.exp(1j * angle_of(sol, "b")) == pytest.approx(np.exp(1j * angle), abs=1e-12)
+        # the spring turned -angle (c relative to b): its moment on c is +k angle, on b -k angle,
+        # which the motor balances with +k angle on b
+        assert sol.joint_wrench("spring")[-1] == pytest.approx(3.0 * angle, rel=1e-12)
+        assert sol.joint_wrench("motor")[-1] == pytest.approx(3.0 * angle, rel=1e-12)
 
 
 def _loop(dim, n_el):
@@ -313,11 +324,14 @@ def test_hinge_reactions_balance_globally():
 
 @pytest.mark.parametrize("method", ["ksd-full", "ksd-reduced"])
 def test_ksd_refuses_a_hinge_clearly(method):
+    """KSD takes hinges (tests/test_ksd.py, issue 19 item 4) where the prescribed motion decides
+    their rotation; a link held by a spring hinge alone turns as its spring decides, which KSD's
+    kinematic step cannot know: refused, naming the motion and the hinge."""
     m = flexmb.models.fourbar(elements_per_leaf=2, dim=2)
     m.add_link("pinned", position=(0.5, 0.5))
     m.add_joint(next(n for n, lk in m.links.items() if lk.fixed), "pinned", "hinge", name="pin", k=1.0,
                 origin=(0.5, 0.5))
-    with pytest.raises(flexmb.UnsupportedStrategyError, match=r"joint 'pin' \(hinge\) is an ideal joint.*conventional"):
+    with pytest.raises(flexmb.TopologyError, match=r"free: link 'pinned' rotation.*conventional.*hinge 'pin'"):
         flexmb.solve(m, method=method)
 
 
@@ -462,3 +476,70 @@ def test_warm_started_sweeps_with_hinges_equal_cold_solves():
         cold = flexmb.solve(cold)
         assert np.allclose(warm.node_positions(), cold.node_positions(), atol=1e-12)
         assert warm.reaction("crank")[-1] == pytest.approx(cold.reaction("crank")[-1], rel=1e-6)
+
+
+def _sprung_arm(dim, turn, k=2.0):
+    """Issue 19's reproducer: a link on a hinge with a torsional spring ``k`` [N m/rad] to a fixed
+    link, the link's rotation prescribed to ``turn`` [rad] about the hinge axis (global z)."""
+    z = [0.0] * (dim - 2)
+    m = flexmb.Mechanism(dim=dim)
+    m.add_link("g", position=[0.0, 0.0] + z, fixed=True)
+    m.add_link("b", position=[0.05, 0.0] + z)
+    m.add_joint("g", "b", flexmb.Hinge(k=k), name="h", origin=[0.0, 0.0] + z)
+    m.prescribe("b", rotation=turn if dim == 2 else (0.0, 0.0, turn))
+    return m
+
+
+def _spring_moment(sol):
+    """The hinge's moment on the arm about z [N m] (its spring's, the only moment it carries)."""
+    return sol.joint_wrench("h")[-1]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("turn", [4.0, -4.0, 7.0, 3.0])
+def test_a_sprung_hinge_turned_past_half_a_turn_holds_minus_k_theta(dim, turn):
+    # issue 19: k = 2, turned 4 rad, the 3D hinge converged with +4.57 N m (the angle taken as
+    # 4 - 2 pi); the spring's moment on the arm is -k theta (closed form), -8 N m, as in 2D
+    sol = flexmb.solve(_sprung_arm(dim, turn))
+    assert sol.converged, sol.message
+    assert _spring_moment(sol) == pytest.approx(-2.0 * turn, rel=1e-12)
+    assert sol.strain_energy() == pytest.approx(0.5 * 2.0 * turn**2, rel=1e-12)  # k theta^2 / 2
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("start", ["previous", "undeformed"])
+def test_a_sweep_of_a_sprung_hinge_past_a_turn_holds_minus_k_theta_at_every_value(dim, start):
+    # warm starts carry the hinge's angle from one value to the next: each step turns 1.5 rad, the
+    # sweep ends 1.2 turns round; closed form -k theta at every value
+    turns = np.linspace(0.0, 7.5, 6)
+    values = turns if dim == 2 else np.outer(turns, [0.0, 0.0, 1.0])
+    result = flexmb.sweep(_sprung_arm(dim, 0.0), values, motion=("b", "rotation"), start=start, progress=False)
+    assert all(s.converged for s in result)
+    assert [_spring_moment(s) for s in result] == pytest.approx(-2.0 * turns, rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_traced_sprung_hinge_past_a_turn_holds_minus_k_theta_along_the_path(dim):
+    # the path of a prescribed turn of 8 rad scaled by the load factor: -k lam theta at every point
+    path = flexmb.trace(_sprung_arm(dim, 8.0), steps=60, max_load_factor=1.0, progress=False)
+    assert path.stopped_by == "max_load_factor", path.message
+    assert max(s.load_factor for s in path) == pytest.approx(1.0)
+    for s in path:
+        assert _spring_moment(s) == pytest.approx(-2.0 * 8.0 * s.load_factor, rel=1e-9, abs=1e-12)
+
+
+def test_hinge_tangent_equals_central_differences_past_half_a_turn():
+    # the loop of hinges and leaves with its pin spring turned 4 rad by a prescribed link (3D):
+    # the spring's moment k theta and its tangent with the angle counted past pi
+    m = _loop(3, 3)
+    m.add_link("crank", position=[-0.05, 0.0, 0.0])
+    m.add_joint("ground", "crank", "hinge", k=50.0, name="far", origin=[0.0, 0.0, 0.0])
+    m.prescribe("crank", rotation=[0.0, 0.0, 4.0])
+    sol = flexmb.solve(m)
+    assert sol.converged, sol.message
+    assert sol.joint_wrench("far")[-1] == pytest.approx(-50.0 * 4.0, rel=1e-10)  # -k theta, closed form
+    problem = sol.compiled.problem
+    state = perturbed_state(problem, sol.state, np.random.default_rng(5), displacement=2e-3, rotation=0.1)
+    K, Kfd = finite_difference_tangent(problem, state)
+    row = np.abs(K).max(axis=1, keepdims=True)
+    assert np.max(np.abs(K - Kfd) / row) < 1e-6

@@ -470,8 +470,8 @@ def test_bad_inertia_is_refused_naming_the_link(inertia, match):
 
 def test_modes_refuse_bad_requests():
     sol = flexmb.solve(_leaf_mechanism(2, 2, length=0.1, thickness=1e-3))  # 2 free nodes: 6 DOFs
-    with pytest.raises(flexmb.ParameterError, match=r"n=6 must be an integer in \[1, 5\]"):
-        flexmb.modes(sol, n=6)
+    with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
+        flexmb.modes(sol, n=7)  # all 6 free DOFs' modes can be asked for (was [1, 5])
     with pytest.raises(flexmb.ParameterError, match="held"):
         flexmb.modes(sol, held="everything")
     with pytest.raises(flexmb.ParameterError, match="component 'rz'"):
@@ -636,3 +636,76 @@ def test_linearising_a_mechanism_instead_of_a_solution_is_a_parameter_error(call
     s = flexmb.solve(m)
     with pytest.raises(flexmb.errors.ParameterError, match="needs a Solution"):
         call(m, s)
+
+
+def _pendulum(dim, k=5.0, mass=0.2, J=1e-4, r=0.05):
+    """A link of ``mass`` [kg] and centroidal inertia ``J`` [kg m^2], its centre ``r`` [m] from a
+    hinge with a spring ``k`` [N m/rad] to the ground: one free motion."""
+    z = [0.0] * (dim - 2)
+    m = flexmb.Mechanism(dim=dim)
+    m.add_link("g", position=[0.0, 0.0] + z, fixed=True)
+    m.add_link("arm", position=[r, 0.0] + z, mass=mass, inertia=J if dim == 2 else np.diag([J, J, J]))
+    m.add_joint("g", "arm", flexmb.Hinge(k=k), name="pivot", origin=[0.0, 0.0] + z)
+    return m
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_one_dof_mechanism_has_its_one_mode(dim):
+    # f = sqrt(k / (J + m r^2)) / (2 pi): a compound pendulum on a torsion spring (closed form,
+    # parallel-axis theorem); the valid n is [1, 1] (before: "n must be in [1, 0]")
+    sol = flexmb.solve(_pendulum(dim))
+    md = flexmb.modes(sol, n=1)
+    assert md.frequencies == pytest.approx([np.sqrt(5.0 / (1e-4 + 0.2 * 0.05**2)) / (2 * np.pi)], rel=1e-10)
+    with pytest.raises(flexmb.ParameterError, match=r"n=2 must be an integer in \[1, 1\]"):
+        flexmb.modes(sol, n=2)
+
+
+@pytest.mark.parametrize("n", [0, -1, 1.0, True, "3"])
+def test_modes_refuse_a_count_that_is_not_a_positive_integer(n):
+    sol = flexmb.solve(_pendulum(2))
+    with pytest.raises(flexmb.ParameterError, match=r"modes: n=.* must be an integer"):
+        flexmb.modes(sol, n=n)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_mechanism_without_a_free_motion_has_no_modes_and_says_so(dim):
+    m = _pendulum(dim)
+    m.prescribe("arm", rotation=0.3 if dim == 2 else [0.0, 0.0, 0.3])  # held by default: nothing moves
+    sol = flexmb.solve(m)
+    with pytest.raises(flexmb.ModelError, match="no free motion.*held"):
+        flexmb.modes(sol, n=1)
+    # released, the arm swings again about the turned pivot (the spring's moment k theta is a
+    # follower of the arm: the frequency is unchanged by the turn). 3D: the hinge's axis rows,
+    # dropped at build as dependent on the prescribed orientation, keep the released arm on its
+    # axis (without them it tilted freely: -0.00015 Hz)
+    md = flexmb.modes(sol, n=1, held="none")
+    assert md.frequencies == pytest.approx([np.sqrt(5.0 / (1e-4 + 0.2 * 0.05**2)) / (2 * np.pi)], rel=1e-9)
+
+
+def test_every_mode_of_a_small_model_can_be_asked_for():
+    # a leaf of 2 elements: 6 free DOFs, 6 modes (dense), the same lowest ones as n=3 (sparse path
+    # not taken below DENSE_BELOW); n = 7 is out of [1, 6]
+    sol = flexmb.solve(_leaf_mechanism(2, 2, length=0.1, thickness=1e-3))
+    all_ = flexmb.modes(sol, n=6)
+    assert len(all_.frequencies) == 6 and np.all(np.diff(all_.frequencies) > 0)
+    assert flexmb.modes(sol, n=3).frequencies == pytest.approx(all_.frequencies[:3], rel=1e-10)
+    with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
+        flexmb.modes(sol, n=7)
+
+
+@pytest.mark.parametrize("make", [lambda **kw: flexmb.rectangle(0.01, 1e-4, **STEEL, **kw),
+                                  lambda **kw: flexmb.circle(1e-3, **STEEL, **kw)])
+def test_section_builders_default_to_the_joints_steel_and_massless_leaves_are_named(make):
+    # issue 22: the shipped joints default to steel, 7800 kg/m^3; a leaf given section=rectangle()
+    # or circle() weighs the same by default (circle and rectangle defaulted to 0: massless)
+    assert make().density == flexmb.LeafSpring().density == 7800.0
+    sol = flexmb.solve(_leaf_mechanism(3, 4, length=0.1, section=make()))
+    md = flexmb.modes(sol, n=1)
+    s = make()  # the closed form: a clamped-free beam's first bending frequency (BETA_L above)
+    f1 = BETA_L[0] ** 2 / (2 * np.pi * 0.1**2) * np.sqrt(s.E * min(s.Iy, s.Iz) / (7800.0 * s.A))
+    assert md.frequencies[0] == pytest.approx(f1, rel=2e-2)  # 4 Timoshenko elements
+    # massless leaves (density=0) and a massless tip: the free directions without mass (the tip's
+    # 6, 3 internal nodes' 18) are counted and named
+    sol = flexmb.solve(_leaf_mechanism(3, 4, length=0.1, section=make(density=0.0)))
+    with pytest.raises(flexmb.ModelError, match=r"24 free direction\(s\) carry no mass: link 'tip' x.*sections\) density"):
+        flexmb.modes(sol, n=1)

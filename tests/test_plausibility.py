@@ -88,6 +88,27 @@ def test_a_modulus_in_gpa_with_lengths_in_metres_warns():
     _quiet(lambda: models.gripper())  # the paper's uN and mm: E = 1e11 uN/mm^2
 
 
+@pytest.mark.parametrize("section", [lambda: flexmb.rectangle(0.01, T, E=210, G=81),
+                                     lambda: flexmb.circle(1e-3, E=210, nu=0.3)])
+def test_a_modulus_in_gpa_given_through_a_section_warns_at_the_solve(section):
+    # E given in GPa through the leaf's Section: the joint's own E (default steel) is fine, the
+    # elements' is 210; a prescribed stroke's strain does not depend on E, so only this says it
+    m = guide(section=section())
+    m.prescribe("stage", x=1e-3, y=0.0, rotation=0.0)
+    with pytest.warns(PlausibilityWarning, match=r"E=210 .*joint 'leaf0'.* GPa"):
+        flexmb.solve(m)
+    mm = flexmb.Mechanism(dim=2)  # the same guide in MPa, mm: quiet
+    mm.add_link("ground", fixed=True)
+    mm.add_link("stage", position=(0.0, 50.0))
+    sec = flexmb.rectangle(10.0, 0.5, E=2.1e5, G=8.1e4)
+    for i, x in enumerate((-10.0, 10.0)):
+        mm.add_joint("ground", "stage", flexmb.LeafSpring(length=50.0, width=10.0, thickness=0.5, E=2.1e5, G=8.1e4,
+                                                          elements=8, section=sec), name=f"leaf{i}", origin=(x, 0.0),
+                     rotation=math.pi / 2)
+    mm.prescribe("stage", x=1.0, y=0.0, rotation=0.0)
+    _quiet(lambda: flexmb.solve(mm))
+
+
 def test_the_closed_form_model_warns_about_the_shortening_it_leaves_out():
     """The issue: method='newton' gave a parasitic drop of 0 um, the FE model 300 um. The
     shortening of a bent leaf is 0.6 d^2/L (fixed-guided cubic shape: (1/2) int w'^2 dx)."""

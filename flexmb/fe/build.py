@@ -17,7 +17,7 @@ import numpy as np
 from .. import _validate as v
 from ..boundary import actuation_row, boundary
 from ..compiled import Compiled
-from ..errors import ModelError, ParameterError, TopologyError, UnsupportedStrategyError
+from ..errors import ModelError, TopologyError, UnsupportedStrategyError
 from ..joints._base import INTERNAL, SIDE_A, SIDE_B, Joint
 from ..problem import StaticProblem
 from ..rotations import cross
@@ -269,10 +269,6 @@ def _hinges(mechanism, hinges: list, link_x0: np.ndarray, elements: BeamElements
                              "undefined; place it with a finite rotation vector or a rotation matrix")
     k = np.array([jt.k for _, jt, *_ in hinges], dtype=float)
     angle = np.array([jt.motor for _, jt, *_ in hinges], dtype=float)
-    for (key, jt, *_), a in zip(hinges, angle):
-        if dim == 3 and abs(a) > np.pi:  # a 3D rotation has no turn count: 2 pi + 0.3 would be 0.3
-            raise ParameterError(f"joint {key!r} (hinge): motor angle={a:g} rad; in 3D the hinge's angle is taken "
-                                 "within one turn, so it must be in [-pi, pi] (a planar model turns further)")
     active = np.ones((H, R), dtype=bool)
     active[:, -1] = np.isfinite(angle)
     scale = _row_scales(dim, elements, k, link_x0)

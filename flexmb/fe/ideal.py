@@ -5,11 +5,14 @@ A revolute joint (`flexmb.Hinge`) between links A and B with joint frame ``P`` (
 
     x_A + R_A s_A - x_B - R_B s_B = 0            the links share the joint origin (dim rows)
     (R_A p_x) . (R_B p_z) = 0,  (R_A p_y) . (R_B p_z) = 0     3D: they share the z axis
-    motor (optional): 2D  theta_B - theta_A - t = 0;  3D  wrap(theta - t) = 0 (one root in a turn)
+    motor (optional): theta - t = 0
 
 with ``s = o - X`` the undeformed offsets and ``t`` the motor angle at the current load factor.
 A torsional spring ``k`` adds the energy ``k theta^2 / 2`` of the relative angle ``theta``
-(2D: ``theta_B - theta_A``, unbounded; 3D: ``atan2((R_A p_y).(R_B p_x), (R_A p_x).(R_B p_x))``).
+(2D: ``theta_B - theta_A``, unbounded; 3D: ``atan2((R_A p_y).(R_B p_x), (R_A p_x).(R_B p_x))``
+plus the whole turns the increments that led to the state took it past pi: the state carries
+``theta`` (`flexmb.fe.model.State.hinge_angles`, `Hinges.advance`), since a rotation matrix has no
+turn count; issue 19: a spring k = 2 turned 4 rad held +4.57 N m, taken at 4 - 2 pi, for -8).
 
 Each constraint row ``c_i`` enters the residual as ``s_i c_i`` on its multiplier's row and the
 multiplier's force ``s_i g_i^T mu_i`` on the links' rows (``g_i`` its gradient in the solver's
@@ -24,6 +27,7 @@ from __future__ import annotations
 
 import attrs
 import numpy as np
+import scipy.sparse as sp
 
 from ..rotations import cross, skew
 
@@ -79,13 +83,13 @@ class Hinges:
     dropped: tuple = ()
     dropped_rows: np.ndarray | None = None
 
-    def violated(self, positions, R, lam_angle: float, size: float, tol: float = 1e-8) -> list[str]:
+    def violated(self, positions, R, lam_angle: float, size: float, tol: float = 1e-8, angles=None) -> list[str]:
         """The dropped (dependent) rows that a state violates by more than ``tol`` (positions: times
         ``size`` [m]; rotations [rad]), as ``"joint.row (value)"``: an over-constrained mechanism
         whose prescribed motion contradicts its redundant constraints."""
         if self.dropped_rows is None or not self.dropped_rows.any():
             return []
-        c = self.residual_rows(positions, R, lam_angle)[0]
+        c = self.residual_rows(positions, R, lam_angle, angles=angles)[0]
         limit = np.where(np.arange(ROWS[self.dim]) < self.dim, tol * size, tol)
         bad = self.dropped_rows & (np.abs(c) > limit)
         return [f"{self.names[h]}.{row_names(self.dim)[r]} ({c[h, r]:+.3g})" for h, r in zip(*np.nonzero(bad))]
@@ -104,10 +108,11 @@ class Hinges:
         mult = np.where(self.active, mult, nodes[:, :1])
         return np.concatenate([nodes, mult], axis=1)
 
-    def residual_rows(self, positions, R, lam_angle: float, gradient: bool = True):
+    def residual_rows(self, positions, R, lam_angle: float, gradient: bool = True, angles=None):
         """Constraint values ``c`` (H, ROWS) [m, rad-like], gradients ``g`` (H, ROWS, 2 ndof) and
         the data of their second derivatives. ``R``: the links' rotations (2D angles (N,), 3D (N, 3, 3));
-        ``lam_angle``: the fraction of the motor angle reached."""
+        ``lam_angle``: the fraction of the motor angle reached; ``angles``: the 3D relative angles
+        counted past pi (`advance`; None: within one turn, the motor's distance wrapped)."""
         dim, H = self.dim, len(self.node)
         nd = 3 if dim == 2 else 6
         a, b = self.node[:, 0], self.node[:, 1]
@@ -141,38 +146,56 @@ class Hinges:
             c[:, 3 + i] = f
             g[:, 3 + i, 3:6], g[:, 3 + i, 9:12] = gr[:, 0], gr[:, 1]
             second.append(Hr)
-        # the motor: the relative angle's distance to t, wrapped to (-pi, pi] (one root, theta = t)
+        # the motor: the relative angle's distance to t (without a turn count, wrapped to (-pi, pi])
         gt, Ht = self._angle_derivatives(R, gradient)
-        c[:, 5] = np.angle(np.exp(1j * (self.relative_angle(R) - t)))
+        c[:, 5] = (self.relative_angle(R, angles) - t if angles is not None
+                   else np.angle(np.exp(1j * (self.relative_angle(R) - t))))
         g[:, 5] = gt
         return c, g, (dA, dB, np.stack(second, 1), Ht)
 
-    def relative_angle(self, R) -> np.ndarray:
-        """Relative rotation [rad] of B from A about each hinge's axis, (H,) (3D: in (-pi, pi])."""
+    def relative_angle(self, R, near=None) -> np.ndarray:
+        """Relative rotation [rad] of B from A about each hinge's axis, (H,); 3D: in (-pi, pi], or
+        with ``near`` (H,) [rad] the same rotation's angle nearest to it (whole turns added)."""
         a, b = self.node[:, 0], self.node[:, 1]
         if self.dim == 2:
             return R[b] - R[a]
         RA, RB = R[a] @ self.frame, R[b] @ self.frame
-        return np.arctan2(np.einsum("hi,hi->h", RA[:, :, 1], RB[:, :, 0]),
-                          np.einsum("hi,hi->h", RA[:, :, 0], RB[:, :, 0]))
+        theta = np.arctan2(np.einsum("hi,hi->h", RA[:, :, 1], RB[:, :, 0]),
+                           np.einsum("hi,hi->h", RA[:, :, 0], RB[:, :, 0]))
+        if near is None:
+            return theta
+        return theta + 2.0 * np.pi * np.round((near - theta) / (2.0 * np.pi))
 
-    def response(self, positions, R, multipliers, lam_angle: float, tangent: bool = True, material: bool = False):
+    def advance(self, R, angles, spins, R_new) -> np.ndarray:
+        """The 3D relative angles (H,) [rad] after the increment that turns the links from ``R`` by
+        the spins ``spins`` (N, 3) to ``R_new``: the angle of ``R_new`` nearest to the angles at ``R``
+        (``angles``; None: within one turn) plus the increment's first-order change of them, so a
+        hinge turned past pi, in one increment or many, keeps its turn count."""
+        old = self.relative_angle(R, angles)
+        gt = self._angle_derivatives(R, tangent=False)[0]
+        a, b = self.node[:, 0], self.node[:, 1]
+        change = np.einsum("hi,hi->h", gt[:, 3:6], spins[a]) + np.einsum("hi,hi->h", gt[:, 9:12], spins[b])
+        return self.relative_angle(R_new, old + change)
+
+    def response(self, positions, R, multipliers, lam_angle: float, tangent: bool = True, material: bool = False,
+                 angles=None):
         """Block forces ``F`` (H, 2 ndof + ROWS) and tangents ``K`` (H, n, n) on the DOFs of
         `dofs`: the multipliers' forces and the springs' moments on the link rows, the scaled
         constraint values on the multiplier rows. ``material``: the tangent without the parts
         proportional to the constraint forces and spring moments (their "geometric" stiffness:
-        the multipliers times the constraints' second derivatives, ``k theta`` times the angle's)."""
+        the multipliers times the constraints' second derivatives, ``k theta`` times the angle's).
+        ``angles``: the 3D relative angles counted past pi (`advance`)."""
         dim, H = self.dim, len(self.node)
         nd, nr, rows = (3, 1, 3) if dim == 2 else (6, 3, 6)
         n = 2 * nd + rows
-        c, g, extra = self.residual_rows(positions, R, lam_angle)
+        c, g, extra = self.residual_rows(positions, R, lam_angle, angles=angles)
         mu = np.zeros((H, rows))
         mu[self.active] = multipliers
         sg = g * self.scale[None, :, None] * self.active[:, :, None]
         F = np.zeros((H, n))
         F[:, :2 * nd] = np.einsum("hr,hrj->hj", mu, sg)
         F[:, 2 * nd:] = np.where(self.active, c * self.scale, 0.0)
-        theta = self.relative_angle(R)
+        theta = self.relative_angle(R, angles)
         gt, Ht = self._angle_derivatives(R, tangent)
         F[:, :2 * nd] += (self.k * theta)[:, None] * gt
         if not tangent:
@@ -202,12 +225,13 @@ class Hinges:
         K[:, rb, rb] += Hsum[:, 1, 1]
         return F, K
 
-    def wrench_on_b(self, h: int, positions, R, multipliers) -> np.ndarray:
+    def wrench_on_b(self, h: int, positions, R, multipliers, angles=None) -> np.ndarray:
         """The wrench hinge ``h`` (its constraints and spring) applies on its link B: force [N]
-        and moment [N m] about the joint origin, global axes ((3,) in 2D, (6,) in 3D)."""
+        and moment [N m] about the joint origin, global axes ((3,) in 2D, (6,) in 3D); ``angles``
+        the 3D relative angles counted past pi (`advance`)."""
         dim = self.dim
         nd = 3 if dim == 2 else 6
-        F = self.response(positions, R, multipliers, 1.0, tangent=False)[0][h, nd:2 * nd]
+        F = self.response(positions, R, multipliers, 1.0, tangent=False, angles=angles)[0][h, nd:2 * nd]
         f, m = -F[:dim], -F[dim:]  # the hinge's internal force on B's DOFs, reversed
         b = self.node[h, 1]
         if dim == 2:
@@ -310,8 +334,6 @@ def constrained_basis(G):
     """A sparse basis ``Z`` (n, n - rank) of the motions the constraint rows ``G`` (m, n) allow
     (``G Z = 0``): identity on the columns ``G`` does not touch, a dense orthonormal null-space
     basis (SVD) on the few link DOFs it does."""
-    import scipy.sparse as sp
-
     G = sp.csr_array(G)
     n = G.shape[1]
     touched = np.unique(G.indices)
@@ -323,11 +345,20 @@ def constrained_basis(G):
                         shape=(n, len(others) + Zt.shape[1]))
 
 
-def constrained(model, free: np.ndarray, K):
+def constrained(model, free: np.ndarray, K, state=None):
     """The free DOFs' split for an analysis on the motions the hinges allow: the free *node* DOFs
     ``fn`` and a basis ``Z`` (len(fn), m) of their motions that keep the hinges' constraints to
-    first order (rows of ``K``'s multiplier-node block), or ``(free, None)`` without hinges."""
+    first order (rows of ``K``'s multiplier-node block), or ``(free, None)`` without hinges.
+    ``state``: the rows dropped at build time (`Hinges.dropped_rows`) hold too; dependent only
+    while the prescribed DOFs are held, they keep a released link on its hinge's axis (without
+    them a 3D pendulum whose turn was prescribed swung at 0 Hz with ``held="none"``)."""
     if model.hinges is None:
         return free, None
     fn, fm = free[free < model.n_node_dofs], free[free >= model.n_node_dofs]
-    return fn, constrained_basis(K[fm][:, fn])
+    G = sp.csr_array(K[fm][:, fn])
+    h = model.hinges
+    if state is not None and h.dropped_rows is not None and h.dropped_rows.any():
+        g = h.residual_rows(state.positions, state.rotations, 1.0, angles=state.hinge_angles)[1]
+        rows = dense_rows(g, h.node, model.ndof, model.n_node_dofs)[h.dropped_rows.ravel()][:, fn]
+        G = sp.vstack([G, sp.csr_array(rows)]).tocsr()
+    return fn, constrained_basis(G)

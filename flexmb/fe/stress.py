@@ -50,18 +50,28 @@ COARSE_STEP = 16
 TORSION_TERMS = 400
 
 
-def peak_normal_stress(model, state) -> np.ndarray:
+def _with_axial(sig, axial):
+    """``sig`` (E, k) with the axial forces of ``axial = (elements, N)`` in column 0 (a copy), or as is."""
+    if axial is None:
+        return sig
+    sig = sig.copy()
+    sig[axial[0], 0] = axial[1]
+    return sig
+
+
+def peak_normal_stress(model, state, axial=None) -> np.ndarray:
     """Peak normal stress [Pa] of every element of ``model`` (an `FEModel`) in ``state``, shape (E,):
     the largest over the two ends of ``|N|/A + |My| zmax/Iy + |Mz| ymax/Iz`` (3D; in 2D bending
     about z only); for a circle ``|N|/A + sqrt(My^2 + Mz^2) r/I`` (the resultant moment's extreme
-    fibre). No shear (see `element_stresses`)."""
+    fibre). No shear (see `element_stresses`). ``axial``: ``(elements, N [N])`` replacing those
+    elements' axial forces (a KSD-reduced solution's from its EOBs)."""
     el = model.elements
     fibre = [(s.ymax, s.zmax) for s in el.sections]
     if any(y is None or (model.dim == 3 and z is None) for y, z in fibre):
         raise ModelError("peak stress needs the extreme-fibre distances ymax, zmax of every section "
                          "(flexmb.sections.rectangle sets them)")
     ymax, A, Iz, *zy = properties(el.sections, ("ymax", "A", "Iz") + (("zmax", "Iy") if model.dim == 3 else ()))
-    sig = model.element_response(state, tangent=False)[3]
+    sig = _with_axial(model.element_response(state, tangent=False)[3], axial)
     axial = np.abs(sig[:, 0]) / A
     L0 = el.L0[:, None]
     if model.dim == 2:
@@ -75,11 +85,13 @@ def peak_normal_stress(model, state) -> np.ndarray:
     return axial + bend.max(axis=1)
 
 
-def section_resultants(model, state) -> np.ndarray:
+def section_resultants(model, state, axial=None) -> np.ndarray:
     """Section forces of every element at both ends, local axes, (E, 2, 6) in 3D as
-    ``[N, Vy, Vz, T, My, Mz]`` [N, N m], (E, 2, 3) in 2D as ``[N, Vy, Mz]`` (see the module notes)."""
+    ``[N, Vy, Vz, T, My, Mz]`` [N, N m], (E, 2, 3) in 2D as ``[N, Vy, Mz]`` (see the module notes);
+    ``axial`` as in `peak_normal_stress`."""
     el = model.elements
     _, _, e, sig = model.element_response(state, tangent=False)
+    sig = _with_axial(sig, axial)
     L0 = el.L0
     l = L0 + e[:, 0]
     nE = len(L0)
@@ -294,12 +306,13 @@ def _factor(owner, name, value) -> float:
     return x
 
 
-def element_stresses(model, state, joints: dict, concentration=None, limit=None) -> Stresses:
+def element_stresses(model, state, joints: dict, concentration=None, limit=None, axial=None) -> Stresses:
     """Peak normal, shear and von Mises stresses [Pa] of every element (module notes), times a
     stress-concentration factor ``concentration`` (one number for all, or ``{joint: factor}``,
     factors >= 1, default 1), and with a material ``limit`` [Pa] (yield or fatigue strength) the
     safety factors ``limit / von_mises``; without ``limit``, each element's section's
-    ``yield_stress`` where given. ``joints``: joint name -> element indices."""
+    ``yield_stress`` where given. ``joints``: joint name -> element indices; ``axial`` as in
+    `peak_normal_stress`."""
     owner = "stresses"
     el = model.elements
     kt = _factors(owner, joints, len(el.L0), concentration)
@@ -310,7 +323,7 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None)
             lim = np.nan
         if isinstance(limit, bool) or not (np.isfinite(lim) and lim > 0):
             raise ParameterError(f"{owner}: limit={limit!r} must be a stress [Pa] > 0 (the yield or fatigue strength)")
-    res = section_resultants(model, state)  # (E, 2, k)
+    res = section_resultants(model, state, axial)  # (E, 2, k)
     nE = len(el.L0)
     normal, shear, vm = np.zeros(nE), np.zeros(nE), np.zeros(nE)
     groups = {}

@@ -97,6 +97,10 @@ class Joint(abc.ABC):
     #: Database training settings overriding `flexmb.database.TRAINING` (``range_deg``,
     #: ``step_deg``, ``element_powers``, ``constraint_powers``, ``length_powers``).
     training: ClassVar[dict] = {}
+    #: Name of the integer parameter that sets the number of beam elements of `mesh` (e.g.
+    #: ``"elements_per_leaf"``): `flexmb.discretisation.refined` multiplies it to refine the mesh.
+    #: None: the joint's mesh cannot be refined (its discretisation error cannot be estimated).
+    mesh_parameter: ClassVar[str | None] = None
 
     @property
     def capabilities(self) -> frozenset[str]:

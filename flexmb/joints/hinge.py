@@ -29,8 +29,8 @@ class Hinge(Joint):
     ----------
     k
         Torsional stiffness [N m/rad] (0: a free pin), >= 0: the moment ``k theta`` of the relative
-        rotation ``theta`` of B from A (pseudo-rigid-body models). In 3D ``theta`` is taken in
-        (-pi, pi].
+        rotation ``theta`` of B from A (pseudo-rigid-body models); ``theta`` counts turns past pi in
+        3D as in 2D (the solution tracks it along its increments).
     angle
         Motor: the relative rotation [rad] of B from A about the axis, reached at load factor 1
         (ramped with the load factor like `Mechanism.prescribe`), or ``None`` (no motor). The

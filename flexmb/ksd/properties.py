@@ -1,5 +1,7 @@
-"""Linearised properties of a KSD-reduced solution (issue 22 item 6): the reduced mechanism's
-tangent on the links' DOFs, from which `flexmb.compliance` takes a link point's compliance.
+"""Properties of a KSD-reduced solution (issue 22 item 6): the reduced mechanism's tangent on the
+links' DOFs, from which `flexmb.compliance` takes a link point's compliance; with the joints'
+condensed mass (`flexmb.ksd.joint_mass`) the model `flexmb.modes` solves; and the joint
+elements' axial forces from the EOBs' element forces, which `Solution.stresses` uses.
 
 The tangent is the Jacobian of the equilibrium KSD step 3 solves (`ReducedMechanism.equilibrium`):
 each joint's Craig-Bampton stiffness ``K_T`` (node A held, Eq. 2.5) at its EOB near configuration
@@ -15,16 +17,17 @@ from __future__ import annotations
 import weakref
 
 import numpy as np
-import scipy.linalg as sla
 
-from ..fe.mass import RigidMasses, mass_matrix, rigid_mass
-from ..fe.model import State
+from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
+from .joint_mass import condensed
+from ..rotations import unskew
 from .geometry import ACTIVE, LinkPoses, rz
 from .kinematics import solve_kinematics
 from .reduced import ReducedMechanism
 
-__all__ = ["reduced_tangent", "reduced_mass", "condensed_joint_mass", "link_poses", "near"]
+__all__ = ["reduced_tangent", "reduced_mass", "link_poses", "near", "full_eobs",
+           "node_displacements", "eob_axial_forces"]
 
 
 def link_poses(red: ReducedMechanism, state) -> LinkPoses:
@@ -39,11 +42,12 @@ def link_poses(red: ReducedMechanism, state) -> LinkPoses:
     return LinkPoses(x, R, np.arctan2(R[:, 1, 0], R[:, 0, 0]))
 
 
-def near_configuration(red: ReducedMechanism, table: bool = True):
+def near_configuration(red: ReducedMechanism, table: bool = True, step1=None):
     """KSD steps 1-2 as the KSD-reduced solve does them: per group of joints its EOB, and the
     stiffness ``K`` (J, 6, 6), preload ``F_hat`` (J, 6), node B's near position ``p_hat`` (J, 3)
-    and rotation ``R_hat`` (J, 3, 3) in the joint frames, and the intended rotations (J,)."""
-    _, theta, p_hat, _ = solve_kinematics(red, tol=1e-10)
+    and rotation ``R_hat`` (J, 3, 3) in the joint frames, and the intended rotations (J,).
+    ``step1``: step 1's ``(theta, p_hat)`` as the solve found them (else step 1 is solved again)."""
+    theta, p_hat = step1 if step1 is not None else solve_kinematics(red, tol=1e-10)[1:3]
     dim = red.dim
     emb = ACTIVE[dim]
     J = len(red.joint_names)
@@ -64,13 +68,61 @@ _NEAR = weakref.WeakKeyDictionary()
 
 def near(solution, database=None):
     """The solution's `ReducedMechanism` and `near_configuration`, built once per solution and
-    database (measured on the manipulator: 7 ms of a 10 ms compliance; a second property of the
-    same solution skips it)."""
+    database (a second property of the same solution skips it), from step 1's intended rotations
+    and near positions that the solve keeps in ``solution.stages["kinematics"]`` (solving step 1
+    again took 2 of the manipulator's 4 ms)."""
     per = _NEAR.setdefault(solution, {})
     if database not in per:
         red = ReducedMechanism(solution.compiled, database)
-        per[database] = red, near_configuration(red)
+        step1 = (solution.stages or {}).get("kinematics", {})
+        step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
+        per[database] = red, near_configuration(red, step1=step1)
     return per[database]
+
+
+def full_eobs(solution, database=None) -> list:
+    """Per group of joints (`ReducedMechanism.groups`) the EOB at the solution's near
+    configuration with its element-level fields (a tabulated one, `flexmb.ksd.eob_table`, has
+    only the condensation), node A held; built once per solution."""
+    red, (eobs, _, _, p_hat, _, theta) = near(solution, database)
+    per = _NEAR[solution]
+    key = ("full", database)
+    if key not in per:
+        per[key] = [e if getattr(e, "K_nodes", None) is not None else
+                    tpl.evaluate(theta[idx], p_hat[idx, :red.dim], held_a=True)
+                    for (tpl, _, idx), e in zip(red.groups, eobs)]
+    return per[key]
+
+
+def node_displacements(solution, database=None) -> list:
+    """Per group of joints the EOB node displacements (Jg, N nd) from the near poses at the
+    solution (node A held: zero; node B from the links' poses; internal nodes by the
+    Craig-Bampton recovery, Eq. 2.6), as KSD step 4 computes them."""
+    red, (_, _, _, p_hat, R_hat, _) = near(solution, database)
+    emb = ACTIVE[red.dim]
+    nd = len(emb)
+    p, Rrel, _ = red.frames.relative(link_poses(red, solution.state))
+    xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
+    out = []
+    for (_, _, idx), e in zip(red.groups, full_eobs(solution, database)):
+        xi = -(np.einsum("jab,jb->ja", e.recover[:, :, :nd], xi_B[idx]) + e.recover[:, :, nd])
+        out.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
+    return out
+
+
+def eob_axial_forces(solution, database=None):
+    """The joint elements' axial forces [N] of a KSD-reduced solution from the EOBs' element
+    forces ``F_all = K_all (L q - q_hat_all)`` (Eqs. 3.8-3.11, `EOBTemplate.axial_force`):
+    ``(elements (k,), N (k,))``, tension positive. Step 4's positions are exact to first order
+    only, and their second-order error along a leaf times its axial stiffness spoils the axial
+    forces they imply (four-bar at d = 0.3 m, 5 el./leaf: 2620 N against the converged 169 N;
+    the EOB's within 1.4 N); the moments they imply are first-order accurate."""
+    red = near(solution, database)[0]
+    at, values = [], []
+    for (tpl, _, idx), e, q in zip(red.groups, full_eobs(solution, database), node_displacements(solution, database)):
+        at.append(np.concatenate([red.compiled.joint_elements[red.joint_names[j]] for j in idx]))
+        values.append(tpl.axial_force(e, q).ravel())
+    return np.concatenate(at), np.concatenate(values)
 
 
 def reduced_tangent(solution, database=None):
@@ -83,69 +135,9 @@ def reduced_tangent(solution, database=None):
     return Kr[np.ix_(red.emb_dofs, red.emb_dofs)], red
 
 
-_JOINT_MODELS = weakref.WeakKeyDictionary()
-
-
-def _joint_model(tpl, joint):
-    """The FE model of a template's joint alone, nodes numbered as the EOB's (A, B, internal):
-    the mechanism `EOBTemplate` builds, kept for its mass."""
-    try:
-        return _JOINT_MODELS[tpl]
-    except KeyError:
-        pass
-    from ..mechanism import Mechanism
-
-    m = Mechanism(dim=tpl.dim)
-    m.add_link("A", fixed=True)
-    m.add_link("B", position=joint.interface_b(tpl.dim))
-    m.add_joint("A", "B", joint, name="joint")
-    return _JOINT_MODELS.setdefault(tpl, m.compile().problem.model)
-
-
-def condensed_joint_mass(tpl, joint, eob, j: int, n_fixed: int = 0):
-    """Joint ``j``'s mass (2 nd, 2 nd) on its interface nodes A and B, in the joint frame at its EOB
-    near configuration: the joint's consistent mass (`flexmb.fe.mass.mass_matrix`, beams and
-    intermediate bodies at the near poses) condensed with the Craig-Bampton transformation of the
-    EOB's stiffness, ``T = [I; -K_ii^-1 K_ib]`` (Craig & Bampton 1968, static constraint modes on
-    both interface nodes), ``M_b = T^T M T``. The constraint modes carry the joint's rigid motions
-    exactly, so its mass and inertia are kept. With ``n_fixed`` > 0 also the lowest ``n_fixed``
-    fixed-interface modes ``Phi`` (mass-normalised, ``K_ii Phi = M_ii Phi diag(omega^2)``):
-    returns ``M_b``, their coupling ``Phi^T M T`` (n_fixed, 2 nd), ``omega^2`` and the interior
-    transformation ``(X, Phi)`` with interior DOFs ``= X q_b + Phi eta``."""
-    model = _joint_model(tpl, joint)
-    rot = eob.node_angle[j] if tpl.dim == 2 else eob.node_rotation[j]
-    M = mass_matrix(model, State(eob.node_position[j].copy(), rot.copy()), model.rigid_masses).toarray()
-    K = eob.K_nodes[j]
-    b = 2 * tpl.nd
-    ni = K.shape[0] - b
-    n_fixed = max(0, min(n_fixed, ni))
-    Kii, Mii = K[b:, b:], M[b:, b:]
-    # the interior falls apart into chains only the interface nodes couple (`EOBTemplate._blocks`,
-    # a leaf each); elements and bodies never join two chains, so K_ii and M_ii are block diagonal
-    X = np.zeros((ni, b))
-    found = []  # (omega^2, interior DOFs, mode) of each chain's lowest fixed-interface modes
-    for group in tpl._blocks:
-        for idx in group:
-            at = np.ix_(idx, idx)
-            X[idx] = -np.linalg.solve(Kii[at], K[b + idx, :b])
-            if n_fixed:
-                w, V = sla.eigh(0.5 * (Kii[at] + Kii[at].T), 0.5 * (Mii[at] + Mii[at].T),
-                                subset_by_index=[0, min(n_fixed, len(idx)) - 1])
-                found += [(w[k], idx, V[:, k]) for k in range(len(w))]
-    T = np.vstack([np.eye(b), X])
-    Mb = T.T @ M @ T
-    Mb = 0.5 * (Mb + Mb.T)
-    found.sort(key=lambda item: item[0])
-    found = found[:n_fixed]
-    Phi = np.zeros((ni, len(found)))
-    for k, (_, idx, vec) in enumerate(found):
-        Phi[idx, k] = vec
-    return Mb, Phi.T @ M[b:] @ T, np.array([w for w, _, _ in found]), (X, Phi)
-
-
 def reduced_mass(solution, database=None) -> np.ndarray:
     """The KSD-reduced solution's mass (n_links ndof, n_links ndof) on the links' FE DOFs: each
-    joint's `condensed_joint_mass`, carried from its interface nodes to the links by the joint's
+    joint's condensed mass (`flexmb.ksd.joint_mass.condensed`), carried from its interface nodes to the links by the joint's
     current frame and the levers from the links' reference points, plus the links' rigid masses
     (`flexmb.fe.mass.rigid_mass`) at their current poses."""
     return reduced_modal_model(solution, 0, database)[1]
@@ -156,7 +148,7 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
     DOFs (n_links ndof) followed by ``n_fixed`` fixed-interface modal coordinates per joint (in
     joint order), and a function mapping a vector of those (n, k) to the full model's DOFs
     (n_dofs, k): links as they are, joint interiors from the Craig-Bampton transformation."""
-    red, (eobs, _, _, p_hat, _, theta) = near(solution, database)
+    red = near(solution, database)[0]
     poses = link_poses(red, solution.state)
     fr = red.frames
     oA, F = fr.frame_a(poses)
@@ -167,11 +159,11 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
     M6 = np.zeros((6 * nL, 6 * nL))
     joints = {key: jt for key, jt, *_ in red.compiled.joints}
     coupling, w2, recover = [None] * J, [None] * J, [None] * J
-    for (tpl, _, idx), e in zip(red.groups, eobs):
-        if getattr(e, "K_nodes", None) is None:  # a tabulated EOB: the near configuration's full EOB
-            e = tpl.evaluate(theta[idx], p_hat[idx, :red.dim])
+    theta = near(solution, database)[1][5]
+    for tpl, _, idx in red.groups:
+        Mbs, Cs, ws, (Xs, Phis) = condensed(tpl, joints[red.joint_names[idx[0]]], theta[idx], n_fixed)
         for k, j in enumerate(idx):
-            Mb, C, w2[j], (X, Phi) = condensed_joint_mass(tpl, joints[red.joint_names[j]], e, k, n_fixed)
+            Mb, C, w2[j], X, Phi = Mbs[k], Cs[k], ws[k], Xs[k], Phis[k]
             nd = tpl.nd
             Ft = np.zeros((6, 6))
             Ft[:3, :3] = Ft[3:, 3:] = F[j].T

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..compiled import compiled_for
 from ..errors import ModelError, ParameterError, UnsupportedStrategyError
 from ..plausibility import check
 from .conventional import Conventional
@@ -24,12 +25,13 @@ def solve(mechanism, method: str | object = "conventional", **options):
     Options go to the strategy's constructor (e.g. ``tol``, ``max_iter``, ``raise_on_failure``);
     every method's options are listed below. ``max_iter`` counts Newton iterations per load step
     (conventional, ksd-full's step 5) or per solve (newton; ksd's step 3); `Solution.iterations`
-    is the total. The mechanism is not modified. Returns a `flexmb.Solution`.
+    is the total. The mechanism is not modified; its compiled model is kept for the next solve
+    while it stays unchanged (`flexmb.compiled.compiled_for`). Returns a `flexmb.Solution`.
     """
     strategy = make_strategy(method, options)
     if not hasattr(mechanism, "compile"):
         raise ModelError(f"solve() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
-    solution = strategy.solve(mechanism.compile(getattr(strategy, "capability", "fe_model")))
+    solution = strategy.solve(compiled_for(mechanism, getattr(strategy, "capability", "fe_model")))
     check(solution)  # a ConvergenceWarning or PlausibilityWarning where the answer misleads
     return solution
 

@@ -38,7 +38,7 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..fe.model import State
-from .conventional import is_stable, positive_float, positive_int, unit_interval
+from .conventional import is_stable, positive_float, positive_int, relative_tolerance, unit_interval
 
 __all__ = ["ArcLength", "PathPoint", "load_tangent", "inertia", "DENSE_EIGEN_BELOW"]
 
@@ -180,7 +180,7 @@ class ArcLength:
     rtol
         Relative threshold: the free residual's forces against the largest of the internal and
         applied forces (all DOFs, reactions included), its moments against the moments or the
-        forces times the mechanism's size (1e-9; round-off sits near 1e-13 on Lee's frame).
+        forces times the mechanism's size (1e-9, in (0, 1); round-off sits near 1e-13 on Lee's frame).
     max_iter
         Corrector iterations before the step is cut in half (12).
     desired_iterations
@@ -206,7 +206,7 @@ class ArcLength:
     name: ClassVar[str] = "arc-length"
     capability: ClassVar[str] = "fe_model"
     tol: float | None = attrs.field(default=None, validator=attrs.validators.optional(positive_float))
-    rtol: float = attrs.field(default=1e-9, validator=positive_float)
+    rtol: float = attrs.field(default=1e-9, validator=relative_tolerance)
     max_iter: int = attrs.field(default=12, validator=positive_int)
     desired_iterations: int = attrs.field(default=5, validator=positive_int)
     psi: float = attrs.field(default=1.0, validator=_nonnegative_float)
@@ -318,13 +318,16 @@ class ArcLength:
         f_ext = problem.external_force(state, lam)[0]
         f_int = r + f_ext
         is_tr = problem.model.force_dofs
-        F = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
-        M = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]), F * metric.size)
+        # forces and moments measure each other through the size: a mechanism loaded by moments
+        # alone (a sprung hinge turned) has forces of round-off size, no scale of their own
+        F0 = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
+        M0 = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]))
+        F, M = max(F0, M0 / metric.size), max(M0, F0 * metric.size)
         if F == 0.0 and M == 0.0:
             return float(np.linalg.norm(r[free])) == 0.0
         rf_tr = r[free][is_tr[free]]
         rf_rot = r[free][~is_tr[free]]
-        a, b = np.linalg.norm(rf_tr) / F if F else 0.0, np.linalg.norm(rf_rot) / M
+        a, b = np.linalg.norm(rf_tr) / F, np.linalg.norm(rf_rot) / M
         if a <= self.rtol and b <= self.rtol:
             return True
         return None if max(a, b) <= 1e-5 else False

@@ -81,6 +81,11 @@ def unit_interval(instance, attribute, value):
         raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} outside the valid range (0, 1]")
 
 
+def relative_tolerance(instance, attribute, value):
+    """A relative tolerance in (0, 1): 1 or more accepts any state (the undeformed one included)."""
+    v.in_open_range(type(instance).name, attribute.name, value, 0.0, 1.0)
+
+
 #: The adaptive step control's constants, chosen over the benchmark cases (cross flexure 5-75 deg
 #: in 2D and 3D, four-bar 1-5 el./leaf, the 38 manipulator positions; BENCHMARKS.md "Step
 #: control", one run): 3220 Newton iterations against 10 056 for Fig. 18 with the paper's tol,
@@ -122,7 +127,7 @@ class Conventional:
     rtol
         Relative convergence threshold (used when ``tol`` is None): the free residual, moments
         divided by the model's length (bounding-box diagonal), over the problem's force scale
-        (largest element end force or applied load, moments over the length), 1e-9; or a Newton
+        (largest element end force or applied load, moments over the length), 1e-9, in (0, 1); or a Newton
         correction (predictor included) below 1e-13 (translations over the model length,
         rotations [rad]): the round-off floor, where the residual cannot fall further. Unit
         free: tested in SI, mm-N-MPa and um-uN-MPa (same answers to 1e-9, same iterations); a
@@ -185,7 +190,7 @@ class Conventional:
     needs: ClassVar[tuple[str, ...]] = ("fe_model",)
     dims: ClassVar[tuple[int, ...]] = (2, 3)
     tol: float | None = attrs.field(default=None, validator=attrs.validators.optional(positive_float))
-    rtol: float = attrs.field(default=RTOL, validator=positive_float)
+    rtol: float = attrs.field(default=RTOL, validator=relative_tolerance)
     max_iter: int = attrs.field(default=20, validator=positive_int)
     divergence: float = attrs.field(default=1e3, validator=above_one)
     min_step: float = attrs.field(default=1e-5, validator=unit_interval)

@@ -88,13 +88,16 @@ def relative_tolerance(instance, attribute, value):
 
 #: The adaptive step control's constants, chosen over the benchmark cases (cross flexure 5-75 deg
 #: in 2D and 3D, four-bar 1-5 el./leaf, the 38 manipulator positions; BENCHMARKS.md "Step
-#: control", one run): 3220 Newton iterations against 10 056 for Fig. 18 with the paper's tol,
+#: control", one run): 2392 Newton iterations against 10 057 for Fig. 18 with the paper's tol,
 #: every equilibrium within 2.0e-11 (node positions, relative). Extrapolation degree, measured on
 #: ten of the cases (iterations): 1 (secant) 4995, 2: 1060, 3 (cubic): 704, 4: 601, 5: 535,
-#: 7: 478, 9: 467, 11: 475, 15: 487. Path deviation bound 0.4: the twin cross flexures of
-#: tests/test_continuation.py at 0.1-0.3 rad follow the small-step path in 2D and 3D with 0.4
-#: only (0.7: the 3D case jumps to the 68.8 N m branch at 0.2 rad; 0.3: 2D lands on 11.89 N m
-#: at 0.1 rad); 0.7 would save 3 % of the iterations.
+#: 7: 478, 9: 467, 11: 475, 15: 487. Path deviation bound 0.4, measured with the reference
+#: stresses (benchmark cases / 25 four-bars of 3-8 el./leaf at d = 0.1-0.35 m): 0.3: 2396 / 552,
+#: 0.4: 2392 / 539, 0.55: 2422 / 546, 0.7: 2416 / 534, 1.0: 2419 / 537, none: 2563 / 545; the
+#: twin cross flexures of tests/test_continuation.py stay on the small-step path with any of
+#: them (before the reference stresses only 0.4 kept them there: 0.7 jumped to 68.8 N m).
+#: Reference stresses for at most 4 correctors: 3: 593, 4: 539, 5: 651, 6: 561, until the
+#: residual falls below 0.1 of the force scale only: 573 (the 25 four-bars).
 RTOL = 1e-9  # default relative tolerance of the last step (`StaticProblem.scaled_residual`)
 #: a Newton correction this small (translations over the model length, rotations [rad]) means the
 #: state is at the round-off floor: converged
@@ -171,11 +174,14 @@ class Conventional:
         next step doubles after fewer than 4 iterations or a corrector that moved < 3 % of the
         step, shrinks to 0.6x after more than 7. ``"paper"``: Fig. 18 as published (linear predictor, halving, doubling after at most
         4 iterations). Measured over the benchmark cases (BENCHMARKS.md "Step control", against
-        Fig. 18 with the paper's tol=5e-7): 3220 against 10 056 iterations; manipulator joint
-        case 830 / 3893 (at -45 / 45 deg 54 / 53 against 550 / 494), location case 1746 / 5681,
-        four-bar 1-5 el./leaf 147 / 153; single cross flexures cost more, 497 / 329 (the
-        deviation bound cuts the first of their one-step solves); the same equilibria to
-        2.0e-11 (node positions, relative). Reusing the converged tangent for the first
+        Fig. 18 with the paper's tol=5e-7): 2392 against 10 057 iterations; manipulator joint
+        case 665 / 3894 (at -45 / 45 deg 47 / 46 against 551 / 494), location case 1457 / 5681,
+        four-bar 1-5 el./leaf 90 / 153 (5 el./leaf: 18 / 37, one step), single cross flexures
+        180 / 329 (5-75 deg, 2D and 3D, one step each); the same equilibria to 2.0e-11 (node
+        positions, relative). Without the reference stresses (before): 3220 iterations,
+        four-bar 147, cross flexures 497, and the twin cross flexures of
+        tests/test_continuation.py took 85-118 iterations in small steps (2D at 0.5 rad failed);
+        now one step of 8-13. Reusing the converged tangent for the first
         corrector from the predicted state was measured and dropped (3x the iterations on the
         manipulator: its stiff elements' forces change too much between the states), as were a
         contraction-rate rejection (+20 %), a line search on the corrector's energy (four-bar:

@@ -52,6 +52,17 @@ def test_twin_flexures_at_half_a_radian_in_2d():
     assert sol.reaction("B")[-1] == pytest.approx(15.710493, rel=1e-6)  # 100 small Fig. 18 steps
 
 
+def test_an_extrapolation_past_a_sharp_knee_restarts_instead_of_stalling():
+    # twin flexures in 2D turned 0.5 rad with a first step of 1/32 (0.0156 rad, just before the
+    # moment's peak of 15.05 N m at 0.0225 rad on the small-step path): the secant through rest and
+    # that state points off the path, and halving does not bring the corrector nearer, so the
+    # extrapolation restarts from the tangent (without the restart: the step is halved below
+    # min_step at load factor 1/32, converged=False)
+    sol = flexmb.solve(twin_cross_flexures(2, 0.5), initial_step=1 / 32)
+    assert sol.converged
+    assert sol.reaction("B")[-1] == pytest.approx(15.710493, rel=1e-6)  # 100 small Fig. 18 steps
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_the_default_solve_stays_on_the_branch_it_starts_on(dim):
     # reference: the same mechanism turned in 100 small steps (initial_step=0.01, Fig. 18 control)
@@ -74,7 +85,22 @@ def test_paper_control_is_still_selectable_and_is_fig_18():
         flexmb.solve(twin_cross_flexures(2), step_control="fast")
 
 
+def chain_of_pivots(n: int, turn: float) -> flexmb.Mechanism:
+    """N Table 1 cross flexures in series along y, built as a user would: the end link turned by
+    ``turn`` [rad] about z (its z and tilts held, x and y free), the links between free."""
+    joint = flexmb.joint("cross_flexure", elements_per_leaf=3)
+    h = float(joint.interface_b(3)[1])
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("L0", fixed=True)
+    for k in range(1, n + 1):
+        m.add_link(f"L{k}", position=(0.0, k * h, 0.0))
+        m.add_joint(f"L{k - 1}", f"L{k}", joint, name=f"pivot{k}", origin=(0.0, (k - 1) * h, 0.0))
+    m.prescribe(f"L{n}", z=0.0, rotation=(0.0, 0.0, turn))
+    return m
+
+
 BENCHMARK_CASES = [
+    ("chain of 4 cross flexures 30 deg", lambda: chain_of_pivots(4, np.radians(30))),
     ("cross flexure 2D 45 deg", lambda: flexmb.models.cross_flexure_pivot(3, dim=2, rotation=np.radians(45))),
     ("cross flexure 3D 75 deg", lambda: flexmb.models.cross_flexure_pivot(3, dim=3, rotation=np.radians(75))),
     *[(f"four-bar {n} el./leaf", lambda n=n: flexmb.models.fourbar(n, displacement=0.3)) for n in range(1, 6)],

@@ -175,7 +175,7 @@ class _KSD:
                 raise ConvergenceError(sol.message, sol) from None
             return sol
         _check_range(red, theta, self.strict_range, info["load_factor"])
-        stages["kinematics"] = info
+        stages["kinematics"] = {**info, "theta": theta.copy(), "p_hat": p_hat.copy()}  # flexmb.ksd.properties.near
         t = lap("kinematics", t)
 
         dim = red.dim

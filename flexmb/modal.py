@@ -62,9 +62,16 @@ _COMPONENTS = {2: {"x": (0,), "y": (1,), "rotation": (2,)},
                3: {"x": (0,), "y": (1,), "z": (2,), "rx": (3,), "ry": (4,), "rz": (5,), "rotation": (3, 4, 5)}}
 
 
+def _read_only(a) -> np.ndarray:
+    """A read-only copy of ``a``, its dtype kept (a `Modes` is a result: no caller changes it)."""
+    out = np.array(a)
+    out.flags.writeable = False
+    return out
+
+
 @attrs.frozen(eq=False)
 class Modes:
-    """Vibration modes of a configuration (`modes`).
+    """Vibration modes of a configuration (`modes`); its arrays are read-only copies.
 
     Attributes
     ----------
@@ -90,11 +97,11 @@ class Modes:
         and write the shapes about it), or None.
     """
 
-    frequencies: np.ndarray
-    eigenvalues: np.ndarray
-    shapes: np.ndarray
-    link_shapes: dict
-    held: np.ndarray
+    frequencies: np.ndarray = attrs.field(converter=_read_only)
+    eigenvalues: np.ndarray = attrs.field(converter=_read_only)
+    shapes: np.ndarray = attrs.field(converter=_read_only)
+    link_shapes: dict = attrs.field(converter=lambda d: {k: _read_only(a) for k, a in d.items()})
+    held: np.ndarray = attrs.field(converter=_read_only)
     symmetric: bool
     solver: str
     solution: object = attrs.field(default=None, repr=False)
@@ -269,12 +276,12 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     massless = np.flatnonzero(~(dM > 1e-14 * scale)) if scale > 0 else np.arange(nf)
     if len(massless) and Z is not None:
         raise ModelError(f"modes: {len(massless)} of the motions the hinges allow carry no mass; give the links "
-                         "mass (add_link(..., mass=, inertia=)) or the joints density, or hold them (held=...)")
+                         "mass (add_link(..., mass=, inertia=)) or the joints (their sections) density, or hold them (held=...)")
     if len(massless):
         listed = ", ".join(_dof_name(compiled, free[i]) for i in massless[:6])
         raise ModelError(f"modes: {len(massless)} free direction(s) carry no mass: {listed}"
                          f"{' ...' if len(massless) > 6 else ''}; give the links mass (add_link(..., mass=, "
-                         "inertia=)) or the joints density, or hold those DOFs (held=...)")
+                         "inertia=)) or the joints (their sections) density, or hold those DOFs (held=...)")
     asym = abs(K - K.T).max()
     tol = max(10.0 * solution.tolerance, 1e-11 * abs(K).max())
     symmetric = bool(asym <= tol)

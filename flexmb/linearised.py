@@ -181,9 +181,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", sla.LinAlgWarning)  # rcond below eps: singular
-                # one column at a time: TangentSolver's compiled L D U path takes one right-hand side
-                X = np.column_stack([problem.solve_linear(K, r) for r in rhs.T]) if K.shape[0] >= 220 else \
-                    sla.solve(K.toarray(), rhs)
+                X = problem.solve_linear(K, rhs) if K.shape[0] >= 220 else sla.solve(K.toarray(), rhs)
         except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError, ArithmeticError) as exc:
             raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
                              "leaves a rigid-body motion free, or the equilibrium is critical)") from exc

@@ -51,7 +51,7 @@ import numpy as np
 
 from .errors import ModelError, ParameterError, UnsupportedStrategyError, require
 from .fe.model import FEModel
-from .fe.section_geometry import mode_scale, point_motion, rectangle_elements, section_corners
+from .fe.section_geometry import mode_scale, point_motion, section_outlines, shaped_elements
 from .fe.stress import peak_normal_stress
 from .results import Solution
 from .rotations import logm_so3
@@ -266,15 +266,19 @@ def mode_mesh(modes, k: int, *, solution: Solution | None = None, scale: float |
     ------
     Points
         The model's points at the equilibrium [m] (as `to_meshio`), then, with ``sections``, the
-        corners of the rectangle-section elements' end sections (`flexmb.fe.section_geometry`;
-        a corner shared by consecutive elements of one leaf is one point).
+        corners of the rectangle-section elements' end sections and the outline points of the
+        circle-section ones (`flexmb.fe.section_geometry`; a point shared by consecutive elements
+        of one leaf or wire is one point).
     Cells
         With ``sections``: one ``"hexahedron"`` per rectangle-section element, the box between its
         end sections, its real width and thickness (planar models: the width out of the plane,
         z = +-width/2). Hexahedra rather than quads of the mid-surface: the thickness is seen, a
         twisting leaf's four faces are, and ParaView's solid filters (slice, surface, volume)
-        apply. Then ``"line"`` cells for the other beam elements (every element without
-        ``sections``) and the rigid connections (as `to_meshio`).
+        apply. A circle-section element is the prism on the 16-gon of its diameter, as 8
+        hexahedra about its centreline (each the element's end points and three consecutive
+        outline points per end; `flexmb.fe.section_geometry.CIRCLE_POINTS`), those of
+        rectangles first. Then ``"line"`` cells for the other beam elements (every element
+        without ``sections``) and the rigid connections (as `to_meshio`).
     Point data
         ``"mode"`` (P, 3): the linearised displacement of each point in the mass-normalised shape,
         ``du + dphi x r`` (units: length / sqrt(mass)); ``"mode_scaled"`` = ``scale * mode``
@@ -312,35 +316,46 @@ def mode_mesh(modes, k: int, *, solution: Solution | None = None, scale: float |
     x = _pad3(model.point_positions(state))
     master = np.asarray(model.point_master)
     el = model.elements
-    plates = rectangle_elements(model) if sections else np.zeros(0, dtype=np.int64)
-    lines = np.setdiff1d(np.arange(len(el.L0)), plates)
+    shaped = shaped_elements(model) if sections else {}
+    solids = np.concatenate([np.zeros(0, dtype=np.int64), *shaped.values()])
+    lines = np.setdiff1d(np.arange(len(el.L0)), solids)
     points, owners = [x], [master]
     cells, kind, joint = [], [], []
-    if len(plates):
-        C = section_corners(model, state, plates)  # (E, 2, 4, 3)
-        # right-hand normal of corners 0-1-2 towards the far end, as VTK's hexahedron wants
+    key, corner_pts, corner_master = {}, [], []
+    for form, idx in shaped.items():
+        C = section_outlines(model, state, idx, form)  # (E, 2, K, 3)
+        # right-hand normal of outline points 0-1-2 towards the far end, as VTK's hexahedron wants
         nrm = np.cross(C[:, 0, 1] - C[:, 0, 0], C[:, 0, 2] - C[:, 0, 1])
         flip = np.einsum("ei,ei->e", nrm, C[:, 1].mean(axis=1) - C[:, 0].mean(axis=1)) < 0
         C[flip] = C[flip][:, :, ::-1]
-        ends = el.ends[plates]
-        key = {}
-        hexes = np.empty((len(plates), 8), dtype=np.int64)
-        corner_pts, corner_master = [], []
-        for e, i in enumerate(plates):
+        ends = el.ends[idx]
+        K = C.shape[2]
+        ids = np.empty((len(idx), 2, K), dtype=np.int64)  # the outline points' indices in the mesh
+        for e, i in enumerate(idx):
             sec = el.sections[i]
             for end in range(2):
-                for c in range(4):
+                for c in range(K):
                     ident = (int(ends[e, end]), id(sec), bool(flip[e]), c, tuple(np.round(C[e, end, c], 12)))
                     if ident not in key:
                         key[ident] = len(x) + len(corner_pts)
                         corner_pts.append(C[e, end, c])
                         corner_master.append(master[ends[e, end]])
-                    hexes[e, 4 * end + c] = key[ident]
+                    ids[e, end, c] = key[ident]
+        if form == "rectangle":  # the box between the end sections
+            hexes = ids.reshape(len(idx), 8)
+            owner = np.asarray(el.owner)[idx]
+        else:  # the polygon's prism as K/2 hexahedra about the centreline: (centre, k, k+1, k+2) per end
+            fan = (np.arange(0, K, 2)[:, None] + np.arange(3)) % K
+            centre = np.broadcast_to(ends[:, :, None, None], (len(idx), 2, K // 2, 1))
+            quads = np.concatenate([centre, ids[:, :, fan]], axis=3)  # (E, 2, K/2, 4)
+            hexes = quads.transpose(0, 2, 1, 3).reshape(-1, 8)
+            owner = np.repeat(np.asarray(el.owner)[idx], K // 2)
+        cells.append(("hexahedron", hexes))
+        kind.append(np.full(len(hexes), KIND_BEAM))
+        joint.append(owner)
+    if corner_pts:
         points.append(np.array(corner_pts))
         owners.append(np.array(corner_master, dtype=np.int64))
-        cells.append(("hexahedron", hexes))
-        kind.append(np.full(len(plates), KIND_BEAM))
-        joint.append(np.asarray(el.owner)[plates])
     if len(lines):
         cells.append(("line", np.asarray(el.ends, dtype=np.int64)[lines]))
         kind.append(np.full(len(lines), KIND_BEAM))

@@ -47,12 +47,30 @@ class Path(SweepResult):
 
     def __init__(self, solutions, points, critical, message: str, stopped_by: str):
         super().__init__(solutions, np.array([p.lam for p in points]), "load_factor")
-        self.load_factor = self.values.copy()
-        self.negative_eigenvalues = np.array([p.negative for p in points], dtype=np.int64)
-        self.stable = self.negative_eigenvalues == 0
-        self.arc_length = np.array([p.arc for p in points])
+        self._negative = np.array([p.negative for p in points], dtype=np.int64)
+        self._arc = np.array([p.arc for p in points])
         self.critical = list(critical)
         self.message, self.stopped_by = message, stopped_by
+
+    @property
+    def load_factor(self) -> np.ndarray:
+        """Each point's load factor, (n,) (a copy)."""
+        return self._values.copy()
+
+    @property
+    def negative_eigenvalues(self) -> np.ndarray:
+        """Each point's count of negative eigenvalues of the free tangent, (n,) int (a copy)."""
+        return self._negative.copy()
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Whether each point is stable (no negative eigenvalue), (n,) bool (a new array)."""
+        return self._negative == 0
+
+    @property
+    def arc_length(self) -> np.ndarray:
+        """Each point's arc length from the start, (n,) (a copy)."""
+        return self._arc.copy()
 
     def __repr__(self) -> str:
         kinds = ", ".join(f"{c.kind} at {c.load_factor:.6g}" for c in self.critical) or "no critical point"

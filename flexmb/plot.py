@@ -16,7 +16,8 @@ ends in ``-undeformed`` or ``-deformed``:
 - ``body-*``: rigid bodies inside joints (e.g. the intermediate blocks of ``three_x_infinity``);
 - ``plate-*`` (3D): one `Poly3DCollection` per configuration holding, for every beam element of
   rectangular section, the four long faces of the box between its end sections (width and
-  thickness to scale, turned with the element's nodes: `flexmb.fe.section_geometry`);
+  thickness to scale, turned with the element's nodes: `flexmb.fe.section_geometry`), and for
+  every element of circular section the 16 faces of the tube of its diameter;
 
 `plot_mode` names its two configurations ``-equilibrium`` and ``-mode`` instead.
 
@@ -208,17 +209,20 @@ def _draw_configuration(ax, which: str, P: np.ndarray, master, segments, seg_kin
 
 
 def _draw_plates(ax, which: str, model, state, P, poly3d) -> None:
-    """The rectangle-section elements of ``model`` in ``state`` as boxes (``gid="plate-<which>"``)."""
-    from .fe.section_geometry import rectangle_elements, section_corners
+    """The rectangle- and circle-section elements of ``model`` in ``state`` as boxes and tubes of
+    their real cross-section (``gid="plate-<which>"``; `flexmb.fe.section_geometry`)."""
+    from .fe.section_geometry import section_outlines, shaped_elements
 
-    idx = rectangle_elements(model)
-    if not len(idx):
+    faces = []
+    for shape, idx in shaped_elements(model).items():
+        C = section_outlines(model, state, idx, shape, P)  # (E, 2, K, 3)
+        k = np.arange(C.shape[2])
+        kn = (k + 1) % len(k)
+        faces.append(np.stack([C[:, 0, k], C[:, 0, kn], C[:, 1, kn], C[:, 1, k]], axis=2).reshape(-1, 4, 3))
+    if not faces:
         return
-    C = section_corners(model, state, idx, P)  # (E, 2, 4, 3)
-    k = np.arange(4)
-    faces = np.stack([C[:, 0, k], C[:, 0, (k + 1) % 4], C[:, 1, (k + 1) % 4], C[:, 1, k]], axis=2)  # (E, 4, 4, 3)
     face, edge, alpha = _PLATE[which]
-    coll = poly3d(list(faces.reshape(-1, 4, 3)), facecolor=face, edgecolor=edge, alpha=alpha, linewidth=0.3)
+    coll = poly3d(list(np.concatenate(faces)), facecolor=face, edgecolor=edge, alpha=alpha, linewidth=0.3)
     coll.set_gid(f"plate-{which}")
     ax.add_collection3d(coll)
 
@@ -296,7 +300,8 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
     joints, its named points): a filled polygon, a thick line when they are collinear, a square
     when they coincide; rigid bodies inside joints likewise, without a name. In 3D, elements of
     rectangular section (leaf springs) are also drawn as plates of their real width and
-    thickness about their line, turned with their nodes. The undeformed shape is light grey and
+    thickness about their line, and of circular section (wires) as tubes of their diameter,
+    turned with their nodes. The undeformed shape is light grey and
     dashed, the deformed one in colour. Coordinates are the model's lengths (SI: m), drawn with
     equal aspect ratio.
 
@@ -314,7 +319,8 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
     labels
         Write the link names at their reference points (deformed, if drawn).
     plates
-        Draw rectangle-section elements as plates (3D only; planar figures show lines).
+        Draw rectangle- and circle-section elements as plates and tubes (3D only; planar figures
+        show lines).
     unit
         The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none.
     scale

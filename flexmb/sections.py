@@ -12,7 +12,7 @@ from . import _validate as v
 from .errors import ParameterError
 
 __all__ = ["Section", "rectangle", "circle", "properties", "torsion_constant_rectangle", "shear_coefficient_rectangle",
-           "shear_coefficient_circle", "SHAPES"]
+           "shear_coefficient_circle", "SHAPES", "STEEL_DENSITY"]
 
 #: Cross-section shapes whose stresses `flexmb.fe.stress` can evaluate at the perimeter.
 SHAPES = ("rectangle", "circle")
@@ -107,14 +107,22 @@ class Section:
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
 
 
-def rectangle(width: float, thickness: float, E: float, G: float | None = None, density: float = 0.0, *,
+#: The section builders' default density [kg/m^3]: steel, as the shipped joints' (issue 22: "a
+#: ``density`` parameter [kg/m^3] on the shipped joints (steel default 7800)"), so a leaf given
+#: ``section=rectangle(...)`` weighs what the same leaf without it does. In other units give
+#: ``density`` (mass per length cubed); 0 makes a massless section, which `flexmb.modes` refuses
+#: by name where it leaves a free direction without mass.
+STEEL_DENSITY = 7800.0
+
+
+def rectangle(width: float, thickness: float, E: float, G: float | None = None, density: float = STEEL_DENSITY, *,
               nu: float | None = None, yield_stress: float | None = None) -> Section:
     """Rectangular section ``width x thickness`` [m]; local z along the width, local y along the thickness.
 
     So ``Iz = width thickness^3 / 12`` is the compliant (leaf-spring) bending stiffness and
     ``Iy = thickness width^3 / 12`` the stiff one, as in SPACAR's leaf-spring data.
     Poisson's ratio for the shear coefficient is ``E / (2G) - 1``; give ``G`` or ``nu`` (then
-    ``G = E / (2 (1 + nu))``). ``density`` [kg/m^3] >= 0 (0: massless; see `Section`);
+    ``G = E / (2 (1 + nu))``). ``density`` [kg/m^3] >= 0 (`STEEL_DENSITY`; 0: massless; see `Section`);
     ``yield_stress`` [Pa] optional (see `Section`).
     """
     width = v.positive("rectangle", "width", width)
@@ -138,13 +146,13 @@ def rectangle(width: float, thickness: float, E: float, G: float | None = None, 
                    yield_stress=yield_stress, **props)
 
 
-def circle(diameter: float, E: float, G: float | None = None, density: float = 0.0, *,
+def circle(diameter: float, E: float, G: float | None = None, density: float = STEEL_DENSITY, *,
            nu: float | None = None, yield_stress: float | None = None) -> Section:
     """Solid circular section of ``diameter`` [m] (a wire flexure): ``A = pi r^2``,
     ``Iy = Iz = pi r^4 / 4``, torsion constant ``It = pi r^4 / 2`` (exact, the polar moment),
     Cowper's shear coefficient (`shear_coefficient_circle`), Poisson's ratio ``E / (2G) - 1`` (or
-    give ``nu``: ``G = E / (2 (1 + nu))``); ``density`` [kg/m^3] >= 0 and ``yield_stress`` [Pa]
-    (optional) as in `Section`."""
+    give ``nu``: ``G = E / (2 (1 + nu))``); ``density`` [kg/m^3] >= 0 (`STEEL_DENSITY`) and
+    ``yield_stress`` [Pa] (optional) as in `Section`."""
     diameter = v.positive("circle", "diameter", diameter)
     E = v.positive("circle", "E", E)
     G = v.positive("circle", "G", v.shear_modulus("circle", E, G, nu))

@@ -86,3 +86,29 @@ def test_solution_arrays_cannot_be_changed_through_what_it_returns():
     np.testing.assert_array_equal(sol.reaction("B"), before[0])
     np.testing.assert_array_equal(sol.residual_history, before[1])
     np.testing.assert_array_equal(sol.node_positions(), before[2])
+
+
+def test_path_arrays_are_copies():
+    # Path.stable & co. were plain attributes: writing into one changed the path for everyone after
+    m = models.cantilever(dim=2)
+    m.apply_force("tip", [0.0, -1.0])
+    path = flexmb.trace(m, steps=3, progress=False)
+    before = {k: getattr(path, k).copy() for k in ("stable", "load_factor", "negative_eigenvalues", "arc_length")}
+    for k, a in before.items():
+        got = getattr(path, k)
+        got[...] = ~got if got.dtype == bool else 7
+        np.testing.assert_array_equal(getattr(path, k), a)
+    np.testing.assert_array_equal(path.table()["stable"], before["stable"])
+
+
+def test_mode_arrays_are_read_only():
+    sol = flexmb.solve(models.cross_flexure_pivot(elements_per_leaf=2, dim=2, rotation=0.1))
+    md = flexmb.modes(sol, n=2)
+    f = md.frequencies.copy()
+    for name in ("frequencies", "eigenvalues", "shapes", "held"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(md, name).flat[0] = 0
+    with pytest.raises(ValueError, match="read-only"):
+        md.link_shapes["B"][0, 0] = 0.0
+    assert md.held.dtype.kind == "i"  # DOF indices stay integers
+    np.testing.assert_array_equal(flexmb.modes(sol, n=2).frequencies, f)

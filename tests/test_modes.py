@@ -691,3 +691,21 @@ def test_every_mode_of_a_small_model_can_be_asked_for():
     assert flexmb.modes(sol, n=3).frequencies == pytest.approx(all_.frequencies[:3], rel=1e-10)
     with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
         flexmb.modes(sol, n=7)
+
+
+@pytest.mark.parametrize("make", [lambda **kw: flexmb.rectangle(0.01, 1e-4, **STEEL, **kw),
+                                  lambda **kw: flexmb.circle(1e-3, **STEEL, **kw)])
+def test_section_builders_default_to_the_joints_steel_and_massless_leaves_are_named(make):
+    # issue 22: the shipped joints default to steel, 7800 kg/m^3; a leaf given section=rectangle()
+    # or circle() weighs the same by default (circle and rectangle defaulted to 0: massless)
+    assert make().density == flexmb.LeafSpring().density == 7800.0
+    sol = flexmb.solve(_leaf_mechanism(3, 4, length=0.1, section=make()))
+    md = flexmb.modes(sol, n=1)
+    s = make()  # the closed form: a clamped-free beam's first bending frequency (BETA_L above)
+    f1 = BETA_L[0] ** 2 / (2 * np.pi * 0.1**2) * np.sqrt(s.E * min(s.Iy, s.Iz) / (7800.0 * s.A))
+    assert md.frequencies[0] == pytest.approx(f1, rel=2e-2)  # 4 Timoshenko elements
+    # massless leaves (density=0) and a massless tip: the free directions without mass (the tip's
+    # 6, 3 internal nodes' 18) are counted and named
+    sol = flexmb.solve(_leaf_mechanism(3, 4, length=0.1, section=make(density=0.0)))
+    with pytest.raises(flexmb.ModelError, match=r"24 free direction\(s\) carry no mass: link 'tip' x.*sections\) density"):
+        flexmb.modes(sol, n=1)

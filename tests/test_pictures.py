@@ -291,3 +291,81 @@ def test_mode_file_with_lines_only_keeps_the_configuration_layout(guide_modes, g
         export.write_mode(guide_modes, 0, tmp_path / "mode.txt")
     with pytest.raises(flexmb.FlexmbError, match=r"k=5"):
         export.write_mode(guide_modes, 5, tmp_path / "mode.vtu")
+
+
+# -- round wires as tubes -----------------------------------------------------------------------
+DIAMETER = 1.2  # mm
+
+
+def wire_guide(stroke: float = 3.0) -> flexmb.Mechanism:
+    """The parallel guide on two round steel wires of 1.2 mm (mm, N, MPa, t/mm^3)."""
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", (0.0, GAP / 2, 0.0), fixed=True)
+    m.add_link("B", (L, GAP / 2, 0.0), mass=5e-5, inertia=2e-6 * np.eye(3))
+    wire = flexmb.circle(DIAMETER, E=200000.0, nu=0.3, density=7.8e-9)
+    for k, y in enumerate((0.0, GAP)):
+        m.add_joint("A", "B", flexmb.LeafSpring(length=L, E=200000.0, G=76900.0, elements=3, section=wire),
+                    name=f"wire{k}", origin=(0.0, y, 0.0))
+    m.prescribe("B", y=stroke)
+    return m
+
+
+def _polygon_area(P) -> float:
+    """Area of a planar polygon P (K, 3) (the shoelace formula as half the summed cross products)."""
+    c = P.mean(axis=0)
+    return 0.5 * float(np.linalg.norm(sum(np.cross(P[k] - c, P[(k + 1) % len(P)] - c) for k in range(len(P)))))
+
+
+def test_round_wires_are_drawn_as_tubes_of_their_diameter():
+    sol = flexmb.solve(wire_guide())
+    assert sol.converged, sol.message
+    ax = plot.plot_mechanism(sol)
+    (tubes,) = _by_gid(ax, "plate-deformed")
+    faces = _faces(tubes)
+    assert faces.shape == (6 * 16, 4, 3)  # 2 wires x 3 elements, a 16-gon's sides each
+    model = sol.compiled.problem.model
+    P = model.point_positions(sol.state)
+    ends = model.elements.ends
+    # each face's first edge lies on an end section: its points at the radius from the element's
+    # end point, and each end's 16 points span the diameter and (a regular 16-gon on the circle)
+    # 16/2 sin(2 pi/16) = 0.9745 of the circle's area
+    ring = faces[:, :2].reshape(6, 16, 2, 3)[:, :, 0]  # (E, 16, 3) the first end's outline
+    r = np.linalg.norm(ring - P[ends[:, 0]][:, None], axis=2)
+    np.testing.assert_allclose(r, DIAMETER / 2, rtol=1e-12)
+    for e in range(6):
+        span = np.linalg.norm(ring[e][:, None] - ring[e][None], axis=2).max()
+        assert span == pytest.approx(DIAMETER, rel=1e-12)
+        assert _polygon_area(ring[e]) == pytest.approx(8 * np.sin(np.pi / 8) * (DIAMETER / 2) ** 2, rel=1e-12)
+        assert _polygon_area(ring[e]) / (np.pi * DIAMETER**2 / 4) == pytest.approx(0.9745, abs=1e-4)
+
+
+def test_round_wire_mode_file_holds_the_wires_as_prisms_of_their_cross_section(tmp_path):
+    sol = flexmb.solve(wire_guide())
+    md = flexmb.modes(sol, n=2)
+    model = sol.compiled.problem.model
+    mesh = meshio.read(export.write_mode(md, 0, tmp_path / "wire_mode.vtu"))
+    hexes = np.concatenate([c.data for c in mesh.cells if c.type == "hexahedron"])
+    assert len(hexes) == 6 * 8  # 8 hexahedra per element about its centreline
+    H = mesh.points[hexes]
+    # positive volume in VTK's ordering: the first face's right-hand normal points into the cell
+    n = np.cross(H[:, 1] - H[:, 0], H[:, 2] - H[:, 1])
+    assert np.all(np.einsum("ei,ei->e", n, H[:, 4:].mean(axis=1) - H[:, :4].mean(axis=1)) > 0)
+    # each element's 8 bottom faces tile its end section: together the 16-gon of its diameter
+    area = np.array([_polygon_area(h[:4]) for h in H]).reshape(6, 8).sum(axis=1)
+    np.testing.assert_allclose(area, 8 * np.sin(np.pi / 8) * (DIAMETER / 2) ** 2, rtol=1e-12)
+    # the outline points move as their sections: central differences under +-eps x shape
+    eps, k = 1e-6, 0
+    du = np.zeros(model.n_dofs)
+    du[:model.n_node_dofs] = eps * md.shapes[k].ravel()
+    idx = np.arange(len(model.elements.L0))
+    from flexmb.fe.section_geometry import section_outlines
+    Cp = section_outlines(model, model.apply_increment(sol.state, du), idx, "circle")
+    Cm = section_outlines(model, model.apply_increment(sol.state, -du), idx, "circle")
+    C = section_outlines(model, sol.state, idx, "circle")
+    X, mode = mesh.points, mesh.point_data["mode"]
+    for e in idx:
+        for end in range(2):
+            for c in range(16):
+                (j,) = np.flatnonzero(np.linalg.norm(X - C[e, end, c], axis=1) < 1e-9 * L)[:1]
+                np.testing.assert_allclose(mode[j], (Cp[e, end, c] - Cm[e, end, c]) / (2 * eps), rtol=1e-6,
+                                           atol=1e-8 * np.abs(mode).max())

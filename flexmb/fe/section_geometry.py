@@ -7,6 +7,11 @@ sections. Each end section turns with its FE node (the co-rotational state: ``ny
 Eq. A.4 read them), so a twisted or bent leaf shows as a twisted or bent plate. Corners are
 ordered ``(+y, +z), (-y, +z), (-y, -z), (+y, -z)``: their right-hand normal is the local ``x``
 axis, from end p towards end q (local axes right-handed), as VTK's hexahedron wants.
+
+A circular section (`flexmb.sections.circle`) is drawn as the prism on a regular polygon of
+`CIRCLE_POINTS` vertices on the circle (its real diameter; the polygon's area is
+``n sin(2 pi / n) / (2 pi)`` of the circle's, 0.974 at 16), ordered counter-clockwise from +y in
+the (y, z) plane, so its right-hand normal is the local x axis too.
 """
 
 from __future__ import annotations
@@ -15,16 +20,34 @@ import numpy as np
 
 from ..rotations import cross
 
-__all__ = ["rectangle_elements", "section_frames", "section_corners", "point_motion", "mode_scale", "CORNER_SIGNS",
-           "MODE_SIZE_FRACTION"]
+__all__ = ["rectangle_elements", "shaped_elements", "section_frames", "section_corners", "section_outlines",
+           "point_motion", "mode_scale", "CORNER_SIGNS", "CIRCLE_POINTS", "OUTLINES", "MODE_SIZE_FRACTION"]
 
 #: (y, z) signs of the four corners of a rectangle section, in drawing order.
 CORNER_SIGNS = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
+#: Vertices of the polygon a circular section is drawn as: a round wire reads as round (8 looked
+#: octagonal), and the VTK file stays small (8 hexahedra per element, `flexmb.export.mode_mesh`).
+CIRCLE_POINTS = 16
+_ANGLES = 2.0 * np.pi * np.arange(CIRCLE_POINTS) / CIRCLE_POINTS
+#: Each drawn section shape's outline in units of ``(ymax, zmax)``, (K, 2), counter-clockwise in (y, z).
+OUTLINES = {"rectangle": CORNER_SIGNS, "circle": np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=1)}
+
+
+def shaped_elements(model) -> dict:
+    """``{shape: element indices}`` (sorted) of the elements whose section shape has an outline
+    (`OUTLINES`: rectangles and circles), shapes without elements left out."""
+    shapes = [s.shape for s in model.elements.sections]
+    out = {}
+    for shape in OUTLINES:
+        idx = np.array([i for i, s in enumerate(shapes) if s == shape], dtype=np.int64)
+        if len(idx):
+            out[shape] = idx
+    return out
 
 
 def rectangle_elements(model) -> np.ndarray:
     """Indices of the elements whose section is a rectangle (`Section.shape`), sorted."""
-    return np.array([i for i, s in enumerate(model.elements.sections) if s.shape == "rectangle"], dtype=np.int64)
+    return shaped_elements(model).get("rectangle", np.zeros(0, dtype=np.int64))
 
 
 def section_frames(model, state, elements) -> tuple[np.ndarray, np.ndarray]:
@@ -44,10 +67,10 @@ def section_frames(model, state, elements) -> tuple[np.ndarray, np.ndarray]:
     return ny, nz
 
 
-def section_corners(model, state, elements, points=None) -> np.ndarray:
-    """Corners (E, 2, 4, 3) [m] of the end sections of rectangle ``elements`` in ``state``:
-    ``x_end +- ymax ny +- zmax nz`` in the order of `CORNER_SIGNS`; planar models in 3D
-    coordinates (z = 0 the plane, the width out of it). ``points``: `FEModel.point_positions`
+def section_outlines(model, state, elements, shape: str, points=None) -> np.ndarray:
+    """Outline points (E, 2, K, 3) [m] of the end sections of ``elements`` (all of section
+    ``shape``, `OUTLINES`) in ``state``: ``x_end + y_k ymax ny + z_k zmax nz``; planar models in
+    3D coordinates (z = 0 the plane, the width out of it). ``points``: `FEModel.point_positions`
     of ``state`` if already computed."""
     el = model.elements
     P = model.point_positions(state) if points is None else points
@@ -56,9 +79,16 @@ def section_corners(model, state, elements, points=None) -> np.ndarray:
         x = np.concatenate([x, np.zeros(x.shape[:-1] + (1,))], axis=-1)
     ny, nz = section_frames(model, state, elements)
     half = np.array([[el.sections[i].ymax, el.sections[i].zmax] for i in elements], dtype=float).reshape(-1, 2)
-    ys = CORNER_SIGNS[None, :, 0] * half[:, 0:1]  # (E, 4)
-    zs = CORNER_SIGNS[None, :, 1] * half[:, 1:2]
+    unit = OUTLINES[shape]
+    ys = unit[None, :, 0] * half[:, 0:1]  # (E, K)
+    zs = unit[None, :, 1] * half[:, 1:2]
     return x[:, :, None, :] + ys[:, None, :, None] * ny[:, :, None, :] + zs[:, None, :, None] * nz[:, :, None, :]
+
+
+def section_corners(model, state, elements, points=None) -> np.ndarray:
+    """Corners (E, 2, 4, 3) [m] of the end sections of rectangle ``elements`` in ``state``:
+    ``x_end +- ymax ny +- zmax nz`` in the order of `CORNER_SIGNS` (`section_outlines`)."""
+    return section_outlines(model, state, elements, "rectangle", points)
 
 
 def point_motion(model, state, shape: np.ndarray, at: np.ndarray, master: np.ndarray) -> np.ndarray:

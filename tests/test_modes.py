@@ -709,3 +709,28 @@ def test_section_builders_default_to_the_joints_steel_and_massless_leaves_are_na
     sol = flexmb.solve(_leaf_mechanism(3, 4, length=0.1, section=make(density=0.0)))
     with pytest.raises(flexmb.ModelError, match=r"24 free direction\(s\) carry no mass: link 'tip' x.*sections\) density"):
         flexmb.modes(sol, n=1)
+
+
+def test_a_density_in_kg_per_m3_with_lengths_in_mm_warns_at_the_modes():
+    # a careless user: the leaf in N, mm, MPa but the density left at the joints' SI default 7800
+    # (kg/m^3; in these units 7.8e-9 t/mm^3): f1 came out 0.00026 Hz without a word. The wave
+    # speed sqrt(E / density) over the joint's length is unit-free (1/s): ~1e5 for this leaf in
+    # any consistent units, 0.1 here; engineering materials (c = 30 ... 13 000 m/s) in joints of
+    # 1 um ... 10 m stay within [3, 1.3e10]
+    def leaf(density):
+        m = flexmb.Mechanism(dim=2)
+        m.add_link("g", fixed=True)
+        m.add_link("tip", position=(50.0, 0.0))
+        m.add_joint("g", "tip", flexmb.LeafSpring(length=50.0, width=10.0, thickness=0.5, E=2e5, G=7.7e4,
+                                                  density=density, elements=4))
+        return flexmb.solve(m)
+
+    with pytest.warns(flexmb.PlausibilityWarning, match=r"density=7800 .*joint 'leaf_spring_0'.*mass per length cubed"):
+        wrong = flexmb.modes(leaf(7800.0), n=1)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        right = flexmb.modes(leaf(7.8e-9), n=1)  # t/mm^3: quiet
+        flexmb.modes(flexmb.solve(_leaf_mechanism(2, 4, length=0.05, thickness=5e-4)), n=1)  # SI: quiet
+    # the same leaf, the density 1e12 x too large: the frequency 1e6 x too low (f ~ 1/sqrt(rho))
+    assert wrong.frequencies[0] == pytest.approx(right.frequencies[0] * np.sqrt(7.8e-9 / 7800.0), rel=1e-9)

@@ -79,10 +79,8 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     model = problem.model
     held_idx = held_dofs(solution, held, "buckling")
     free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
-    nf = len(free)
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:
-        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, "
-                             f"{nf}, minus one)")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, the number of free motions]")
     Kt = full_tangent(solution)
     if base is None:
         Km = material_tangent(solution)
@@ -96,13 +94,19 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     Kt, Km = Kt[free][:, free], Km[free][:, free]
     if Z is not None:
         Kt, Km = Z.T @ Kt @ Z, Z.T @ Km @ Z
-        nf = Kt.shape[0]
+    nf = Kt.shape[0]
+    if nf == 0:
+        raise ModelError(f"buckling: no free motion to buckle: every DOF is held or fixed (held={held!r}; the "
+                         "default 'prescribed' holds the prescribed motions: held='none' releases them)")
+    if n > nf:
+        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf}] (the "
+                             f"{'free DOFs' if Z is None else 'motions the hinges allow'}: {nf})")
     Ks = (Kt - Km).tocsr()
     if Ks.nnz == 0 or abs(Ks).max() == 0.0:
         return np.full(n, np.inf)  # no stress, no load: nothing to buckle
     tol = 1e-11 * abs(Km).max()
     symmetric = bool(abs(Ks - Ks.T).max() <= tol and abs(Km - Km.T).max() <= tol)
-    if nf < DENSE_BELOW:
+    if nf < DENSE_BELOW or n >= nf - 2:  # ARPACK: fewer than nf - 1 eigenvalues
         A, B = Ks.toarray(), Km.toarray()
         # K_s phi = mu K_m phi, mu = -1/lam: the critical (smallest positive) lam has the most negative mu
         try:

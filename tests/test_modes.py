@@ -734,3 +734,19 @@ def test_a_density_in_kg_per_m3_with_lengths_in_mm_warns_at_the_modes():
         flexmb.modes(flexmb.solve(_leaf_mechanism(2, 4, length=0.05, thickness=5e-4)), n=1)  # SI: quiet
     # the same leaf, the density 1e12 x too large: the frequency 1e6 x too low (f ~ 1/sqrt(rho))
     assert wrong.frequencies[0] == pytest.approx(right.frequencies[0] * np.sqrt(7.8e-9 / 7800.0), rel=1e-9)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_buckling_counts_the_motions_the_hinges_allow_as_modes_does(dim):
+    # the one-DOF pendulum under a dead load along its arm (compression towards the pivot): one
+    # multiplier can be asked for, n=2 names [1, 1]; with its turn prescribed nothing can buckle
+    m = _pendulum(dim)
+    m.apply_force("arm", [-1.0, 0.0] + [0.0] * (dim - 2))
+    sol = flexmb.solve(m)
+    # the pendulum pushed towards its pivot: k_eff = k - P r = 5 - 0.05 > 0, lam = k / (P r) = 100
+    assert flexmb.buckling(sol, n=1) == pytest.approx([100.0], rel=1e-9)
+    with pytest.raises(flexmb.ParameterError, match=r"buckling: n=2 must be an integer in \[1, 1\]"):
+        flexmb.buckling(sol, n=2)
+    m.prescribe("arm", rotation=0.0 if dim == 2 else [0.0, 0.0, 0.0])
+    with pytest.raises(flexmb.ModelError, match="buckling: no free motion"):
+        flexmb.buckling(flexmb.solve(m), n=1)

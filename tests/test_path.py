@@ -244,6 +244,9 @@ def test_a_mechanism_with_nothing_to_scale_is_refused():
     (dict(stop=3), ParameterError, "stop"),
     (dict(psi=-1.0), ParameterError, "psi"),
     (dict(colour="red"), UnsupportedStrategyError, "colour"),
+    (dict(min_arc=10.0, max_arc=1.0), ParameterError, "min_arc=10.0 must be below max_arc"),  # was accepted
+    (dict(progress="no"), ParameterError, "progress"),  # was taken as True
+    (dict(rtol=1.0), ParameterError, r"rtol.*\(0, 1\)"),  # accepted every point as converged
 ])
 def test_bad_arguments_raise_flexmb_errors(kwargs, error, match):
     with pytest.raises(error, match=match):

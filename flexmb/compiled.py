@@ -26,67 +26,59 @@ class Compiled:
     joint_nodes: dict = attrs.field(factory=dict)  # joint name -> FE node indices of its internal nodes
     joints: tuple = ()  # (name, joint, placement, side A link, side B link) at compile time
     fixed: tuple = ()  # names of the fixed links (the ground)
+    #: what strategies derive from this problem alone and keep with it (KSD's set-up, by database
+    #: folder); a new dict in every copy (`attrs.evolve` with another problem starts empty)
+    derived: dict = attrs.field(init=False, factory=dict, repr=False)
 
 
-_VALUES = (str, int, float, bool, type(None), np.floating, np.integer)
+def fingerprint(mechanism) -> tuple:
+    """What compiling ``mechanism`` (a `flexmb.Mechanism`) reads: ``(key, objects)``, ``key``
+    comparable with ``==`` (the counts that give the structure, then the identities of the
+    objects), ``objects`` to keep alive with it (so their ids are not reused).
 
-
-def fingerprint(mechanism) -> tuple | None:
-    """What compiling ``mechanism`` (a `flexmb.Mechanism`) reads, as a tuple comparable with ``==``,
-    and the objects it names (kept alive, so their ids are not reused); None when it cannot be
-    told (a joint that is not an immutable value).
-
-    Scalars by value; links, joints, placements, load rows, prescribed-motion dicts, points and
-    the actuation by identity: all are immutable (frozen attrs, read-only arrays) or replaced, never
-    changed, by the mechanism's methods (`Mechanism.prescribe` builds a new dict per call). The
-    graph's own node and edge data dicts are read item by item, so replacing a link or a joint in
-    ``mechanism.graph`` directly is seen too."""
-    key, pins = [mechanism.dim], []
-
-    def put(obj):
-        if isinstance(obj, _VALUES):
-            key.append(obj)
-        else:
-            key.append(id(obj))
-            pins.append(obj)
-
+    Links, joints, placements, load rows, prescribed-motion dicts and their values, points, the
+    actuation, names: all are immutable (frozen attrs, read-only arrays, strings) or replaced,
+    never changed, by the mechanism's methods (`Mechanism.prescribe` builds a new dict per call).
+    The graph's own node and edge data dicts are read item by item, so replacing a link or a joint
+    in ``mechanism.graph`` directly is seen too. An equal value in a new object counts as a change
+    (a needless compile, never a stale one)."""
     graph = mechanism.graph
-    key.append(len(graph))
+    objs, counts = [], [mechanism.dim, len(graph), graph.number_of_edges()]
     for name, data in graph.nodes(data=True):
-        put(name)
-        key.append(len(data))
-        for k, val in data.items():
-            put(k), put(val)
-    key.append(graph.number_of_edges())
+        objs.append(name)
+        objs.extend(data.keys())
+        objs.extend(data.values())
+        counts.append(len(data))
     for a, b, name, data in graph.edges(keys=True, data=True):
-        put(a), put(b), put(name)
-        key.append(len(data))
-        for k, val in data.items():
-            if k == "joint":
-                try:
-                    hash(val)
-                except TypeError:  # a plugin joint that is not a value: it could change unseen
-                    return None
-            put(k), put(val)
+        objs += (a, b, name)
+        objs.extend(data.keys())
+        objs.extend(data.values())
+        counts.append(len(data))
     state = vars(mechanism)
-    for attr in ("_loads", "_prescribed", "_points", "_actuation"):
-        val = state.get(attr)
-        put(attr)
-        if isinstance(val, list):
-            key.append(len(val))
-            for item in val:
-                put(item)
-        elif isinstance(val, dict):
-            key.append(len(val))
-            for k, item in val.items():
-                put(k), put(item)
-                if isinstance(item, dict):  # a link's prescribed components: values or read-only arrays
-                    key.append(len(item))
-                    for c, x in item.items():
-                        put(c), put(x)
-        else:
-            put(val)
-    return tuple(key), pins
+    loads, prescribed, points = state.get("_loads", ()), state.get("_prescribed", {}), state.get("_points", {})
+    objs.extend(loads)
+    objs.extend(prescribed.keys())
+    for motion in prescribed.values():  # a link's prescribed components: floats or read-only arrays
+        objs.append(motion)
+        objs.extend(motion.keys())
+        objs.extend(motion.values())
+        counts.append(len(motion))
+    objs.extend(points.keys())
+    objs.extend(points.values())
+    objs.append(state.get("_actuation"))
+    counts += (len(loads), len(prescribed), len(points))
+    return (tuple(counts), tuple(map(id, objs))), objs
+
+
+def _values_only(mechanism) -> bool:
+    """Whether every joint of ``mechanism`` is an immutable value (hashable): a plugin joint that is
+    not one could change unseen, so its mechanism is compiled every time."""
+    for *_, joint in mechanism.graph.edges(data="joint"):
+        try:
+            hash(joint)
+        except TypeError:
+            return False
+    return True
 
 
 def _read_only(compiled: Compiled) -> None:
@@ -121,20 +113,20 @@ def compiled_for(mechanism, capability: str = "fe_model") -> Compiled:
         cache = _LOCAL.cache
     except AttributeError:
         cache = _LOCAL.cache = weakref.WeakKeyDictionary()
-    fp = None
-    if getattr(type(mechanism).compile, "__qualname__", "") == "Mechanism.compile":  # flexmb's own compile
-        try:
-            fp = fingerprint(mechanism)
-        except (AttributeError, TypeError):  # not a flexmb.Mechanism's data: no cache
-            fp = None
-    if fp is None:
+    if getattr(type(mechanism).compile, "__qualname__", "") != "Mechanism.compile":  # not flexmb's own compile
+        return mechanism.compile(capability)
+    try:
+        key, pins = fingerprint(mechanism)
+    except (AttributeError, TypeError):  # not a flexmb.Mechanism's data: no cache
         return mechanism.compile(capability)
     entry = cache.get(mechanism)
-    if entry is not None and entry[0] == fp[0] and capability in entry[2]:
+    if entry is not None and entry[0] == key and capability in entry[2]:
         return entry[2][capability]
     compiled = mechanism.compile(capability)
+    if not _values_only(mechanism):
+        return compiled
     _read_only(compiled)
-    built = entry[2] if entry is not None and entry[0] == fp[0] else {}
+    built = entry[2] if entry is not None and entry[0] == key else {}
     built[capability] = compiled
-    cache[mechanism] = (fp[0], fp[1], built)
+    cache[mechanism] = (key, pins, built)
     return compiled

@@ -106,6 +106,9 @@ def properties(solutions, which=("modes", "buckling", "stress"), *, n_modes: int
     property fails numerically (e.g. a singular tangent at a bifurcation) gets NaN for that
     property and the reason in the text column ``property_errors`` (only present then), so one
     failure never discards the other rows.
+
+    The properties are those of the solutions' mesh: `flexmb.discretisation_error(mechanism,
+    which)` estimates their discretisation error (Richardson from meshes refined by 2 and 4).
     """
     if not isinstance(solutions, Sequence) or isinstance(solutions, (str, bytes)) or len(solutions) == 0:
         raise ParameterError("properties: solutions must be a non-empty sequence of flexmb.Solution (a sweep's "

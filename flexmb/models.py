@@ -127,6 +127,7 @@ def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None
                              f"the range of the three_x_infinity joints, +-{np.degrees(limit):.0f} deg")
     if elements is not None:
         joint_params["elements_per_leaf"] = elements
+    joint_params.setdefault("elements_per_leaf", 3)  # the mesh of the shipped database (not the joint's default)
     joint = joint_from_params(ThreeXInfinity, **joint_params)
     D0 = float(joint.interface_b(3)[2])
     g = MANIPULATOR

@@ -180,9 +180,12 @@ class StaticProblem(BoundaryConditions):
     def external_force(self, state: State, lam: float = 1.0):
         """Assembled external load vector at load factor ``lam`` and the load-stiffness blocks."""
         m = self.model
-        d = m.offsets(state, self.loads.node, self.loads.offset)
-        w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
-        f = scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs)
+        if len(self.loads.node):
+            d = m.offsets(state, self.loads.node, self.loads.offset)
+            w, G = m.transfer(self._wrench0 + lam * (self._wrench - self._wrench0), d)
+            f = scatter_add(m.node_dofs[self.loads.node], w, m.n_dofs)
+        else:  # prescribed motion only
+            f, G = np.zeros(m.n_dofs), np.zeros((0, m.nrot, m.nrot))
         if self._offset is not None and lam != 1.0:
             if callable(self._offset):
                 self._offset = self._offset()
@@ -207,12 +210,12 @@ class StaticProblem(BoundaryConditions):
 
         Returns ``(r, K_ff, K_fp, sigma)``; ``r`` contains NaN when an element left its valid
         range (a relative rotation of 90 degrees or more within one 3D element).
-        ``geometric_stress``: a function of the elements' stresses returning those of the
-        geometric stiffness, if not their own (`FEModel.element_response`).
+        ``geometric_stress``: the stresses of the geometric stiffness (E, modes), if not the
+        elements' own, or a function of their own returning them (`FEModel.assemble`).
         """
         m = self.model
         pattern = self._pattern if tangent else None
-        f_int, data_ff, data_fp, Fe, _, sig = m.assemble(state, pattern, geometric_stress=geometric_stress)
+        f_int, data_ff, data_fp, _, _, sig, largest = m.assemble(state, pattern, geometric_stress=geometric_stress)
         f_ext, G = self.external_force(state, lam)
         r = f_int - f_ext
         if tangent and len(G):
@@ -222,7 +225,7 @@ class StaticProblem(BoundaryConditions):
             r += scatter_add(m.hinge_dofs, Fh, m.n_dofs)
             if tangent:
                 pattern.split(Kh, first=len(pattern.slots) - Kh.size, out=(data_ff, data_fp))
-        self.force_scale = self._force_scale(Fe, f_ext)
+        self.force_scale = self._force_scale(largest, f_ext)
         if not tangent:
             return r, None, None, sig
         return (r,) + pattern.matrices(data_ff, data_fp) + (sig,)
@@ -268,15 +271,15 @@ class StaticProblem(BoundaryConditions):
         return ("" if not bad else "the prescribed motion contradicts the over-constrained hinges: their redundant "
                 f"(dropped) constraint rows are violated: {', '.join(bad)} [m, rad]")
 
-    def _force_scale(self, Fe: np.ndarray, f_ext: np.ndarray) -> float:
-        """The problem's force scale [N]: the largest element end force, applied load or moment
-        over `model_length` (reactions are sums of element forces)."""
+    def _force_scale(self, largest: tuple[float, float], f_ext: np.ndarray) -> float:
+        """The problem's force scale [N]: the largest element end force (``largest``: force and
+        moment, `FEModel.largest_by_kind` of the end forces), applied load or moment over
+        `model_length` (reactions are sums of element forces)."""
         m, L = self.model, self.model_length
-        nd, d = m.ndof, m.dim
-        F = Fe.reshape(len(Fe), 2, nd) if len(Fe) else np.zeros((0, 2, nd))
-        f = f_ext[: m.n_node_dofs].reshape(-1, nd)  # the hinges' multiplier rows last
-        return float(max(np.abs(F[..., :d]).max(initial=0.0), np.abs(F[..., d:]).max(initial=0.0) / L,
-                         np.abs(f[:, :d]).max(initial=0.0), np.abs(f[:, d:]).max(initial=0.0) / L))
+        F, M = largest
+        f, moment = (m.largest_by_kind(f_ext[: m.n_node_dofs])  # the hinges' rows last
+                     if len(self.loads.node) or self._offset is not None else (0.0, 0.0))
+        return max(F, M / L, f, moment / L)
 
     def scaled_residual(self, r_free: np.ndarray) -> float:
         """``|| [r_F, r_M / L] || / F``: the free residual in units of the force scale of the last
@@ -313,6 +316,15 @@ class StaticProblem(BoundaryConditions):
         K = sp.csr_array(K_ff)
         Z = constrained_basis(K[n:, :n])
         return (Z.T @ K[:n, :n] @ Z).tocsr()
+
+    def positive_definite(self, K_ff: sp.csr_array) -> bool | None:
+        """Whether the tangent ``K_ff`` (this problem's pattern) is positive definite, from the
+        pivots of the linear solver's factorisation (`flexmb.linear.TangentSolver.positive_definite`,
+        ~10x faster than a separate SuperLU); None where it cannot tell (hinges: their
+        multipliers make a saddle point, judged on `reduced_tangent`; small dense systems)."""
+        if self.model.hinges is not None:
+            return None
+        return self._tangent_solver.positive_definite(K_ff)
 
     def solve_linear(self, K: sp.csr_array, rhs: np.ndarray) -> np.ndarray:
         """Solve ``K x = rhs`` with `flexmb.linear.TangentSolver` (dense LAPACK below 220 unknowns;

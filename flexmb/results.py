@@ -181,7 +181,9 @@ class Solution:
         factor}``, >= 1; e.g. a notch hinge's K_t), and with a material ``limit`` [Pa] (yield or
         fatigue strength) the safety factors ``limit / von_mises`` (without it, from the sections'
         ``yield_stress`` where given: the joints' ``yield_stress``). Returns a
-        `flexmb.fe.stress.Stresses`: per element arrays, ``.joint(name)`` and ``.summary()``."""
+        `flexmb.fe.stress.Stresses`: per element arrays, ``.joint(name)`` and ``.summary()``.
+        A converged KSD-reduced solution's joint elements take their axial forces from the EOBs
+        (`flexmb.ksd.properties.eob_axial_forces`), the moments from step 4's positions."""
         from .fe.stress import element_stresses
 
         model = self.compiled.problem.model

@@ -26,7 +26,7 @@ def test_demo_prints_the_table_and_exits_zero(tmp_path, capsys):
 def test_joints_lists_the_shipped_plugins(capsys):
     assert cli.main(["joints"]) == 0
     out = capsys.readouterr().out
-    assert "cross_flexure" in out and "leaf_spring" in out and "elements_per_leaf = 3" in out
+    assert "cross_flexure" in out and "leaf_spring" in out and "elements_per_leaf = 10" in out  # the default
 
 
 def test_errors_are_one_line_with_exit_code_1(monkeypatch, capsys):

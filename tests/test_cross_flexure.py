@@ -1,5 +1,6 @@
 """The cross-flexure pivot (Dwarshuis et al. 2020, Sec. 4.1-4.2, Table 1) on the full model."""
 
+import attrs
 import numpy as np
 import pytest
 
@@ -75,5 +76,6 @@ def test_table_1_defaults():
     assert (j.length, j.angle, j.thickness, j.width_inner, j.width_outer, j.E, j.G) == (
         0.1, np.pi / 4, 1e-3, 0.04, 0.02, 200e9, 76.9e9)
     assert j.second_moment == pytest.approx((0.04 + 2 * 0.02) * 1e-9 / 12)  # Eq. (4.4)
-    mesh = j.mesh(3)
+    mesh = attrs.evolve(j, elements_per_leaf=3).mesh(3)
     assert len(mesh.elements) == 3 * 3  # three leaves, elements_per_leaf = 3
+    assert j.elements_per_leaf == 10  # flexmb's default mesh, not Table 1's: tests/test_discretisation.py

@@ -44,7 +44,7 @@ def _compare(tpl, rng, n=6, tol=1e-9):
 
 def test_shipped_manipulator_joint_table_reproduces_the_condensation():
     """The shipped three_x_infinity table (the manipulator's joint) = direct condensation."""
-    tpl = template(ThreeXInfinity(), 3)
+    tpl = template(ThreeXInfinity(elements_per_leaf=3), 3)
     assert tpl.lookup is not None
     _compare(tpl, np.random.default_rng(0))
 
@@ -65,10 +65,10 @@ def test_a_planar_cross_flexure_table_built_from_its_database(tmp_path):
 
 def test_a_table_is_used_only_for_the_joint_it_belongs_to():
     """Other parameters (a thicker leaf): no lookup, the condensation is computed."""
-    joint = ThreeXInfinity(thickness=5e-4)
-    data = store.shipped(ThreeXInfinity(), 3)
+    joint = ThreeXInfinity(elements_per_leaf=3, thickness=5e-4)
+    data = store.shipped(ThreeXInfinity(elements_per_leaf=3), 3)
     assert lookup_for(EOBTemplate(joint, 3, data), joint) is None
-    assert lookup_for(EOBTemplate(ThreeXInfinity(), 3, data), ThreeXInfinity()) is not None
+    assert lookup_for(EOBTemplate(ThreeXInfinity(elements_per_leaf=3), 3, data), ThreeXInfinity(elements_per_leaf=3)) is not None
 
 
 @pytest.mark.parametrize("case", ["joint", "location"])
@@ -77,7 +77,7 @@ def test_ksd_reduced_with_the_table_equals_the_computed_condensation(case, monke
     m = flexmb.models.manipulator(case, rotation=np.radians(45.0))
     compiled = m.compile()
     fast = KSDReduced().solve(compiled)
-    tpl = template(ThreeXInfinity(), 3)
+    tpl = template(ThreeXInfinity(elements_per_leaf=3), 3)
     monkeypatch.setattr(tpl, "lookup", None)
     ref = KSDReduced().solve(compiled)
     assert fast.converged and ref.converged
@@ -100,7 +100,7 @@ def _rewrite(path, **changes):
 
 @pytest.fixture
 def saved(tmp_path):
-    joint = ThreeXInfinity()
+    joint = ThreeXInfinity(elements_per_leaf=3)
     src = store.shipped(joint, 3)
     path = store.save(src, tmp_path / store.file_name(joint.kind, 3, joint.database_key()))
     return path
@@ -140,7 +140,7 @@ def test_a_malformed_table_entry_is_refused(saved):
 
 
 def test_the_table_round_trips_exactly(tmp_path):
-    data = store.shipped(ThreeXInfinity(), 3)
+    data = store.shipped(ThreeXInfinity(elements_per_leaf=3), 3)
     table = attrs.evolve(data.eob_table, data=np.array(data.eob_table.values), source=None)
     path = store.save(attrs.evolve(data, eob_table=table), tmp_path / "x.json")
     back = store.load(path).eob_table
@@ -153,6 +153,6 @@ def test_mass_and_strength_parameters_keep_the_table():
     """Density and yield stress do not enter the stiffness condensation (Eqs. 3.8-3.11), and an
     unset option (``nu=None`` with ``G`` given) changes nothing: the shipped table still applies;
     a stiffness parameter (E) does change it."""
-    for joint in (ThreeXInfinity(yield_stress=1.0e9), ThreeXInfinity(density=2700.0)):
+    for joint in (ThreeXInfinity(elements_per_leaf=3, yield_stress=1.0e9), ThreeXInfinity(elements_per_leaf=3, density=2700.0)):
         assert template(joint, 3).lookup is not None
-    assert template(ThreeXInfinity(E=70e9), 3).lookup is None
+    assert template(ThreeXInfinity(elements_per_leaf=3, E=70e9), 3).lookup is None

@@ -106,7 +106,7 @@ def _deformed(problem, seed):
     rng = np.random.default_rng(seed)
     du = rng.normal(size=model.n_dofs)
     size = np.ptp(model.x0, axis=0).max()
-    du[: model.n_node_dofs] *= np.tile(np.where(np.arange(model.ndof) < model.dim, 0.02 * size, 0.2), model.n_nodes)
+    du[: model.n_node_dofs] *= np.tile(np.where(np.arange(model.ndof) < model.dim, 1e-3 * size, 0.1), model.n_nodes)
     return model.apply_increment(model.initial_state(), du)
 
 
@@ -122,11 +122,37 @@ def test_compiled_assembly_equals_numpy(kernels, dim, override):
     for path in ("numpy", "numba"):
         kernels(path)
         r, Kff, Kfp, sig = problem.evaluate(state, 0.7, geometric_stress=override)
+        if override is not None:  # the geometric stresses given as an array: the same tangent
+            Kff_held = problem.evaluate(state, 0.7, geometric_stress=override(sig))[1]
+            assert _rel(Kff_held.toarray(), Kff.toarray()) < 1e-12
         forces = problem.model.assemble(state)
-        out[path] = (r, Kff.toarray(), Kfp.toarray(), sig, forces[0], forces[3], forces[4], forces[5])
+        out[path] = (r, Kff.toarray(), Kfp.toarray(), sig, forces[0], forces[3], forces[4], forces[5],
+                     np.array(problem.model.largest_by_kind(forces[3])), np.array(forces[6]))
     for a, b in zip(out["numpy"], out["numba"]):
         assert _rel(a, b) < 1e-12
-    assert out["numba"][1].shape == (problem.n_free, problem.n_free)
+    assert out["numba"][1].shape == (problem.n_free, problem.n_free) and np.isfinite(out["numba"][0]).all()
+
+
+def test_compiled_rotation_updates_equal_numpy(kernels):
+    # the spin update R <- exp(w) R (Eq. A.8) and its inverse log(R_to R_from^T), at angles up to
+    # and across the near-pi branch of the logarithm (within 1e-3 of pi)
+    model = flexmb.models.fourbar(1).compile().problem.model
+    rng = np.random.default_rng(7)
+    du = rng.normal(size=model.n_dofs)
+    w = du.reshape(model.n_nodes, 6)[:, 3:]
+    w *= (np.linspace(0.0, np.pi, model.n_nodes) / np.linalg.norm(w, axis=1))[:, None]  # 0 ... pi
+    w[1] *= 1e-9 / np.linalg.norm(w[1])
+    w[-2] *= (np.pi - 5e-4) / np.linalg.norm(w[-2])
+    start = model.apply_increment(model.initial_state(), 0.3 * rng.normal(size=model.n_dofs))
+    out = {}
+    for path in ("numpy", "numba"):
+        kernels(path)
+        moved = model.apply_increment(start, du)
+        out[path] = (moved.rotations, model.increment(start, moved), np.array(model.largest_motion(du)))
+    assert _rel(out["numpy"][0], out["numba"][0]) < 1e-14
+    assert np.abs(out["numpy"][1] - out["numba"][1]).max() < 1e-12
+    assert np.abs(out["numba"][1] - du).max() < 1e-9  # the logarithm inverts the update (angles < pi)
+    assert np.array_equal(out["numpy"][2], out["numba"][2]) and out["numba"][2][1] == pytest.approx(np.pi)
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -28,7 +28,7 @@ LAYERS = [
                              "flexmb.fe.mass", "flexmb.fe.ideal", "flexmb.fe.section_geometry", "flexmb.closed_form.flexures", "flexmb.closed_form.linkage_jit",
                              "flexmb.joints",
                              "flexmb.joints.*", "flexmb.registry", "flexmb.reference"]),
-    ("problems", ["flexmb.linear", "flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),
+    ("problems", ["flexmb.linear", "flexmb.linear_jit", "flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),
     ("builders", ["flexmb.boundary", "flexmb.fe.build", "flexmb.closed_form", "flexmb.closed_form.build"]),
     ("mechanism", ["flexmb.mechanism"]),
     ("results and joint data", ["flexmb.results", "flexmb.database.eob_format", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),

@@ -60,7 +60,7 @@ def test_a_plugin_mesh_with_an_unattached_internal_node_is_refused_by_the_mesh_c
         m = flexmb.Mechanism(dim=dim)
         m.add_link("A", fixed=True)
         m.add_link("B", position=(0.1, 0, 0)[:dim])
-        m.add_joint("A", "B", Loose(), name="loose")
+        m.add_joint("A", "B", Loose(elements=4), name="loose")
         for call in (flexmb.solve, lambda m: flexmb.tangent_stiffness(m, method="conventional")):
             with pytest.raises(ModelError, match="'loose'.*internal mesh point 5.*attached to no beam element"):
                 call(m)

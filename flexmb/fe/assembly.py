@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import scipy.sparse as sp
 
@@ -86,9 +84,10 @@ class PartitionedPattern:
         """``(K_ff, K_fp)`` as CSR arrays holding ``data_ff`` and ``data_fp`` (not copied)."""
         out = []
         for M, data in zip(self._templates, (data_ff, data_fp)):
-            M = copy.copy(M)
-            M.data = data
-            out.append(M)
+            new = object.__new__(type(M))  # copy.copy without its protocol (~3x faster)
+            new.__dict__.update(M.__dict__)
+            new.data = data
+            out.append(new)
         return tuple(out)
 
 

@@ -47,8 +47,10 @@ def _rot_rot(Dm, e, K, wt, row, coef, L0, a, ia, b, ib, second, g):
             K[ia + i, ib + j] += s * (cI - b[i] * a[j])
             K[ib + i, ia + j] += s * (cI - a[i] * b[j])
     w = s * c / (B * B)
-    for i in range(12):
-        for j in range(12):
+    for ii in range(6):  # g is zero outside the two rotation blocks
+        i = ia + ii if ii < 3 else ib + ii - 3
+        for jj in range(6):
+            j = ia + jj if jj < 3 else ib + jj - 3
             K[i, j] += w * g[i] * g[j]
 
 
@@ -91,8 +93,10 @@ def _rot_chord(Dm, e, K, wt, row, coef, L0, a, ia, nl, P, l, second, g, Pa, aP):
             K[i, 6 + j] -= s * Hn
             K[6 + i, j] -= s * Hn
     w = s * c / (B * B)
-    for i in range(12):
-        for j in range(12):
+    for ii in range(9):  # g is zero on the other node's rotation block
+        i = ii if ii < 3 else (ia + ii - 3 if ii < 6 else ii)
+        for jj in range(9):
+            j = jj if jj < 3 else (ia + jj - 3 if jj < 6 else jj)
             K[i, j] += w * g[i] * g[j]
 
 

@@ -141,6 +141,13 @@ class FEModel:
         du[:, : self.dim] = to.positions - frm.positions
         if self.dim == 2:
             du[:, 2] = to.rotations - frm.rotations
+        elif jit.enabled():
+            from . import model_jit
+
+            spin = np.empty((self.n_nodes, 3))
+            model_jit.spin3d(np.ascontiguousarray(to.rotations, dtype=float),
+                             np.ascontiguousarray(frm.rotations, dtype=float), spin)
+            du[:, 3:] = spin
         else:
             du[:, 3:] = logm_so3(to.rotations @ frm.rotations.transpose(0, 2, 1))
         if self.hinges is None:
@@ -162,7 +169,14 @@ class FEModel:
         pos = state.positions + du[:, : self.dim]
         if self.dim == 2:
             return State(pos, state.rotations + du[:, 2], mult)
-        rot = expm_so3(du[:, 3:6]) @ state.rotations
+        if jit.enabled():  # the same formula compiled (tests/test_kernels.py: equal to 1e-14)
+            from . import model_jit
+
+            rot = np.empty((self.n_nodes, 3, 3))
+            model_jit.compose3d(np.ascontiguousarray(state.rotations, dtype=float),
+                                np.ascontiguousarray(du[:, 3:6], dtype=float), rot)
+        else:
+            rot = expm_so3(du[:, 3:6]) @ state.rotations
         if self.hinges is None:
             return State(pos, rot, mult)
         return State(pos, rot, mult, self.hinges.advance(state.rotations, state.hinge_angles, du[:, 3:6], rot))
@@ -239,6 +253,34 @@ class FEModel:
         return (np.ascontiguousarray(self.point_master[el.ends], dtype=np.int64), offset,
                 np.ascontiguousarray(np.any(offset != 0.0, axis=2)))
 
+    def largest_motion(self, du: np.ndarray) -> tuple[float, float]:
+        """The largest nodal translation [m] and rotation [rad] (Euclidean norms per node) of an
+        increment on all DOFs (the hinges' multipliers, last, left out)."""
+        if jit.enabled():
+            from . import model_jit
+
+            out = np.empty(2)
+            model_jit.largest_motion(np.ascontiguousarray(du, dtype=float), self.n_nodes, self.ndof, self.dim, out)
+            return float(out[0]), float(out[1])
+        d = self.node_part(du)
+        if not len(d):
+            return 0.0, 0.0
+        return (float(np.sqrt(np.max(np.sum(d[:, : self.dim] ** 2, axis=1)))),
+                float(np.sqrt(np.max(np.sum(d[:, self.dim:] ** 2, axis=1)))))
+
+    def largest_by_kind(self, v: np.ndarray) -> tuple[float, float]:
+        """The largest magnitude of the translation and of the rotation entries of ``v`` (rows of
+        ``ndof``: element end forces (E, 2 ndof), or node vectors): forces [N] and moments [N m]."""
+        v = np.ravel(v)
+        if jit.enabled():
+            from . import model_jit
+
+            out = np.empty(2)
+            model_jit.largest_by_kind(np.ascontiguousarray(v, dtype=float), self.ndof, self.dim, out)
+            return float(out[0]), float(out[1])
+        a = np.abs(v).reshape(-1, self.ndof).max(axis=0, initial=0.0)
+        return float(a[: self.dim].max()), float(a[self.dim:].max())
+
     @functools.cached_property
     def _element_data(self):
         """The element arrays the compiled kernels take, contiguous: 3D ``ny0, nz0, L0, S``; 2D
@@ -252,18 +294,23 @@ class FEModel:
         (`flexmb.fe.assembly.PartitionedPattern`, whose first entries are the elements' blocks in
         the layout of `element_response`), their tangents summed into its two CSR data arrays.
 
-        Returns ``(f, data_ff, data_fp, F, e, sigma)``: ``f`` (n_dofs,), the data arrays (None
-        without ``pattern``), ``F`` (E, 2 ndof) master end forces, deformations and stresses. One
+        Returns ``(f, data_ff, data_fp, F, e, sigma, largest)``: ``f`` (n_dofs,), the data arrays
+        (None without ``pattern``), ``F`` (E, 2 ndof) master end forces, deformations, stresses and
+        `largest_by_kind` of ``F``. ``geometric_stress``: the stresses (E, modes) of the geometric
+        stiffness, or a function of the elements' own returning them (None: their own). One
         compiled pass (`flexmb.fe.model_jit`) when `flexmb.jit.enabled`, else `element_response`
         and ``np.bincount``: equal to 1e-12 (tests/test_kernels.py)."""
         el = self.elements
         nE, n2 = len(el.L0), 2 * self.ndof
         tangent = pattern is not None
         if nE == 0 or not jit.enabled():
-            F, K, e, sig = self.element_response(state, tangent=tangent, geometric_stress=geometric_stress)
+            held = geometric_stress
+            if geometric_stress is not None and not callable(geometric_stress):
+                held = lambda _: np.asarray(geometric_stress, dtype=float)  # noqa: E731
+            F, K, e, sig = self.element_response(state, tangent=tangent, geometric_stress=held)
             f = scatter_add(self.element_dofs, F, self.n_dofs)
             data = pattern.split(K) if tangent else (None, None)
-            return (f,) + data + (F, e, sig)
+            return (f,) + data + (F, e, sig, self.largest_by_kind(F))
         from . import model_jit  # imports numba: on first use, not with flexmb
 
         master, offset, moved = self._ends
@@ -271,15 +318,18 @@ class FEModel:
         given = tangent and geometric_stress is not None
         sg = np.zeros((1, nm))
         if given:
-            sg = np.ascontiguousarray(geometric_stress(self.element_response(state, tangent=False)[3]), dtype=float)
+            sg = geometric_stress(self.element_response(state, tangent=False)[3]) if callable(geometric_stress) \
+                else geometric_stress
+            sg = np.ascontiguousarray(sg, dtype=float)
         f = np.zeros(self.n_dofs)
         data = (np.zeros(pattern.nnz[0]), np.zeros(pattern.nnz[1])) if tangent else (np.zeros(0), np.zeros(0))
         slots = pattern.slots[:nE * n2 * n2].reshape(nE, n2 * n2) if tangent else np.zeros((1, 1), dtype=np.int64)
-        F, e, sig = np.empty((nE, n2)), np.empty((nE, nm)), np.empty((nE, nm))
+        F, e, sig, largest = np.empty((nE, n2)), np.empty((nE, nm)), np.empty((nE, nm)), np.empty(2)
         kernel = model_jit.assemble3d if self.dim == 3 else model_jit.assemble2d
-        kernel(state.positions, state.rotations, master, offset, moved, *self._element_data, tangent, given, sg,
-               self.element_dofs, slots, f, *data, F, e, sig)
-        return (f,) + (data if tangent else (None, None)) + (F, e, sig)
+        kernel(np.ascontiguousarray(state.positions, dtype=float), np.ascontiguousarray(state.rotations, dtype=float),
+               master, offset, moved, *self._element_data, tangent, given, sg,
+               self.element_dofs, slots, f, *data, F, e, sig, largest)
+        return (f,) + (data if tangent else (None, None)) + (F, e, sig, (float(largest[0]), float(largest[1])))
 
     def hinge_response(self, state: State, motor: float = 1.0, tangent: bool = True, material: bool = False):
         """The hinges' block forces and tangents on `hinge_dofs` (`flexmb.fe.ideal.Hinges.response`);

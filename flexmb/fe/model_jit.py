@@ -40,12 +40,12 @@ def _scatter(k, dofs, slots, Fm, K, tangent, r, data_ff, data_fp):
 
 @njit
 def assemble3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, tangent, sg_given, sg_in, dofs, slots,
-               r, data_ff, data_fp, Fm, e_out, sig_out):
+               r, data_ff, data_fp, Fm, e_out, sig_out, largest):
     """3D: ``pos`` (N, 3), ``rot`` (N, 3, 3) node states; ``master`` (E, 2) the ends' nodes,
     ``offset`` (E, 2, 3) their undeformed offsets, ``moved`` (E, 2) offset non-zero; element data
     as `flexmb.fe.beam3d_jit`; ``dofs`` (E, 12) master DOFs, ``slots`` (E, 144) (see `_scatter`).
     Adds into ``r``, ``data_ff``, ``data_fp``; writes ``Fm`` (E, 12) master end forces, ``e_out``,
-    ``sig_out`` (E, 6)."""
+    ``sig_out`` (E, 6) and ``largest`` (2,) `largest_by_kind` of ``Fm``."""
     nE = L0.shape[0]
     xp = np.empty((nE, 3))
     xq = np.empty((nE, 3))
@@ -104,11 +104,12 @@ def assemble3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, tangent, sg_giv
                 for j in range(3):
                     Kk[o + 3 + i, o + 3 + j] += dv[i] * fv[j] - (df if i == j else 0.0)
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
+    largest_by_kind(Fm.ravel(), 6, 3, largest)
 
 
 @njit
 def assemble2d(pos, rot, master, offset, moved, alpha0, L0, S, tangent, sg_given, sg_in, dofs, slots,
-               r, data_ff, data_fp, Fm, e_out, sig_out):
+               r, data_ff, data_fp, Fm, e_out, sig_out, largest):
     """2D: as `assemble3d` with ``rot`` (N,) angles, ``offset`` (E, 2, 2), ``dofs`` (E, 6),
     ``slots`` (E, 36), element data as `flexmb.fe.beam2d_jit`."""
     nE = L0.shape[0]
@@ -151,3 +152,89 @@ def assemble2d(pos, rot, master, offset, moved, alpha0, L0, S, tangent, sg_given
                 Kk[o + 2, col] += -d1 * Kk[o, col] + d0 * Kk[o + 1, col]
             Kk[o + 2, o + 2] -= d0 * f0 + d1 * f1
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
+    largest_by_kind(Fm.ravel(), 3, 2, largest)
+
+
+@njit
+def compose3d(rot, w, out):
+    """``out[n] = exp(skew(w[n])) rot[n]`` (`flexmb.rotations.expm_so3`'s Rodrigues formula, the
+    same terms): ``rot`` (N, 3, 3), ``w`` (N, 3) spins [rad]."""
+    E = np.empty((3, 3))
+    for n in range(rot.shape[0]):
+        w0, w1, w2 = w[n, 0], w[n, 1], w[n, 2]
+        t = max(np.sqrt(w0 * w0 + w1 * w1 + w2 * w2), 1e-300)
+        h = 0.5 * t
+        s = np.sin(h) / h
+        a = 0.5 * s * s
+        b = np.sin(t) / t
+        c = np.cos(t)
+        E[0, 0], E[0, 1], E[0, 2] = a * w0 * w0 + c, a * w0 * w1 - b * w2, a * w0 * w2 + b * w1
+        E[1, 0], E[1, 1], E[1, 2] = a * w1 * w0 + b * w2, a * w1 * w1 + c, a * w1 * w2 - b * w0
+        E[2, 0], E[2, 1], E[2, 2] = a * w2 * w0 - b * w1, a * w2 * w1 + b * w0, a * w2 * w2 + c
+        for i in range(3):
+            for j in range(3):
+                out[n, i, j] = E[i, 0] * rot[n, 0, j] + E[i, 1] * rot[n, 1, j] + E[i, 2] * rot[n, 2, j]
+
+
+@njit
+def spin3d(R_to, R_from, out):
+    """``out[n] = log(R_to[n] R_from[n]^T)`` (`flexmb.rotations.logm_so3`, angle in [0, pi], the
+    axis from the symmetric part within 1e-3 of pi)."""
+    R = np.empty((3, 3))
+    for n in range(R_to.shape[0]):
+        for i in range(3):
+            for j in range(3):
+                R[i, j] = R_to[n, i, 0] * R_from[n, j, 0] + R_to[n, i, 1] * R_from[n, j, 1] \
+                    + R_to[n, i, 2] * R_from[n, j, 2]
+        c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+        v0, v1, v2 = 0.5 * (R[2, 1] - R[1, 2]), 0.5 * (R[0, 2] - R[2, 0]), 0.5 * (R[1, 0] - R[0, 1])
+        s = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        t = np.arctan2(s, c)
+        if t > np.pi - 1e-3:
+            k = 0
+            for i in range(1, 3):
+                if R[i, i] > R[k, k]:  # the largest diagonal entry of the symmetric part
+                    k = i
+            n0 = 0.5 * (R[0, k] + R[k, 0]) - (c if k == 0 else 0.0)
+            n1 = 0.5 * (R[1, k] + R[k, 1]) - (c if k == 1 else 0.0)
+            n2 = 0.5 * (R[2, k] + R[k, 2]) - (c if k == 2 else 0.0)
+            norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            sign = -1.0 if n0 * v0 + n1 * v1 + n2 * v2 < 0.0 else 1.0
+            f = sign * t / norm
+            out[n, 0], out[n, 1], out[n, 2] = f * n0, f * n1, f * n2
+        else:
+            f = t / (s if s > 0.0 else 1.0)
+            out[n, 0], out[n, 1], out[n, 2] = f * v0, f * v1, f * v2
+
+
+@njit
+def largest_by_kind(v, ndof, dim, out):
+    """``out = (max |v_translation|, max |v_rotation|)`` over ``v`` viewed as rows of ``ndof``
+    (translations first); 0 for an empty ``v``."""
+    out[0] = 0.0
+    out[1] = 0.0
+    for i in range(v.shape[0]):
+        k = 0 if i % ndof < dim else 1
+        a = abs(v[i])
+        if a > out[k] or a != a:  # NaN wins, as in numpy's max
+            out[k] = a
+
+
+@njit
+def largest_motion(du, n_nodes, ndof, dim, out):
+    """``out = (max_n |du_n translation|, max_n |du_n rotation|)`` over the nodes' rows of ``du``."""
+    out[0] = 0.0
+    out[1] = 0.0
+    for n in range(n_nodes):
+        t = 0.0
+        for i in range(dim):
+            t += du[n * ndof + i] * du[n * ndof + i]
+        r = 0.0
+        for i in range(dim, ndof):
+            r += du[n * ndof + i] * du[n * ndof + i]
+        if t > out[0] or t != t:
+            out[0] = t
+        if r > out[1] or r != r:
+            out[1] = r
+    out[0] = np.sqrt(out[0])
+    out[1] = np.sqrt(out[1])

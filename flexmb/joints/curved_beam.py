@@ -45,6 +45,10 @@ class CurvedBeam(Joint):
         warns (`flexmb.PlausibilityWarning`).
     elements
         Straight co-rotational beam elements along the arc in the finite-element model (16).
+        Measured evidence for the default (a 90 deg steel arc, r = 30 mm, end turned 10 deg
+        under a 1 N side load, converged-mesh reference by Richardson from 64/128/256 elements,
+        ``benchmarks/bench_discretisation.py``): end drift -0.04 %, support stiffness +0.23 %,
+        moment +0.08 %, first frequency +0.11 %, buckling +0.45 % at 16 elements.
     density
         Mass density (7800: steel in kg/m^3; in the model's units: mass per length cubed, e.g.
         g/mm^3 with mm and uN, where 1 uN s^2/mm = 1 g), >= 0.

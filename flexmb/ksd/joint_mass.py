@@ -135,8 +135,9 @@ class _JointMass:
 
     def project(self, eob, n_fixed: int) -> dict:
         """At the EOBs' near configurations (J joints): ``Mb`` (J, b, b), ``X`` (J, n_i, b) and per
-        block of chains ``K<k>``, ``M<k>`` (J, c, r, r), ``C<k>`` (J, c, r, b): the Ritz basis's
-        stiffness, mass and coupling ``P^T M_i T``."""
+        block of chains, with the Ritz basis's stiffness ``K_r`` and mass ``M_r = L L^T``: ``S<k>`` =
+        ``L^-1 K_r L^-T``, ``L<k>`` = ``L^-T`` (J, c, r, r) and the coupling ``C<k>`` = ``P^T M_i T``
+        (J, c, r, b)."""
         K, M = eob.K_nodes, self.nodes(eob)
         J, n = K.shape[:2]
         b = 2 * self.tpl.nd
@@ -148,7 +149,11 @@ class _JointMass:
             if n_fixed:
                 P = self.basis(n_fixed)[k]
                 Pt = np.swapaxes(P, 1, 2)
-                out[f"K{k}"], out[f"M{k}"] = Pt @ K[at] @ P, Pt @ M[at] @ P
+                Mr = Pt @ M[at] @ P
+                Li = np.linalg.inv(np.linalg.cholesky(0.5 * (Mr + np.swapaxes(Mr, -1, -2))))
+                S = Li @ (Pt @ K[at] @ P) @ np.swapaxes(Li, -1, -2)
+                # the Ritz problem in standard form, S = L^-1 K_r L^-T (M_r = L L^T), and L^-T
+                out[f"S{k}"], out[f"L{k}"] = 0.5 * (S + np.swapaxes(S, -1, -2)), np.swapaxes(Li, -1, -2)
         T = np.concatenate([np.broadcast_to(np.eye(b), (J, b, b)), X], axis=1)
         MT = M[:, b:] @ T  # (J, n_i, b)
         for k, idx in enumerate(self.tpl._blocks):
@@ -229,12 +234,10 @@ def condensed(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = Tru
     w_all, v_all, c_all = [], [], []  # per chain its lowest Ritz fixed-interface modes
     for k, idx in enumerate(tpl._blocks):
         P = data.basis(n_fixed)[k]  # (c, s, r)
-        Kr, Mr, Cr = parts[f"K{k}"], parts[f"M{k}"], parts[f"C{k}"]
-        Li = np.linalg.inv(np.linalg.cholesky(0.5 * (Mr + np.swapaxes(Mr, -1, -2))))
-        S = Li @ Kr @ np.swapaxes(Li, -1, -2)
-        w, V = np.linalg.eigh(0.5 * (S + np.swapaxes(S, -1, -2)))
+        w, V = np.linalg.eigh(parts[f"S{k}"])
         m = min(n_fixed, w.shape[-1])
-        a = np.swapaxes(Li, -1, -2) @ V[..., :m]  # (J, c, r, m): Ritz coefficients, M_ii-normalised
+        a = parts[f"L{k}"] @ V[..., :m]  # (J, c, r, m): Ritz coefficients, M_ii-normalised
+        Cr = parts[f"C{k}"]
         full = np.zeros((J, idx.shape[0], ni, m))  # each chain's modes on all interior DOFs
         full[:, np.arange(idx.shape[0])[:, None], idx] = P @ a
         w_all.append(w[..., :m].reshape(J, -1))

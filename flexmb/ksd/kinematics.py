@@ -20,7 +20,7 @@ from scipy.linalg import lapack
 from ..errors import ConvergenceError, TopologyError, UnsupportedStrategyError
 from .reduced import ReducedMechanism
 
-__all__ = ["solve_kinematics", "kinematic_start"]
+__all__ = ["solve_kinematics", "kinematic_start", "turn_rate", "STEP_ROTATION"]
 
 _gesv = lapack.get_lapack_funcs("gesv", (np.zeros(1),))
 _COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
@@ -35,6 +35,19 @@ def _describe(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) ->
         label = "rotation" if (red.dim == 2 and comp == 5) else _COMPONENTS[comp]
         parts.append(f"link {names[link]!r} {label} ({vector[k]:+.2f})")
     return ", ".join(parts)
+
+
+def _hinges_in(red: ReducedMechanism, columns: np.ndarray, vector: np.ndarray) -> str:
+    """The hinges a free motion turns, as the end of `_independent_rows`' refusal ('' if none)."""
+    if red.hinges is None:
+        return ""
+    moving = set(columns[np.abs(vector) > 0.2 * np.abs(vector).max()] // 6)
+    names = [n for n, (a, b) in zip(red.hinges.names, red.hinges.node) if a in moving or b in moving]
+    if not names:
+        return ""
+    return (f" (hinge {', '.join(map(repr, names))} turns with it: a hinge's rotation that only its spring and the "
+            "flexures' stiffness decide is such a motion; KSD's step 1 needs the prescribed motion and the motors "
+            "to determine every joint rotation)")
 
 
 def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
@@ -52,7 +65,7 @@ def _independent_rows(red: ReducedMechanism, jac: np.ndarray):
         raise TopologyError(
             f"the mechanism is kinematically indeterminate for KSD ({len(free)} unknown link coordinates, "
             f"{rank} independent joint constraints): this motion is free: {_describe(red, free, null)}. "
-            "Prescribe it (Mechanism.prescribe) or use method='conventional'")
+            "Prescribe it (Mechanism.prescribe) or use method='conventional'" + _hinges_in(red, free, null))
     return rows
 
 
@@ -91,9 +104,33 @@ def _correction(red: ReducedMechanism, A: np.ndarray, r: np.ndarray):
     return dz
 
 
-#: largest prescribed rotation [rad] of one kinematic step: the intended rotations are followed
-#: through the steps (each changes by less than pi), never wrapped modulo 2 pi
+#: largest turn [rad] of a joint in one kinematic step, as the prescribed motion and the motors set
+#: it (`turn_rate`): the intended rotations are followed through the steps (each changes by less
+#: than pi), never wrapped modulo 2 pi
 STEP_ROTATION = 0.5 * np.pi
+
+
+def turn_rate(red: ReducedMechanism) -> float:
+    """The fastest a joint turns [rad per unit of the prescribed motion's load factor], as far as
+    the prescribed motion tells. Step 1 moves a prescribed link along ``exp(lam W)``; between two
+    such links (or one and a fixed link, W = 0) the relative orientation
+    ``exp(lam W_a)^T exp(lam W_b)`` turns at exactly ``|W_b - W_a|`` (its derivative is
+    ``R_a^T skew(W_b - W_a) R_b``), so a step of ``STEP_ROTATION / rate`` turns such a joint by at
+    most a quarter turn; a joint to a free link is bounded by its prescribed link's ``|W|``, a
+    hinge's motor by its angle. (The manipulator's joint case at 45 deg: 0.81 rad per unit, one
+    step; its link 3 alone turns 1.72 rad, which split it into two steps before.)"""
+    lr, W = red._moves[1]
+    Wl = np.full((red.n_links, 3), np.nan)
+    Wl[lr] = W
+    a, b = red.frames.a, red.frames.b
+    if red.hinges is not None:
+        a, b = np.concatenate([a, red.hinges.node[:, 0]]), np.concatenate([b, red.hinges.node[:, 1]])
+    wa, wb = Wl[a], Wl[b]
+    known_a, known_b = ~np.isnan(wa[:, 0]), ~np.isnan(wb[:, 0])
+    rate = np.where(known_a & known_b, np.linalg.norm(np.nan_to_num(wb - wa), axis=1),
+                    np.linalg.norm(np.nan_to_num(wa), axis=1) + np.linalg.norm(np.nan_to_num(wb), axis=1))
+    motors = [] if red.hinges is None else np.abs(red.hinges.angle[np.isfinite(red.hinges.angle)])
+    return float(max(rate.max(initial=0.0), max(motors, default=0.0)))
 
 
 def _unwrapped(theta: np.ndarray, previous: np.ndarray) -> np.ndarray:
@@ -104,15 +141,14 @@ def _unwrapped(theta: np.ndarray, previous: np.ndarray) -> np.ndarray:
 def kinematic_start(red: ReducedMechanism):
     """What step 1 starts from, which depends on the mechanism alone: the rest poses, the
     constraint Jacobian there, the independent equations (redundant ones removed), the intended
-    rotations at rest and the largest prescribed link rotation [rad]. Kept on ``red`` (built once
+    rotations at rest and the fastest joint rotation (`turn_rate`). Kept on ``red`` (built once
     per compiled mechanism, `flexmb.solvers.ksd`): repeated solves decide once, identically."""
     start = getattr(red, "_kinematic_start", None)
     if start is None:
         rest = red.rest()
-        _, jac0, theta0, _ = red.constraint_equations(rest, values=False)
+        _, jac0, theta0, _ = red.constraint_equations(rest, values=False, lam=0.0)
         rows = _independent_rows(red, jac0)
-        _, (_, W) = red._moves
-        largest = float(np.max(np.linalg.norm(W, axis=1))) if len(W) else 0.0
+        largest = turn_rate(red)
         for a in (rest.x, rest.R, rest.angle, jac0, theta0):
             a.flags.writeable = False
         start = red._kinematic_start = (rest, jac0, rows, theta0, largest)
@@ -123,30 +159,34 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                      stop_beyond_half_turn: bool = False):
     """KSD step 1: link poses satisfying all joint constraints and the prescribed motion.
 
-    The prescribed motion is applied in steps that turn no link by more than `STEP_ROTATION`
-    and the intended rotations are followed from step to step, so a prescribed 2 pi + 0.3 rad
+    The prescribed motion is applied in steps that turn no joint by more than `STEP_ROTATION`
+    (`turn_rate`) and the intended rotations are followed from step to step, so a prescribed 2 pi + 0.3 rad
     gives 2 pi + 0.3, not 0.3. ``stop_beyond_half_turn``: stop at the first step that turns a
     joint beyond +-pi, outside any trained range (the caller refuses; intermediate steps may
     leave a range the end is in, so that is checked on the result only).
-    Returns ``(poses, theta, p, info)``; info has iterations, the equations kept/removed and the
-    largest residual of the removed (redundant) equations at the solution.
+    Returns ``(poses, theta, p, info)``; info has iterations, the fraction of the prescribed
+    motion reached (``load_factor``: 1 unless stopped beyond half a turn), the 3D hinges' angles
+    (``hinge_angles``, turns counted; None in 2D or without hinges), the equations
+    kept/removed and the largest residual of the removed (redundant) equations at the solution.
     """
     rest, jac0, rows, path_theta, largest = kinematic_start(red)  # jac0: at the last accepted poses (predictor)
     free = red.free
     at_free, at_pres = (rows[:, None], free), (rows[:, None], red.prescribed)
     poses, lam, dlam = rest, 0.0, min(1.0, STEP_ROTATION / largest) if largest > 0.0 else 1.0
     iterations, history = 0, []
+    hinge_path = red.hinge_angles(rest)  # 3D hinges' angles, turns counted from step to step
     while True:
         target = lam + dlam
         trial = red.with_prescribed(poses, target)
         # linear predictor from the last solution: the free motion that keeps the constraints
         # satisfied to first order under the prescribed increment (a prescribed rotation keeps its axis)
-        dz = _correction(red, jac0[at_free], jac0[at_pres] @ (dlam * red.values))
+        dz = _correction(red, jac0[at_free], jac0[at_pres] @ (dlam * red.values) + dlam * red.lam_rate[rows])
         if dz is not None:
             trial = trial.moved(dz)
         accepted, prev = False, np.inf
         for _ in range(max_iter):
-            c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred")
+            c, jac_at, theta, p = red.constraint_equations(trial, jacobian="deferred", lam=target,
+                                                           hinge_angles=hinge_path)
             res = _norm(c[rows])
             if not np.isfinite(res) or res > prev:  # Newton must gain in every iteration, else cut the
                 break  # step: a large prescribed motion otherwise wanders onto another assembly branch
@@ -164,6 +204,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
         if accepted:
             poses, lam = trial, target
             theta = path_theta = _unwrapped(theta, path_theta)
+            hinge_path = red.hinge_angles(poses, hinge_path)
             if lam >= 1.0 - 1e-14:
                 break
             if stop_beyond_half_turn and np.any(np.abs(theta) > np.pi):
@@ -186,7 +227,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                       f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
                       "rad); the kinematic start and KSD-reduced are approximate there (KSD-full is not affected)",
                       RuntimeWarning, stacklevel=3)
-    info = {"iterations": iterations, "residual": res, "equations": len(c), "removed": len(removed),
+    info = {"iterations": iterations, "residual": res, "load_factor": lam, "hinge_angles": hinge_path, "equations": len(c), "removed": len(removed),
             "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
             "removed_equations": [red.rows[k] for k in removed], "history": history}
     return poses, theta, p, info

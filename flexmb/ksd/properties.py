@@ -1,5 +1,7 @@
-"""Linearised properties of a KSD-reduced solution (issue 22 item 6): the reduced mechanism's
-tangent on the links' DOFs, from which `flexmb.compliance` takes a link point's compliance.
+"""Properties of a KSD-reduced solution (issue 22 item 6): the reduced mechanism's tangent on the
+links' DOFs, from which `flexmb.compliance` takes a link point's compliance; with the joints'
+condensed mass (`flexmb.ksd.joint_mass`) the model `flexmb.modes` solves; and the joint
+elements' axial forces from the EOBs' element forces, which `Solution.stresses` uses.
 
 The tangent is the Jacobian of the equilibrium KSD step 3 solves (`ReducedMechanism.equilibrium`):
 each joint's Craig-Bampton stiffness ``K_T`` (node A held, Eq. 2.5) at its EOB near configuration
@@ -40,11 +42,12 @@ def link_poses(red: ReducedMechanism, state) -> LinkPoses:
     return LinkPoses(x, R, np.arctan2(R[:, 1, 0], R[:, 0, 0]))
 
 
-def near_configuration(red: ReducedMechanism, table: bool = True):
+def near_configuration(red: ReducedMechanism, table: bool = True, step1=None):
     """KSD steps 1-2 as the KSD-reduced solve does them: per group of joints its EOB, and the
     stiffness ``K`` (J, 6, 6), preload ``F_hat`` (J, 6), node B's near position ``p_hat`` (J, 3)
-    and rotation ``R_hat`` (J, 3, 3) in the joint frames, and the intended rotations (J,)."""
-    _, theta, p_hat, _ = solve_kinematics(red, tol=1e-10)
+    and rotation ``R_hat`` (J, 3, 3) in the joint frames, and the intended rotations (J,).
+    ``step1``: step 1's ``(theta, p_hat)`` as the solve found them (else step 1 is solved again)."""
+    theta, p_hat = step1 if step1 is not None else solve_kinematics(red, tol=1e-10)[1:3]
     dim = red.dim
     emb = ACTIVE[dim]
     J = len(red.joint_names)
@@ -65,12 +68,15 @@ _NEAR = weakref.WeakKeyDictionary()
 
 def near(solution, database=None):
     """The solution's `ReducedMechanism` and `near_configuration`, built once per solution and
-    database (measured on the manipulator: 7 ms of a 10 ms compliance; a second property of the
-    same solution skips it)."""
+    database (a second property of the same solution skips it), from step 1's intended rotations
+    and near positions that the solve keeps in ``solution.stages["kinematics"]`` (solving step 1
+    again took 2 of the manipulator's 4 ms)."""
     per = _NEAR.setdefault(solution, {})
     if database not in per:
         red = ReducedMechanism(solution.compiled, database)
-        per[database] = red, near_configuration(red)
+        step1 = (solution.stages or {}).get("kinematics", {})
+        step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
+        per[database] = red, near_configuration(red, step1=step1)
     return per[database]
 
 

@@ -15,8 +15,9 @@ import os
 import numpy as np
 
 from .._validate import hashable
-from ..database.store import file_name, read_bytes, search_path, shipped
+from ..database.store import ENVIRONMENT, file_name, search_path, shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
+from ..fe.ideal import row_names
 from ..fe.model import State
 from ..rotations import cross, expm_so3, skew, unskew
 from . import constraints
@@ -59,20 +60,36 @@ def template(joint, dim: int, folder=None) -> EOBTemplate:
     return _cached_template(joint, dim, data)
 
 
+#: what `flexmb.database.store.search_path` depends on besides its argument (`user_path`'s inputs)
+_SEARCH_INPUTS = (ENVIRONMENT, "XDG_DATA_HOME", "HOME", "USERPROFILE", "LOCALAPPDATA")
+
+
+@functools.lru_cache(maxsize=64)
+def _folders(folder, environment: tuple) -> tuple:
+    return tuple(os.fspath(f) for f in search_path(folder))
+
+
 def _database_file(joint, dim: int, folder) -> tuple:
-    """Where `template` finds ``joint``'s database and what it holds: the folders searched, the
-    file found (None if none) and its bytes; equal signatures mean `template` returns the same
-    template (it is cached on the file's content). Costs two stats and a read (~40 us against
-    ~150 us for `template`)."""
-    folders = tuple(os.fspath(f) for f in search_path(folder))
+    """Where `template` finds ``joint``'s database and in what state: the folders searched, the
+    file found (None if none) and its identity and times (device, inode, size, modification and
+    status-change times [ns]). A file replaced (a new inode), rewritten (new times) or given its
+    old modification time back (`os.utime` sets the status-change time) changes it; equal
+    signatures mean `template` reads the same file as when they were taken. Two stats (~5 us;
+    `template` reads and parses the file, ~150 us)."""
+    folders = _folders(None if folder is None else os.fspath(folder),
+                       tuple(os.environ.get(k) for k in _SEARCH_INPUTS))
     name = file_name(joint.kind, dim, joint.database_key())
     for f in folders:
         path = os.path.join(f, name)
-        if os.path.lexists(path):
-            try:
-                return folders, path, read_bytes(path)
-            except DatabaseError:
+        try:
+            st = os.stat(path)
+        except FileNotFoundError:
+            if os.path.lexists(path):  # a broken link: `template` stops here (and refuses)
                 return folders, path, None
+            continue
+        except OSError:
+            return folders, path, None
+        return folders, path, (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
     return folders, None, None
 
 
@@ -119,10 +136,12 @@ class ReducedMechanism:
 
         names, a, b, rot, b0, origin, groups, seen, used = [], [], [], [], [], [], {}, {}, []
         for key, jt, pl, side_a, side_b in compiled.joints:
-            if "ideal" in jt.capabilities:
-                raise UnsupportedStrategyError(
-                    f"joint {key!r} ({jt.kind}) is an ideal joint: KSD's kinematic step and reduced model do not "
-                    "include ideal joints yet; solve with method='conventional' (exact hinge constraints)")
+            if "ideal" in jt.capabilities:  # a hinge: its exact constraints, from the full model (below)
+                if model.hinges is None or key not in model.hinges.names:
+                    raise UnsupportedStrategyError(
+                        f"joint {key!r} ({jt.kind}) is an ideal joint the full model does not hold as a hinge "
+                        "(flexmb.fe.ideal); KSD includes hinges only: use method='conventional'")
+                continue
             try:
                 if hashable(jt) and jt in seen:
                     tpl = seen[jt]
@@ -143,6 +162,10 @@ class ReducedMechanism:
             b0.append(jt.interface_b(dim))
             origin.append(pl.origin)
         if not names:
+            if model.hinges is not None:
+                raise UnsupportedStrategyError(
+                    "KSD: the mechanism has hinges only, no flexure joint with a database: nothing for the EOBs "
+                    "(steps 2-4); use method='conventional'")
             raise ModelError("the mechanism has no joints")
         self.joint_names = names
         self.folder = folder
@@ -171,6 +194,30 @@ class ReducedMechanism:
             row = r0 + np.arange(len(idx) * len(cons)).reshape(len(idx), len(cons), 1)
             self._jac_at.append((row * 6 * nL + cols[idx][:, None, :]).ravel())
             r0 += len(idx) * len(cons)
+        # characteristic length for scaling translations against rotations
+        self.length = float(self.D0.sum()) / len(self.D0)
+        # hinges (flexmb.fe.ideal.Hinges of the full model, between link nodes): their kept
+        # constraint rows join step 1's equations (positions over the length, rotations in rad) and
+        # step 3's equilibrium with their multipliers, as in the full model
+        self.hinges = hinges = model.hinges
+        if hinges is not None:
+            H, R = hinges.active.shape
+            self._hinge_links = (np.arange(nL)[:, None] * 6 + act)[hinges.node].reshape(H, -1)  # (H, 2 nd)
+            self._hinge_row_scale = np.where(np.arange(R) < dim, 1.0 / self.length, 1.0)
+            h, k = np.nonzero(hinges.active)
+            self._hinge_rows = (h, k)
+            row = r0 + np.arange(len(h))
+            self._hinge_jac_at = (row[:, None] * 6 * nL + self._hinge_links[h]).ravel()
+            # d(constraint)/d(load factor): the motor rows (their angle ramps with it, 2D and 3D alike)
+            self.lam_rate = np.zeros(r0 + len(h))
+            motor = k == R - 1
+            self.lam_rate[r0 + np.flatnonzero(motor)] = -hinges.angle[h[motor]]
+            self.rows += [(hinges.names[i], row_names(dim)[j]) for i, j in zip(h, k)]
+            # step 3: the hinges' blocks (links' DOFs, then their multipliers after the 6 n_links link DOFs)
+            self.hinge_dofs = hinges.dofs((np.arange(nL)[:, None] * 6 + act), 6 * nL)
+            r0 += len(h)
+        else:
+            self.lam_rate = np.zeros(r0)
         self.n_equations = r0
         loads = problem.loads
         self.load_node = loads.node
@@ -186,8 +233,6 @@ class ReducedMechanism:
         lr = ld + np.arange(3, 6)
         self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
                                      (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])
-        # characteristic length for scaling translations against rotations
-        self.length = float(self.D0.sum()) / len(self.D0)
 
     def current(self) -> bool:
         """Whether the joint databases this set-up was built from are still the ones `template`
@@ -213,12 +258,27 @@ class ReducedMechanism:
         return LinkPoses(x, R, angle)
 
     # -- step 1: kinematics -------------------------------------------------------------------
-    def constraint_equations(self, poses: LinkPoses, jacobian: bool | str = True, values: bool = True):
+    def _fe_pose(self, poses: LinkPoses):
+        """The links' positions (n, dim) and rotations as the full model holds them (2D angles, 3D matrices)."""
+        return poses.x[:, :self.dim], (poses.angle if self.dim == 2 else poses.R)
+
+    def hinge_angles(self, poses: LinkPoses, near=None):
+        """The 3D hinges' relative angles [rad] (H,) at ``poses``, each the branch nearest to ``near``
+        (the angles a step started from: turns counted as the full model counts them,
+        `flexmb.fe.ideal.Hinges.advance`); None in 2D (link angles count turns) or without hinges."""
+        if self.hinges is None or self.dim == 2:
+            return None
+        return self.hinges.relative_angle(poses.R, near)
+
+    def constraint_equations(self, poses: LinkPoses, jacobian: bool | str = True, values: bool = True,
+                             lam: float = 1.0, hinge_angles=None):
         """Values (m,) and Jacobian (m, 6 n_links) of all joints' kinematic constraints; the
         intended rotations ``theta`` (J,) and relative positions ``p`` (J, 3).
         ``jacobian="deferred"`` returns a function that computes the Jacobian when called (a
         converged iterate never needs it); False returns None. ``values=False`` returns None
-        for the values."""
+        for the values. The hinges' kept rows come last (`flexmb.fe.ideal`; positions over
+        `length`), their motors at the fraction ``lam`` of their angles, a 3D hinge's angle taken
+        nearest to ``hinge_angles`` (`hinge_angles`; None: within one turn)."""
         fr = self.frames
         p, R, geo = fr.relative(poses)
         theta, dth = intended_angle(R)
@@ -226,6 +286,11 @@ class ReducedMechanism:
                  for idx, cs in zip(self._take, self._sets)]
         vals = None if not values else (parts[0][0].ravel() if len(parts) == 1 else
                                         np.concatenate([v.ravel() for v, _ in parts]))
+        if self.hinges is not None:
+            h, k = self._hinge_rows
+            ch, gh, _ = self.hinges.residual_rows(*self._fe_pose(poses), lam, angles=hinge_angles)
+            if values:
+                vals = np.concatenate([vals, (ch * self._hinge_row_scale)[h, k]])
 
         def jac():
             Jrel = fr.relative_jacobian(geo)
@@ -233,6 +298,8 @@ class ReducedMechanism:
             flat = out.reshape(-1)
             for idx, (_, gradients), at in zip(self._take, parts, self._jac_at):
                 flat[at] = (gradients() @ Jrel[idx]).ravel()  # (Jg, m_c, 12)
+            if self.hinges is not None:
+                flat[self._hinge_jac_at] = (gh * self._hinge_row_scale[:, None])[h, k].ravel()
             return out
 
         if not jacobian:
@@ -289,12 +356,29 @@ class ReducedMechanism:
             return r, None
         return r, (jacobian if tangent == "deferred" else jacobian())
 
+    def hinge_response(self, poses: LinkPoses, multipliers: np.ndarray, tangent: bool = True, angles=None):
+        """The hinges' forces (6 n_links + n_rows,): their multipliers' forces and springs' moments
+        on the links' rows, their scaled constraint values on the multiplier rows (last), and the
+        tangent (a function, as `equilibrium`'s deferred one), at the full motors' angles; ``angles``
+        as `constraint_equations`' ``hinge_angles``."""
+        F, K = self.hinges.response(*self._fe_pose(poses), multipliers, 1.0, tangent=tangent, angles=angles)
+        n = 6 * self.n_links + self.hinges.n_rows
+        at = self.hinge_dofs
+        r = np.bincount(at.ravel(), F.ravel(), minlength=n)
+
+        def jacobian():
+            flat = (at[:, :, None] * n + at[:, None, :]).ravel()
+            return np.bincount(flat, K.ravel(), minlength=n * n).reshape(n, n)
+
+        return r, jacobian
+
     # -- step 4: back to the full model -----------------------------------------------------
-    def fe_state(self, poses: LinkPoses, internal):
+    def fe_state(self, poses: LinkPoses, internal, multipliers: np.ndarray | None = None, hinge_angles=None):
         """The full model's `State`: link nodes from ``poses``; ``internal`` is a list of
         ``(idx, x, rot)`` per group of joints sharing a mesh: joint indices (Jg,), internal node
         positions (Jg, n, dim) and rotations in each joint's frame (angles [rad] (Jg, n) in 2D,
-        matrices (Jg, n, 3, 3) in 3D)."""
+        matrices (Jg, n, 3, 3) in 3D). ``multipliers``, ``hinge_angles``: the hinges' (step 3; None
+        without hinges, angles None in 2D)."""
         model = self.compiled.problem.model
         dim = self.dim
         pos = model.x0.copy()
@@ -316,7 +400,10 @@ class ReducedMechanism:
                 rot[nodes] = poses.angle[self.frames.a[idx]][:, None] + Rl
             else:
                 rot[nodes] = F[idx, None] @ Rl @ np.swapaxes(self.frames.P[idx], 1, 2)[:, None]
-        return State(pos, rot)
+        if self.hinges is None:
+            return State(pos, rot)
+        return State(pos, rot, np.array(multipliers, dtype=float),
+                     None if hinge_angles is None else np.array(hinge_angles, dtype=float))
 
     def reaction_vector(self, r_links: np.ndarray) -> np.ndarray:
         """The full model's residual layout with the reduced residual on the link DOFs."""

@@ -104,6 +104,13 @@ GROW_BELOW = 4  # a step that converged in fewer iterations doubles the next
 SMOOTH_PATH = 0.03  # ... as does one whose corrector moved less than this x the predicted step
 SHRINK_ABOVE = 7  # a step that took more iterations shrinks the next to 0.6x
 PATH_DEVIATION = 0.4  # a corrector farther from the predicted state than this x the step is rejected
+RESTART_RATIO = 0.75  # ... and when halving did not bring it nearer than this x, the predictor restarts
+#: the corrector's tangent takes the last converged state's stresses in its geometric part until the
+#: scaled residual falls below this (the predicted state's own stresses are the predictor's error)
+REFERENCE_STRESS_UNTIL = 0.1
+REFERENCE_STRESS_ITERATIONS = 4  # ... and for at most this many correctors
+INTERMEDIATE_RTOL = 1e-5
+  # relative tolerance of the steps before the last (the last: rtol)
 SAME_PATH = 1e-6  # ... unless it is closer than this (translations over the model length, rad): a step
 # that predicts no motion (nothing applied) is never rejected for its round-off corrections
 
@@ -148,11 +155,18 @@ class Conventional:
     step_control
         ``"adaptive"`` (default): continuation: every step after the first starts from the
         polynomial extrapolation (in the load factor) of the last ten converged states,
-        rotations as spins on SO(3) continued along the path; a corrector that moves farther
-        than 0.4x the predicted step from the predicted state is rejected and the step halved
-        (it is heading for another branch); the next step doubles after fewer than 4
-        iterations or a corrector that moved < 3 % of the step, shrinks to 0.6x after more than
-        7. ``"paper"``: Fig. 18 as published (linear predictor, halving, doubling after at most
+        rotations as spins on SO(3) continued along the path; the corrector's tangent takes the
+        last converged state's stresses in its geometric stiffness until the residual is below
+        0.1 of the force scale, for at most 4 correctors (the predicted state's own stresses are
+        the predictor's error: a
+        straight-line predictor stretches turning leaves, and their spurious axial forces made
+        the tangent indefinite and steered Newton onto buckled branches); a corrector that
+        moves farther than 0.4x the predicted step from the predicted state (after a linear
+        predictor: its translations) is rejected and the step halved (it is heading for another
+        branch), and when halving does not bring it nearer the extrapolation restarts from the
+        linear predictor; the steps before the last converge to 1e-5 of the force scale; the
+        next step doubles after fewer than 4 iterations or a corrector that moved < 3 % of the
+        step, shrinks to 0.6x after more than 7. ``"paper"``: Fig. 18 as published (linear predictor, halving, doubling after at most
         4 iterations). Measured over the benchmark cases (BENCHMARKS.md "Step control", against
         Fig. 18 with the paper's tol=5e-7): 3220 against 10 056 iterations; manipulator joint
         case 830 / 3893 (at -45 / 45 deg 54 / 53 against 550 / 494), location case 1746 / 5681,
@@ -160,8 +174,11 @@ class Conventional:
         deviation bound cuts the first of their one-step solves); the same equilibria to
         2.0e-11 (node positions, relative). Reusing the converged tangent for the first
         corrector from the predicted state was measured and dropped (3x the iterations on the
-        manipulator: its stiff elements' forces change too much between the states), as was a
-        contraction-rate rejection (+20 %).
+        manipulator: its stiff elements' forces change too much between the states), as were a
+        contraction-rate rejection (+20 %), a line search on the corrector's energy (four-bar:
+        44 -> 70), a second-order first predictor from a chord step (the chord grows as the
+        step cubed on the four-bar: it sized the first step to 0.01) and the reference stresses
+        for a fixed number of correctors (1-10: four-bar 18-52, erratic).
     """
 
     name: ClassVar[str] = "conventional"
@@ -202,11 +219,20 @@ def _largest_rotation(model, du: np.ndarray) -> float:
     return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
 
 
+def _translation(model, du: np.ndarray, length: float) -> float:
+    """The largest nodal translation of an increment over ``length``."""
+    d = du[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # hinge multipliers last
+    return float(np.sqrt(np.max(np.sum(d[:, :model.dim] ** 2, axis=1))) / length) if len(d) else 0.0
+
+
 def _size(model, du: np.ndarray, length: float) -> float:
     """Size of an increment: the largest nodal translation over ``length`` or rotation [rad]."""
-    d = du[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # hinge multipliers last
-    t = np.sqrt(np.max(np.sum(d[:, :model.dim] ** 2, axis=1))) / length if len(d) else 0.0
-    return max(float(t), _largest_rotation(model, du))
+    return max(_translation(model, du, length), _largest_rotation(model, du))
+
+
+def _held(sigma: np.ndarray):
+    """A ``geometric_stress`` function (`StaticProblem.evaluate`) returning ``sigma`` whatever the state's."""
+    return lambda _: sigma
 
 
 def _continued(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
@@ -263,6 +289,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
     steps = rejected = 0
     free = problem.free
     path = [(lam, state)]  # converged (load factor, state), the predictor's support
+    reference = None  # the generalised stresses of the last converged state (adaptive control)
+    last_deviation = None  # the deviation ratio of the last step rejected for leaving the path
     length = problem.model_length
 
     def finish(converged: bool, message: str, r=None) -> dict:
@@ -291,12 +319,18 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
         else:
             trial = state
         prev = first = np.inf
-        floor = accepted = False
-        stalled = None
+        floor = accepted = physical = False
+        stalled = deviation = None
+        accept_rtol = rtol if not adaptive or target >= 1.0 - 1e-14 else max(rtol, INTERMEDIATE_RTOL)
         for it in range(1 if extrapolate else 0, max_iter + 1):
             t = time.perf_counter()
-            r, Kff, Kfp, _ = problem.evaluate(trial, target, tangent=True, geometric_stress=first_geometric_stress)
+            geometric = first_geometric_stress
+            if geometric is None and adaptive and it > 0 and not physical and reference is not None:
+                geometric = _held(reference)
+            r, Kff, Kfp, sigma = problem.evaluate(trial, target, tangent=True, geometric_stress=geometric)
             first_geometric_stress = None
+            if reference is None:
+                reference = sigma
             times["assemble"] += time.perf_counter() - t
             rf = r[free]
             if it == 0:
@@ -306,9 +340,11 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
                 history.append(res)
                 if not np.isfinite(res) or (it > 1 and res > divergence * prev):
                     break
-                if (res < tol) if tol is not None else (floor or problem.scaled_residual(rf) <= rtol):
+                scaled = problem.scaled_residual(rf) if tol is None else np.nan
+                if (res < tol) if tol is not None else (floor or scaled <= accept_rtol):
                     accepted = True
                     break
+                physical = physical or scaled < REFERENCE_STRESS_UNTIL or it >= REFERENCE_STRESS_ITERATIONS
                 if tol is not None and it > 2 and res > 0.5 * prev and res < 1e-10 * first:
                     stalled = res  # Newton stopped gaining: roundoff floor of this model
                     break
@@ -336,11 +372,15 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
                     predicted, moved = _size(model, du, length), np.zeros(model.n_dofs)
                 else:
                     moved += du
-                    if _size(model, moved, length) > max(PATH_DEVIATION * predicted, SAME_PATH):
+                    # after a linear predictor, its nodes' rotations are corrected a lot along
+                    # rotating leaves (the tangent's straight line stretches them): translations only
+                    away = (_size if extrapolate else _translation)(model, moved, length)
+                    if away > max(PATH_DEVIATION * predicted, SAME_PATH):
+                        deviation = away / predicted
                         break  # the corrector leaves the predicted path (another branch): cut the step
             trial = model.apply_increment(trial, du)
         if accepted:
-            state, lam = trial, target
+            state, lam, reference, last_deviation = trial, target, sigma, None
             path = (path + [(lam, state)])[-PATH_POINTS:]
             steps += 1
             if lam >= 1.0 - 1e-14:
@@ -375,6 +415,11 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
         else:
             rejected += 1
             dlam *= 0.5
+            if extrapolate and deviation is not None and last_deviation is not None \
+                    and deviation > RESTART_RATIO * last_deviation:
+                path = path[-1:]  # halving did not bring the corrector nearer: the extrapolation is off
+                deviation = None
+            last_deviation = deviation if extrapolate else None
             if dlam < min_step:
                 return finish(False, f"not converged: step halved below min_step={min_step:g} at load factor "
                                      f"{lam:.6g} (the last converged step); the residual history shows the failed "

@@ -23,7 +23,6 @@ from __future__ import annotations
 import os
 import time
 import warnings
-import weakref
 from typing import ClassVar
 
 import attrs
@@ -31,7 +30,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError
 from ..ksd.geometry import ACTIVE, rz
-from ..ksd.kinematics import _correction, _norm, solve_kinematics
+from ..ksd.kinematics import _correction, _gesv, _norm, solve_kinematics
 from ..ksd.reduced import ReducedMechanism
 from ..linear import single_threaded
 from ..results import Solution
@@ -46,13 +45,28 @@ def _folder_or_none(instance, attribute, value):
                              "(the shipped data)")
 
 
-def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool) -> None:
+def _requested(red: ReducedMechanism) -> str:
+    """The prescribed link rotations, as asked for ([rad]; 3D: rotation vectors)."""
+    names = list(red.compiled.link_node)
+    lr, W = red._moves[1]
+    parts = [f"link {names[k]!r} rotation " + (f"{w[2]:.6g} rad" if red.dim == 2 else f"{np.round(w, 6).tolist()} rad")
+             for k, w in zip(lr, W) if np.any(w)]
+    return ", ".join(parts) or "no prescribed rotation"
+
+
+def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool, reached: float = 1.0) -> None:
+    """Refuse or warn of an intended joint rotation outside its trained range; ``reached``: the
+    fraction of the prescribed motion step 1 reached (it stops beyond half a turn): the message
+    then names the requested motion and where step 1 stopped, not only that angle."""
     for tpl, _, idx in red.groups:
         lo, hi = tpl.data.range
         for j in idx:
             if not lo - 1e-9 <= theta[j] <= hi + 1e-9:  # 1e-9 rad: the kinematic solve's roundoff
-                msg = (f"joint {red.joint_names[j]!r} ({tpl.data.kind}): intended rotation {np.degrees(theta[j]):.2f} "
-                       f"deg is outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg")
+                trained = f"outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg"
+                head = f"joint {red.joint_names[j]!r} ({tpl.data.kind}): the requested motion ({_requested(red)}) turns it"
+                msg = (f"{head} to {np.degrees(theta[j]):.2f} deg, {trained}" if reached >= 1.0 - 1e-14 else
+                       f"{head} {trained}: step 1 stopped at {np.degrees(theta[j]):.2f} deg, {100 * reached:.3g} % of "
+                       "the way")
                 if strict:
                     raise DatabaseError(msg + " (KSD cannot extrapolate the joint database; use "
                                               "method='conventional' or retrain with `flexmb train --range`)")
@@ -63,8 +77,14 @@ def _check_reachable(red: ReducedMechanism) -> None:
     """Refuse (`DatabaseError`) a prescribed rotation component larger than the trained ranges of
     all joints together plus a full turn: no joint rotations within their ranges reach it, and
     step 1 would grind through thousands of load steps first (a prescribed 1e300 rad: minutes).
-    Nearer rotations are left to step 1, which names the joint out of its range."""
+    Nearer rotations are left to step 1, which names the joint out of its range. A hinge's motor
+    adds its angle; a hinge without one turns freely (no bound)."""
     reach = sum(max(abs(lo), abs(hi)) * len(idx) for tpl, _, idx in red.groups for lo, hi in [tpl.data.range])
+    if red.hinges is not None:
+        motors = red.hinges.angle
+        if not np.all(np.isfinite(motors)):
+            return
+        reach += float(np.abs(motors).sum())
     comp = red.prescribed % 6
     rot = np.abs(np.asarray(red.values, dtype=float)[comp >= 3])
     if rot.size and rot.max() > reach + 2 * np.pi:
@@ -73,21 +93,17 @@ def _check_reachable(red: ReducedMechanism) -> None:
                             "range; use method='conventional' or retrain with `flexmb train --range`")
 
 
-_SETUPS = weakref.WeakKeyDictionary()  # Compiled -> {database folder: ReducedMechanism}
-
-
 def reduced_mechanism(compiled, folder=None) -> ReducedMechanism:
     """The `ReducedMechanism` of ``compiled`` (steps 1-2's set-up: joint frames, templates,
     constraint sets, the start of step 1), built once per compiled mechanism and database folder
     (`flexmb.solve` keeps the compiled model of an unchanged mechanism, `flexmb.compiled`) and
     rebuilt when a joint database it read has changed (`ReducedMechanism.current`)."""
-    key = None if folder is None else os.fspath(folder)
-    built = _SETUPS.get(compiled)
-    red = None if built is None else built.get(key)
+    key = ("ksd", None if folder is None else os.fspath(folder))
+    derived = getattr(compiled, "derived", {})
+    red = derived.get(key)
     if red is not None and red.current():
         return red
-    red = ReducedMechanism(compiled, folder)
-    _SETUPS.setdefault(compiled, {})[key] = red
+    red = derived[key] = ReducedMechanism(compiled, folder)
     return red
 
 
@@ -158,8 +174,8 @@ class _KSD:
             if self.raise_on_failure:
                 raise ConvergenceError(sol.message, sol) from None
             return sol
-        _check_range(red, theta, self.strict_range)
-        stages["kinematics"] = info
+        _check_range(red, theta, self.strict_range, info["load_factor"])
+        stages["kinematics"] = {**info, "theta": theta.copy(), "p_hat": p_hat.copy()}  # flexmb.ksd.properties.near
         t = lap("kinematics", t)
 
         dim = red.dim
@@ -167,26 +183,28 @@ class _KSD:
         J = len(red.joint_names)
         K = np.zeros((J, 6, 6))
         Fh = np.zeros((J, 6))
-        eobs = []
+        eobs, tabulated = [], 0
         for tpl, _, idx in red.groups:
             if not self.full and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
                 e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
+                tabulated += len(idx)
             else:
                 e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
             K[idx[:, None, None], emb[:, None], emb] = e.K_T
             Fh[idx[:, None], emb] = e.F_hat_T
             eobs.append(e)
         R_hat = rz(theta)
+        stages["eob"] = {"joints": J, "tabulated": tabulated}  # step 2: EOBs built, of them looked up
         t = lap("eob", t)
 
-        poses3, ok3, hist3, r3 = self._reduced(red, poses, K, Fh, p_hat, R_hat)
+        poses3, ok3, hist3, r3, mu, angles = self._reduced(red, poses, K, Fh, p_hat, R_hat, info["hinge_angles"])
         stages["reduced"] = {"iterations": len(hist3), "residual": hist3[-1] if hist3 else np.nan,
                              "converged": ok3, "history": hist3}
         t = lap("reduced", t)
 
-        state, q_nodes = self._internal(red, poses3, eobs, p_hat, R_hat)
+        state, q_nodes = self._internal(red, poses3, eobs, p_hat, R_hat, mu, angles)
         t = lap("internal", t)
-        for key in ("kinematics", "eob", "reduced", "internal"):
+        for key in ("setup", "kinematics", "eob", "reduced", "internal"):  # setup: kept per compiled model
             stages.setdefault(key, {})["time"] = times[key]
 
         if not self.full:
@@ -203,7 +221,12 @@ class _KSD:
         else:
             # from the step-4 state: the whole way first; if that fails, halve along the homotopy
             # r(u) - (1 - lam) r(u_start), whose lam = 0 equilibrium is the KSD start
-            start = compiled.problem.continued_from(state)
+            problem = compiled.problem
+            # the kept problem's sparsity pattern and LDL^T analysis, built once on it so that every
+            # solve's continued copy shares them (flexmb.problem: copies share what their original
+            # computed first); the manipulator at 45 deg: KSD-full 22.6 -> 12.9 ms per solve
+            problem._pattern, problem._tangent_solver  # noqa: B018 (built on first access)
+            start = problem.continued_from(state)
             out = newton_steps(start, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
                                min_step=self.min_step, initial_step=1.0, max_rotation=self.max_rotation,
                                first_geometric_stress=self._eob_axial(red, eobs, q_nodes),
@@ -227,8 +250,11 @@ class _KSD:
             raise ConvergenceError(sol.message, sol)
         return sol
 
-    def _reduced(self, red, poses, K, Fh, p_hat, R_hat):
-        """Step 3: Newton on the reduced mechanism; returns poses, converged, history, residual."""
+    def _reduced(self, red, poses, K, Fh, p_hat, R_hat, hinge_angles=None):
+        """Step 3: Newton on the reduced mechanism; returns poses, converged, history, the links'
+        residual and the hinges' multipliers and 3D angles (None without hinges)."""
+        if red.hinges is not None:
+            return self._reduced_hinged(red, poses, K, Fh, p_hat, R_hat, hinge_angles)
         free = red.free
         at_free = (free[:, None], free)
         history, prev = [], np.inf
@@ -236,7 +262,7 @@ class _KSD:
         res = _norm(r[free])
         for _ in range(self.max_iter):
             if res < self.tol and history:
-                return poses, True, history, r
+                return poses, True, history, r, None, None
             dz = _correction(red, Kr()[at_free], r[free])
             if dz is None:
                 break
@@ -247,9 +273,51 @@ class _KSD:
             # as the conventional method: the divergence test starts after the first correction
             if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
                 break
-        return poses, res < self.tol, history, r
+        return poses, res < self.tol, history, r, None, None
 
-    def _internal(self, red, poses, eobs, p_hat, R_hat):
+    def _reduced_hinged(self, red, poses, K, Fh, p_hat, R_hat, angles):
+        """Step 3 with hinges: Newton on the links' free coordinates and the hinges' multipliers,
+        the saddle point of the full model's hinges (`flexmb.fe.ideal`) on the reduced mechanism.
+        Step 1 left the hinges' constraints satisfied; the multipliers start at zero; the 3D
+        hinges' angles (``angles`` from step 1) follow the iterates, turns counted."""
+        n_links = 6 * red.n_links
+        free = np.concatenate([red.free, n_links + np.arange(red.hinges.n_rows)])
+        at_free = (free[:, None], free)
+        mu = np.zeros(red.hinges.n_rows)
+
+        def evaluate(poses, mu):
+            r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
+            rh, Kh = red.hinge_response(poses, mu, angles=angles)
+            rh[:n_links] += r
+
+            def tangent():
+                out = Kh()
+                out[:n_links, :n_links] += Kr()
+                return out
+
+            return rh, tangent
+
+        history, prev = [], np.inf
+        r, Kr = evaluate(poses, mu)
+        res = _norm(r[free])
+        for _ in range(self.max_iter):
+            if res < self.tol and history:
+                return poses, True, history, r[:n_links], mu, angles
+            *_, x, info = _gesv(Kr()[at_free], -r[free])
+            if info != 0:
+                break
+            dz = np.zeros(n_links)
+            dz[red.free] = x[:len(red.free)]
+            poses, mu = poses.moved(dz), mu + x[len(red.free):]
+            angles = red.hinge_angles(poses, angles)
+            r, Kr = evaluate(poses, mu)
+            prev, res = res, _norm(r[free])
+            history.append(res)
+            if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
+                break
+        return poses, res < self.tol, history, r[:n_links], mu, angles
+
+    def _internal(self, red, poses, eobs, p_hat, R_hat, multipliers=None, hinge_angles=None):
         """Step 4: internal nodes of every joint from its interface displacement (Eq. 2.6). Returns
         the full model's `State` and, per group of joints, the node displacements (Jg, N nd) from
         the EOBs' near poses."""
@@ -270,7 +338,7 @@ class _KSD:
             else:
                 rot = expm_so3(xi[..., 3:]) @ e.node_rotation[:, 2:]
             internal.append((idx, x, rot))
-        return red.fe_state(poses, internal), q_nodes
+        return red.fe_state(poses, internal, multipliers, hinge_angles), q_nodes
 
     @staticmethod
     def _eob_axial(red, eobs, q_nodes):

@@ -169,12 +169,19 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
         offset = v.vector(f"compliance of link {link!r}", "point", point, dim) - model.x0[node]
     free = problem.free if isinstance(held, str) and held == "prescribed" else \
         np.setdiff1d(np.arange(model.n_dofs), held_dofs(solution, held, "compliance"))
+    Z = None
     if reduced:  # the reduced mechanism's tangent on the links' DOFs (flexmb.ksd.properties)
         K_links, _ = reduced_tangent(solution)
         free = free[free < K_links.shape[0]]
         K = sp.csc_array(K_links[np.ix_(free, free)])
     else:
-        K = full_tangent(solution)[free][:, free].tocsc()
+        K = full_tangent(solution)
+        # hinges: on the motions they allow (Z, the rows dropped at build included: a link whose
+        # prescribed turn `held` releases stays on its axis), C = Z (Z^T K Z)^-1 Z^T
+        free, Z = constrained(model, free, K, state)
+        K = K[free][:, free].tocsc()
+        if Z is not None:
+            K = (Z.T @ K @ Z).tocsc()
     dofs = model.node_dofs[node]
     cols = np.searchsorted(free, dofs)
     is_free = (cols < len(free)) & (free[np.minimum(cols, len(free) - 1)] == dofs)
@@ -182,6 +189,8 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     if is_free.any():
         rhs = np.zeros((len(free), int(is_free.sum())))
         rhs[cols[is_free], np.arange(rhs.shape[1])] = 1.0
+        if Z is not None:
+            rhs = Z.T @ rhs
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", sla.LinAlgWarning)  # rcond below eps: singular
@@ -192,6 +201,8 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
         if not np.all(np.isfinite(X)):
             raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
                              "leaves a rigid-body motion free, or the equilibrium is critical)")
+        if Z is not None:
+            X = Z @ X
         C_node[np.ix_(is_free, is_free)] = X[cols[is_free]]
     T = model._lever(model.offsets(state, np.array([node]), offset[None]))[0]  # point motion = T node motion
     C = T @ C_node @ T.T

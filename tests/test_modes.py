@@ -750,3 +750,21 @@ def test_buckling_counts_the_motions_the_hinges_allow_as_modes_does(dim):
     m.prescribe("arm", rotation=0.0 if dim == 2 else [0.0, 0.0, 0.0])
     with pytest.raises(flexmb.ModelError, match="buckling: no free motion"):
         flexmb.buckling(flexmb.solve(m), n=1)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compliance_of_a_released_pendulum_is_its_spring_about_the_pivot(dim):
+    # the pendulum's turn prescribed to 0.3 rad and released (held="none"): a force at the arm's
+    # centre (r = 0.05 from the pivot, at 0.3 rad) turns it by (r x F)/k: C = q q^T / k with
+    # q = r (-sin 0.3, cos 0.3) the point's motion per unit turn (closed form); the turn 1/k.
+    # 3D: the hinge's axis rows, dropped at build as dependent on the prescribed orientation,
+    # hold again (the tangent was singular: ModelError)
+    m = _pendulum(dim)
+    m.prescribe("arm", rotation=0.3 if dim == 2 else [0.0, 0.0, 0.3])
+    C = flexmb.compliance(flexmb.solve(m), "arm", held="none")
+    q = 0.05 * np.array([-np.sin(0.3), np.cos(0.3)])
+    xy = [0, 1]
+    np.testing.assert_allclose(C[np.ix_(xy, xy)], np.outer(q, q) / 5.0, rtol=1e-9, atol=1e-15)
+    assert C[-1, -1] == pytest.approx(1 / 5.0, rel=1e-9)
+    if dim == 3:  # the bearing holds z and the tilts exactly
+        np.testing.assert_allclose(C[2:5, 2:5], 0.0, atol=1e-12)

@@ -254,6 +254,12 @@ def test_bad_arguments_raise_flexmb_errors(kwargs, error, match):
     assert issubclass(error, FlexmbError)
 
 
+def test_sweep_refuses_a_progress_that_is_not_a_flag_as_trace_does():
+    m = cases.von_mises_truss()
+    with pytest.raises(ParameterError, match="sweep: progress='no' must be True or False"):
+        flexmb.sweep(m, [0.1, 0.2], progress="no")
+
+
 def test_a_path_that_cannot_continue_is_reported_with_its_points():
     """No corrector may turn a node by more than 1e-12 rad, so no step converges: the path stops,
     says where, and keeps what it reached (here the start)."""

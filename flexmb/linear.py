@@ -93,7 +93,7 @@ def available() -> dict:
 def _backward_error(K, x: np.ndarray, b: np.ndarray):
     """``r = b - K x`` and the backward error ``max|r| / (max|K| max|x| + max|b|)`` (inf when ``x``
     is not finite); one compiled pass with numba."""
-    if jit.enabled():
+    if jit.enabled() and np.ndim(b) == 1:  # several right-hand sides (compliance): the numpy lines
         from . import linear_jit
 
         r = np.empty(len(b))
@@ -346,8 +346,11 @@ class TangentSolver:
             return None
 
         def solve(rhs):
+            rhs = np.asarray(rhs, dtype=float)
+            if rhs.ndim == 2:  # several right-hand sides (compliance): column by column
+                return np.column_stack([solve(col) for col in rhs.T]) if rhs.shape[1] else rhs.copy()
             x = np.empty(n)
-            linear_jit.solve(n, perm, Lp, Li, Lx, Ux, D, np.ascontiguousarray(rhs, dtype=float), x)
+            linear_jit.solve(n, perm, Lp, Li, Lx, Ux, D, np.ascontiguousarray(rhs), x)
             return x
 
         return self._refined(K, b, solve(b), solve, _STALL)

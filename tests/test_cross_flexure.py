@@ -44,7 +44,7 @@ def test_spatial_model_has_no_out_of_plane_reaction():
     _, sol = _moment_ratio(3, np.radians(60), dim=3)
     R = sol.reaction("B")
     assert np.abs(R[[2, 3, 4]]).max() < 1e-6 * abs(R[5])
-    assert np.abs(R[[0, 1]]).max() < 5e-7  # free in x and y: the solver's tolerance
+    assert np.abs(R[[0, 1]]).max() < sol.tolerance  # free in x and y: the solver's tolerance (rtol x force scale)
 
 
 @pytest.mark.parametrize("deg", [15, 45, 75])

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 
 from .closed_form.problem import LinkageProblem
-from ._validate import hashable
+from ._validate import hashable, modulus_units
 from .errors import ConvergenceWarning, ModelError, PlausibilityWarning
 from .rotations import rot2
 from .sections import properties
@@ -56,12 +56,12 @@ def _moduli(solution, model, stacklevel: int) -> None:
     """A modulus that looks like GPa with lengths in m (`flexmb._validate.modulus_units`), wherever
     it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here."""
     E = properties(model.elements.sections, ("E",))[0]
-    k = int(np.argmin(E))
-    L = float(_joint_lengths(model)[k])
-    if E[k] < 1e3 and L < 1.0:
-        warnings.warn(f"{solution.method}: E={E[k]:g} ({_where(solution, k)}, length {L:.3g}) looks like a modulus "
-                      "in GPa with lengths in m; in SI, E is in Pa (steel 2e11). Ignore this if your units are "
-                      "consistent (e.g. kN and mm)", PlausibilityWarning, stacklevel=stacklevel)
+    L = _joint_lengths(model)
+    bad = np.flatnonzero((E < 1e3) & (L < 1.0))
+    if len(bad):
+        k = int(bad[0])
+        modulus_units(f"{solution.method} ({_where(solution, k)})", float(E[k]), float(L[k]), "joint length",
+                      stacklevel=stacklevel + 1)
 
 
 def check_mass_units(solution, model, stacklevel: int = 3) -> None:

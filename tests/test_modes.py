@@ -768,3 +768,15 @@ def test_compliance_of_a_released_pendulum_is_its_spring_about_the_pivot(dim):
     assert C[-1, -1] == pytest.approx(1 / 5.0, rel=1e-9)
     if dim == 3:  # the bearing holds z and the tilts exactly
         np.testing.assert_allclose(C[2:5, 2:5], 0.0, atol=1e-12)
+
+
+def test_a_leaf_given_a_section_and_another_material_is_refused_naming_both():
+    # the section's material applies: density=2700 (aluminium) beside a steel section was silently
+    # steel in the modes; a value equal to the section's, or the joint's default, is fine
+    steel = flexmb.rectangle(0.01, 1e-4, **STEEL)
+    with pytest.raises(flexmb.ParameterError, match=r"density=2700.0 \(section: 7800.0\).*section's material"):
+        flexmb.LeafSpring(density=2700.0, section=steel)
+    with pytest.raises(flexmb.ParameterError, match=r"E=70000000000.0 \(section: 200000000000.0\)"):
+        flexmb.LeafSpring(E=70e9, G=26e9, section=steel)
+    flexmb.LeafSpring(section=steel)
+    flexmb.LeafSpring(density=7800.0, E=200e9, section=steel)

@@ -24,6 +24,7 @@ import inspect
 import json
 import math
 import os
+import re
 import runpy
 import subprocess
 import sys
@@ -169,7 +170,7 @@ def _train(args) -> int:
     params = dict(_parse_params(args.param))
     range_deg = None if args.range is None else (-args.range, args.range)
     for dim in args.dim:
-        for n in args.elements:
+        for n in args.elements or _shipped_meshes(args.kind, params, dim):
             j = make_joint(args.kind, elements_per_leaf=n, **params)
             data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
             name = database.file_name(j.kind, dim, data.key)
@@ -181,6 +182,23 @@ def _train(args) -> int:
                 print(f"  (for KSD this file takes precedence over the shipped data of the same joint when found "
                       f"first; search order: {', '.join(map(str, database.search_path(out)))}; delete it to go back)")
     return 0
+
+
+def _shipped_meshes(kind: str, params: dict, dim: int) -> list[int]:
+    """`flexmb train`'s default ``--elements``: the meshes shipped for this joint (these
+    parameters, ``dim``) and the joint's own default mesh, so that training reproduces what
+    ships (cross flexure: 1-5 and 10 el./leaf, 10 its default since the finer mesh)."""
+    from . import database
+    from .registry import joint as make_joint
+
+    j = make_joint(kind, **params)
+    key = j.database_key()
+    meshes = {int(key["elements_per_leaf"])}
+    for path in database.data_path().glob(f"{kind}-{dim}d-*.json"):
+        found = re.search(r"-elements_per_leaf(\d+)", path.name)
+        if found and path.name == database.file_name(kind, dim, {**key, "elements_per_leaf": int(found[1])}):
+            meshes.add(int(found[1]))
+    return sorted(meshes)
 
 
 class _UsageError(FlexmbError):
@@ -391,8 +409,9 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("train", help="(re)train a joint database from the joint's finite-element model")
     p.add_argument("kind", nargs="?", default="cross_flexure", help="joint kind (default: cross_flexure)")
     p.add_argument("--dim", type=int, nargs="+", default=[2, 3], choices=(2, 3))
-    p.add_argument("--elements", type=_positive_int, nargs="+", default=[1, 2, 3, 4, 5],
-                   help="elements per leaf, at least 1")
+    p.add_argument("--elements", type=_positive_int, nargs="+", default=None,
+                   help="elements per leaf, at least 1 (default: the meshes shipped for this joint and "
+                        "parameters, and the joint's own default mesh: 1 2 3 4 5 10 for cross_flexure)")
     p.add_argument("--range", type=_angle(180.0), default=None,
                    help="intended rotation range +- [deg], in (0, 180] (default: the joint's own, 75 for "
                         "cross_flexure)")

@@ -243,11 +243,6 @@ def _size(model, du: np.ndarray, length: float) -> float:
     return max(_translation(model, du, length), _largest_rotation(model, du))
 
 
-def _held(sigma: np.ndarray):
-    """A ``geometric_stress`` function (`StaticProblem.evaluate`) returning ``sigma`` whatever the state's."""
-    return lambda _: sigma
-
-
 def _continued(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
     """The rotation vectors ``spin + 2 pi k spin / |spin|`` (k = -1, 0, 1) nearest to ``near``
     (N, 3): the same rotations, continued along a path instead of wrapped to angles in [0, pi]."""
@@ -340,11 +335,12 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
             t = time.perf_counter()
             geometric = first_geometric_stress
             if geometric is None and adaptive and moving and it > 0 and not physical and reference is not None:
-                geometric = _held(reference)
+                geometric = reference  # an array: the compiled pass takes it directly
             r, Kff, Kfp, sigma = problem.evaluate(trial, target, tangent=True, geometric_stress=geometric)
             first_geometric_stress = None
             if reference is None:  # the start state's: its own, or those given for its first tangent
-                reference = sigma if geometric is None else geometric(sigma.copy())
+                reference = sigma if geometric is None else (geometric(sigma.copy()) if callable(geometric)
+                                                             else np.array(geometric))
             times["assemble"] += time.perf_counter() - t
             rf = r[free]
             if it == 0:

@@ -96,7 +96,9 @@ def focus(rounds: int) -> list[str]:
         f"default continuation it is {t['default'] / red:.0f}x: the conventional method itself became "
         f"{t['paper'] / t['default']:.1f}x faster ({sols['paper'].iterations} -> {sols['default'].iterations} Newton "
         "iterations), so 600x against the default would need KSD-reduced below "
-        f"{1e3 * t['default'] / 600:.2f} ms. (The issue's 600x was set against a 1048 ms conventional solve.)",
+        f"{1e3 * t['default'] / 600:.2f} ms. (The issue's 600x was set against a 1048 ms conventional solve.) On a "
+        "loaded host this ratio is inflated: a solve of a second is time-shared with the other work, a solve of a "
+        "millisecond mostly runs within one time slice (this code: 681x at load 4.7, 1049x at load 9.9).",
     ]
 
 
@@ -110,7 +112,10 @@ def main(quick: bool = False) -> str:
             sols, t = timed(m, rounds, {"ksd-reduced": 5, "ksd-full": 2})
             # errors against the paper-control solution: its absolute tol (5e-7) says when a reaction
             # is below the solve's accuracy (at rest: NaN, as the study reports)
-            rows.append((case, deg, sols, t, errors(case, sols["ksd-reduced"], sols["paper"])))
+            err = errors(case, sols["ksd-reduced"], sols["paper"])
+            if deg == 0:  # at rest the reactions are roundoff (the study's NaN): nothing to compare
+                err = {k: np.nan for k in err}
+            rows.append((case, deg, sols, t, err))
     lines = [
         "## Manipulator: conventional method vs KSD (issues 5 and 21, Fig. 15)",
         "",

@@ -13,13 +13,14 @@ from __future__ import annotations
 import copy
 import math
 import time
+import warnings
 from collections.abc import Callable, Mapping
 
 import attrs
 import numpy as np
 
 from .design_properties import PROPERTIES, property_columns
-from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
+from .errors import ConvergenceError, ConvergenceWarning, ModelError, ParameterError, UnsupportedStrategyError
 from .solvers import solve
 from .table import Table
 
@@ -194,8 +195,10 @@ def discretisation_error(mechanism, quantity, *, method: str = "conventional", l
     beam elements assumed). Cost: with ``levels=3`` about 1 + 2 + 4 = 7 solves of the given mesh.
 
     Every level is solved with the same ``method`` (a KSD method needs trained data for the
-    refined meshes; ``"newton"`` has no mesh and is refused). A level that does not converge
-    raises `flexmb.ConvergenceError`, naming it. Returns a `DiscretisationEstimate`.
+    refined meshes; ``"newton"`` has no mesh and is refused). A refined level that does not
+    converge ends the refinement with a `flexmb.ConvergenceWarning` and the estimate uses the
+    meshes that did (two: a pair with order 2); the given mesh or the first refinement not
+    converging raises `flexmb.ConvergenceError`. Returns a `DiscretisationEstimate`.
     """
     if method == "newton":
         raise UnsupportedStrategyError("discretisation_error: method 'newton' uses constant-stiffness closed forms "
@@ -209,8 +212,13 @@ def discretisation_error(mechanism, quantity, *, method: str = "conventional", l
         t0 = time.perf_counter()
         sol = solve(m, method, **options)
         if not sol.converged:
-            raise ConvergenceError(f"discretisation_error: the solve on the mesh refined by {2 ** k} did not converge: "
-                                   f"{sol.message}", sol)
+            why = f"the solve on the {'given mesh' if k == 0 else f'mesh refined by {2 ** k}'} did not converge: " \
+                  f"{sol.message}"
+            if k < 2:
+                raise ConvergenceError(f"discretisation_error: {why}", sol)
+            warnings.warn(f"discretisation_error: {why}; the estimate uses the {k} meshes that did",
+                          ConvergenceWarning, stacklevel=2)
+            break
         rows.append(evaluate(sol))
         times.append(time.perf_counter() - t0)
         elements.append(sum(len(e) for e in sol.compiled.joint_elements.values()))
@@ -219,6 +227,6 @@ def discretisation_error(mechanism, quantity, *, method: str = "conventional", l
         raise ModelError("discretisation_error: the quantity gave different names on the refined meshes "
                          f"({names} on the given mesh)")
     values = np.array([[r[n] for n in names] for r in rows], dtype=float)
-    reference, order = richardson(values, 2.0, None if levels >= 3 else 2.0)
+    reference, order = richardson(values, 2.0, None if len(rows) >= 3 else 2.0)
     return DiscretisationEstimate(names=names, values=values, elements=np.array(elements), times=np.array(times),
                                reference=np.atleast_1d(reference), order=np.atleast_1d(order))

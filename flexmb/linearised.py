@@ -79,10 +79,8 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     model = problem.model
     held_idx = held_dofs(solution, held, "buckling")
     free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
-    nf = len(free)
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n < nf:
-        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf - 1}] (the number of free DOFs, "
-                             f"{nf}, minus one)")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, the number of free motions]")
     Kt = full_tangent(solution)
     if base is None:
         Km = material_tangent(solution)
@@ -96,13 +94,19 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     Kt, Km = Kt[free][:, free], Km[free][:, free]
     if Z is not None:
         Kt, Km = Z.T @ Kt @ Z, Z.T @ Km @ Z
-        nf = Kt.shape[0]
+    nf = Kt.shape[0]
+    if nf == 0:
+        raise ModelError(f"buckling: no free motion to buckle: every DOF is held or fixed (held={held!r}; the "
+                         "default 'prescribed' holds the prescribed motions: held='none' releases them)")
+    if n > nf:
+        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf}] (the "
+                             f"{'free DOFs' if Z is None else 'motions the hinges allow'}: {nf})")
     Ks = (Kt - Km).tocsr()
     if Ks.nnz == 0 or abs(Ks).max() == 0.0:
         return np.full(n, np.inf)  # no stress, no load: nothing to buckle
     tol = 1e-11 * abs(Km).max()
     symmetric = bool(abs(Ks - Ks.T).max() <= tol and abs(Km - Km.T).max() <= tol)
-    if nf < DENSE_BELOW:
+    if nf < DENSE_BELOW or n >= nf - 2:  # ARPACK: fewer than nf - 1 eigenvalues
         A, B = Ks.toarray(), Km.toarray()
         # K_s phi = mu K_m phi, mu = -1/lam: the critical (smallest positive) lam has the most negative mu
         try:
@@ -165,12 +169,19 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
         offset = v.vector(f"compliance of link {link!r}", "point", point, dim) - model.x0[node]
     free = problem.free if isinstance(held, str) and held == "prescribed" else \
         np.setdiff1d(np.arange(model.n_dofs), held_dofs(solution, held, "compliance"))
+    Z = None
     if reduced:  # the reduced mechanism's tangent on the links' DOFs (flexmb.ksd.properties)
         K_links, _ = reduced_tangent(solution)
         free = free[free < K_links.shape[0]]
         K = sp.csc_array(K_links[np.ix_(free, free)])
     else:
-        K = full_tangent(solution)[free][:, free].tocsc()
+        K = full_tangent(solution)
+        # hinges: on the motions they allow (Z, the rows dropped at build included: a link whose
+        # prescribed turn `held` releases stays on its axis), C = Z (Z^T K Z)^-1 Z^T
+        free, Z = constrained(model, free, K, state)
+        K = K[free][:, free].tocsc()
+        if Z is not None:
+            K = (Z.T @ K @ Z).tocsc()
     dofs = model.node_dofs[node]
     cols = np.searchsorted(free, dofs)
     is_free = (cols < len(free)) & (free[np.minimum(cols, len(free) - 1)] == dofs)
@@ -178,6 +189,8 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     if is_free.any():
         rhs = np.zeros((len(free), int(is_free.sum())))
         rhs[cols[is_free], np.arange(rhs.shape[1])] = 1.0
+        if Z is not None:
+            rhs = Z.T @ rhs
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", sla.LinAlgWarning)  # rcond below eps: singular
@@ -188,6 +201,8 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
         if not np.all(np.isfinite(X)):
             raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
                              "leaves a rigid-body motion free, or the equilibrium is critical)")
+        if Z is not None:
+            X = Z @ X
         C_node[np.ix_(is_free, is_free)] = X[cols[is_free]]
     T = model._lever(model.offsets(state, np.array([node]), offset[None]))[0]  # point motion = T node motion
     C = T @ C_node @ T.T

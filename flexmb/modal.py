@@ -38,6 +38,7 @@ from .fe.assembly import SparsePattern
 from .fe.ideal import constrained
 from .fe.mass import mass_matrix
 from .ksd.properties import reduced_modal_model
+from .plausibility import check_mass_units
 
 __all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", "solvable_problem", "constrained", "DENSE_BELOW",
            "DENSE_BELOW_NONSYMMETRIC"]
@@ -262,6 +263,8 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
         K, M = stiffness_and_mass(solution)
         free, Z = constrained(model, free, K, solution.state)  # hinges: the motions they allow (Z), multipliers out
         K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
+    if len(model.elements.L0):
+        check_mass_units(solution, model, stacklevel=3)
     if Z is not None:
         K, M = (Z.T @ K @ Z).tocsr(), (Z.T @ M @ Z).tocsr()
     nf = K.shape[0]

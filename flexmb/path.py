@@ -143,6 +143,8 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         if max_load_factor == 0.0:
             raise ParameterError(f"{owner}: max_load_factor=0 is the start; give a non-zero load factor or None")
     ds0 = (0.05 * abs(max_load_factor or 1.0)) if arc_length is None else v.positive(owner, "arc_length", arc_length)
+    if progress is not None:
+        v.flag(owner, "progress", progress)
     if stop is not None and not callable(stop):
         raise ParameterError(f"{owner}: stop={stop!r} must be a callable stop(solution) -> bool, or None")
     if not hasattr(mechanism, "compile"):

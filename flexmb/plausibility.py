@@ -11,12 +11,12 @@ import warnings
 import numpy as np
 
 from .closed_form.problem import LinkageProblem
-from ._validate import hashable
+from ._validate import hashable, modulus_units
 from .errors import ConvergenceWarning, ModelError, PlausibilityWarning
 from .rotations import rot2
 from .sections import properties
 
-__all__ = ["check", "STRAIN_LIMIT", "SHORTENING_LIMIT"]
+__all__ = ["check", "check_mass_units", "STRAIN_LIMIT", "SHORTENING_LIMIT", "WAVE_RATE_RANGE"]
 
 #: Largest peak normal strain (peak normal stress / E) a converged answer may reach without a
 #: warning: above the elastic strain of every engineering flexure material (spring steel ~0.75 %,
@@ -29,6 +29,12 @@ STRAIN_LIMIT = 0.02
 #: end-loaded cantilever alike: (1/2) int w'^2 with the cubic deflection shapes), exceeds this
 #: fraction of d, i.e. d > L / 60.
 SHORTENING_LIMIT = 0.01
+#: Range [1/s] of ``sqrt(E / density) / L``, a joint's material wave speed over its length: the same
+#: in every consistent unit system. Engineering materials have wave speeds of 30 m/s (soft
+#: elastomers, E = 1 MPa, 1000 kg/m^3) to 13 000 m/s (beryllium), flexure joints lengths of 1 um
+#: to 10 m: 3 to 1.3e10. A density in kg/m^3 with lengths in mm and E in MPa gives ~0.1 (steel,
+#: 50 mm); one in t/mm^3 in SI ~1e11. Outside the range `flexmb.modes` warns.
+WAVE_RATE_RANGE = (1.0, 1e11)
 
 
 def check(solution, *, stacklevel: int = 3) -> None:
@@ -50,12 +56,46 @@ def _moduli(solution, model, stacklevel: int) -> None:
     """A modulus that looks like GPa with lengths in m (`flexmb._validate.modulus_units`), wherever
     it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here."""
     E = properties(model.elements.sections, ("E",))[0]
-    k = int(np.argmin(E))
-    L = float(model.elements.L0[k] * len(np.flatnonzero(model.elements.owner == model.elements.owner[k])))
-    if E[k] < 1e3 and L < 1.0:
-        warnings.warn(f"{solution.method}: E={E[k]:g} ({_where(solution, k)}, length {L:.3g}) looks like a modulus "
-                      "in GPa with lengths in m; in SI, E is in Pa (steel 2e11). Ignore this if your units are "
-                      "consistent (e.g. kN and mm)", PlausibilityWarning, stacklevel=stacklevel)
+    L = _joint_lengths(model)
+    bad = np.flatnonzero((E < 1e3) & (L < 1.0))
+    if len(bad):
+        k = int(bad[0])
+        modulus_units(f"{solution.method} ({_where(solution, k)})", float(E[k]), float(L[k]), "joint length",
+                      stacklevel=stacklevel + 1)
+
+
+def check_mass_units(solution, model, stacklevel: int = 3) -> None:
+    """Warn (`PlausibilityWarning`) where a section's density does not fit its modulus and its
+    joint's length in one unit system (`WAVE_RATE_RANGE`): the modes would be off by orders of
+    magnitude, the statics unaffected."""
+    el = model.elements
+    E, rho = properties(el.sections, ("E", "density"))
+    length = _joint_lengths(model)
+    massive = np.flatnonzero(rho > 0)
+    if not len(massive):
+        return
+    rate = np.sqrt(E[massive] / rho[massive]) / length[massive]
+    lo, hi = WAVE_RATE_RANGE
+    bad = np.flatnonzero((rate < lo) | (rate > hi))
+    if not len(bad):
+        return
+    k = massive[bad[np.argmax(np.abs(np.log10(rate[bad] / np.sqrt(lo * hi))))]]
+    r = float(np.sqrt(E[k] / rho[k]) / length[k])
+    warnings.warn(f"{solution.method}: density={rho[k]:g} with E={E[k]:g} ({_where(solution, k)}, length "
+                  f"{length[k]:.3g}) gives a wave speed over the length sqrt(E/density)/L = {r:.3g} per second, "
+                  f"outside [{lo:g}, {hi:g}] for any material and size: the density is in other units than the "
+                  "lengths and E (the joints' default 7800 is kg/m^3, SI); give it as mass per length cubed in the "
+                  "model's units (N, mm, MPa: t/mm^3, steel 7.8e-9). The frequencies are off by "
+                  f"~{abs(np.log10(r / np.sqrt(lo * hi))):.0f} orders of magnitude",
+                  PlausibilityWarning, stacklevel=stacklevel)
+
+
+def _joint_lengths(model) -> np.ndarray:
+    """Each element's joint's beam length (the sum of its elements' lengths) [m], (E,)."""
+    el = model.elements
+    owner = np.asarray(el.owner)
+    total = np.bincount(owner, weights=el.L0, minlength=int(owner.max(initial=-1)) + 1)
+    return total[owner]
 
 
 def _strains(solution, model, stacklevel: int) -> None:

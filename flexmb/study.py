@@ -394,7 +394,13 @@ def joint_range(kind: str, rotations, *, which=("modes", "stress"), n_modes: int
     from .sweeps import sweep
     from .testing import joint_mechanism
 
-    angles = np.atleast_1d(np.asarray(rotations, dtype=float))
+    try:
+        angles = None if isinstance(rotations, (str, bytes)) else np.atleast_1d(np.asarray(rotations, dtype=float))
+    except (TypeError, ValueError):
+        angles = None
+    if angles is None or angles.ndim != 1 or not len(angles) or not np.all(np.isfinite(angles)):
+        raise ParameterError(f"joint_range: rotations={rotations!r} must be a non-empty 1-D sequence of finite "
+                             "rotations [rad]")
     m = joint_mechanism(joint(kind, **params), 3)
     m.prescribe("B", rotation=(0.0, 0.0, 0.0))
     zeros = np.zeros_like(angles)

@@ -58,6 +58,8 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     """
     from tqdm.auto import tqdm
 
+    if progress is not None:  # "no" would be taken as True
+        v.flag("sweep", "progress", progress)
     values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress)
     if isinstance(solutions, Sequence):  # run already, as compiled loops
         result = SweepResult(solutions, values, "force")

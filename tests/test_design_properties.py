@@ -135,6 +135,12 @@ def test_joint_range_is_a_study_design(serial_study):
     assert one["f1.min"] == t["f1.min"][1]
 
 
+@pytest.mark.parametrize("rotations", ["0.1", [], [np.nan], [[0.1, 0.2]], None])
+def test_joint_range_refuses_rotations_that_are_not_finite_numbers(rotations):
+    with pytest.raises(flexmb.ParameterError, match="joint_range: rotations=.*finite rotations \\[rad\\]"):
+        joint_range("cross_flexure", rotations, which=("modes",), n_modes=1, elements_per_leaf=2)
+
+
 def test_joint_range_runs_in_a_process_pool_and_on_dask(serial_study):
     pooled = parameter_study(DESIGN, DESIGNS, max_workers=2)
     for name in serial_study:

@@ -8,6 +8,8 @@ each test) with the observed order, computed here: no paper has these cases.
 
 import math
 
+import attrs
+
 import numpy as np
 import pytest
 
@@ -211,3 +213,29 @@ def test_curved_beam_default_gives_its_parasitics_within_1_percent():
     got = q(flexmb.solve(pivot(arc(), rot, 2)))
     for name in truth:
         assert got[name] == pytest.approx(truth[name], rel=0.01), name
+
+
+def test_a_refinement_that_does_not_converge_keeps_the_meshes_that_did(monkeypatch):
+    """The finest solve failing (here made to fail) leaves a Richardson pair of the two meshes
+    that converged, with a ConvergenceWarning; the first refinement failing raises."""
+    import flexmb.discretisation as disc
+
+    real = disc.solve
+
+    def failing_above(limit):
+        def solve(m, method, **options):
+            sol = real(m, method, **options)
+            n = sum(j.elements for j in m.joints.values())
+            return attrs.evolve(sol, converged=False, message="made to fail") if n > limit else sol
+        return solve
+
+    m = parallel_guide(4)
+    full = flexmb.discretisation_error(m, guide)
+    monkeypatch.setattr(disc, "solve", failing_above(16))
+    with pytest.warns(flexmb.ConvergenceWarning, match="refined by 4 did not converge.*2 meshes"):
+        pair = flexmb.discretisation_error(m, guide)
+    np.testing.assert_array_equal(pair.values, full.values[:2])
+    assert np.all(pair.order == 2.0)
+    monkeypatch.setattr(disc, "solve", failing_above(8))
+    with pytest.raises(flexmb.ConvergenceError, match="refined by 2 did not converge"):
+        flexmb.discretisation_error(m, guide)

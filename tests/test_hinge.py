@@ -543,3 +543,15 @@ def test_hinge_tangent_equals_central_differences_past_half_a_turn():
     K, Kfd = finite_difference_tangent(problem, state)
     row = np.abs(K).max(axis=1, keepdims=True)
     assert np.max(np.abs(K - Kfd) / row) < 1e-6
+
+
+def test_a_motor_angle_beyond_a_turn_warns_that_angles_are_radians():
+    # a careless user's degrees: angle=360 converged at 57 turns without a word; now a
+    # PlausibilityWarning (a motor may wind: not refused), and none up to a turn
+    with pytest.warns(flexmb.PlausibilityWarning, match=r"angle=360.0 rad is 57.3 turns.*6.28319"):
+        flexmb.Hinge(angle=360.0)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        flexmb.Hinge(angle=-2 * np.pi)
+        flexmb.joint("hinge", angle=4.0, k=1.0)

@@ -567,6 +567,18 @@ def _with(m, force):
     return m
 
 
+def test_the_cache_does_not_keep_a_mechanism_alive():
+    import gc
+    import weakref
+
+    m = _pivot(force=(0.0, 1.0))
+    sol = flexmb.solve(m, method="ksd-reduced")
+    alive = weakref.ref(m)
+    del m
+    gc.collect()
+    assert alive() is None and sol.converged  # the solution keeps its compiled model, not the mechanism
+
+
 def test_the_shared_compiled_model_cannot_be_changed_through_a_solution():
     m = _pivot(force=(0.0, 1.0))
     sol = flexmb.solve(m, method="ksd-reduced")

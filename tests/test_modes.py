@@ -709,3 +709,74 @@ def test_section_builders_default_to_the_joints_steel_and_massless_leaves_are_na
     sol = flexmb.solve(_leaf_mechanism(3, 4, length=0.1, section=make(density=0.0)))
     with pytest.raises(flexmb.ModelError, match=r"24 free direction\(s\) carry no mass: link 'tip' x.*sections\) density"):
         flexmb.modes(sol, n=1)
+
+
+def test_a_density_in_kg_per_m3_with_lengths_in_mm_warns_at_the_modes():
+    # a careless user: the leaf in N, mm, MPa but the density left at the joints' SI default 7800
+    # (kg/m^3; in these units 7.8e-9 t/mm^3): f1 came out 0.00026 Hz without a word. The wave
+    # speed sqrt(E / density) over the joint's length is unit-free (1/s): ~1e5 for this leaf in
+    # any consistent units, 0.1 here; engineering materials (c = 30 ... 13 000 m/s) in joints of
+    # 1 um ... 10 m stay within [3, 1.3e10]
+    def leaf(density):
+        m = flexmb.Mechanism(dim=2)
+        m.add_link("g", fixed=True)
+        m.add_link("tip", position=(50.0, 0.0))
+        m.add_joint("g", "tip", flexmb.LeafSpring(length=50.0, width=10.0, thickness=0.5, E=2e5, G=7.7e4,
+                                                  density=density, elements=4))
+        return flexmb.solve(m)
+
+    with pytest.warns(flexmb.PlausibilityWarning, match=r"density=7800 .*joint 'leaf_spring_0'.*mass per length cubed"):
+        wrong = flexmb.modes(leaf(7800.0), n=1)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        right = flexmb.modes(leaf(7.8e-9), n=1)  # t/mm^3: quiet
+        flexmb.modes(flexmb.solve(_leaf_mechanism(2, 4, length=0.05, thickness=5e-4)), n=1)  # SI: quiet
+    # the same leaf, the density 1e12 x too large: the frequency 1e6 x too low (f ~ 1/sqrt(rho))
+    assert wrong.frequencies[0] == pytest.approx(right.frequencies[0] * np.sqrt(7.8e-9 / 7800.0), rel=1e-9)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_buckling_counts_the_motions_the_hinges_allow_as_modes_does(dim):
+    # the one-DOF pendulum under a dead load along its arm (compression towards the pivot): one
+    # multiplier can be asked for, n=2 names [1, 1]; with its turn prescribed nothing can buckle
+    m = _pendulum(dim)
+    m.apply_force("arm", [-1.0, 0.0] + [0.0] * (dim - 2))
+    sol = flexmb.solve(m)
+    # the pendulum pushed towards its pivot: k_eff = k - P r = 5 - 0.05 > 0, lam = k / (P r) = 100
+    assert flexmb.buckling(sol, n=1) == pytest.approx([100.0], rel=1e-9)
+    with pytest.raises(flexmb.ParameterError, match=r"buckling: n=2 must be an integer in \[1, 1\]"):
+        flexmb.buckling(sol, n=2)
+    m.prescribe("arm", rotation=0.0 if dim == 2 else [0.0, 0.0, 0.0])
+    with pytest.raises(flexmb.ModelError, match="buckling: no free motion"):
+        flexmb.buckling(flexmb.solve(m), n=1)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compliance_of_a_released_pendulum_is_its_spring_about_the_pivot(dim):
+    # the pendulum's turn prescribed to 0.3 rad and released (held="none"): a force at the arm's
+    # centre (r = 0.05 from the pivot, at 0.3 rad) turns it by (r x F)/k: C = q q^T / k with
+    # q = r (-sin 0.3, cos 0.3) the point's motion per unit turn (closed form); the turn 1/k.
+    # 3D: the hinge's axis rows, dropped at build as dependent on the prescribed orientation,
+    # hold again (the tangent was singular: ModelError)
+    m = _pendulum(dim)
+    m.prescribe("arm", rotation=0.3 if dim == 2 else [0.0, 0.0, 0.3])
+    C = flexmb.compliance(flexmb.solve(m), "arm", held="none")
+    q = 0.05 * np.array([-np.sin(0.3), np.cos(0.3)])
+    xy = [0, 1]
+    np.testing.assert_allclose(C[np.ix_(xy, xy)], np.outer(q, q) / 5.0, rtol=1e-9, atol=1e-15)
+    assert C[-1, -1] == pytest.approx(1 / 5.0, rel=1e-9)
+    if dim == 3:  # the bearing holds z and the tilts exactly
+        np.testing.assert_allclose(C[2:5, 2:5], 0.0, atol=1e-12)
+
+
+def test_a_leaf_given_a_section_and_another_material_is_refused_naming_both():
+    # the section's material applies: density=2700 (aluminium) beside a steel section was silently
+    # steel in the modes; a value equal to the section's, or the joint's default, is fine
+    steel = flexmb.rectangle(0.01, 1e-4, **STEEL)
+    with pytest.raises(flexmb.ParameterError, match=r"density=2700.0 \(section: 7800.0\).*section's material"):
+        flexmb.LeafSpring(density=2700.0, section=steel)
+    with pytest.raises(flexmb.ParameterError, match=r"E=70000000000.0 \(section: 200000000000.0\)"):
+        flexmb.LeafSpring(E=70e9, G=26e9, section=steel)
+    flexmb.LeafSpring(section=steel)
+    flexmb.LeafSpring(density=7800.0, E=200e9, section=steel)

@@ -244,11 +244,20 @@ def test_a_mechanism_with_nothing_to_scale_is_refused():
     (dict(stop=3), ParameterError, "stop"),
     (dict(psi=-1.0), ParameterError, "psi"),
     (dict(colour="red"), UnsupportedStrategyError, "colour"),
+    (dict(min_arc=10.0, max_arc=1.0), ParameterError, "min_arc=10.0 must be below max_arc"),  # was accepted
+    (dict(progress="no"), ParameterError, "progress"),  # was taken as True
+    (dict(rtol=1.0), ParameterError, r"rtol.*\(0, 1\)"),  # accepted every point as converged
 ])
 def test_bad_arguments_raise_flexmb_errors(kwargs, error, match):
     with pytest.raises(error, match=match):
         flexmb.trace(cases.von_mises_truss(), **kwargs)
     assert issubclass(error, FlexmbError)
+
+
+def test_sweep_refuses_a_progress_that_is_not_a_flag_as_trace_does():
+    m = cases.von_mises_truss()
+    with pytest.raises(ParameterError, match="sweep: progress='no' must be True or False"):
+        flexmb.sweep(m, [0.1, 0.2], progress="no")
 
 
 def test_a_path_that_cannot_continue_is_reported_with_its_points():

@@ -304,7 +304,7 @@ def wire_guide(stroke: float = 3.0) -> flexmb.Mechanism:
     m.add_link("B", (L, GAP / 2, 0.0), mass=5e-5, inertia=2e-6 * np.eye(3))
     wire = flexmb.circle(DIAMETER, E=200000.0, nu=0.3, density=7.8e-9)
     for k, y in enumerate((0.0, GAP)):
-        m.add_joint("A", "B", flexmb.LeafSpring(length=L, E=200000.0, G=76900.0, elements=3, section=wire),
+        m.add_joint("A", "B", flexmb.LeafSpring(length=L, elements=3, section=wire),
                     name=f"wire{k}", origin=(0.0, y, 0.0))
     m.prescribe("B", y=stroke)
     return m

@@ -219,6 +219,10 @@ def test_stresses_refuse_bad_input():
         sol.stresses(concentration={"middle": 1.5})
     with pytest.raises(flexmb.ParameterError, match="limit"):
         sol.stresses(limit=-1.0)
+    with pytest.raises(flexmb.ParameterError, match="limit='1e9'"):  # text is not a number (was read as one)
+        sol.stresses(limit="1e9")
+    with pytest.raises(flexmb.ParameterError, match="concentration='2'"):
+        sol.stresses(concentration="2")
     with pytest.raises(flexmb.ModelError, match="no joint named 'middle'"):
         sol.stresses().joint("middle")
     bare = flexmb.Section(E=2e11, G=7.69e10, A=1e-6, Iy=1e-13, Iz=1e-13, It=1e-13, ymax=5e-4, zmax=5e-4)

@@ -301,7 +301,7 @@ def _factor(owner, name, value) -> float:
         x = float(value)
     except (TypeError, ValueError):
         x = np.nan
-    if isinstance(value, bool) or not np.isfinite(x) or x < 1.0:
+    if isinstance(value, (bool, str, bytes)) or not np.isfinite(x) or x < 1.0:
         raise ParameterError(f"{owner}: {name}={value!r} must be a stress-concentration factor >= 1")
     return x
 
@@ -321,7 +321,7 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None,
             lim = float(limit)
         except (TypeError, ValueError):
             lim = np.nan
-        if isinstance(limit, bool) or not (np.isfinite(lim) and lim > 0):
+        if isinstance(limit, (bool, str, bytes)) or not (np.isfinite(lim) and lim > 0):
             raise ParameterError(f"{owner}: limit={limit!r} must be a stress [Pa] > 0 (the yield or fatigue strength)")
     res = section_resultants(model, state, axial)  # (E, 2, k)
     nE = len(el.L0)

@@ -55,7 +55,8 @@ class CrossFlexure(Joint):
         turned 20 deg, converged-mesh reference by Richardson from 16/32/64 el./leaf,
         ``benchmarks/bench_discretisation.py``): centre shift +5.6 / +0.79 / +0.50 % at 3 / 8 /
         10 el./leaf (the same at 45 and 75 deg), support stiffness +2.2 / +0.16 %, moment +0.72
-        / +0.03 % at 3 / 10; about 5 -> 8 ms per solve of the pivot (3D). Table 1 and the
+        / +0.03 % at 3 / 10; 3.0 -> 8.6 ms per solve of the pivot at 20 deg (5 -> 6 Newton
+        iterations; host at load 6). Table 1 and the
         four-bar of the paper use 1-5 (`flexmb.models` states them); the shipped database holds
         1-5 and 10. `flexmb.discretisation_error` estimates the error of any mesh.
     gap

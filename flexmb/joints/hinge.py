@@ -50,6 +50,14 @@ class Hinge(Joint):
         v.nonnegative("hinge", "k", self.k)
         if self.angle is not None:
             v.finite("hinge", "angle", self.angle)  # bools and NaN raise ParameterError
+            if abs(self.angle) > 2.0 * math.pi:  # allowed (a motor may wind), but often degrees
+                import warnings
+
+                from ..errors import PlausibilityWarning
+
+                warnings.warn(f"hinge: angle={self.angle!r} rad is {abs(self.angle) / (2 * math.pi):.3g} turns; angles "
+                              f"are in radians (for {self.angle!r} degrees give {math.radians(self.angle):.6g})",
+                              PlausibilityWarning, stacklevel=3)
 
     @property
     def capabilities(self) -> frozenset[str]:

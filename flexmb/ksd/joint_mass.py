@@ -16,8 +16,8 @@ the interior DOFs ``i`` and the interface nodes A, B ``b``:
   (`RITZ_SAMPLES`), so every projected matrix is smooth in the rotation and can be splined;
   coupling ``Phi^T M T``.
 
-`condensed` interpolates ``M_b``, ``X`` and the Ritz projections on a grid over the trained
-range (`GRID_DEG`, built once per joint template on first use) and solves the small Ritz
+`condensed` interpolates ``M_b``, ``X`` and the Ritz projections over the trained range
+(`flexmb.ksd.splined`, built once per joint template on first use) and solves the small Ritz
 eigenproblems per configuration.
 """
 
@@ -27,13 +27,13 @@ import weakref
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.interpolate import make_interp_spline
 
 from ..fe.mass import element_mass, rigid_mass
 from ..fe.model import State
 from .eob import lever
+from .splined import SplinedTable
 
-__all__ = ["condensed", "joint_mass", "RITZ_SAMPLES", "GRID_DEG", "FINEST_DEG", "DEGREE", "TOL"]
+__all__ = ["condensed", "joint_mass", "RITZ_SAMPLES"]
 
 #: Intended rotations at which a joint's fixed-interface modes are sampled for its Ritz basis,
 #: evenly over the trained range. Measured on three_x_infinity (3D, 3 el./leaf, one interior
@@ -42,16 +42,6 @@ __all__ = ["condensed", "joint_mass", "RITZ_SAMPLES", "GRID_DEG", "FINEST_DEG", 
 #: 8.5e-7, 13 (73) 8.2e-11 largest relative error (the 2D cross flexure's chains of 12 DOFs:
 #: complete with any, 2e-12).
 RITZ_SAMPLES = 9
-#: First and finest grid step [deg], spline degree and accepted interpolation error (relative to
-#: each quantity's largest entry) of the tabulated condensation (`_JointMass.table`). Measured at
-#: 40 random rotations against direct condensation: three_x_infinity 1 deg grid (built in 1.0 s,
-#: once per joint template and process; loaded host), M_b 1.8e-9, omega^2 2e-12; 2D cross
-#: flexure 0.5 deg (0.15 s), M_b 1.7e-8. 1e-9 would take 0.5 deg and 2.6 s for three_x_infinity,
-#: far below the reduction's own error (the frequencies' 0.2-0.6 %).
-GRID_DEG = 1.0
-FINEST_DEG = 0.125
-DEGREE = 7
-TOL = 1e-7
 
 
 def _block_diagonal(blocks):
@@ -163,37 +153,13 @@ class _JointMass:
         out["Mb"], out["X"] = 0.5 * (Mb + np.swapaxes(Mb, 1, 2)), X
         return out
 
-    def table(self, n_fixed: int):
-        """`project` splined over the trained range: (spline, {name: shape}). The grid starts at
-        `GRID_DEG` and is halved (to at most `FINEST_DEG`) until the spline reproduces the
-        samples half-way between to `TOL` relative to each quantity's largest entry (as
-        `flexmb.ksd.eob_table.tabulate`)."""
+    def table(self, n_fixed: int) -> SplinedTable:
+        """`project` splined over the trained range (`flexmb.ksd.splined.SplinedTable`)."""
         if n_fixed not in self._tables:
             tpl = self.tpl
-            lo, hi = tpl.data.range
-
-            def sample(theta):
-                parts = self.project(tpl.evaluate(theta, np.zeros((len(theta), tpl.dim))), n_fixed)
-                return parts, np.concatenate([v.reshape(len(theta), -1) for v in parts.values()], axis=1)
-
-            step = GRID_DEG
-            while True:
-                theta = np.linspace(lo, hi, int(round((hi - lo) / np.radians(step))) + 1)
-                parts, values = sample(theta)
-                spline = make_interp_spline(theta, values, k=DEGREE, axis=0)
-                if step <= FINEST_DEG:
-                    break
-                mid = 0.5 * (theta[1:] + theta[:-1])
-                err = np.abs(spline(mid) - sample(mid)[1])
-                scale, at, worst = np.abs(values).max(axis=0), 0, 0.0
-                for v in parts.values():
-                    w = v[0].size
-                    worst = max(worst, float(err[:, at:at + w].max() / max(scale[at:at + w].max(), 1e-300)))
-                    at += w
-                if worst <= TOL:
-                    break
-                step /= 2
-            self._tables[n_fixed] = (spline, {name: v.shape[1:] for name, v in parts.items()}, step)
+            self._tables[n_fixed] = SplinedTable(
+                lambda theta: self.project(tpl.evaluate(theta, np.zeros((len(theta), tpl.dim))), n_fixed),
+                *tpl.data.range)
         return self._tables[n_fixed]
 
 
@@ -216,14 +182,8 @@ def condensed(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = Tru
     data = joint_mass(tpl, joint)
     theta = np.asarray(theta, dtype=float)
     J = len(theta)
-    lo, hi = tpl.data.range
-    if table and np.all((theta >= lo) & (theta <= hi)):
-        spline, shapes, _ = data.table(n_fixed)
-        flat, parts, at = spline(theta), {}, 0
-        for name, shape in shapes.items():
-            size = int(np.prod(shape))
-            parts[name] = flat[:, at:at + size].reshape((J,) + shape)
-            at += size
+    if table and data.table(n_fixed).covers(theta):
+        parts = data.table(n_fixed)(theta)
     else:
         parts = data.project(tpl.evaluate(theta, np.zeros((J, tpl.dim))), n_fixed)
     Mb, X = parts["Mb"], parts["X"]

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
+from .eob_forces import axial_forces
 from .joint_mass import condensed
 from ..rotations import unskew
 from .geometry import ACTIVE, LinkPoses, rz
@@ -64,6 +65,18 @@ def near_configuration(red: ReducedMechanism, table: bool = True, step1=None):
 
 
 _NEAR = weakref.WeakKeyDictionary()
+_SETUP = weakref.WeakKeyDictionary()
+
+
+def _setup(compiled, database):
+    """The compiled mechanism's `ReducedMechanism`, kept while the joint databases it read are
+    unchanged (`ReducedMechanism.current`; `flexmb.solve` keeps an unchanged mechanism's compiled
+    model, so the solutions of a sweep share it: 0.3 of the manipulator's 2.2 ms `modes`)."""
+    per = _SETUP.setdefault(compiled, {})
+    red = per.get(database)
+    if red is None or not red.current():
+        red = per[database] = ReducedMechanism(compiled, database)
+    return red
 
 
 def near(solution, database=None):
@@ -73,7 +86,7 @@ def near(solution, database=None):
     again took 2 of the manipulator's 4 ms)."""
     per = _NEAR.setdefault(solution, {})
     if database not in per:
-        red = ReducedMechanism(solution.compiled, database)
+        red = _setup(solution.compiled, database)
         step1 = (solution.stages or {}).get("kinematics", {})
         step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
         per[database] = red, near_configuration(red, step1=step1)
@@ -98,13 +111,13 @@ def node_displacements(solution, database=None) -> list:
     """Per group of joints the EOB node displacements (Jg, N nd) from the near poses at the
     solution (node A held: zero; node B from the links' poses; internal nodes by the
     Craig-Bampton recovery, Eq. 2.6), as KSD step 4 computes them."""
-    red, (_, _, _, p_hat, R_hat, _) = near(solution, database)
+    red, (eobs, _, _, p_hat, R_hat, _) = near(solution, database)
     emb = ACTIVE[red.dim]
     nd = len(emb)
     p, Rrel, _ = red.frames.relative(link_poses(red, solution.state))
     xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
     out = []
-    for (_, _, idx), e in zip(red.groups, full_eobs(solution, database)):
+    for (_, _, idx), e in zip(red.groups, eobs):
         xi = -(np.einsum("jab,jb->ja", e.recover[:, :, :nd], xi_B[idx]) + e.recover[:, :, nd])
         out.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
     return out
@@ -112,16 +125,18 @@ def node_displacements(solution, database=None) -> list:
 
 def eob_axial_forces(solution, database=None):
     """The joint elements' axial forces [N] of a KSD-reduced solution from the EOBs' element
-    forces ``F_all = K_all (L q - q_hat_all)`` (Eqs. 3.8-3.11, `EOBTemplate.axial_force`):
-    ``(elements (k,), N (k,))``, tension positive. Step 4's positions are exact to first order
-    only, and their second-order error along a leaf times its axial stiffness spoils the axial
-    forces they imply (four-bar at d = 0.3 m, 5 el./leaf: 2620 N against the converged 169 N;
-    the EOB's within 1.4 N); the moments they imply are first-order accurate."""
-    red = near(solution, database)[0]
+    forces ``F_all = K_all (L q - q_hat_all)`` (Eqs. 3.8-3.11, `EOBTemplate.axial_force`,
+    tabulated: `flexmb.ksd.eob_forces`): ``(elements (k,), N (k,))``, tension positive. Step 4's
+    positions are exact to first order only, and their second-order error along a leaf times
+    its axial stiffness spoils the axial forces they imply (four-bar at d = 0.3 m, 5 el./leaf:
+    2620 N against the converged 169 N; the EOB's within 1.4 N); the moments they imply are
+    first-order accurate."""
+    red, (eobs, _, _, p_hat, _, theta) = near(solution, database)
     at, values = [], []
-    for (tpl, _, idx), e, q in zip(red.groups, full_eobs(solution, database), node_displacements(solution, database)):
+    for (tpl, _, idx), e, q in zip(red.groups, eobs, node_displacements(solution, database)):
         at.append(np.concatenate([red.compiled.joint_elements[red.joint_names[j]] for j in idx]))
-        values.append(tpl.axial_force(e, q).ravel())
+        full = e if getattr(e, "K_nodes", None) is not None else None  # a tabulated one has no elements
+        values.append(axial_forces(tpl, theta[idx], p_hat[idx, :red.dim], q, full).ravel())
     return np.concatenate(at), np.concatenate(values)
 
 

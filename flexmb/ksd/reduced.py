@@ -181,6 +181,8 @@ class ReducedMechanism:
         # how to take a group's joints from per-joint arrays (all of them: a view, not a copy)
         self._take = [slice(None)] if len(self.groups) == 1 else [idx for _, _, idx in self.groups]
         self.joint_nodes = [compiled.joint_nodes[k] for k in names]
+        #: each group's internal FE nodes (Jg, n), by the id of its joint index array (step 4)
+        self._group_nodes = {id(idx): np.array([self.joint_nodes[j] for j in idx]) for _, _, idx in self.groups}
         # equation rows: (joint, constraint) per group, in group order
         self.rows = [(names[j], c) for tpl, cons, idx in self.groups for j in idx for c in cons]
         cols = np.concatenate([self.frames.a[:, None] * 6 + np.arange(6), self.frames.b[:, None] * 6 + np.arange(6)],
@@ -394,7 +396,8 @@ class ReducedMechanism:
         for idx, xl, Rl in internal:
             if xl.shape[1] == 0:
                 continue
-            nodes = np.array([self.joint_nodes[j] for j in idx])  # (Jg, n)
+            nodes = self._group_nodes[id(idx)] if id(idx) in self._group_nodes else np.array(
+                [self.joint_nodes[j] for j in idx])  # (Jg, n)
             pos[nodes] = (oA[idx, None] + np.einsum("jab,jnb->jna", F[idx], _embed(xl, dim)))[..., :dim]
             if dim == 2:  # global rotation from rest = side-A link's angle + angle in the joint frame
                 rot[nodes] = poses.angle[self.frames.a[idx]][:, None] + Rl

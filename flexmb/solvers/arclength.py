@@ -37,6 +37,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
+from ..errors import ParameterError
 from ..fe.model import State
 from .conventional import is_stable, positive_float, positive_int, relative_tolerance, unit_interval
 
@@ -215,6 +216,11 @@ class ArcLength:
     max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(positive_float))
     locate_tol: float = attrs.field(default=1e-6, validator=unit_interval)
     max_turn: float = attrs.field(default=0.2, validator=positive_float)
+
+    def __attrs_post_init__(self):
+        if not self.min_arc < self.max_arc:
+            raise ParameterError(f"{self.name}: min_arc={self.min_arc!r} must be below max_arc={self.max_arc!r} "
+                                 "(both in units of the first step's arc length)")
 
     # -- the pieces --------------------------------------------------------------------------
     def setup(self, problem):

@@ -88,14 +88,17 @@ def relative_tolerance(instance, attribute, value):
 
 #: The adaptive step control's constants, chosen over the benchmark cases (cross flexure 5-75 deg
 #: in 2D and 3D, four-bar 1-5 el./leaf, the 38 manipulator positions; BENCHMARKS.md "Step
-#: control", one run): 3220 Newton iterations against 10 056 for Fig. 18 with the paper's tol,
+#: control", one run): 2392 Newton iterations against 10 057 for Fig. 18 with the paper's tol,
 #: every equilibrium within 2.0e-11 (node positions, relative). Extrapolation degree, measured on
 #: ten of the cases (iterations): 1 (secant) 4995, 2: 1060, 3 (cubic): 704, 4: 601, 5: 535,
-#: 7: 478, 9: 467, 11: 475, 15: 487. Path deviation bound 0.4: the twin cross flexures of
-#: tests/test_continuation.py at 0.1-0.3 rad follow the small-step path in 2D and 3D with 0.4
-#: only (0.7: the 3D case jumps to the 68.8 N m branch at 0.2 rad; 0.3: 2D lands on 11.89 N m
-#: at 0.1 rad); 0.7 would save 3 % of the iterations.
-RTOL = 1e-8  # default relative tolerance (`StaticProblem.scaled_residual`); 1e-9: +6 % iterations
+#: 7: 478, 9: 467, 11: 475, 15: 487. Path deviation bound 0.4, measured with the reference
+#: stresses (benchmark cases / 25 four-bars of 3-8 el./leaf at d = 0.1-0.35 m): 0.3: 2396 / 552,
+#: 0.4: 2392 / 539, 0.55: 2422 / 546, 0.7: 2416 / 534, 1.0: 2419 / 537, none: 2563 / 545; the
+#: twin cross flexures of tests/test_continuation.py stay on the small-step path with any of
+#: them (before the reference stresses only 0.4 kept them there: 0.7 jumped to 68.8 N m).
+#: Reference stresses for at most 4 correctors: 3: 593, 4: 539, 5: 651, 6: 561, until the
+#: residual falls below 0.1 of the force scale only: 573 (the 25 four-bars).
+RTOL = 1e-9  # default relative tolerance of the last step (`StaticProblem.scaled_residual`)
 #: a Newton correction this small (translations over the model length, rotations [rad]) means the
 #: state is at the round-off floor: converged
 CORRECTION_FLOOR = 1e-13
@@ -108,7 +111,10 @@ RESTART_RATIO = 0.75  # ... and when halving did not bring it nearer than this x
 #: the corrector's tangent takes the last converged state's stresses in its geometric part until the
 #: scaled residual falls below this (the predicted state's own stresses are the predictor's error)
 REFERENCE_STRESS_UNTIL = 0.1
-REFERENCE_STRESS_ITERATIONS = 4  # ... and for at most this many correctors
+REFERENCE_STRESS_ITERATIONS = 4  # ... and for at most this many correctors, in steps that move
+#: prescribed DOFs (under loads alone the predicted state's axial forces are largely the load's:
+#: cantilevers of 16 elements at F L^2 / EI = 2-20, 2D and 3D, took 498 iterations with them,
+#: 343 without, 331 with Fig. 18; before this corrector the continuation failed on 6 of the 8)
 INTERMEDIATE_RTOL = 1e-5
   # relative tolerance of the steps before the last (the last: rtol)
 SAME_PATH = 1e-6  # ... unless it is closer than this (translations over the model length, rad): a step
@@ -127,13 +133,16 @@ class Conventional:
     rtol
         Relative convergence threshold (used when ``tol`` is None): the free residual, moments
         divided by the model's length (bounding-box diagonal), over the problem's force scale
-        (largest element end force or applied load, moments over the length), 1e-8, in (0, 1); or a Newton
+        (largest element end force or applied load, moments over the length), 1e-9, in (0, 1); or a Newton
         correction (predictor included) below 1e-13 (translations over the model length,
         rotations [rad]): the round-off floor, where the residual cannot fall further. Unit
         free: tested in SI, mm-N-MPa and um-uN-MPa (same answers to 1e-9, same iterations); a
-        200-element cantilever under 1 N converges in 4 iterations (the absolute 5e-7 halved
+        200-element cantilever under 1 N converges in 5 iterations (the absolute 5e-7 halved
         its step for 361 and gave up), a 10 000-element one at F L^2 / EI = 5 matches the
-        elastica to 1e-6 L. 1e-8 over 1e-9: 6 % fewer iterations on the benchmark cases.
+        elastica to 1e-6 L. The steps before the last converge to 1e-5 only (`INTERMEDIATE_RTOL`),
+        so 1e-9 costs 1 % more iterations than 1e-8 on the benchmark cases (when every step
+        converged to rtol, 6 %), and a free DOF's reaction of a one-step cross flexure at
+        60 deg is 1e-13 N instead of 5e-7 N.
     max_iter
         Iterations allowed per step before the step is halved.
     divergence
@@ -155,8 +164,9 @@ class Conventional:
     step_control
         ``"adaptive"`` (default): continuation: every step after the first starts from the
         polynomial extrapolation (in the load factor) of the last ten converged states,
-        rotations as spins on SO(3) continued along the path; the corrector's tangent takes the
-        last converged state's stresses in its geometric stiffness until the residual is below
+        rotations as spins on SO(3) continued along the path; in steps that move prescribed
+        DOFs the corrector's tangent takes the last converged state's stresses in its geometric
+        stiffness until the residual is below
         0.1 of the force scale, for at most 4 correctors (the predicted state's own stresses are
         the predictor's error: a
         straight-line predictor stretches turning leaves, and their spurious axial forces made
@@ -168,11 +178,14 @@ class Conventional:
         next step doubles after fewer than 4 iterations or a corrector that moved < 3 % of the
         step, shrinks to 0.6x after more than 7. ``"paper"``: Fig. 18 as published (linear predictor, halving, doubling after at most
         4 iterations). Measured over the benchmark cases (BENCHMARKS.md "Step control", against
-        Fig. 18 with the paper's tol=5e-7): 3220 against 10 056 iterations; manipulator joint
-        case 830 / 3893 (at -45 / 45 deg 54 / 53 against 550 / 494), location case 1746 / 5681,
-        four-bar 1-5 el./leaf 147 / 153; single cross flexures cost more, 497 / 329 (the
-        deviation bound cuts the first of their one-step solves); the same equilibria to
-        2.0e-11 (node positions, relative). Reusing the converged tangent for the first
+        Fig. 18 with the paper's tol=5e-7): 2392 against 10 057 iterations; manipulator joint
+        case 665 / 3894 (at -45 / 45 deg 47 / 46 against 551 / 494), location case 1457 / 5681,
+        four-bar 1-5 el./leaf 90 / 153 (5 el./leaf: 18 / 37, one step), single cross flexures
+        180 / 329 (5-75 deg, 2D and 3D, one step each); the same equilibria to 2.0e-11 (node
+        positions, relative). Without the reference stresses (before): 3220 iterations,
+        four-bar 147, cross flexures 497, and the twin cross flexures of
+        tests/test_continuation.py took 85-118 iterations in small steps (2D at 0.5 rad failed);
+        now one step of 8-13. Reusing the converged tangent for the first
         corrector from the predicted state was measured and dropped (3x the iterations on the
         manipulator: its stiff elements' forces change too much between the states), as were a
         contraction-rate rejection (+20 %), a line search on the corrector's energy (four-bar:
@@ -315,16 +328,17 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
         prev = first = np.inf
         floor = accepted = physical = False
         stalled = deviation = None
+        moving = bool(np.any(du_p != 0.0))  # the reference stresses serve steps of prescribed motion only
         accept_rtol = rtol if not adaptive or target >= 1.0 - 1e-14 else max(rtol, INTERMEDIATE_RTOL)
         for it in range(1 if extrapolate else 0, max_iter + 1):
             t = time.perf_counter()
             geometric = first_geometric_stress
-            if geometric is None and adaptive and it > 0 and not physical and reference is not None:
+            if geometric is None and adaptive and moving and it > 0 and not physical and reference is not None:
                 geometric = reference  # held: the stresses themselves, not the iterate's
             r, Kff, Kfp, sigma = problem.evaluate(trial, target, tangent=True, geometric_stress=geometric)
             first_geometric_stress = None
-            if reference is None:
-                reference = sigma
+            if reference is None:  # the start state's: its own, or those given for its first tangent
+                reference = sigma if geometric is None else geometric(sigma.copy())
             times["assemble"] += time.perf_counter() - t
             rf = r[free]
             if it == 0:

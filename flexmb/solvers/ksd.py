@@ -74,6 +74,20 @@ def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool, reached
 
 
 def _check_reachable(red: ReducedMechanism) -> None:
+    """`_reachable`, decided once per set-up (it depends on the mechanism alone)."""
+    verdict = getattr(red, "_reachable", None)
+    if verdict is None:
+        try:
+            _reachable(red)
+            verdict = ""
+        except DatabaseError as exc:
+            verdict = str(exc)
+        red._reachable = verdict
+    if verdict:
+        raise DatabaseError(verdict)
+
+
+def _reachable(red: ReducedMechanism) -> None:
     """Refuse (`DatabaseError`) a prescribed rotation component larger than the trained ranges of
     all joints together plus a full turn: no joint rotations within their ranges reach it, and
     step 1 would grind through thousands of load steps first (a prescribed 1e300 rad: minutes).
@@ -320,7 +334,7 @@ class _KSD:
     def _internal(self, red, poses, eobs, p_hat, R_hat, multipliers=None, hinge_angles=None):
         """Step 4: internal nodes of every joint from its interface displacement (Eq. 2.6). Returns
         the full model's `State` and, per group of joints, the node displacements (Jg, N nd) from
-        the EOBs' near poses."""
+        the EOBs' near poses (KSD-full only; empty for KSD-reduced)."""
         dim = red.dim
         emb = ACTIVE[dim]
         nd = len(emb)
@@ -330,7 +344,8 @@ class _KSD:
         for (tpl, _, idx), e in zip(red.groups, eobs):
             n_int = tpl.n_nodes - 2
             xi = -(np.einsum("jab,jb->ja", e.recover[:, :, :nd], xi_B[idx]) + e.recover[:, :, nd])
-            q_nodes.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
+            if self.full:  # step 5's first geometric stiffness needs them (`_eob_axial`)
+                q_nodes.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
             xi = xi.reshape(len(idx), n_int, nd)
             x = e.node_position[:, 2:] + xi[..., :dim]
             if dim == 2:

@@ -169,7 +169,8 @@ def _train(args) -> int:
                           f"your own (default: {database.user_path()}, or set {database.store.ENVIRONMENT})")
     params = dict(_parse_params(args.param))
     range_deg = None if args.range is None else (-args.range, args.range)
-    for dim in args.dim:
+    dims = args.dim or [d for d in (2, 3) if d in make_joint(args.kind, **params).dims]  # a spatial joint: 3D
+    for dim in dims:
         for n in args.elements or _shipped_meshes(args.kind, params, dim):
             j = make_joint(args.kind, elements_per_leaf=n, **params)
             data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
@@ -408,7 +409,8 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(func=_demo)
     p = sub.add_parser("train", help="(re)train a joint database from the joint's finite-element model")
     p.add_argument("kind", nargs="?", default="cross_flexure", help="joint kind (default: cross_flexure)")
-    p.add_argument("--dim", type=int, nargs="+", default=[2, 3], choices=(2, 3))
+    p.add_argument("--dim", type=int, nargs="+", default=None, choices=(2, 3),
+                   help="2, 3 or both (default: those the joint supports; three_x_infinity: 3)")
     p.add_argument("--elements", type=_positive_int, nargs="+", default=None,
                    help="elements per leaf, at least 1 (default: the meshes shipped for this joint and "
                         "parameters, and the joint's own default mesh: 1 2 3 4 5 10 for cross_flexure)")

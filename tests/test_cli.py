@@ -338,3 +338,12 @@ def test_train_by_default_reproduces_the_shipped_cross_flexure_databases(tmp_pat
             a, b = (new.function(fit), old.function(fit)) if fit in old.functions else \
                 (getattr(new, fit), getattr(old, fit))
             np.testing.assert_allclose(a.coefficients, b.coefficients, rtol=0, atol=1e-10, err_msg=f"{name} {fit}")
+
+
+def test_train_a_spatial_joint_by_default_in_3d_only(tmp_path, capsys):
+    """``flexmb train three_x_infinity`` failed at once ("dim=2 must be 3": the default ``--dim``
+    was 2 and 3 for every joint); now the joint's own dimensions and meshes: the shipped 3 and
+    its default 12 el./leaf."""
+    assert cli.main(["train", "three_x_infinity", "--range", "5", "--step", "5", "--out", str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        f"three_x_infinity-3d-angle0.785398-elements_per_leaf{n}-length_ratio0.625-stages3.json" for n in (12, 3)]

@@ -192,8 +192,8 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
                 message, stopped_by = event[1], "failure"
                 if len(points) == 1:  # not even the first step: say where its size came from
                     message += (f"; the first step's load-factor increment {ds0:.3g} is "
-                                f"{'max_load_factor / 20' if arc_length is None else 'arc_length'}: a smaller "
-                                "arc_length (or max_load_factor) may start the path")
+                                f"{'max_load_factor / 20' if arc_length is None else 'arc_length'}: another "
+                                "arc_length (smaller, or larger than roundoff) may start the path")
                 break
             if event[0] == "critical":
                 _, kind, p = event

@@ -76,9 +76,12 @@ class SectionTable:
     density: np.ndarray
     yield_stress: np.ndarray
     circle: np.ndarray
+    yield_given: np.ndarray  # whether each section gives a yield stress
     length: np.ndarray
     has_y: bool  # every section gives ymax
     has_z: bool  # every section gives zmax
+    #: ((section, element indices), ...): the elements whose sections `perimeter_peaks` reads alike
+    stress_groups: tuple = ()
 
 
 _TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -98,14 +101,18 @@ def section_table(elements) -> SectionTable:
     fibre = [(getattr(s, "ymax", None), getattr(s, "zmax", None)) for s in sections]
     y = np.array([np.nan if a is None else a for a, _ in fibre], dtype=float)
     z = np.array([np.nan if b is None else b for _, b in fibre], dtype=float)
-    ys = np.array([np.inf if getattr(s, "yield_stress", None) is None else s.yield_stress for s in sections],
-                  dtype=float)
+    given = np.array([getattr(s, "yield_stress", None) is not None for s in sections], dtype=bool)
+    ys = np.array([s.yield_stress if g else np.inf for s, g in zip(sections, given)], dtype=float)
     owner = np.asarray(elements.owner)
     total = np.bincount(owner, weights=elements.L0, minlength=int(owner.max(initial=-1)) + 1)
-    table = SectionTable(E=E, A=A, Iy=Iy, Iz=Iz, ymax=y, zmax=z, density=rho, yield_stress=ys,
+    groups = {}
+    for i, s in enumerate(sections):
+        groups.setdefault(_stress_key(s), (s, []))[1].append(i)
+    table = SectionTable(E=E, A=A, Iy=Iy, Iz=Iz, ymax=y, zmax=z, density=rho, yield_stress=ys, yield_given=given,
                          circle=np.array([getattr(s, "shape", None) == "circle" for s in sections], dtype=bool),
                          length=total[owner], has_y=all(a is not None for a, _ in fibre),
-                         has_z=all(b is not None for _, b in fibre))
+                         has_z=all(b is not None for _, b in fibre),
+                         stress_groups=tuple((s, np.array(idx, dtype=np.int64)) for s, idx in groups.values()))
     for a in attrs.astuple(table, recurse=False):
         if isinstance(a, np.ndarray):
             a.flags.writeable = False
@@ -257,10 +264,12 @@ def _fields(pts, r, idx=None):
     yz, tT, tVy, tVz = pts
     if idx is not None:
         yz, tT, tVy, tVz = yz[idx], tT[idx], tVy[idx], tVz[idx]  # (m, k, 2)
-    N, Vy, Vz, T, My, Mz, A, Iy, Iz = r
-    sx = N[:, None] / A + My[:, None] * (yz[..., 1] / Iy) - Mz[:, None] * (yz[..., 0] / Iz)
-    tau = T[:, None, None] * tT + Vy[:, None, None] * tVy + Vz[:, None, None] * tVz
-    return sx, np.sum(tau**2, axis=-1)
+    N, Vy, Vz, T, My, Mz, A, Iy, Iz = (x[:, None] if isinstance(x, np.ndarray) else x for x in r)
+    sx = N / A + My * (yz[..., 1] / Iy) - Mz * (yz[..., 0] / Iz)
+    # per component, not a trailing axis of 2 (numpy's reductions over it are slow): the same sums
+    t0 = T * tT[..., 0] + Vy * tVy[..., 0] + Vz * tVz[..., 0]
+    t1 = T * tT[..., 1] + Vy * tVy[..., 1] + Vz * tVz[..., 1]
+    return sx, t0 * t0 + t1 * t1
 
 
 def perimeter_peaks(section, resultants):
@@ -282,7 +291,7 @@ def perimeter_peaks(section, resultants):
         N, Vy, Vz, T, My, Mz = r.T
     r = (N, Vy, Vz, T, My, Mz, section.A, section.Iy, section.Iz)
     P, step = len(pts[0]), COARSE_STEP
-    sx, t2 = _fields(pts, r, np.broadcast_to(np.arange(0, P, step), (len(N), P // step)))
+    sx, t2 = _fields(tuple(a[::step] for a in pts), r)  # the coarse points, shared by every row
     window = np.arange(-step, step + 1)
     out = []
     for value in (np.abs(sx), t2, sx**2 + 3.0 * t2):
@@ -361,6 +370,18 @@ def _factor(owner, name, value) -> float:
     return x
 
 
+def _stress_key(section):
+    """What `perimeter_peaks` reads of a section (its shape, extreme fibres, A, It, Iy, Iz): sections
+    equal in these share one perimeter search, the same numbers per element. The manipulator's 9
+    joints' 81 sections are 2 such values. A section without a shape, or
+    whose values are not plain numbers, keeps its own group (by identity)."""
+    try:
+        key = (section.shape,) + tuple(float(getattr(section, k)) for k in ("ymax", "zmax", "A", "It", "Iy", "Iz"))
+    except (AttributeError, TypeError, ValueError):
+        return id(section)
+    return key if section.shape is not None and type(section).__name__ == "Section" else id(section)
+
+
 def element_stresses(model, state, joints: dict, concentration=None, limit=None, axial=None) -> Stresses:
     """Peak normal, shear and von Mises stresses [Pa] of every element (module notes), times a
     stress-concentration factor ``concentration`` (one number for all, or ``{joint: factor}``,
@@ -381,18 +402,14 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None,
     res = section_resultants(model, state, axial)  # (E, 2, k)
     nE = len(el.L0)
     normal, shear, vm = np.zeros(nE), np.zeros(nE), np.zeros(nE)
-    groups = {}
-    for i, s in enumerate(el.sections):
-        groups.setdefault(id(s), (s, []))[1].append(i)
-    for s, idx in groups.values():
-        idx = np.asarray(idx)
+    tab = section_table(el)
+    for s, idx in tab.stress_groups:
         normal[idx], shear[idx], vm[idx] = perimeter_peaks(s, res[idx])
     normal, shear, vm = kt * normal, kt * shear, kt * vm
     if limit is not None:
         lims = np.full(nE, lim)
     else:
-        lims = np.array([np.nan if getattr(s, "yield_stress", None) is None else s.yield_stress for s in el.sections],
-                        dtype=float)
+        lims = np.where(tab.yield_given, tab.yield_stress, np.nan)
     safety = None
     if not np.all(np.isnan(lims)):
         with np.errstate(divide="ignore", invalid="ignore"):

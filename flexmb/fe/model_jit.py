@@ -8,6 +8,10 @@ slots): ``x_point = x_master + R_master s``; forces ``[f, m + d x f]``; tangents
 [0, 0, 1]]``) plus the offset's block ``d f^T - (d.f) I`` (2D: ``-(d.f)``) on the master's
 rotation. Ends without offset skip the transfer (``T = I``, the block vanishes).
 tests/test_kernels.py holds both paths equal to 1e-12.
+
+numba's on-disk cache tracks this file only: after editing `beam2d_jit` / `beam3d_jit`, whose
+element loops these functions inline, delete this module's cache files (``__pycache__/model_jit*.nb*``)
+or touch this file, or the assembly keeps the old element (an installed release rewrites all files).
 """
 
 from __future__ import annotations

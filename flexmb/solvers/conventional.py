@@ -338,7 +338,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
             r, Kff, Kfp, sigma = problem.evaluate(trial, target, tangent=True, geometric_stress=geometric)
             first_geometric_stress = None
             if reference is None:  # the start state's: its own, or those given for its first tangent
-                reference = sigma if geometric is None else geometric(sigma.copy())
+                reference = sigma if geometric is None else (geometric(sigma.copy()) if callable(geometric)
+                                                             else np.array(geometric))
             times["assemble"] += time.perf_counter() - t
             rf = r[free]
             if it == 0:

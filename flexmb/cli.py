@@ -24,6 +24,7 @@ import inspect
 import json
 import math
 import os
+import re
 import runpy
 import subprocess
 import sys
@@ -99,7 +100,9 @@ def _demo_manipulator(quick: bool) -> list:
     from .studies import manipulator as mc
 
     degrees = (-45, 0, 45) if quick else (-45, -30, -15, 0, 15, 30, 45)
-    rows = mc.study(degrees, cases=("joint",), repeats=1)
+    # medians of 5 interleaved solves: since the continuation (issue 19) a solve takes 2-50 ms, and
+    # single timings on a busy machine swung the printed KSD ratios 0.3-25x between positions
+    rows = mc.study(degrees, cases=("joint",), repeats=3 if quick else 5, clock="cpu")
     _speed_table("Manipulator of three three_x_infinity joints, Dwarshuis et al. (2020) Sec. 4.4, joint case",
                  rows, "rotation", "deg")
     return rows
@@ -109,7 +112,7 @@ def _demo_fourbar(quick: bool) -> list:
     """The four-bar of Dwarshuis et al. (2020), Sec. 4.3: conventional method against KSD (Fig. 11)."""
     from .studies import fourbar as fc
 
-    rows = fc.speed_study((1, 3) if quick else (1, 3, 5), repeats=1 if quick else 3)
+    rows = fc.speed_study((1, 3) if quick else (1, 3, 5), repeats=3 if quick else 5, clock="cpu")
     _speed_table("Four-bar of four cross flexures, Dwarshuis et al. (2020) Sec. 4.3, d = 0.3 m: conventional vs KSD",
                  rows, "elements_per_leaf", "el./leaf", force=True)
     return rows
@@ -117,10 +120,11 @@ def _demo_fourbar(quick: bool) -> list:
 
 def _speed_table(title: str, rows: list, key: str, label: str, force: bool = False) -> None:
     """Print conventional-vs-KSD rows: the ``key`` column headed ``label``, the method, the
-    actuation force [N] if ``force``, iterations, wall time and speed-up."""
+    actuation force [N] if ``force``, iterations, CPU time (medians of interleaved solves: the
+    same on a busy machine as on an idle one, where it equals the wall time) and speed-up."""
     print(f"\n{title}")
     print(f"{label:>8s} {'method':>13s}" + (f" {'F [N]':>10s}" if force else "")
-          + f" {'iterations':>11s} {'time [ms]':>10s} {'speed-up':>9s}")
+          + f" {'iterations':>11s} {'CPU [ms]':>10s} {'speed-up':>9s}")
     for r in rows:
         print(f"{r[key]:8d} {r['method']:>13s}" + (f" {r['force']:10.4f}" if force else "")
               + f" {r['iterations']:11d} {r['time'] * 1e3:10.1f} {r['speedup']:8.1f}x")
@@ -168,8 +172,9 @@ def _train(args) -> int:
                           f"your own (default: {database.user_path()}, or set {database.store.ENVIRONMENT})")
     params = dict(_parse_params(args.param))
     range_deg = None if args.range is None else (-args.range, args.range)
-    for dim in args.dim:
-        for n in args.elements:
+    dims = args.dim or [d for d in (2, 3) if d in make_joint(args.kind, **params).dims]  # a spatial joint: 3D
+    for dim in dims:
+        for n in args.elements or _shipped_meshes(args.kind, params, dim):
             j = make_joint(args.kind, elements_per_leaf=n, **params)
             data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
             name = database.file_name(j.kind, dim, data.key)
@@ -181,6 +186,23 @@ def _train(args) -> int:
                 print(f"  (for KSD this file takes precedence over the shipped data of the same joint when found "
                       f"first; search order: {', '.join(map(str, database.search_path(out)))}; delete it to go back)")
     return 0
+
+
+def _shipped_meshes(kind: str, params: dict, dim: int) -> list[int]:
+    """`flexmb train`'s default ``--elements``: the meshes shipped for this joint (these
+    parameters, ``dim``) and the joint's own default mesh, so that training reproduces what
+    ships (cross flexure: 1-5 and 10 el./leaf, 10 its default since the finer mesh)."""
+    from . import database
+    from .registry import joint as make_joint
+
+    j = make_joint(kind, **params)
+    key = j.database_key()
+    meshes = {int(key["elements_per_leaf"])}
+    for path in database.data_path().glob(f"{kind}-{dim}d-*.json"):
+        found = re.search(r"-elements_per_leaf(\d+)", path.name)
+        if found and path.name == database.file_name(kind, dim, {**key, "elements_per_leaf": int(found[1])}):
+            meshes.add(int(found[1]))
+    return sorted(meshes)
 
 
 class _UsageError(FlexmbError):
@@ -390,9 +412,11 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(func=_demo)
     p = sub.add_parser("train", help="(re)train a joint database from the joint's finite-element model")
     p.add_argument("kind", nargs="?", default="cross_flexure", help="joint kind (default: cross_flexure)")
-    p.add_argument("--dim", type=int, nargs="+", default=[2, 3], choices=(2, 3))
-    p.add_argument("--elements", type=_positive_int, nargs="+", default=[1, 2, 3, 4, 5],
-                   help="elements per leaf, at least 1")
+    p.add_argument("--dim", type=int, nargs="+", default=None, choices=(2, 3),
+                   help="2, 3 or both (default: those the joint supports; three_x_infinity: 3)")
+    p.add_argument("--elements", type=_positive_int, nargs="+", default=None,
+                   help="elements per leaf, at least 1 (default: the meshes shipped for this joint and "
+                        "parameters, and the joint's own default mesh: 1 2 3 4 5 10 for cross_flexure)")
     p.add_argument("--range", type=_angle(180.0), default=None,
                    help="intended rotation range +- [deg], in (0, 180] (default: the joint's own, 75 for "
                         "cross_flexure)")

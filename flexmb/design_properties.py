@@ -14,7 +14,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from .errors import FlexmbError, ModelError, ParameterError
+import warnings
+
+from .errors import FlexmbError, ModelError, ParameterError, UnsupportedStrategyError
 from .linearised import buckling, compliance
 from .modal import modes
 from .table import Table
@@ -105,7 +107,10 @@ def properties(solutions, which=("modes", "buckling", "stress"), *, n_modes: int
     first converged solution is evaluated strictly: bad arguments raise there. A later one whose
     property fails numerically (e.g. a singular tangent at a bifurcation) gets NaN for that
     property and the reason in the text column ``property_errors`` (only present then), so one
-    failure never discards the other rows.
+    failure never discards the other rows. A property the solutions' strategy does not offer
+    (buckling of a KSD-reduced solution: `flexmb.buckling`) gets NaN and its reason in
+    ``property_errors`` on every converged row, with a warning, so the default ``which`` (or a
+    sweep's ``properties=``) still returns every property the strategy has.
 
     The properties are those of the solutions' mesh: `flexmb.discretisation_error(mechanism,
     which)` estimates their discretisation error (Richardson from meshes refined by 2 and 4).
@@ -145,27 +150,50 @@ def property_columns(solutions, which=("modes", "buckling", "stress"), *, n_mode
     entries = _entries(compliance_entries, sols[0].compiled, sols[0].dim) if "compliance" in which else []
     args = (which, n_modes, held, n_buckling, entries, axes, concentration, limit)
     rows, errors = [], [""] * len(sols)
+    first_row, unsupported = {}, {}
+    for name in [n for n in PROPERTIES if n in which] if first is not None else ():  # strict: bad arguments raise
+        try:
+            first_row.update(_row(first, (name,), *args[1:]))
+        except UnsupportedStrategyError as exc:  # what the strategy lacks is left out, not the rest
+            unsupported[name] = f"{name}: {exc}"
+    if unsupported:
+        warnings.warn(f"properties: NaN for {', '.join(unsupported)} of {first.method} solutions (reason in the "
+                      "column property_errors): " + "; ".join(unsupported.values()), UserWarning, stacklevel=3)
+    args = (tuple(n for n in which if n not in unsupported),) + args[1:]
     for k, sol in enumerate(sols):
         if not sol.converged:
             rows.append({})
             continue
+        errors[k] = "; ".join(unsupported.values())
         if sol is first:
-            rows.append(_row(sol, *args))  # strict: bad arguments raise here
+            rows.append(first_row)
             continue
         try:
             rows.append(_row(sol, *args))
         except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError):
             rows.append(_partial(sol, args, errors, k))
-    names = list(dict.fromkeys(n for r in rows for n in r))
+    names = list(dict.fromkeys([n for r in rows for n in r] + [n for u in unsupported for n in _names(u, args)]))
     cols = {n: np.array([r.get(n, np.nan) for r in rows], dtype=float) for n in names}
     if any(errors):
         cols["property_errors"] = np.array(errors, dtype=object)
     return cols
 
 
+def _names(name, args) -> list:
+    """The columns property ``name`` would have (`properties`), for a property left out."""
+    n_modes, n_buckling, entries, limit = args[1], args[3], args[4], args[7]
+    if name == "modes":
+        return [f"f{k + 1}" for k in range(n_modes)]
+    if name == "buckling":
+        return ["buckling"] if n_buckling == 1 else [f"buckling{k + 1}" for k in range(n_buckling)]
+    if name == "compliance":
+        return [e[0] for e in entries]
+    return ["normal", "shear", "von_mises"] + (["safety"] if limit is not None else [])
+
+
 def _partial(sol, args, errors, k) -> dict:
     """The properties of one solution one by one, recording each failure."""
-    out, msgs = {}, []
+    out, msgs = {}, [errors[k]] if errors[k] else []
     which, rest = args[0], args[1:]
     for name in which:
         try:

@@ -23,6 +23,11 @@ from .table import Table
 
 __all__ = ["trace", "Path", "Critical"]
 
+#: Largest first arc-length step of `trace` (its load-factor increment): the constraint squares
+#: the step, and 1e150**2 = 1e300 is near the float range's end (1.8e308); a first step of
+#: max_load_factor=1e300 / 20 overflowed there and stopped "at load factor 0" without saying why.
+MAX_FIRST_STEP = 1e150
+
 
 @attrs.frozen(eq=False)
 class Critical:
@@ -143,6 +148,12 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         if max_load_factor == 0.0:
             raise ParameterError(f"{owner}: max_load_factor=0 is the start; give a non-zero load factor or None")
     ds0 = (0.05 * abs(max_load_factor or 1.0)) if arc_length is None else v.positive(owner, "arc_length", arc_length)
+    if ds0 > MAX_FIRST_STEP:  # the arc-length constraint squares the step: 1e154**2 overflows a float
+        given = f"arc_length={arc_length!r}" if arc_length is not None else \
+            f"max_load_factor={max_load_factor!r} (first step max_load_factor / 20 = {ds0:.3g})"
+        raise ParameterError(f"{owner}: {given}: the first step's load-factor increment must be at most "
+                             f"{MAX_FIRST_STEP:g} (its square enters the arc-length constraint); give a smaller "
+                             "max_load_factor or arc_length (scale the reference loads instead)")
     if progress is not None:
         v.flag(owner, "progress", progress)
     if stop is not None and not callable(stop):
@@ -179,6 +190,10 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         for event in strategy.follow(problem, metric, first, ds0):
             if event[0] == "stuck":
                 message, stopped_by = event[1], "failure"
+                if len(points) == 1:  # not even the first step: say where its size came from
+                    message += (f"; the first step's load-factor increment {ds0:.3g} is "
+                                f"{'max_load_factor / 20' if arc_length is None else 'arc_length'}: another "
+                                "arc_length (smaller, or larger than roundoff) may start the path")
                 break
             if event[0] == "critical":
                 _, kind, p = event

@@ -315,3 +315,35 @@ def test_run_prints_the_message_of_sys_exit(tmp_path, capsys):
     assert capsys.readouterr().err == "the load case is missing\n"
     script.write_text("import sys\nsys.exit()\n")
     assert cli.main(["run", str(script)]) == 0
+
+
+def test_train_by_default_reproduces_the_shipped_cross_flexure_databases(tmp_path, capsys):
+    """``flexmb train`` trains the shipped meshes, 1-5 and the joint's default 10 el./leaf (its
+    default ``--elements 1..5`` missed the 10 el./leaf files the joint now looks up), in 2D and
+    3D; the fits equal the shipped ones to the training solves' convergence (measured: largest
+    coefficient difference 3.6e-11, the 10 el./leaf node angles; each fit's own residual is
+    ~1e-4, so 1e-10 is a millionth of it)."""
+    import flexmb
+    from flexmb import database
+
+    assert cli._shipped_meshes("cross_flexure", {}, 3) == [1, 2, 3, 4, 5, 10]
+    assert cli._shipped_meshes("cross_flexure", {"angle": 0.6}, 2) == [10]  # nothing shipped: the default mesh
+    assert flexmb.CrossFlexure().elements_per_leaf == 10
+    assert cli.main(["train", "--out", str(tmp_path)]) == 0
+    shipped = sorted(p.name for p in database.data_path().glob("cross_flexure-*.json"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == shipped and len(shipped) == 12
+    for name in shipped:
+        new, old = database.load(tmp_path / name), database.load(database.data_path() / name)
+        for fit in [*old.functions, "elements", "nodes"]:
+            a, b = (new.function(fit), old.function(fit)) if fit in old.functions else \
+                (getattr(new, fit), getattr(old, fit))
+            np.testing.assert_allclose(a.coefficients, b.coefficients, rtol=0, atol=1e-10, err_msg=f"{name} {fit}")
+
+
+def test_train_a_spatial_joint_by_default_in_3d_only(tmp_path, capsys):
+    """``flexmb train three_x_infinity`` failed at once ("dim=2 must be 3": the default ``--dim``
+    was 2 and 3 for every joint); now the joint's own dimensions and meshes: the shipped 3 and
+    its default 12 el./leaf."""
+    assert cli.main(["train", "three_x_infinity", "--range", "5", "--step", "5", "--out", str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        f"three_x_infinity-3d-angle0.785398-elements_per_leaf{n}-length_ratio0.625-stages3.json" for n in (12, 3)]

@@ -56,20 +56,37 @@ def test_suite_rejects_a_tangent_with_one_wrong_sign(monkeypatch):
 
 def test_suite_rejects_a_frame_dependent_wrench(monkeypatch):
     """A mutant element that adds a force along the global x axis proportional to its elongation
-    (a term written in global instead of co-rotated axes): not frame invariant."""
+    (a term written in global instead of co-rotated axes): not frame invariant.
+
+    Why 3 el./leaf: the mutant's force is 1e3 N/m x one element's elongation, and the elements'
+    elongations shrink with the mesh, so the term vanishes with refinement (measured at the kit's
+    load, 3D cross flexure moved to (0.2, -0.1, 0.3) and turned (0.3, 1.0, -0.4)): spurious force
+    1.1e-5 / 6.6e-6 / 3.3e-6 / 1.7e-6 N and reaction error 2.9e-7 / 1.7e-7 / 8.4e-8 / 4.2e-8 of the
+    wrench scale (reactions ~0.4 N, 2.7 N m) at 3 / 5 / 10 / 20 el./leaf; a change to the answer of
+    1e-6 of the joint's forces, below the kit's solve tolerance (1e-7). The kit's allowance is 1e-7
+    plus 10x the residual's roundoff floor, which grows with the elements' stiffness: 1.8e-7 /
+    2.3e-7 / 3.6e-7 / 6.3e-7 (the sound element's error: 1.2e-9 at 3, 2.7e-9 at 10 el./leaf). At
+    the default 10 el./leaf the kit rejects the same term 10x stronger (1e4 N/m: 8.4e-7)."""
     from flexmb.fe import beam3d
 
-    def global_term(F, K, e, sig, args):
-        F = F.copy()
-        F[:, 0] += 1e3 * e[:, 0]
-        F[:, 6] -= 1e3 * e[:, 0]
-        return F, K, e, sig
+    def global_term(scale):
+        def change(F, K, e, sig, args):
+            F = F.copy()
+            F[:, 0] += scale * e[:, 0]
+            F[:, 6] -= scale * e[:, 0]
+            return F, K, e, sig
+        return change
 
-    cross = flexmb.joint("cross_flexure", elements_per_leaf=3)  # at 10 el./leaf the mutant's force is too small to see
-    testing.check_frame_invariance(cross, 3, np.array([0.2, -0.1, 0.3]), np.array([0.3, 1.0, -0.4]))
-    _mutate(monkeypatch, beam3d, global_term)
-    with pytest.raises(AssertionError, match="frame invariant"):
-        testing.check_frame_invariance(cross, 3, np.array([0.2, -0.1, 0.3]), np.array([0.3, 1.0, -0.4]))
+    place = (np.array([0.2, -0.1, 0.3]), np.array([0.3, 1.0, -0.4]))
+    coarse, default = flexmb.joint("cross_flexure", elements_per_leaf=3), flexmb.joint("cross_flexure")
+    assert default.elements_per_leaf == 10
+    for joint in (coarse, default):
+        testing.check_frame_invariance(joint, 3, *place)
+    for joint, scale in ((coarse, 1e3), (default, 1e4)):
+        with monkeypatch.context() as patch:
+            _mutate(patch, beam3d, global_term(scale))
+            with pytest.raises(AssertionError, match="frame invariant"):
+                testing.check_frame_invariance(joint, 3, *place)
 
 
 def test_suite_rejects_an_asymmetric_joint_stiffness(monkeypatch):

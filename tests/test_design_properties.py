@@ -215,3 +215,35 @@ def test_properties_of_a_traced_path():
     before = (t["load_factor"] > 0) & (t["load_factor"] < critical)
     assert before.sum() >= 2
     np.testing.assert_allclose(t["buckling"][before] * t["load_factor"][before], critical, rtol=1e-3)
+
+
+def test_default_properties_of_a_ksd_reduced_solution_keep_all_it_has():
+    """KSD-reduced has no buckling (`flexmb.buckling` refuses it): the default ``which`` still
+    returns the modes and stresses, the buckling column is NaN with the reason in
+    ``property_errors`` (the manipulator of Dwarshuis et al. 2020, Sec. 4.4, turned 30 deg)."""
+    sol = flexmb.solve(flexmb.models.manipulator("joint", np.radians(30.0)), method="ksd-reduced")
+    assert sol.converged
+    with pytest.warns(UserWarning, match="NaN for buckling of ksd-reduced"):
+        t = flexmb.properties([sol], n_modes=2)
+    np.testing.assert_array_equal([t["f1"][0], t["f2"][0]], flexmb.modes(sol, n=2).frequencies)
+    assert t["von_mises"][0] == sol.stresses().von_mises.max() > 0.0
+    assert np.isnan(t["buckling"][0])
+    assert t["property_errors"][0].startswith("buckling: ") and "method='ksd-full'" in t["property_errors"][0]
+    with pytest.raises(flexmb.UnsupportedStrategyError):  # the function itself still refuses
+        flexmb.buckling(sol)
+
+
+def test_a_ksd_reduced_sweep_with_properties_keeps_its_rows():
+    """``sweep(..., properties=)`` on KSD-reduced (the Table 1 pivot turned 0..30 deg, buckling
+    asked for explicitly): every row has its frequencies, buckling NaN with the reason."""
+    zeros = np.zeros_like(ANGLES)
+    with pytest.warns(UserWarning, match="NaN for buckling"):
+        res = flexmb.sweep(_pivot(), np.column_stack([zeros, zeros, ANGLES]), motion=("B", "rotation"),
+                           method="ksd-reduced", properties={"which": ("modes", "buckling"), "n_modes": 2,
+                                                            "held": [("B", "rz")], "n_buckling": 2})
+    t = res.table()
+    assert all(res.table()["converged"])
+    for k, sol in enumerate(res):
+        assert t["f1"][k] == flexmb.modes(sol, n=2, held=[("B", "rz")]).frequencies[0]
+    assert np.isnan(t["buckling1"]).all() and np.isnan(t["buckling2"]).all()
+    assert all(e.startswith("buckling: buckling need the full FE equilibrium") for e in t["property_errors"])

@@ -458,6 +458,32 @@ def test_speed_study_reports_single_and_steady_ratios_from_one_run():
         assert r["speedup_steady"] == conv["time_steady"] / r["time_steady"]
 
 
+def test_timing_on_the_cpu_clock_excludes_waiting_for_a_core():
+    """`flexmb demo` times on the process's CPU clock (flexmb.studies._timing): a solve's CPU time
+    is not inflated by waits for a core, so a sleeping "solve" costs nothing on it but its wall time."""
+    import time
+
+    from flexmb.studies import _timing
+
+    calls = []
+
+    def sleepy_solve(mechanism, method, raise_on_failure):
+        calls.append(method)
+        time.sleep(0.02)
+        return method
+
+    original = _timing.solve
+    try:
+        _timing.solve = sleepy_solve
+        _, wall = _timing.interleaved(None, ("a",), 3)
+        _, cpu = _timing.interleaved(None, ("a",), 3, clock="cpu")
+    finally:
+        _timing.solve = original
+    assert wall["a"] >= 0.02 and cpu["a"] < 0.005 and calls == ["a"] * 6
+    with pytest.raises(flexmb.ParameterError, match="clock='gpu'; valid: wall, cpu"):
+        _timing.interleaved(None, ("a",), 1, clock="gpu")
+
+
 # -- the per-mechanism cache of the compiled model and KSD's set-up (issue 21 item 4) --------------
 
 def _fresh_answer(build, method):

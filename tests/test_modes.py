@@ -29,8 +29,9 @@ def _leaf_mechanism(dim, elements, section=None, length=1.0, width=0.01, thickne
     m = flexmb.Mechanism(dim=dim)
     m.add_link("g", position=origin, fixed=True)
     m.add_link("tip", position=origin + Q[:, 0] * length, mass=tip_mass, inertia=tip_inertia)
-    leaf = flexmb.joint("leaf_spring", length=length, width=width, thickness=thickness, elements=elements,
-                        density=density, section=section, **STEEL)
+    sizes = dict(width=width, thickness=thickness) if section is None else {}  # else the section's
+    leaf = flexmb.joint("leaf_spring", length=length, elements=elements, density=density, section=section,
+                        **sizes, **STEEL)
     rot = None if Q is None else (math.atan2(Q[1, 0], Q[0, 0]) if dim == 2 else Q)
     m.add_joint("g", "tip", leaf, name="leaf", origin=origin, rotation=rot)
     return m
@@ -780,3 +781,21 @@ def test_a_leaf_given_a_section_and_another_material_is_refused_naming_both():
         flexmb.LeafSpring(E=70e9, G=26e9, section=steel)
     flexmb.LeafSpring(section=steel)
     flexmb.LeafSpring(density=7800.0, E=200e9, section=steel)
+
+
+def test_a_leaf_given_a_section_and_other_sizes_is_refused_naming_both():
+    # issue 22: width/thickness beside a section were silently the section's; the same sizes as
+    # the section's rectangle (or the defaults) pass, any size beside a circle is refused
+    steel = flexmb.rectangle(0.01, 1e-4, **STEEL)
+    with pytest.raises(flexmb.ParameterError, match=r"width=0.03 \(section: 0.01\).*section's shape applies"):
+        flexmb.LeafSpring(width=0.03, section=steel)
+    with pytest.raises(flexmb.ParameterError, match=r"width=0.025 \(section: 0.01\), thickness=0.002 \(section: "):
+        flexmb.LeafSpring(width=0.025, thickness=2e-3, section=steel)
+    with pytest.raises(flexmb.ParameterError, match=r"thickness=0.0005 \(section: a circle section, A="):
+        flexmb.LeafSpring(thickness=5e-4, section=flexmb.circle(1e-3, **STEEL))
+    leaf = flexmb.LeafSpring(width=0.01, thickness=1e-4, section=steel)
+    assert leaf.cross_section() is steel
+    flexmb.LeafSpring(section=steel)
+    # the slenderness check reads the section's thickness: a 2 mm bar 1 mm long is refused
+    with pytest.raises(flexmb.ParameterError, match=r"thickness=0.002 m \(section\) must be < length=0.001 m"):
+        flexmb.LeafSpring(length=1e-3, section=flexmb.rectangle(0.01, 2e-3, **STEEL))

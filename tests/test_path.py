@@ -247,6 +247,13 @@ def test_a_mechanism_with_nothing_to_scale_is_refused():
     (dict(min_arc=10.0, max_arc=1.0), ParameterError, "min_arc=10.0 must be below max_arc"),  # was accepted
     (dict(progress="no"), ParameterError, "progress"),  # was taken as True
     (dict(rtol=1.0), ParameterError, r"rtol.*\(0, 1\)"),  # accepted every point as converged
+    # the first step max_load_factor / 20 = 5e298 overflowed the constraint's square and stopped
+    # "at load factor 0" without saying why (issue 19)
+    (dict(max_load_factor=1e300), ParameterError, r"max_load_factor=1e\+300 \(first step max_load_factor / 20 = "
+                                                   r"5e\+298\): .* at most 1e\+150"),
+    (dict(max_load_factor=-1e300), ParameterError, r"max_load_factor=-1e\+300"),
+    (dict(arc_length=1e200), ParameterError, r"arc_length=1e\+200: .* at most 1e\+150"),
+    (dict(max_load_factor=float("inf")), ParameterError, "max_load_factor"),
 ])
 def test_bad_arguments_raise_flexmb_errors(kwargs, error, match):
     with pytest.raises(error, match=match):
@@ -266,6 +273,19 @@ def test_a_path_that_cannot_continue_is_reported_with_its_points():
     path = flexmb.trace(cases.lee_frame(), steps=5, arc_length=1.0, max_rotation=1e-12, progress=False)
     assert path.stopped_by == "failure" and "cannot continue from load factor 0" in path.message
     assert len(path) == 1 and path[0].converged and path.load_factor[0] == 0.0
+
+
+def test_a_first_step_too_large_to_converge_is_named_in_the_stop_message():
+    """The von Mises truss (`flexmb.studies.paths.von_mises_truss`: limit load factor 0.40, its closed
+    form 4001.4 N of the 1e4 N reference load, as in the README) asked
+    for load factor 1e12: its first step 5e10 and every halving down to min_arc (1e-4) x it find no
+    equilibrium; the message names the step and where it came from (was: only "cannot continue
+    from load factor 0")."""
+    path = flexmb.trace(cases.von_mises_truss(), max_load_factor=1e12, progress=False)
+    assert path.stopped_by == "failure" and len(path) == 1
+    assert "cannot continue from load factor 0" in path.message
+    assert "the first step's 5e+10" in path.message
+    assert "first step's load-factor increment 5e+10 is max_load_factor / 20" in path.message
 
 
 def test_a_path_beyond_the_elastic_range_warns_as_solve_and_sweep_do():

@@ -19,7 +19,8 @@ L, T = 0.05, 0.5e-3  # a parallel leaf-spring guide: two 50 mm x 10 mm x 0.5 mm 
 
 
 def guide(**leaf):
-    spring = flexmb.LeafSpring(length=L, width=0.01, thickness=T, elements=8, **leaf)
+    sizes = {} if "section" in leaf else dict(width=0.01, thickness=T)  # else the section's
+    spring = flexmb.LeafSpring(length=L, elements=8, **sizes, **leaf)
     m = flexmb.Mechanism(dim=2)
     m.add_link("ground", fixed=True)
     m.add_link("stage", position=(0.0, L))

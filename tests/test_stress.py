@@ -20,8 +20,9 @@ def _cantilever(dim=3, force=None, moment=None, section=None, length=0.1, width=
     m.add_link("g", fixed=True)
     R = np.eye(dim) if rotation is None else flexmb.rotations.expm_so3(np.asarray(rotation))
     m.add_link("tip", position=length * R[:, 0])
-    m.add_joint("g", "tip", flexmb.joint("leaf_spring", length=length, width=width, thickness=thickness,
-                                         elements=elements, section=section, **STEEL), name="leaf",
+    sizes = dict(width=width, thickness=thickness) if section is None else {}  # else the section's
+    m.add_joint("g", "tip", flexmb.joint("leaf_spring", length=length, elements=elements, section=section, **sizes,
+                                         **STEEL), name="leaf",
                 rotation=rotation)
     if force is not None:
         m.apply_force("tip", R @ np.asarray(force, dtype=float))

@@ -46,8 +46,9 @@ class LeafSpring(Joint):
         Mass density [kg/m^3] (7800, steel), >= 0 (0: a massless leaf).
     section
         Optional `Section` that replaces the rectangle (e.g. to switch off shear with ``ky = kz = inf``);
-        its own material (``E``, ``G``, ``density``, ``yield_stress``) then applies: a different one
-        given here as well is refused (it would be ignored).
+        its own material (``E``, ``G``, ``density``, ``yield_stress``) and sizes then apply: a
+        different one given here as well (or a ``width``/``thickness`` beside a section that is no
+        rectangle) is refused (it would be ignored).
     model
         Wrench model of the planar closed form (``method="newton"``, see `ClosedForm`).
     """
@@ -79,12 +80,15 @@ class LeafSpring(Joint):
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
         v.nonnegative(owner, "density", self.density)
         v.modulus_units(owner, self.E, self.length)
-        if self.thickness >= self.length:
-            raise ParameterError(f"{owner}: thickness={self.thickness!r} m must be < length={self.length!r} m")
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
         if self.section is not None and not isinstance(self.section, Section):
             raise ParameterError(f"{owner}: section must be a flexmb.Section, got {type(self.section).__name__}")
-        if self.section is not None:  # the section's material applies: a different one given here is lost
+        thickness = self.thickness if self.section is None else \
+            None if self.section.ymax is None else 2 * self.section.ymax  # the section's, where it has one
+        if thickness is not None and thickness >= self.length:
+            raise ParameterError(f"{owner}: thickness={thickness!r} m{'' if self.section is None else ' (section)'} "
+                                 f"must be < length={self.length!r} m")
+        if self.section is not None:  # the section's material and shape apply: different ones given here are lost
             default = {f.name: f.default for f in attrs.fields(type(self))}
             clash = [f"{n}={getattr(self, n)!r} (section: {getattr(self.section, n)!r})"
                      for n in ("E", "G", "density", "yield_stress")
@@ -92,6 +96,15 @@ class LeafSpring(Joint):
             if clash:
                 raise ParameterError(f"{owner}: {', '.join(clash)}: the section's material applies; give it in the "
                                      "section (e.g. flexmb.rectangle(..., density=)) or leave it out here")
+            s = self.section  # a rectangle's half-sizes: ymax = thickness / 2, zmax = width / 2
+            sizes = {"width": 2 * s.zmax, "thickness": 2 * s.ymax} if s.shape == "rectangle" else {}
+            clash = [f"{n}={getattr(self, n)!r} (section: {sizes[n]!r})" if n in sizes else
+                     f"{n}={getattr(self, n)!r} (section: a {s.shape or 'general'} section, A={s.A!r})"
+                     for n in ("width", "thickness") if getattr(self, n) != default[n]
+                     and not (n in sizes and np.isclose(getattr(self, n), sizes[n], rtol=1e-12, atol=0.0))]
+            if clash:
+                raise ParameterError(f"{owner}: {', '.join(clash)}: the section's shape applies; give the sizes in "
+                                     "the section (flexmb.rectangle(width, thickness, ...)) or leave them out here")
         try:
             self.cross_section()  # overflow/underflow or inconsistent moduli raise here
         except ParameterError as exc:

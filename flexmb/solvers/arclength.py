@@ -358,7 +358,8 @@ class ArcLength:
                 ds *= 0.5
                 if ds < self.min_arc * ds0:
                     yield ("stuck", f"the path cannot continue from load factor {a.lam:.6g}: no equilibrium "
-                                    f"within arc length {2 * ds:.3g} (min_arc={self.min_arc:g} x the first step's)")
+                                    f"within arc length {2 * ds:.3g} (min_arc={self.min_arc:g} x the first step's "
+                                    f"{ds0:.3g})")
                     return
                 continue
             yield from self._critical(problem, metric, a, b, ds)

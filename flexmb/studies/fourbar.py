@@ -52,8 +52,10 @@ def moment_study(elements_per_leaf: int = 3, moments=np.linspace(-200.0, 200.0, 
     return out
 
 
-def speed_study(elements=(1, 2, 3, 4, 5), displacement: float = 0.3, repeats: int = 5) -> list[dict]:
-    """Fig. 11: per method and elements per leaf, iterations (KSD split by step), median wall time
+def speed_study(elements=(1, 2, 3, 4, 5), displacement: float = 0.3, repeats: int = 5,
+                clock: str = "wall") -> list[dict]:
+    """Fig. 11: per method and elements per leaf, iterations (KSD split by step), median ``clock``
+    time (``"wall"`` or ``"cpu"``, `flexmb.studies._timing.interleaved`)
     of ``repeats`` solves (joint templates cached after the first call, as in an optimisation
     loop) and the speed-up over the conventional method measured in the same run: ``time`` for
     single solves interleaved between the methods, ``time_steady`` for the steady state of
@@ -63,8 +65,8 @@ def speed_study(elements=(1, 2, 3, 4, 5), displacement: float = 0.3, repeats: in
         m = fourbar(n, displacement=displacement)
         for method in METHODS:
             solve(m, method=method)  # warm-up: builds and caches the joint mesh/EOB template
-        sols, times = interleaved(m, METHODS, repeats)
-        _, warm = interleaved(m, METHODS, repeats, consecutive=3)
+        sols, times = interleaved(m, METHODS, repeats, clock=clock)
+        _, warm = interleaved(m, METHODS, repeats, consecutive=3, clock=clock)
         for method in METHODS:
             s, t = sols[method], times[method]
             st = s.stages

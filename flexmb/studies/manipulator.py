@@ -46,8 +46,9 @@ def errors(case: str, reduced, reference) -> dict:
 
 
 def study(rotations_deg=tuple(range(-45, 46, 5)), cases=("joint", "location"), repeats: int = 3,
-          elements: int | None = None) -> list[dict]:
-    """Fig. 15: per case, position and method the Newton iterations, the median wall time of
+          elements: int | None = None, clock: str = "wall") -> list[dict]:
+    """Fig. 15: per case, position and method the Newton iterations, the median ``clock`` time
+    (`flexmb.studies._timing.interleaved`: ``"wall"`` or ``"cpu"``) of
     ``repeats`` solves (interleaved; garbage collection paused as timeit), the speed-up over the
     conventional method, and KSD-reduced's errors against the conventional solution."""
     rows = []
@@ -56,7 +57,7 @@ def study(rotations_deg=tuple(range(-45, 46, 5)), cases=("joint", "location"), r
             m = manipulator(case, np.radians(deg), elements=elements)
             for method in METHODS[1:]:
                 solve(m, method=method)  # warm-up: joint templates cached as in an optimisation loop
-            sols, times = interleaved(m, METHODS, repeats)
+            sols, times = interleaved(m, METHODS, repeats, clock=clock)
             base = times["conventional"]
             err = errors(case, sols["ksd-reduced"], sols["conventional"])
             for method in METHODS:

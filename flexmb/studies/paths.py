@@ -40,7 +40,7 @@ def polyline(m: Mechanism, points, section: Section, names) -> list[str]:
         d = points[k + 1] - points[k]
         L = float(np.hypot(*d))
         m.add_joint(names[k], names[k + 1], "leaf_spring", name=f"{names[k]}-{names[k + 1]}", length=L,
-                    thickness=L * 1e-3, width=L * 1e-3, elements=1, section=section,
+                    elements=1, section=section,
                     origin=points[k], rotation=math.atan2(d[1], d[0]))
     return list(names)
 

@@ -169,7 +169,9 @@ class _KSD:
         """Give ``compiled`` (``base`` with other prescribed values: a motion sweep's value) the
         set-up of ``base`` moved to its values (`ReducedMechanism.with_values`), built once on
         ``base``; nothing when ``compiled`` differs otherwise. The manipulator's location case
-        swept over 19 end-point positions (+-30 mm): 5.6 -> 2.1 ms per value (loaded host)."""
+        swept over 19 end-point positions (+-30 mm):
+        the set-up 0.53 -> 0.08 ms per value, the sweep 2.97 -> 2.60 ms per value (medians of 40
+        interleaved, load 2.5; step 1 from rest, ~12 constraint evaluations, is most of the rest)."""
         moved = reduced_mechanism(base, self.database).with_values(compiled)
         if moved is not None:
             compiled.derived[_setup_key(self.database)] = moved

@@ -253,7 +253,7 @@ def _wire_cross():
     m.add_link("A", fixed=True)
     m.add_link("B", position=(0.5 * c, c, 0.0))
     for name, x, angle, rho in (("rising", 0.0, np.pi / 4, 7800.0), ("falling", c, 3 * np.pi / 4, 7900.0)):
-        m.add_joint("A", "B", flexmb.joint("leaf_spring", length=L, width=1e-3, thickness=1e-3, elements=5,
+        m.add_joint("A", "B", flexmb.joint("leaf_spring", length=L, elements=5,
                                            section=circle(1e-3, density=rho, **STEEL)),
                     name=name, origin=(x, 0.0, 0.0), rotation=(0.0, 0.0, angle))
     m.prescribe("B", z=2e-4, rotation=(0.0, 0.0, 0.1))

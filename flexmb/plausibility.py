@@ -13,6 +13,7 @@ import numpy as np
 from .closed_form.problem import LinkageProblem
 from ._validate import hashable, modulus_units
 from .errors import ConvergenceWarning, ModelError, PlausibilityWarning
+from .fe.stress import peak_normal_stress, section_table
 from .rotations import rot2
 
 __all__ = ["check", "check_mass_units", "STRAIN_LIMIT", "SHORTENING_LIMIT", "WAVE_RATE_RANGE"]
@@ -54,8 +55,6 @@ def check(solution, *, stacklevel: int = 3) -> None:
 def _moduli(solution, model, stacklevel: int) -> None:
     """A modulus that looks like GPa with lengths in m (`flexmb._validate.modulus_units`), wherever
     it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here."""
-    from .fe.stress import section_table
-
     tab = section_table(model.elements)
     E, L = tab.E, tab.length
     bad = np.flatnonzero((E < 1e3) & (L < 1.0))
@@ -69,8 +68,6 @@ def check_mass_units(solution, model, stacklevel: int = 3) -> None:
     """Warn (`PlausibilityWarning`) where a section's density does not fit its modulus and its
     joint's length in one unit system (`WAVE_RATE_RANGE`): the modes would be off by orders of
     magnitude, the statics unaffected."""
-    from .fe.stress import section_table
-
     tab = section_table(model.elements)
     E, rho, length = tab.E, tab.density, tab.length
     massive = np.flatnonzero(rho > 0)
@@ -93,8 +90,6 @@ def check_mass_units(solution, model, stacklevel: int = 3) -> None:
 
 
 def _strains(solution, model, stacklevel: int) -> None:
-    from .fe.stress import peak_normal_stress, section_table
-
     _moduli(solution, model, stacklevel + 1)
     try:
         sigma = peak_normal_stress(model, solution.state)

@@ -279,3 +279,34 @@ def test_equal_sections_share_one_perimeter_search(case):
     for got, want in zip((s.normal, s.shear, s.von_mises), ref):
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-14 * want.max())
     assert s.shear.max() > 0
+
+
+def test_a_plugin_section_with_the_planar_beam_data_only():
+    """A plugin section object carrying only what a planar beam reads (E, G, A, Iz, ky): its
+    table has no Iy, no mass and no fibres (NaN, 0, `has_y` False), so the peak stress is refused
+    by name (the plausibility check then skips it) rather than failing on a missing attribute."""
+    import attrs
+
+    from flexmb.errors import ModelError
+    from flexmb.fe.model import BeamElements
+
+    @attrs.frozen
+    class Plain:
+        E: float = 200e9
+        G: float = 77e9
+        A: float = 1e-5
+        Iz: float = 1e-12
+        ky: float = 5.0 / 6.0
+
+    el = BeamElements(ends=np.array([[0, 1], [1, 2]]), L0=np.array([0.1, 0.1]), S=np.zeros((2, 3, 3)),
+                      sections=(Plain(), Plain()), owner=np.array([0, 0]))
+    table = fs.section_table(el)
+    assert np.all(np.isnan(table.Iy)) and np.all(table.density == 0.0) and not table.has_y
+    np.testing.assert_array_equal(table.length, [0.2, 0.2])  # one joint of two 0.1 m elements
+    assert fs.section_table(el) is table  # kept with the batch
+
+    class Model:
+        dim, elements = 2, el
+
+    with pytest.raises(ModelError, match="extreme-fibre distances"):
+        fs.peak_normal_stress(Model(), None)

@@ -98,7 +98,10 @@ def section_table(elements) -> SectionTable:
     except (KeyError, TypeError):
         pass
     sections = elements.sections
-    E, A, Iy, Iz, rho = properties(sections, ("E", "A", "Iy", "Iz", "density"))
+    E, A, Iz = properties(sections, ("E", "A", "Iz"))  # what every beam element reads
+    # a plugin section may lack the others (a planar one Iy; density, shape and fibres are optional)
+    Iy, rho = (np.array([getattr(s, k, default) for s in sections], dtype=float)
+               for k, default in (("Iy", np.nan), ("density", 0.0)))
     fibre = [(getattr(s, "ymax", None), getattr(s, "zmax", None)) for s in sections]
     y = np.array([np.nan if a is None else a for a, _ in fibre], dtype=float)
     z = np.array([np.nan if b is None else b for _, b in fibre], dtype=float)

@@ -172,7 +172,12 @@ def computed(owner: str, what: str, fn):
 
 
 def hashable(obj) -> bool:
-    """Whether ``obj`` can key a cache (joints are immutable values; a plugin's may not hash)."""
+    """Whether ``obj`` can key a cache: hashed by value (joints are immutable values, the shipped
+    ones frozen attrs classes). A plugin's may not hash, or hash by identity (a plain class, an
+    ``attrs.define(eq=False)`` one) while its attributes can be set in place: a cache keyed on it
+    would return what it computed before the change, so neither counts."""
+    if getattr(type(obj), "__hash__", None) in (None, object.__hash__):
+        return False
     try:
         hash(obj)
     except TypeError:

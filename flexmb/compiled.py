@@ -9,6 +9,8 @@ import weakref
 import attrs
 import numpy as np
 
+from ._validate import hashable
+
 __all__ = ["Compiled", "compiled_for", "fingerprint"]
 
 
@@ -71,14 +73,10 @@ def fingerprint(mechanism) -> tuple:
 
 
 def _values_only(mechanism) -> bool:
-    """Whether every joint of ``mechanism`` is an immutable value (hashable): a plugin joint that is
-    not one could change unseen, so its mechanism is compiled every time."""
-    for *_, joint in mechanism.graph.edges(data="joint"):
-        try:
-            hash(joint)
-        except TypeError:
-            return False
-    return True
+    """Whether every joint of ``mechanism`` is an immutable value (`flexmb._validate.hashable`:
+    hashed by value): a plugin joint that is not one could change unseen, so its mechanism is
+    compiled every time."""
+    return all(hashable(joint) for *_, joint in mechanism.graph.edges(data="joint"))
 
 
 def _read_only(compiled: Compiled) -> None:

@@ -45,6 +45,11 @@ def check(solution, *, stacklevel: int = 3) -> None:
                       "displacements and stresses are not those of the load asked for", ConvergenceWarning,
                       stacklevel=stacklevel)
         return
+    if solution.stable is False:
+        warnings.warn(f"{solution.method}: the equilibrium found is UNSTABLE (tangent not positive definite). Where "
+                      "the path bifurcates (a perfect-geometry arch or column) several unstable equilibria exist and "
+                      "the one a solve lands on depends on its steps: follow the path with flexmb.trace, or solve "
+                      "with initial_step < 1 and check the branch", PlausibilityWarning, stacklevel=stacklevel)
     problem = solution.compiled.problem
     if isinstance(problem, LinkageProblem):
         _shortening(solution, stacklevel + 1)

@@ -347,3 +347,25 @@ def test_train_a_spatial_joint_by_default_in_3d_only(tmp_path, capsys):
     assert cli.main(["train", "three_x_infinity", "--range", "5", "--step", "5", "--out", str(tmp_path)]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         f"three_x_infinity-3d-angle0.785398-elements_per_leaf{n}-length_ratio0.625-stages3.json" for n in (12, 3)]
+
+
+def test_the_training_command_a_missing_database_names_builds_that_database(tmp_path):
+    """three_x_infinity's database key holds ``length_ratio`` (length over the axis distance), not
+    a constructor parameter: the command the `DatabaseError` names must be the joint's own
+    parameters (here a non-default ``length``), which `flexmb train` accepts and KSD then finds."""
+    import shlex
+
+    import flexmb
+
+    j = flexmb.ThreeXInfinity(elements_per_leaf=1, length=0.035)
+    m = flexmb.Mechanism(3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=j.interface_b(3))
+    m.add_joint("A", "B", j, name="hinge")
+    m.prescribe("B", rotation=(0.0, 0.0, 0.1))
+    with pytest.raises(flexmb.DatabaseError, match=r"--param length=0\.035 --out FOLDER") as err:
+        flexmb.solve(m, method="ksd-reduced")
+    command = shlex.split(str(err.value).split("`")[1].replace("FOLDER", str(tmp_path)))
+    assert command[:2] == ["flexmb", "train"] and "length_ratio" not in str(err.value).split("`")[1]
+    assert cli.main(command[1:] + ["--range", "10", "--step", "5"]) == 0
+    assert flexmb.solve(m, method="ksd-reduced", database=tmp_path).converged

@@ -348,3 +348,33 @@ def test_tabulated_axial_forces_are_the_eobs():
         direct = np.concatenate([tpl.axial_force(e, q).ravel() for (tpl, _, _), e, q in
                                  zip(red.groups, full_eobs(sol), node_displacements(sol))])
         assert np.abs(eob_axial_forces(sol)[1] - direct).max() < 1e-7
+
+
+def test_the_properties_of_a_solve_with_a_database_folder_use_that_folders_data(tmp_path):
+    """A KSD-reduced solve with ``database=FOLDER`` (here fits over +-40 deg in 10-deg steps, not
+    the shipped +-75 deg in 5-deg steps): its compliance, modes and stresses come from the same
+    fits as the solve, not silently from the shipped ones."""
+    from flexmb import database
+    import scipy.linalg
+
+    from flexmb.ksd.properties import eob_axial_forces, reduced_modal_model
+    from flexmb.modal import KSD_FIXED_INTERFACE_MODES
+
+    m = cross_flexure_pivot(3, dim=2, rotation=0.5)
+    joint = m.joints["cross_flexure"]
+    data = database.train(joint, 2, range_deg=(-40, 40), step_deg=10)
+    database.save(data, tmp_path / database.file_name(joint.kind, 2, data.key))
+    own, shipped = (flexmb.solve(m, method="ksd-reduced", database=db) for db in (tmp_path, None))
+    assert own.converged and shipped.converged
+    K_own, K_shipped = reduced_tangent(own, tmp_path)[0], reduced_tangent(own, database=None)[0]
+    assert not np.allclose(K_own, reduced_tangent(shipped)[0], rtol=1e-6, atol=0)  # the two fits differ
+    np.testing.assert_array_equal(K_shipped, K_own)  # database=None: the solve's folder
+    # the public properties: the solve's own data, and not the shipped data's
+    K, M, _ = reduced_modal_model(own, KSD_FIXED_INTERFACE_MODES, tmp_path)
+    free = np.r_[3, 4, 6:len(K)]  # link A fixed (DOFs 0-2), B's rotation prescribed (DOF 5)
+    frequencies = np.sqrt(scipy.linalg.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True)[:3]) / (2 * np.pi)
+    np.testing.assert_allclose(flexmb.modes(own, n=3).frequencies, frequencies, rtol=1e-9)
+    assert not np.allclose(flexmb.modes(own, n=3).frequencies, flexmb.modes(shipped, n=3).frequencies, rtol=1e-6)
+    for got, expected in zip(own._eob_axial(), eob_axial_forces(own, tmp_path)):  # Solution.stresses' axial forces
+        np.testing.assert_array_equal(got, expected)
+    assert not np.allclose(flexmb.compliance(own, "B"), flexmb.compliance(shipped, "B"), rtol=1e-6, atol=0)

@@ -196,3 +196,22 @@ def test_numbers_the_warnings_rest_on():
     """Sanity of the limits' sources: spring steel's elastic strain 1.5 GPa / 200 GPa."""
     assert 1.5e9 / 200e9 < STRAIN_LIMIT
     assert np.isclose(0.6 * (5e-3) ** 2 / L, 3e-4)
+
+
+def test_an_unstable_equilibrium_is_reported_not_silent():
+    """A perfect-geometry arch of two leaf springs (L = 0.1 m at +-10 deg) with its apex pushed down
+    4 % of its rise: the leaves buckle and several unstable equilibria exist; the default solve lands
+    on Fy = -1571 N where the small-step path and flexmb.trace give about -823 N (found by this
+    session's review). Any unstable result carries a PlausibilityWarning naming the way out."""
+    L, a = 0.1, np.radians(10)
+    h = L * np.sin(a)
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("A", fixed=True)
+    m.add_link("C", position=(L * np.cos(a), h))
+    m.add_link("B", position=(2 * L * np.cos(a), 0.0), fixed=True)
+    m.add_joint("A", "C", "leaf_spring", name="left", rotation=a, length=L)
+    m.add_joint("C", "B", "leaf_spring", name="right", origin=(L * np.cos(a), h), rotation=-a, length=L)
+    m.prescribe("C", y=-0.04 * h)
+    with pytest.warns(flexmb.PlausibilityWarning, match="UNSTABLE.*flexmb.trace"):
+        sol = flexmb.solve(m)
+    assert sol.converged and sol.stable is False and "UNSTABLE" in sol.message

@@ -489,12 +489,30 @@ def locate(joint, dim: int, folder=None) -> Path:
     for f in folders:
         if os.path.lexists(f / name):
             return f / name
-    params = " ".join(f"--param {k}={v}" for k, v in key.items() if k != "elements_per_leaf")
+    params = "".join(f" --param {k}={v}" for k, v in _train_params(joint, key).items())
     elements = f" --elements {key['elements_per_leaf']}" if "elements_per_leaf" in key else ""
     present = sorted({p.name for f in folders if f.is_dir() for p in f.glob(f"{joint.kind}-*.json")})
     raise DatabaseError(f"no trained data for {joint.kind} ({dim}D, {key}) in {', '.join(map(str, folders))}; train "
-                        f"it with `flexmb train {joint.kind} --dim {dim}{elements} {params} --out FOLDER` and solve "
+                        f"it with `flexmb train {joint.kind} --dim {dim}{elements}{params} --out FOLDER` and solve "
                         f"with database=FOLDER, or without --out into {user_path()} (present: {present})")
+
+
+def _train_params(joint, key: dict) -> dict:
+    """The ``flexmb train --param`` values that build ``joint``: its constructor's parameters
+    that differ from their defaults (the database key may hold derived quantities, e.g.
+    three_x_infinity's ``length_ratio``, which the constructor refuses); the key's items for a
+    joint that is not an attrs class. The mesh parameter goes to ``--elements``."""
+    if not attrs.has(type(joint)):
+        return {k: v for k, v in key.items() if k != "elements_per_leaf"}
+    out = {}
+    for f in attrs.fields(type(joint)):
+        if not f.init or f.name == "elements_per_leaf":
+            continue
+        default = f.default.factory() if isinstance(f.default, attrs.Factory) else f.default
+        value = getattr(joint, f.name)
+        if default is attrs.NOTHING or not (value is default or value == default):
+            out[f.alias or f.name] = value
+    return out
 
 
 def shipped(joint, dim: int, folder=None) -> JointData:

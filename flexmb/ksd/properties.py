@@ -14,6 +14,7 @@ one the solve converged with. Rotation DOFs are spins (3D) or the angle (2D), as
 
 from __future__ import annotations
 
+import os
 import weakref
 
 import numpy as np
@@ -79,11 +80,20 @@ def _setup(compiled, database):
     return red
 
 
+def _database(solution, database):
+    """``database``, or when None the folder the solve read (``solution.stages["setup"]``): the
+    properties of a solve with ``database=FOLDER`` use that folder's fits, not the shipped ones."""
+    if database is None:
+        database = (solution.stages or {}).get("setup", {}).get("database")
+    return None if database is None else os.fspath(database)
+
+
 def near(solution, database=None):
     """The solution's `ReducedMechanism` and `near_configuration`, built once per solution and
-    database (a second property of the same solution skips it), from step 1's intended rotations
-    and near positions that the solve keeps in ``solution.stages["kinematics"]`` (solving step 1
-    again took 2 of the manipulator's 4 ms)."""
+    database (default: the one the solve used; a second property of the same solution skips it),
+    from step 1's intended rotations and near positions that the solve keeps in
+    ``solution.stages["kinematics"]`` (solving step 1 again took 2 of the manipulator's 4 ms)."""
+    database = _database(solution, database)
     per = _NEAR.setdefault(solution, {})
     if database not in per:
         red = _setup(solution.compiled, database)
@@ -99,7 +109,7 @@ def full_eobs(solution, database=None) -> list:
     only the condensation), node A held; built once per solution."""
     red, (eobs, _, _, p_hat, _, theta) = near(solution, database)
     per = _NEAR[solution]
-    key = ("full", database)
+    key = ("full", _database(solution, database))
     if key not in per:
         per[key] = [e if getattr(e, "K_nodes", None) is not None else
                     tpl.evaluate(theta[idx], p_hat[idx, :red.dim], held_a=True)
@@ -143,7 +153,7 @@ def eob_axial_forces(solution, database=None):
 def reduced_tangent(solution, database=None):
     """The KSD-reduced solution's tangent (n_links ndof, n_links ndof) on the links' FE DOFs
     (link k's DOFs ``k ndof ..``, as in the full model), symmetric up to the dead loads' part,
-    and the `ReducedMechanism`. ``database``: the folder the solve used (default: shipped data)."""
+    and the `ReducedMechanism`. ``database``: a folder of joint data (default: the one the solve used)."""
     red, (_, K, Fh, p_hat, R_hat, _) = near(solution, database)
     poses = link_poses(red, solution.state)
     _, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent=True)

@@ -235,6 +235,7 @@ class _KSD:
         t = lap("internal", t)
         for key in ("setup", "kinematics", "eob", "reduced", "internal"):  # setup: kept per compiled model
             stages.setdefault(key, {})["time"] = times[key]
+        stages["setup"]["database"] = red.folder  # the solution's properties read the same data
 
         if not self.full:
             times["total"] = time.perf_counter() - t0

@@ -13,8 +13,8 @@ import numpy as np
 from .closed_form.problem import LinkageProblem
 from ._validate import hashable, modulus_units
 from .errors import ConvergenceWarning, ModelError, PlausibilityWarning
+from .fe.stress import peak_normal_stress, section_table
 from .rotations import rot2
-from .sections import properties
 
 __all__ = ["check", "check_mass_units", "STRAIN_LIMIT", "SHORTENING_LIMIT", "WAVE_RATE_RANGE"]
 
@@ -60,8 +60,8 @@ def check(solution, *, stacklevel: int = 3) -> None:
 def _moduli(solution, model, stacklevel: int) -> None:
     """A modulus that looks like GPa with lengths in m (`flexmb._validate.modulus_units`), wherever
     it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here."""
-    E = properties(model.elements.sections, ("E",))[0]
-    L = _joint_lengths(model)
+    tab = section_table(model.elements)
+    E, L = tab.E, tab.length
     bad = np.flatnonzero((E < 1e3) & (L < 1.0))
     if len(bad):
         k = int(bad[0])
@@ -73,9 +73,8 @@ def check_mass_units(solution, model, stacklevel: int = 3) -> None:
     """Warn (`PlausibilityWarning`) where a section's density does not fit its modulus and its
     joint's length in one unit system (`WAVE_RATE_RANGE`): the modes would be off by orders of
     magnitude, the statics unaffected."""
-    el = model.elements
-    E, rho = properties(el.sections, ("E", "density"))
-    length = _joint_lengths(model)
+    tab = section_table(model.elements)
+    E, rho, length = tab.E, tab.density, tab.length
     massive = np.flatnonzero(rho > 0)
     if not len(massive):
         return
@@ -95,32 +94,21 @@ def check_mass_units(solution, model, stacklevel: int = 3) -> None:
                   PlausibilityWarning, stacklevel=stacklevel)
 
 
-def _joint_lengths(model) -> np.ndarray:
-    """Each element's joint's beam length (the sum of its elements' lengths) [m], (E,)."""
-    el = model.elements
-    owner = np.asarray(el.owner)
-    total = np.bincount(owner, weights=el.L0, minlength=int(owner.max(initial=-1)) + 1)
-    return total[owner]
-
-
 def _strains(solution, model, stacklevel: int) -> None:
-    from .fe.stress import peak_normal_stress
-
     _moduli(solution, model, stacklevel + 1)
     try:
         sigma = peak_normal_stress(model, solution.state)
     except ModelError:  # a plugin section without extreme-fibre distances: no stresses to check
         return
-    sections = model.elements.sections
-    E = properties(sections, ("E",))[0]
-    strain = sigma / E
+    tab = section_table(model.elements)  # built once per compiled model
+    strain = sigma / tab.E
     k = int(np.argmax(strain))
     if strain[k] > STRAIN_LIMIT:
         warnings.warn(f"{solution.method}: peak strain {strain[k]:.3g} ({_where(solution, k)}) is beyond the elastic "
                       f"range a linear-elastic beam model represents (limit {STRAIN_LIMIT:g}; peak stress "
                       f"{sigma[k]:.3g}): the answer is not physical. Check the units (a length in mm where m is "
                       "meant?) and the size of the motion or load", PlausibilityWarning, stacklevel=stacklevel)
-    ys = np.array([np.inf if s.yield_stress is None else s.yield_stress for s in sections], dtype=float)
+    ys = tab.yield_stress
     over = sigma / ys
     k = int(np.argmax(over))
     if over[k] > 1.0:

@@ -119,7 +119,10 @@ def _plan(mechanism, values, motion, method, start, options, compiled_loop=False
                     # from the previous solution: the rotations move along the requested values
                     problem = compiled.problem.with_motion(vals, start=None if previous is None else previous.state,
                                                            start_values=None if previous is None else last_values)
-                    sol = _solve(strategy, attrs.evolve(compiled, problem=problem), previous)
+                    moved = attrs.evolve(compiled, problem=problem)
+                    if hasattr(strategy, "share_setup"):  # KSD: the set-up built once, moved to each value
+                        strategy.share_setup(compiled, moved)
+                    sol = _solve(strategy, moved, previous)
             except Exception as exc:  # kept, with the reason: one value never costs the others
                 if isinstance(exc, ConvergenceError) and getattr(strategy, "raise_on_failure", False):
                     raise  # asked for: raise_on_failure=True stops the sweep at its first failure

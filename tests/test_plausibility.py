@@ -80,6 +80,26 @@ def test_a_stress_above_the_given_yield_stress_warns_naming_the_joint():
     _quiet(lambda: flexmb.solve(m))
 
 
+def test_the_yield_check_reads_the_sections_of_the_model_solved():
+    """The per-element section data (`flexmb.fe.stress.section_table`) is gathered once per
+    compiled model and kept across the solves of an unchanged mechanism; a joint replaced with a
+    lower yield stress is checked with its own (no stale limit)."""
+    from flexmb.fe.stress import section_table
+
+    m = guide(yield_stress=1.5e9)
+    m.prescribe("stage", x=5e-3, rotation=0.0)
+    first = _quiet(lambda: flexmb.solve(m))
+    again = _quiet(lambda: flexmb.solve(m))
+    elements = first.compiled.problem.model.elements
+    assert again.compiled is first.compiled and section_table(elements) is section_table(elements)
+    assert np.all(section_table(elements).yield_stress == 1.5e9)
+    weak = flexmb.LeafSpring(length=L, width=0.01, thickness=T, elements=8, yield_stress=500e6)
+    for *_, data in m.graph.edges(keys=True, data=True):
+        data["joint"] = weak
+    with pytest.warns(PlausibilityWarning, match=r"exceeds the yield stress 5e\+08 \(joint 'leaf"):
+        flexmb.solve(m)
+
+
 def test_a_modulus_in_gpa_with_lengths_in_metres_warns():
     with pytest.warns(PlausibilityWarning, match="E=200 .* GPa"):
         flexmb.LeafSpring(E=200, G=77)

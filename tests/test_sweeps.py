@@ -171,3 +171,30 @@ def test_progress_bar_shows_on_request_and_stays_quiet_off_a_terminal(capsys):
     assert "sweep:" in capsys.readouterr().err  # tqdm, "0/2 [...]"; cleared when done (leave=False)
     parameter_study(STIFFNESS, DESIGNS[:1], executor="serial", progress=True)
     assert "designs:" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("method", ["ksd-reduced", "ksd-full"])
+def test_ksd_motion_sweep_builds_its_set_up_once_and_equals_one_solve_per_value(method):
+    """A KSD motion sweep moves one set-up (joint frames, templates, step 1's start) to each value
+    (`ReducedMechanism.with_values`): the same numbers as an independent `flexmb.solve` of the
+    mechanism prescribed to that value (the same arithmetic: to 1e-12 m), on a 3D manipulator
+    whose end point is swept along x (its location case, Dwarshuis et al. 2020 Sec. 4.4, moved
+    +-20 mm: no paper sweeps it)."""
+    from flexmb.solvers.ksd import reduced_mechanism
+
+    m = models.manipulator("location", np.radians(30))
+    end = dict(m._prescribed["link3"])
+    xs = end["x"] + np.array([-0.02, 0.0, 0.02])
+    result = flexmb.sweep(m, xs, motion=("link3", "x"), method=method)
+    assert result.converged.all()
+    reds = [reduced_mechanism(sol.compiled) for sol in result]
+    assert all(r.frames is reds[0].frames and r._templates is reds[0]._templates for r in reds)  # built once
+    for r, sol, x in zip(reds, result, xs):  # each moved to its own value
+        assert r.compiled is sol.compiled and np.array_equal(r.values, sol.compiled.problem.values)
+        assert x in r.values
+    for sol, x in zip(result, xs):
+        ref_m = models.manipulator("location", np.radians(30))
+        ref_m.prescribe("link3", **{**end, "x": float(x)})
+        ref = flexmb.solve(ref_m, method=method)
+        np.testing.assert_allclose(sol.node_positions(), ref.node_positions(), rtol=0, atol=1e-12)
+        assert sol.iterations == ref.iterations

@@ -27,6 +27,7 @@ section's perimeter, where a solid section's normal and torsional shear stresses
 from __future__ import annotations
 
 import functools
+import weakref
 
 import attrs
 import numpy as np
@@ -34,14 +35,15 @@ import numpy as np
 from ..errors import ModelError, ParameterError
 from ..sections import properties
 
-__all__ = ["peak_normal_stress", "section_resultants", "stress_points", "perimeter_peaks", "element_stresses", "Stresses",
+__all__ = ["peak_normal_stress", "section_table", "SectionTable", "section_resultants", "stress_points", "perimeter_peaks", "element_stresses", "Stresses",
            "PERIMETER_POINTS", "COARSE_STEP", "TORSION_TERMS"]
 
 #: Points on a section's perimeter (a rectangle: a quarter per side, cosine-clustered at the
 #: corners, where the torsional shear falls from its peak to zero within a thickness; a circle:
 #: evenly spaced). Measured against 16 times as many on random combinations of all six section
 #: forces: never high, at most 9e-6 low (tests/test_stress.py; 512 points: 1.4 % low on a
-#: 20 x 1 rectangle, the coarse search missing the peak). 0.1-0.2 ms per element end (loaded host).
+#: 20 x 1 rectangle, the coarse search missing the peak). ~0.01 ms per element end (the
+#: manipulator's 162: 1.7 ms, loaded host).
 PERIMETER_POINTS = 2048
 #: The coarse search's stride (`perimeter_peaks`).
 COARSE_STEP = 16
@@ -59,29 +61,93 @@ def _with_axial(sig, axial):
     return sig
 
 
+@attrs.frozen(eq=False)
+class SectionTable:
+    """Per-element section data of a `BeamElements` batch, (E,) arrays (NaN where a section leaves
+    it None): what the stress and plausibility checks read on every solve, gathered once per batch
+    (`section_table`). ``yield_stress`` inf where not given; ``circle`` the circular sections;
+    ``length`` each element's joint's beam length [m] (the sum of its elements' ``L0``)."""
+
+    E: np.ndarray
+    A: np.ndarray
+    Iy: np.ndarray
+    Iz: np.ndarray
+    ymax: np.ndarray
+    zmax: np.ndarray
+    density: np.ndarray
+    yield_stress: np.ndarray
+    circle: np.ndarray
+    yield_given: np.ndarray  # whether each section gives a yield stress
+    length: np.ndarray
+    has_y: bool  # every section gives ymax
+    has_z: bool  # every section gives zmax
+    #: ((section, element indices), ...): the elements whose sections `perimeter_peaks` reads alike
+    stress_groups: tuple = ()
+
+
+_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def section_table(elements) -> SectionTable:
+    """The `SectionTable` of ``elements`` (a frozen `flexmb.fe.model.BeamElements` whose sections
+    are a tuple: it cannot change), built on first use and kept while the batch lives: the
+    manipulator's plausibility check read its 81 sections' attributes in three Python loops on
+    every solve, 0.1 ms of a 1.2 ms KSD-reduced solve."""
+    try:
+        return _TABLES[elements]
+    except (KeyError, TypeError):
+        pass
+    sections = elements.sections
+    E, A, Iz = properties(sections, ("E", "A", "Iz"))  # what every beam element reads
+    # a plugin section may lack the others (a planar one Iy; density, shape and fibres are optional)
+    Iy, rho = (np.array([getattr(s, k, default) for s in sections], dtype=float)
+               for k, default in (("Iy", np.nan), ("density", 0.0)))
+    fibre = [(getattr(s, "ymax", None), getattr(s, "zmax", None)) for s in sections]
+    y = np.array([np.nan if a is None else a for a, _ in fibre], dtype=float)
+    z = np.array([np.nan if b is None else b for _, b in fibre], dtype=float)
+    given = np.array([getattr(s, "yield_stress", None) is not None for s in sections], dtype=bool)
+    ys = np.array([s.yield_stress if g else np.inf for s, g in zip(sections, given)], dtype=float)
+    owner = np.asarray(elements.owner)
+    total = np.bincount(owner, weights=elements.L0, minlength=int(owner.max(initial=-1)) + 1)
+    groups = {}
+    for i, s in enumerate(sections):
+        groups.setdefault(_stress_key(s), (s, []))[1].append(i)
+    table = SectionTable(E=E, A=A, Iy=Iy, Iz=Iz, ymax=y, zmax=z, density=rho, yield_stress=ys, yield_given=given,
+                         circle=np.array([getattr(s, "shape", None) == "circle" for s in sections], dtype=bool),
+                         length=total[owner], has_y=all(a is not None for a, _ in fibre),
+                         has_z=all(b is not None for _, b in fibre),
+                         stress_groups=tuple((s, np.array(idx, dtype=np.int64)) for s, idx in groups.values()))
+    for a in attrs.astuple(table, recurse=False):
+        if isinstance(a, np.ndarray):
+            a.flags.writeable = False
+    if isinstance(elements.sections, tuple):  # a list could change: no cache
+        try:
+            _TABLES[elements] = table
+        except TypeError:  # not weak-referenceable
+            pass
+    return table
+
+
 def peak_normal_stress(model, state, axial=None) -> np.ndarray:
     """Peak normal stress [Pa] of every element of ``model`` (an `FEModel`) in ``state``, shape (E,):
     the largest over the two ends of ``|N|/A + |My| zmax/Iy + |Mz| ymax/Iz`` (3D; in 2D bending
     about z only); for a circle ``|N|/A + sqrt(My^2 + Mz^2) r/I`` (the resultant moment's extreme
     fibre). No shear (see `element_stresses`). ``axial``: ``(elements, N [N])`` replacing those
     elements' axial forces (a KSD-reduced solution's from its EOBs)."""
-    el = model.elements
-    fibre = [(s.ymax, s.zmax) for s in el.sections]
-    if any(y is None or (model.dim == 3 and z is None) for y, z in fibre):
+    tab = section_table(model.elements)
+    if not tab.has_y or (model.dim == 3 and not tab.has_z):
         raise ModelError("peak stress needs the extreme-fibre distances ymax, zmax of every section "
                          "(flexmb.sections.rectangle sets them)")
-    ymax, A, Iz, *zy = properties(el.sections, ("ymax", "A", "Iz") + (("zmax", "Iy") if model.dim == 3 else ()))
     sig = _with_axial(model.stresses(state)[1], axial)
-    axial = np.abs(sig[:, 0]) / A
-    L0 = el.L0[:, None]
+    axial = np.abs(sig[:, 0]) / tab.A
+    L0 = model.elements.L0[:, None]
     if model.dim == 2:
-        return axial + np.abs(L0 * sig[:, 1:3]).max(axis=1) * ymax / Iz
+        return axial + np.abs(L0 * sig[:, 1:3]).max(axis=1) * tab.ymax / tab.Iz
     My, Mz = L0 * sig[:, 2:4], L0 * sig[:, 4:6]  # ends p, q
-    zmax, Iy = zy
-    bend = np.abs(My) * (zmax / Iy)[:, None] + np.abs(Mz) * (ymax / Iz)[:, None]
-    circle = np.array([s.shape == "circle" for s in el.sections])
+    bend = np.abs(My) * (tab.zmax / tab.Iy)[:, None] + np.abs(Mz) * (tab.ymax / tab.Iz)[:, None]
+    circle = tab.circle
     if circle.any():
-        bend[circle] = np.hypot(My[circle], Mz[circle]) * (ymax / Iz)[circle, None]
+        bend[circle] = np.hypot(My[circle], Mz[circle]) * (tab.ymax / tab.Iz)[circle, None]
     return axial + bend.max(axis=1)
 
 
@@ -202,10 +268,12 @@ def _fields(pts, r, idx=None):
     yz, tT, tVy, tVz = pts
     if idx is not None:
         yz, tT, tVy, tVz = yz[idx], tT[idx], tVy[idx], tVz[idx]  # (m, k, 2)
-    N, Vy, Vz, T, My, Mz, A, Iy, Iz = r
-    sx = N[:, None] / A + My[:, None] * (yz[..., 1] / Iy) - Mz[:, None] * (yz[..., 0] / Iz)
-    tau = T[:, None, None] * tT + Vy[:, None, None] * tVy + Vz[:, None, None] * tVz
-    return sx, np.sum(tau**2, axis=-1)
+    N, Vy, Vz, T, My, Mz, A, Iy, Iz = (x[:, None] if isinstance(x, np.ndarray) else x for x in r)
+    sx = N / A + My * (yz[..., 1] / Iy) - Mz * (yz[..., 0] / Iz)
+    # per component, not a trailing axis of 2 (numpy's reductions over it are slow): the same sums
+    t0 = T * tT[..., 0] + Vy * tVy[..., 0] + Vz * tVz[..., 0]
+    t1 = T * tT[..., 1] + Vy * tVy[..., 1] + Vz * tVz[..., 1]
+    return sx, t0 * t0 + t1 * t1
 
 
 def perimeter_peaks(section, resultants):
@@ -227,7 +295,7 @@ def perimeter_peaks(section, resultants):
         N, Vy, Vz, T, My, Mz = r.T
     r = (N, Vy, Vz, T, My, Mz, section.A, section.Iy, section.Iz)
     P, step = len(pts[0]), COARSE_STEP
-    sx, t2 = _fields(pts, r, np.broadcast_to(np.arange(0, P, step), (len(N), P // step)))
+    sx, t2 = _fields(tuple(a[::step] for a in pts), r)  # the coarse points, shared by every row
     window = np.arange(-step, step + 1)
     out = []
     for value in (np.abs(sx), t2, sx**2 + 3.0 * t2):
@@ -306,6 +374,18 @@ def _factor(owner, name, value) -> float:
     return x
 
 
+def _stress_key(section):
+    """What `perimeter_peaks` reads of a section (its shape, extreme fibres, A, It, Iy, Iz): sections
+    equal in these share one perimeter search, the same numbers per element. The manipulator's 9
+    joints' 81 sections are 2 such values. A section without a shape, or
+    whose values are not plain numbers, keeps its own group (by identity)."""
+    try:
+        key = (section.shape,) + tuple(float(getattr(section, k)) for k in ("ymax", "zmax", "A", "It", "Iy", "Iz"))
+    except (AttributeError, TypeError, ValueError):
+        return id(section)
+    return key if section.shape is not None and type(section).__name__ == "Section" else id(section)
+
+
 def element_stresses(model, state, joints: dict, concentration=None, limit=None, axial=None) -> Stresses:
     """Peak normal, shear and von Mises stresses [Pa] of every element (module notes), times a
     stress-concentration factor ``concentration`` (one number for all, or ``{joint: factor}``,
@@ -326,18 +406,14 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None,
     res = section_resultants(model, state, axial)  # (E, 2, k)
     nE = len(el.L0)
     normal, shear, vm = np.zeros(nE), np.zeros(nE), np.zeros(nE)
-    groups = {}
-    for i, s in enumerate(el.sections):
-        groups.setdefault(id(s), (s, []))[1].append(i)
-    for s, idx in groups.values():
-        idx = np.asarray(idx)
+    tab = section_table(el)
+    for s, idx in tab.stress_groups:
         normal[idx], shear[idx], vm[idx] = perimeter_peaks(s, res[idx])
     normal, shear, vm = kt * normal, kt * shear, kt * vm
     if limit is not None:
         lims = np.full(nE, lim)
     else:
-        lims = np.array([np.nan if getattr(s, "yield_stress", None) is None else s.yield_stress for s in el.sections],
-                        dtype=float)
+        lims = np.where(tab.yield_given, tab.yield_stress, np.nan)
     safety = None
     if not np.all(np.isnan(lims)):
         with np.errstate(divide="ignore", invalid="ignore"):

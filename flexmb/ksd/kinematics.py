@@ -144,6 +144,8 @@ def kinematic_start(red: ReducedMechanism):
     rotations at rest and the fastest joint rotation (`turn_rate`). Kept on ``red`` (built once
     per compiled mechanism, `flexmb.solvers.ksd`): repeated solves decide once, identically."""
     start = getattr(red, "_kinematic_start", None)
+    if start is not None and start[-1] is None:  # `ReducedMechanism.with_values`: other prescribed values
+        start = red._kinematic_start = start[:-1] + (turn_rate(red),)
     if start is None:
         rest = red.rest()
         _, jac0, theta0, _ = red.constraint_equations(rest, values=False, lam=0.0)

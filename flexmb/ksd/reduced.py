@@ -9,6 +9,8 @@ the joint in its current geometry, so the joint wrenches balance exactly, as in 
 
 from __future__ import annotations
 
+import copy
+
 import functools
 import os
 
@@ -119,13 +121,7 @@ class ReducedMechanism:
         pres = problem.prescribed
         link_of, comp = np.divmod(pres, nd)
         self.prescribed = link_of * 6 + act[comp]
-        self.values = problem.values
-        link, comp = np.divmod(self.prescribed, 6)
-        tr = comp < 3
-        W = np.zeros((nL, 3))  # prescribed rotation vector of each link (all three or none, 3D)
-        W[link[~tr], comp[~tr] - 3] = self.values[~tr]
-        lr = np.unique(link[~tr])
-        self._moves = ((link[tr], comp[tr], self.values[tr]), (lr, W[lr]))
+        self._set_values(problem.values)
         is_free = np.zeros(6 * nL, dtype=bool)
         is_free[(np.arange(nL)[:, None] * 6 + act).ravel()] = True
         is_free[self.prescribed] = False
@@ -235,6 +231,36 @@ class ReducedMechanism:
         lr = ld + np.arange(3, 6)
         self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
                                      (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])
+
+    def _set_values(self, values: np.ndarray) -> None:
+        """The prescribed values (on `prescribed`) and the moves of step 1 they give."""
+        self.values = values
+        link, comp = np.divmod(self.prescribed, 6)
+        tr = comp < 3
+        W = np.zeros((self.n_links, 3))  # prescribed rotation vector of each link (all three or none, 3D)
+        W[link[~tr], comp[~tr] - 3] = values[~tr]
+        lr = np.unique(link[~tr])
+        self._moves = ((link[tr], comp[tr], values[tr]), (lr, W[lr]))
+
+    def with_values(self, compiled) -> ReducedMechanism | None:
+        """This set-up for ``compiled``, the same compiled mechanism with other prescribed values
+        (`flexmb.problem.StaticProblem.with_motion`: the same model, loads and prescribed DOFs),
+        or None when it is not that. Joint frames, templates, constraint sets and step 1's
+        start at rest are shared; what the values give (step 1's moves, its turn rate, the
+        reachability verdict) is redone. A motion sweep of the manipulator builds its set-up
+        once instead of per value."""
+        new, old = compiled.problem, self.compiled.problem
+        if (new.model is not old.model or new.loads is not old.loads or compiled.link_node != self.compiled.link_node
+                or not np.array_equal(new.prescribed, old.prescribed)):
+            return None
+        out = copy.copy(self)
+        out.compiled = compiled
+        out._set_values(np.asarray(new.values, dtype=float))
+        vars(out).pop("_reachable", None)
+        start = vars(self).get("_kinematic_start")
+        if start is not None:  # at rest (lam = 0) the same; the turn rate follows the values
+            out._kinematic_start = start[:-1] + (None,)
+        return out
 
     def current(self) -> bool:
         """Whether the joint databases this set-up was built from are still the ones `template`

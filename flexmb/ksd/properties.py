@@ -185,19 +185,23 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
     joints = {key: jt for key, jt, *_ in red.compiled.joints}
     coupling, w2, recover = [None] * J, [None] * J, [None] * J
     theta = near(solution, database)[1][5]
+    nd = len(emb)
+    Ft = np.zeros((J, 6, 6))  # the joint frames' axes on both halves of a link twist
+    Ft[:, :3, :3] = Ft[:, 3:, 3:] = np.swapaxes(F, 1, 2)
+    levers = (Ft[:, None] @ lever(np.stack([oA - poses.x[fr.a], geo["rb"]], axis=1), 3))[..., emb, :]  # (J, 2, nd, 6)
+    G = np.zeros((J, 2, nd, nL, 6))  # joint j's interface DOFs (A, B) from the links' twists
+    ar = np.arange(J)
+    G[ar, 0, :, fr.a] = levers[:, 0]
+    G[ar, 1, :, fr.b] = levers[:, 1]
+    G = G.reshape(J, 2 * nd, 6 * nL)
     for tpl, _, idx in red.groups:
         Mbs, Cs, ws, (Xs, Phis) = condensed(tpl, joints[red.joint_names[idx[0]]], theta[idx], n_fixed)
+        Gg = G[idx]
+        M6 += (np.swapaxes(Gg, 1, 2) @ Mbs @ Gg).sum(axis=0)
+        CG = (Cs @ Gg)[..., red.emb_dofs]
         for k, j in enumerate(idx):
-            Mb, C, w2[j], X, Phi = Mbs[k], Cs[k], ws[k], Xs[k], Phis[k]
-            nd = tpl.nd
-            Ft = np.zeros((6, 6))
-            Ft[:3, :3] = Ft[3:, 3:] = F[j].T
-            G = np.zeros((2 * nd, 6 * nL))
-            for side, (link, arm) in enumerate(((fr.a[j], oA[j] - poses.x[fr.a[j]]), (fr.b[j], geo["rb"][j]))):
-                G[side * nd:(side + 1) * nd, 6 * link:6 * link + 6] = (Ft @ lever(arm, 3))[emb]
-            M6 += G.T @ Mb @ G
-            coupling[j] = (C @ G)[:, red.emb_dofs]
-            recover[j] = (G[:, red.emb_dofs], X, Phi, F[j])
+            coupling[j], w2[j] = CG[k], ws[k]
+            recover[j] = (Gg[k][:, red.emb_dofs], Xs[k], Phis[k], F[j])
     nm = [len(w) for w in w2]
     n = nl + sum(nm)
     M, K = np.zeros((n, n)), np.zeros((n, n))

@@ -173,7 +173,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     if reduced:  # the reduced mechanism's tangent on the links' DOFs (flexmb.ksd.properties)
         K_links, _ = reduced_tangent(solution)
         free = free[free < K_links.shape[0]]
-        K = sp.csc_array(K_links[np.ix_(free, free)])
+        K = K_links[np.ix_(free, free)]  # small and dense: solved densely below
     else:
         K = full_tangent(solution)
         # hinges: on the motions they allow (Z, the rows dropped at build included: a link whose
@@ -194,7 +194,8 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", sla.LinAlgWarning)  # rcond below eps: singular
-                X = problem.solve_linear(K, rhs) if K.shape[0] >= 220 else sla.solve(K.toarray(), rhs)
+                X = sla.solve(K, rhs) if reduced else \
+                    problem.solve_linear(K, rhs) if K.shape[0] >= 220 else sla.solve(K.toarray(), rhs)
         except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError, ArithmeticError) as exc:
             raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
                              "leaves a rigid-body motion free, or the equilibrium is critical)") from exc

@@ -11,7 +11,6 @@ import warnings
 
 import numpy as np
 import scipy.linalg as sla
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import _validate as v

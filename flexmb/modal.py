@@ -246,7 +246,9 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     problem = _converged(solution) if reduced else solvable_problem(solution)
     compiled, model = solution.compiled, problem.model
     held_idx = held_dofs(solution, held)
-    free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
+    keep = np.ones(model.n_dofs, dtype=bool)
+    keep[held_idx] = False
+    free = np.flatnonzero(keep)  # np.setdiff1d's sort: 0.15 ms of the manipulator's KSD-reduced 2.2 ms
     if reduced:  # the reduced mechanism: the links' DOFs and the joints' modal coordinates
         if model.hinges is not None:
             raise UnsupportedStrategyError("modes of a KSD-reduced solution with hinges are not available: solve with "

@@ -30,6 +30,7 @@ from __future__ import annotations
 import attrs
 import numpy as np
 import scipy.linalg as sla
+from scipy.linalg import lapack as _lapack
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -328,7 +329,7 @@ def _dense(K, M, n, symmetric):
     nf = len(K)
     if symmetric:
         try:
-            mu, vec = sla.eigh(M, 0.5 * (Ks + Ks.T), subset_by_index=[nf - n, nf - 1])
+            mu, vec = _highest_pairs(M, 0.5 * (Ks + Ks.T), n)
         except np.linalg.LinAlgError:  # K - sigma M indefinite: an unstable equilibrium; direct form
             return sla.eigh(0.5 * (K + K.T), M, subset_by_index=[0, n - 1])
         return sigma + 1.0 / mu[::-1], vec[:, ::-1]
@@ -338,6 +339,23 @@ def _dense(K, M, n, symmetric):
     lam = np.where(np.isfinite(lam), lam, np.inf)
     order = np.argsort(lam.real)[:n]
     return lam.real[order], _real(vec[:, order])
+
+
+def _highest_pairs(A, B, n):
+    """The ``n`` highest eigenpairs of ``A x = mu B x`` (``B`` definite): what
+    ``scipy.linalg.eigh(A, B, subset_by_index=[nf - n, nf - 1])`` returns, by the same LAPACK
+    ``dsygvx`` called directly (scipy's checks cost 0.04 of its 0.15 ms at 36 DOFs, the
+    KSD-reduced manipulator's). Raises `numpy.linalg.LinAlgError` where eigh would."""
+    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+    if not (np.isfinite(A).all() and np.isfinite(B).all()):
+        raise ValueError("array must not contain infs or NaNs")
+    nf = len(A)
+    lwork = int(_lapack.dsygvx_lwork(nf, uplo="L")[0])
+    mu, vec, m, _, info = _lapack.dsygvx(A, B, itype=1, jobz="V", range="I", il=nf - n + 1, iu=nf,
+                                         uplo="L", lwork=lwork)
+    if info != 0:  # B not definite (info > nf) or not converged
+        raise np.linalg.LinAlgError(f"dsygvx info={info}")
+    return mu[:m], vec[:, :m]
 
 
 def _shift(K, M) -> float:

@@ -326,7 +326,6 @@ def _dense(K, M, n, symmetric):
     # lambda_max/lambda_1 ~ 1e12: measured 1e-5 noise on a cantilever's first frequency at L/t = 1e4.
     sigma = _shift(K, M)
     Ks = K - sigma * M
-    nf = len(K)
     if symmetric:
         try:
             mu, vec = _highest_pairs(M, 0.5 * (Ks + Ks.T), n)

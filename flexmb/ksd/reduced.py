@@ -21,11 +21,11 @@ from ..database.store import ENVIRONMENT, file_name, search_path, shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
 from ..fe.ideal import row_names
 from ..fe.model import State
-from ..rotations import cross, expm_so3, skew, unskew
+from ..rotations import cross, skew, unskew
 from . import constraints
 from .eob import EOBTemplate
 from .eob_table import lookup_for
-from .geometry import ACTIVE, JointFrames, LinkPoses, intended_angle
+from .geometry import ACTIVE, JointFrames, LinkPoses, expm, intended_angle
 
 __all__ = ["ReducedMechanism", "template"]
 
@@ -281,7 +281,7 @@ class ReducedMechanism:
         (lt, ct, vt), (lr, W) = self._moves
         x[lt, ct] = self.X0[lt, ct] + lam * vt
         if len(lr):
-            R[lr] = expm_so3(lam * W)
+            R[lr] = expm(lam * W)
             angle[lr] = lam * W[:, 2]
         return LinkPoses(x, R, angle)
 

@@ -55,22 +55,26 @@ def _relative_maps():
 _ARMS, _JREL0 = _relative_maps()
 
 
+_compose3d = None  # flexmb.fe.model_jit.compose3d, bound on first use
+
+
 def compose(w: np.ndarray, R: np.ndarray) -> np.ndarray:
     """``exp(skew(w)) R`` for stacks of spins [rad] (..., 3) and rotations (..., 3, 3) of the same
     leading shape (Eq. A.8). With the compiled kernels `flexmb.fe.model_jit.compose3d` (the same
     Rodrigues terms as `flexmb.rotations.expm_so3`, equal to 1e-15): numpy's calls on a few 3x3
-    matrices cost ~13 us each, ~80 us of a manipulator's KSD-reduced solve (issue 21)."""
-    w = np.asarray(w, dtype=float)
+    matrices cost 12-19 us each, the compiled update 3-4 us (issue 21)."""
+    global _compose3d
     if not jit.enabled():
         return expm_so3(w) @ R
-    from ..fe import model_jit
-
+    if _compose3d is None:  # numba is imported with the first kernel module only (flexmb.jit)
+        from ..fe.model_jit import compose3d as _compose3d
+    w = np.ascontiguousarray(w, dtype=float)
     out = np.empty(w.shape[:-1] + (3, 3))
     if R.shape != out.shape or not R.flags.c_contiguous or R.dtype != float:
         Rb = np.empty(out.shape)  # a copy costs less than np.broadcast_to
         Rb[...] = R
         R = Rb
-    model_jit.compose3d(R.reshape(-1, 3, 3), np.ascontiguousarray(w).reshape(-1, 3), out.reshape(-1, 3, 3))
+    _compose3d(R.reshape(-1, 3, 3), w.reshape(-1, 3), out.reshape(-1, 3, 3))
     return out
 
 

@@ -203,6 +203,37 @@ def test_ksd_reduced_solves_agree_with_either_path(kernels):
     assert np.abs(a.state.rotations - b.state.rotations).max() < 1e-12
 
 
+@pytest.mark.parametrize("case", ["manipulator", "fourbar"])
+def test_ksd_equilibrium_kernel_equals_numpy(kernels, case):
+    # KSD step 3's residual and tangent (Dwarshuis et al. 2020 Eq. 2.4 per joint) at link poses
+    # moved and turned at random, with random condensed stiffnesses and forces: the 3D
+    # manipulator (Sec. 4.4) and the planar four-bar (Sec. 4.3) in 3D form
+    from flexmb.ksd.geometry import rz
+    from flexmb.solvers.ksd import reduced_mechanism
+
+    m = (flexmb.models.manipulator("joint", np.radians(30.0)) if case == "manipulator"
+         else flexmb.models.fourbar(2, displacement=0.1))
+    red = reduced_mechanism(m.compile())
+    rng = np.random.default_rng(5)
+    J = len(red.joint_names)
+    poses = red.rest().moved(np.concatenate([1e-3 * rng.normal(size=(red.n_links, 3)),
+                                             0.3 * rng.normal(size=(red.n_links, 3))], axis=1))
+    K = rng.normal(size=(J, 6, 6))
+    K = K @ np.swapaxes(K, 1, 2) * 1e2
+    Fh, p_hat, R_hat = rng.normal(size=(J, 6)), 1e-3 * rng.normal(size=(J, 3)), rz(rng.normal(size=J))
+    out = {}
+    for path in ("numpy", "numba"):
+        kernels(path)
+        r, T = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent=True)
+        r2, deferred = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
+        r3, none = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent=False)
+        assert none is None and np.array_equal(r, r2) and np.array_equal(r, r3)
+        assert np.array_equal(T, deferred())
+        out[path] = r, T
+    assert _rel(out["numpy"][0], out["numba"][0]) < 1e-12
+    assert _rel(out["numpy"][1], out["numba"][1]) < 1e-12
+
+
 def test_bad_kernel_choice_is_refused():
     with pytest.raises(flexmb.ParameterError, match="FLEXMB_KERNELS"):
         jit.use("fortran")

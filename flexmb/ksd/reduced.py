@@ -453,7 +453,7 @@ class ReducedMechanism:
                 continue
             nodes = self._group_nodes[id(idx)] if id(idx) in self._group_nodes else np.array(
                 [self.joint_nodes[j] for j in idx])  # (Jg, n)
-            pos[nodes] = (oA[idx, None] + np.einsum("jab,jnb->jna", F[idx], _embed(xl, dim)))[..., :dim]
+            pos[nodes] = (oA[idx, None] + _embed(xl, dim) @ np.swapaxes(F[idx], 1, 2))[..., :dim]  # matmul: einsum ~8 us more
             if dim == 2:  # global rotation from rest = side-A link's angle + angle in the joint frame
                 rot[nodes] = poses.angle[self.frames.a[idx]][:, None] + Rl
             else:

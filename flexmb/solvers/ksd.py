@@ -359,7 +359,7 @@ class _KSD:
         internal, q_nodes = [], []
         for (tpl, _, idx), e in zip(red.groups, eobs):
             n_int = tpl.n_nodes - 2
-            xi = -(np.einsum("jab,jb->ja", e.recover[:, :, :nd], xi_B[idx]) + e.recover[:, :, nd])
+            xi = -((e.recover[:, :, :nd] @ xi_B[idx][..., None])[..., 0] + e.recover[:, :, nd])
             if self.full:  # step 5's first geometric stiffness needs them (`_eob_axial`)
                 q_nodes.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
             xi = xi.reshape(len(idx), n_int, nd)

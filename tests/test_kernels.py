@@ -205,7 +205,8 @@ def test_ksd_reduced_solves_agree_with_either_path(kernels):
 
 @pytest.mark.parametrize("case", ["manipulator", "fourbar"])
 def test_ksd_equilibrium_kernel_equals_numpy(kernels, case):
-    # KSD step 3's residual and tangent (Dwarshuis et al. 2020 Eq. 2.4 per joint) at link poses
+    # KSD step 3's residual and tangent (Dwarshuis et al. 2020 Eq. 2.4 per joint) and the joints'
+    # relative poses (node B in the joint frame, Sec. 2.2) at link poses
     # moved and turned at random, with random condensed stiffnesses and forces: the 3D
     # manipulator (Sec. 4.4) and the planar four-bar (Sec. 4.3) in 3D form
     from flexmb.ksd.geometry import rz
@@ -229,9 +230,10 @@ def test_ksd_equilibrium_kernel_equals_numpy(kernels, case):
         r3, none = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent=False)
         assert none is None and np.array_equal(r, r2) and np.array_equal(r, r3)
         assert np.array_equal(T, deferred())
-        out[path] = r, T
-    assert _rel(out["numpy"][0], out["numba"][0]) < 1e-12
-    assert _rel(out["numpy"][1], out["numba"][1]) < 1e-12
+        p, Rrel, geo = red.frames.relative(poses)  # the joints' relative poses (steps 1, 3, 4)
+        out[path] = r, T, p, Rrel, geo["F"], geo["Ft"], geo["rb"], geo["ra"]
+    for a, b in zip(out["numpy"], out["numba"]):
+        assert a.shape == b.shape and _rel(a, b) < 1e-12
 
 
 def test_bad_kernel_choice_is_refused():

@@ -145,7 +145,16 @@ class JointFrames:
 
     def relative(self, poses: LinkPoses):
         """``p`` (J, 3), ``R_rel`` (J, 3, 3) and ``dict`` of intermediate vectors: the frame axes
-        ``F`` and ``Ft = F^T`` (J, 3, 3), node B's arms ``rb`` from link b and ``ra`` from link a (J, 3)."""
+        ``F`` and ``Ft = F^T`` (J, 3, 3), node B's arms ``rb`` from link b and ``ra`` from link a (J, 3).
+        With the compiled kernels `flexmb.ksd.reduced_jit.relative` (~8 -> ~2 us on the manipulator)."""
+        if jit.enabled():
+            from . import reduced_jit
+
+            n = len(self.a)
+            p, Rrel, F, rb, ra = np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))
+            reduced_jit.relative(np.ascontiguousarray(poses.x, dtype=float), np.ascontiguousarray(poses.R, dtype=float),
+                                 self.a, self.b, self.s_a, self.s_b, self.P, p, Rrel, F, rb, ra)
+            return p, Rrel, {"F": F, "Ft": F.swapaxes(1, 2), "rb": rb, "ra": ra}
         Rab = poses.R.take(self._ab, axis=0)  # (2J, 3, 3): links a, then links b (take: cheaper than [])
         xab = poses.x.take(self._ab, axis=0)
         arm = (Rab @ self._s_ab)[..., 0]

@@ -402,10 +402,11 @@ class ReducedMechanism:
         offset, d, loads = self._loads(poses)
         r = np.zeros(n)
         T = np.zeros((n, n) if tangent else (1, 1))
+        p, Rrel, geo = fr.relative(poses)
         f = np.ascontiguousarray
-        reduced_jit.equilibrium(f(poses.x, dtype=float), f(poses.R, dtype=float), fr.a, fr.b, f(fr.s_a, dtype=float),
-                                f(fr.s_b, dtype=float), f(fr.P, dtype=float), f(K, dtype=float), f(F_hat, dtype=float),
-                                f(p_hat, dtype=float), f(R_hat, dtype=float), self._cols,
+        reduced_jit.equilibrium(f(p, dtype=float), f(Rrel, dtype=float), f(geo["F"], dtype=float), f(geo["Ft"], dtype=float),
+                                f(geo["rb"], dtype=float), f(geo["ra"], dtype=float), f(K, dtype=float),
+                                f(F_hat, dtype=float), f(p_hat, dtype=float), f(R_hat, dtype=float), self._cols,
                                 self._r_at[12 * len(fr.a):], f(loads.ravel(), dtype=float), bool(tangent), r, T)
         if not tangent:
             return r, None

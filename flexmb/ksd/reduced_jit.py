@@ -1,4 +1,5 @@
-"""Compiled step 3 of KSD: the reduced mechanism's equilibrium residual and tangent in one pass.
+"""Compiled KSD kernels of the reduced mechanism: step 3's equilibrium residual and tangent in one
+pass, and the joints' relative poses (steps 1 and 4).
 
 The same formulas as `flexmb.ksd.reduced.ReducedMechanism.equilibrium` (the numpy path, kept and
 tested equal to 1e-12 in tests/test_kernels.py), written term by term over the J joints: numpy's
@@ -11,7 +12,7 @@ import numpy as np
 
 from ..jit import njit
 
-__all__ = ["equilibrium"]
+__all__ = ["equilibrium", "relative"]
 
 
 @njit
@@ -22,18 +23,19 @@ def _skew(v, out):
 
 
 @njit
-def equilibrium(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_at, loads, tangent, r, T):
+def equilibrium(p, Rrel, F_all, Ft_all, rb_all, ra_all, K, Fh, p_hat, R_hat, cols, load_at, loads, tangent, r, T):
     """Adds the joints' wrenches on their links and minus the loads to ``r`` (6 n_links,), and with
-    ``tangent`` the joints' 12 x 12 blocks to ``T`` (6 n_links, 6 n_links). Link poses ``x`` (n, 3),
-    ``R`` (n, 3, 3); joints: links ``a``, ``b``, offsets ``s_a``, ``s_b``, placements ``P``, condensed
-    stiffness ``K`` (J, 6, 6) and force ``Fh`` (J, 6) about the near pose ``p_hat``, ``R_hat``;
-    ``cols`` (J, 12) the DOFs of links a then b; ``loads`` (L,) on the residual entries ``load_at``."""
+    ``tangent`` the joints' 12 x 12 blocks to ``T`` (6 n_links, 6 n_links). The joints' relative
+    poses ``p`` (J, 3), ``Rrel``, frame axes ``F_all`` and their transposes ``Ft_all`` (J, 3, 3) (as
+    `relative` gives them: its ``F`` and ``Ft`` enter as numpy's path uses them) and arms ``rb_all``, ``ra_all``
+    (J, 3) from `relative`; condensed stiffness ``K`` (J, 6, 6) and force ``Fh`` (J, 6) about the
+    near pose ``p_hat``, ``R_hat``; ``cols`` (J, 12) the DOFs of links a then b; ``loads`` (L,) on
+    the residual entries ``load_at``."""
     F = np.empty((3, 3))
-    RPb = np.empty((3, 3))
     Q = np.empty((3, 3))
     xi = np.empty(6)
     w = np.empty(6)
-    f, mB, rb, ra, d = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    f, mB, rb, ra = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     Sf, SmB, Srb, Sra = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     C = np.zeros((6, 12))
     Jr = np.empty((6, 12))
@@ -43,24 +45,15 @@ def equilibrium(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_at, loa
     blocks = np.empty((12, 12))
     Dq = np.empty((3, 3))
     tmp = np.empty((3, 12))
-    for j in range(len(a)):
-        ia, ib = a[j], b[j]
+    for j in range(len(cols)):
         for i in range(3):
-            arm_a = R[ia, i, 0] * s_a[j, 0] + R[ia, i, 1] * s_a[j, 1] + R[ia, i, 2] * s_a[j, 2]
-            rb[i] = R[ib, i, 0] * s_b[j, 0] + R[ib, i, 1] * s_b[j, 1] + R[ib, i, 2] * s_b[j, 2]
-            d[i] = (x[ib, i] + rb[i]) - (x[ia, i] + arm_a)  # o_B - o_A
-            ra[i] = (x[ib, i] + rb[i]) - x[ia, i]
+            rb[i], ra[i] = rb_all[j, i], ra_all[j, i]
+            xi[i] = p[j, i] - p_hat[j, i]
             for k in range(3):
-                F[i, k] = R[ia, i, 0] * P[j, 0, k] + R[ia, i, 1] * P[j, 1, k] + R[ia, i, 2] * P[j, 2, k]
-                RPb[i, k] = R[ib, i, 0] * P[j, 0, k] + R[ib, i, 1] * P[j, 1, k] + R[ib, i, 2] * P[j, 2, k]
-        for i in range(3):  # p = F^T (o_B - o_A); R_rel = F^T R_b P; Q = R_rel R_hat^T
-            xi[i] = d[0] * F[0, i] + d[1] * F[1, i] + d[2] * F[2, i] - p_hat[j, i]
-        for i in range(3):
-            Rrel0 = F[0, i] * RPb[0, 0] + F[1, i] * RPb[1, 0] + F[2, i] * RPb[2, 0]
-            Rrel1 = F[0, i] * RPb[0, 1] + F[1, i] * RPb[1, 1] + F[2, i] * RPb[2, 1]
-            Rrel2 = F[0, i] * RPb[0, 2] + F[1, i] * RPb[1, 2] + F[2, i] * RPb[2, 2]
+                F[i, k] = F_all[j, i, k]
+        for i in range(3):  # Q = R_rel R_hat^T
             for k in range(3):
-                Q[i, k] = Rrel0 * R_hat[j, k, 0] + Rrel1 * R_hat[j, k, 1] + Rrel2 * R_hat[j, k, 2]
+                Q[i, k] = Rrel[j, i, 0] * R_hat[j, k, 0] + Rrel[j, i, 1] * R_hat[j, k, 1] + Rrel[j, i, 2] * R_hat[j, k, 2]
         xi[3], xi[4], xi[5] = 0.5 * (Q[2, 1] - Q[1, 2]), 0.5 * (Q[0, 2] - Q[2, 0]), 0.5 * (Q[1, 0] - Q[0, 1])
         for i in range(6):
             acc = 0.0
@@ -97,7 +90,8 @@ def equilibrium(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_at, loa
         for h in range(2):
             for i in range(3):
                 for c in range(12):
-                    Jr[3 * h + i, c] = F[0, i] * C[3 * h, c] + F[1, i] * C[3 * h + 1, c] + F[2, i] * C[3 * h + 2, c]
+                    Jr[3 * h + i, c] = (Ft_all[j, i, 0] * C[3 * h, c] + Ft_all[j, i, 1] * C[3 * h + 1, c]
+                                        + Ft_all[j, i, 2] * C[3 * h + 2, c])
         tr = Q[0, 0] + Q[1, 1] + Q[2, 2]
         for i in range(3):  # d unskew(Q) / d omega = (trace(Q) I - Q) / 2
             for k in range(3):
@@ -144,3 +138,26 @@ def equilibrium(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_at, loa
                 T[cols[j, i], cols[j, c]] += blocks[i, c]
     for i in range(len(load_at)):
         r[load_at[i]] -= loads[i]
+
+
+@njit
+def relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra):
+    """`flexmb.ksd.geometry.JointFrames.relative` term by term: fills node B's position ``p``
+    (J, 3) and rotation ``Rrel`` (J, 3, 3) in the joint frame, the frame axes ``F = R_a P``, the arms
+    ``rb`` from link b and ``ra`` from link a (J, 3)."""
+    RPb = np.empty((3, 3))
+    d = np.empty(3)
+    for j in range(len(a)):
+        ia, ib = a[j], b[j]
+        for i in range(3):
+            arm_a = R[ia, i, 0] * s_a[j, 0] + R[ia, i, 1] * s_a[j, 1] + R[ia, i, 2] * s_a[j, 2]
+            rb[j, i] = R[ib, i, 0] * s_b[j, 0] + R[ib, i, 1] * s_b[j, 1] + R[ib, i, 2] * s_b[j, 2]
+            d[i] = (x[ib, i] + rb[j, i]) - (x[ia, i] + arm_a)
+            ra[j, i] = (x[ib, i] + rb[j, i]) - x[ia, i]
+            for k in range(3):
+                F[j, i, k] = R[ia, i, 0] * P[j, 0, k] + R[ia, i, 1] * P[j, 1, k] + R[ia, i, 2] * P[j, 2, k]
+                RPb[i, k] = R[ib, i, 0] * P[j, 0, k] + R[ib, i, 1] * P[j, 1, k] + R[ib, i, 2] * P[j, 2, k]
+        for i in range(3):
+            p[j, i] = d[0] * F[j, 0, i] + d[1] * F[j, 1, i] + d[2] * F[j, 2, i]
+            for k in range(3):
+                Rrel[j, i, k] = F[j, 0, i] * RPb[0, k] + F[j, 1, i] * RPb[1, k] + F[j, 2, i] * RPb[2, k]

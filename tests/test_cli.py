@@ -369,3 +369,19 @@ def test_the_training_command_a_missing_database_names_builds_that_database(tmp_
     assert command[:2] == ["flexmb", "train"] and "length_ratio" not in str(err.value).split("`")[1]
     assert cli.main(command[1:] + ["--range", "10", "--step", "5"]) == 0
     assert flexmb.solve(m, method="ksd-reduced", database=tmp_path).converged
+
+
+def test_manipulator_modes_example_draws_every_method(monkeypatch):
+    """examples/manipulator_modes.py (issue 22 case 4) at three positions: KSD-full's frequencies are
+    the conventional ones (same equilibrium, to 1e-8), KSD-reduced's f1-f3 within 1 % (README table),
+    and the figure draws 6 modes x 3 methods."""
+    pytest.importorskip("matplotlib")
+    spec = importlib.util.spec_from_file_location("ex_manipulator_modes", ROOT / "examples" / "manipulator_modes.py")
+    ex = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ex)
+    monkeypatch.setattr(ex, "DEGREES", np.array([-45, 0, 45]))
+    f = ex.frequencies()
+    np.testing.assert_allclose(f["ksd-full"], f["conventional"], rtol=1e-8)
+    assert np.abs(f["ksd-reduced"][:, :3] / f["conventional"][:, :3] - 1).max() < 0.01
+    fig = ex.figure(f)
+    assert len(fig.axes[0].lines) == 18

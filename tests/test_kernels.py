@@ -209,7 +209,7 @@ def test_ksd_equilibrium_kernel_equals_numpy(kernels, case):
     # relative poses (node B in the joint frame, Sec. 2.2) at link poses
     # moved and turned at random, with random condensed stiffnesses and forces: the 3D
     # manipulator (Sec. 4.4) and the planar four-bar (Sec. 4.3) in 3D form
-    from flexmb.ksd.geometry import rz
+    from flexmb.ksd.geometry import intended_angle, rz
     from flexmb.solvers.ksd import reduced_mechanism
 
     m = (flexmb.models.manipulator("joint", np.radians(30.0)) if case == "manipulator"
@@ -222,6 +222,7 @@ def test_ksd_equilibrium_kernel_equals_numpy(kernels, case):
     K = rng.normal(size=(J, 6, 6))
     K = K @ np.swapaxes(K, 1, 2) * 1e2
     Fh, p_hat, R_hat = rng.normal(size=(J, 6)), 1e-3 * rng.normal(size=(J, 3)), rz(rng.normal(size=J))
+    tilt = expm_so3(rng.normal(size=(J, 3)))
     out = {}
     for path in ("numpy", "numba"):
         kernels(path)
@@ -231,7 +232,8 @@ def test_ksd_equilibrium_kernel_equals_numpy(kernels, case):
         assert none is None and np.array_equal(r, r2) and np.array_equal(r, r3)
         assert np.array_equal(T, deferred())
         p, Rrel, geo = red.frames.relative(poses)  # the joints' relative poses (steps 1, 3, 4)
-        out[path] = r, T, p, Rrel, geo["F"], geo["Ft"], geo["rb"], geo["ra"]
+        theta, dtheta = intended_angle(Rrel @ tilt)  # tilted: every term of the gradient
+        out[path] = r, T, p, Rrel, geo["F"], geo["Ft"], geo["rb"], geo["ra"], theta, dtheta
     for a, b in zip(out["numpy"], out["numba"]):
         assert a.shape == b.shape and _rel(a, b) < 1e-12
 

@@ -95,7 +95,13 @@ def rz(angle: np.ndarray) -> np.ndarray:
 def intended_angle(R: np.ndarray):
     """Rotation about z of ``R`` (..., 3, 3) [rad] and its gradient with respect to a spin
     ``omega`` (``dR = skew(omega) R``), shape (..., 3). Exact for any tilt (atan2 of the
-    in-plane block)."""
+    in-plane block). A stack (J, 3, 3) with the compiled kernels: `flexmb.ksd.reduced_jit.intended_angle`."""
+    if R.ndim == 3 and jit.enabled():
+        from . import reduced_jit
+
+        theta, dtheta = np.empty(len(R)), np.empty((len(R), 3))
+        reduced_jit.intended_angle(np.ascontiguousarray(R, dtype=float), theta, dtheta)
+        return theta, dtheta
     # s = R10 - R01, c = R00 + R11 and their variations along skew(e_k) R, k = x, y, z
     sc = (R.reshape(R.shape[:-2] + (9,)) @ _ANGLE).swapaxes(-1, 0)
     s, c, ds, dc = sc[0], sc[1], sc[2:5].swapaxes(-1, 0), sc[5:8].swapaxes(-1, 0)

@@ -1,5 +1,5 @@
 """Compiled KSD kernels of the reduced mechanism: step 3's equilibrium residual and tangent in one
-pass, and the joints' relative poses (steps 1 and 4).
+pass, the joints' relative poses (steps 1, 3 and 4) and their intended rotations (step 1).
 
 The same formulas as `flexmb.ksd.reduced.ReducedMechanism.equilibrium` (the numpy path, kept and
 tested equal to 1e-12 in tests/test_kernels.py), written term by term over the J joints: numpy's
@@ -12,7 +12,7 @@ import numpy as np
 
 from ..jit import njit
 
-__all__ = ["equilibrium", "relative"]
+__all__ = ["equilibrium", "relative", "intended_angle"]
 
 
 @njit
@@ -161,3 +161,16 @@ def relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra):
             p[j, i] = d[0] * F[j, 0, i] + d[1] * F[j, 1, i] + d[2] * F[j, 2, i]
             for k in range(3):
                 Rrel[j, i, k] = F[j, 0, i] * RPb[0, k] + F[j, 1, i] * RPb[1, k] + F[j, 2, i] * RPb[2, k]
+
+
+@njit
+def intended_angle(R, theta, dtheta):
+    """`flexmb.ksd.geometry.intended_angle` term by term for ``R`` (J, 3, 3): fills ``theta`` (J,)
+    and ``dtheta`` (J, 3)."""
+    for j in range(R.shape[0]):
+        s, c = R[j, 1, 0] - R[j, 0, 1], R[j, 0, 0] + R[j, 1, 1]
+        n = s * s + c * c
+        theta[j] = np.arctan2(s, c)
+        dtheta[j, 0] = (c * -R[j, 2, 0] - s * -R[j, 2, 1]) / n
+        dtheta[j, 1] = (c * -R[j, 2, 1] - s * R[j, 2, 0]) / n
+        dtheta[j, 2] = (c * c + s * s) / n  # (c ds_z - s dc_z) / n with ds_z = c, dc_z = -s

@@ -36,8 +36,8 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import ModelError
 from ..fe import beam2d, beam3d
-from ..rotations import expm_so3, logm_so3, rot2, skew
-from .geometry import rz
+from ..rotations import logm_so3, rot2, skew
+from .geometry import expm, rz
 
 __all__ = ["EOBTemplate", "EOB", "lever"]
 
@@ -308,7 +308,7 @@ class EOBTemplate:
                 beta = orient[:, :E]
                 Re = rot2(beta)  # (J, E, 2, 2)
         else:  # rotation vectors (Sec. 3.1: elements turning about several axes)
-            R = expm_so3(orient.reshape(J, e + N - 2, 3))
+            R = expm(orient.reshape(J, e + N - 2, 3))
             Rn = np.empty((J, N, 3, 3))
             Rn[:, 0], Rn[:, 1], Rn[:, 2:] = _EYE, rz(theta), R[:, e:]
             if elements:

@@ -16,16 +16,17 @@ import os
 
 import numpy as np
 
+from .. import jit
 from .._validate import hashable
 from ..database.store import ENVIRONMENT, file_name, search_path, shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
 from ..fe.ideal import row_names
 from ..fe.model import State
-from ..rotations import cross, expm_so3, skew, unskew
+from ..rotations import cross, skew, unskew
 from . import constraints
 from .eob import EOBTemplate
 from .eob_table import lookup_for
-from .geometry import ACTIVE, JointFrames, LinkPoses, intended_angle
+from .geometry import ACTIVE, JointFrames, LinkPoses, expm, intended_angle
 
 __all__ = ["ReducedMechanism", "template"]
 
@@ -281,7 +282,7 @@ class ReducedMechanism:
         (lt, ct, vt), (lr, W) = self._moves
         x[lt, ct] = self.X0[lt, ct] + lam * vt
         if len(lr):
-            R[lr] = expm_so3(lam * W)
+            R[lr] = expm(lam * W)
             angle[lr] = lam * W[:, 2]
         return LinkPoses(x, R, angle)
 
@@ -341,7 +342,11 @@ class ReducedMechanism:
         Jacobian (6 n_links, 6 n_links). ``K`` (J, 6, 6), ``F_hat`` (J, 6): each joint's
         condensed stiffness on node B (node A held) about its near pose ``p_hat`` (J, 3),
         ``R_hat`` (J, 3, 3), in the joint frame. ``tangent="deferred"`` returns a function that
-        computes the Jacobian when called (a converged Newton iterate never needs it)."""
+        computes the Jacobian when called (a converged Newton iterate never needs it).
+        With the compiled kernels one pass of `flexmb.ksd.reduced_jit.equilibrium` (the same terms;
+        the tangent always, ~2 us more)."""
+        if jit.enabled():
+            return self._equilibrium_compiled(poses, K, F_hat, p_hat, R_hat, tangent)
         fr = self.frames
         p, Rrel, geo = fr.relative(poses)
         Q = Rrel @ np.swapaxes(R_hat, 1, 2)
@@ -352,12 +357,7 @@ class ReducedMechanism:
         f = fm[:, 0]
         m = fm[:, 1:] + (S[:, 2:] @ fm[:, :1, :, None])[..., 0]  # (J, 2, 3): moments about b and a
         on_links = np.concatenate([f, m[:, 0], -f, -m[:, 1]], axis=1)  # on b, on a
-        offset = self.load_offset.any()
-        if offset:
-            d = (poses.R[self.load_node] @ self.load_offset[..., None])[..., 0]
-            loads = np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)], axis=1)
-        else:
-            loads = np.concatenate([self.load_force, self.load_moment], axis=1)
+        offset, d, loads = self._loads(poses)
         r = np.bincount(self._r_at, np.concatenate([on_links.ravel(), -loads.ravel()]), minlength=6 * self.n_links)
 
         def jacobian():
@@ -383,6 +383,36 @@ class ReducedMechanism:
         if not tangent:
             return r, None
         return r, (jacobian if tangent == "deferred" else jacobian())
+
+    def _loads(self, poses: LinkPoses):
+        """Whether loads sit at offsets, the offsets turned with their links (L, 3) (None
+        without) and the loads (L, 6) on the links' reference points."""
+        if not self.load_offset.any():
+            return False, None, np.concatenate([self.load_force, self.load_moment], axis=1)
+        d = (poses.R[self.load_node] @ self.load_offset[..., None])[..., 0]
+        return True, d, np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)], axis=1)
+
+    def _equilibrium_compiled(self, poses: LinkPoses, K, F_hat, p_hat, R_hat, tangent):
+        """`equilibrium` through `flexmb.ksd.reduced_jit.equilibrium` (manipulator: ~50 us of numpy per
+        evaluation and ~30 us per tangent, issue 21)."""
+        from . import reduced_jit
+
+        n = 6 * self.n_links
+        fr = self.frames
+        offset, d, loads = self._loads(poses)
+        r = np.zeros(n)
+        T = np.zeros((n, n) if tangent else (1, 1))
+        p, Rrel, geo = fr.relative(poses)
+        f = np.ascontiguousarray
+        reduced_jit.equilibrium(f(p, dtype=float), f(Rrel, dtype=float), f(geo["F"], dtype=float), f(geo["Ft"], dtype=float),
+                                f(geo["rb"], dtype=float), f(geo["ra"], dtype=float), f(K, dtype=float),
+                                f(F_hat, dtype=float), f(p_hat, dtype=float), f(R_hat, dtype=float), self._cols,
+                                self._r_at[12 * len(fr.a):], f(loads.ravel(), dtype=float), bool(tangent), r, T)
+        if not tangent:
+            return r, None
+        if offset:  # d(d x f)/dphi of loads at offset points
+            np.add.at(T.reshape(-1), self._K_at[144 * len(fr.a):], -(skew(self.load_force) @ skew(d)).ravel())
+        return r, ((lambda: T) if tangent == "deferred" else T)
 
     def hinge_response(self, poses: LinkPoses, multipliers: np.ndarray, tangent: bool = True, angles=None):
         """The hinges' forces (6 n_links + n_rows,): their multipliers' forces and springs' moments
@@ -424,7 +454,7 @@ class ReducedMechanism:
                 continue
             nodes = self._group_nodes[id(idx)] if id(idx) in self._group_nodes else np.array(
                 [self.joint_nodes[j] for j in idx])  # (Jg, n)
-            pos[nodes] = (oA[idx, None] + np.einsum("jab,jnb->jna", F[idx], _embed(xl, dim)))[..., :dim]
+            pos[nodes] = (oA[idx, None] + _embed(xl, dim) @ np.swapaxes(F[idx], 1, 2))[..., :dim]  # matmul: einsum ~8 us more
             if dim == 2:  # global rotation from rest = side-A link's angle + angle in the joint frame
                 rot[nodes] = poses.angle[self.frames.a[idx]][:, None] + Rl
             else:

@@ -29,12 +29,12 @@ import attrs
 import numpy as np
 
 from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError
-from ..ksd.geometry import ACTIVE, rz
+from ..ksd.geometry import ACTIVE, compose, rz
 from ..ksd.kinematics import _correction, _gesv, _norm, solve_kinematics
 from ..ksd.reduced import ReducedMechanism
 from ..linear import single_threaded
 from ..results import Solution
-from ..rotations import expm_so3, unskew
+from ..rotations import unskew
 from .conventional import above_one, boolean, newton_steps, positive_float, positive_int, unit_interval
 
 __all__ = ["KSDReduced", "KSDFull", "solve_kinematics"]  # solve_kinematics: flexmb.ksd.kinematics, re-exported
@@ -359,7 +359,7 @@ class _KSD:
         internal, q_nodes = [], []
         for (tpl, _, idx), e in zip(red.groups, eobs):
             n_int = tpl.n_nodes - 2
-            xi = -(np.einsum("jab,jb->ja", e.recover[:, :, :nd], xi_B[idx]) + e.recover[:, :, nd])
+            xi = -((e.recover[:, :, :nd] @ xi_B[idx][..., None])[..., 0] + e.recover[:, :, nd])
             if self.full:  # step 5's first geometric stiffness needs them (`_eob_axial`)
                 q_nodes.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
             xi = xi.reshape(len(idx), n_int, nd)
@@ -367,7 +367,7 @@ class _KSD:
             if dim == 2:
                 rot = e.node_angle[:, 2:] + xi[..., 2]
             else:
-                rot = expm_so3(xi[..., 3:]) @ e.node_rotation[:, 2:]
+                rot = compose(xi[..., 3:], e.node_rotation[:, 2:])
             internal.append((idx, x, rot))
         return red.fe_state(poses, internal, multipliers, hinge_angles), q_nodes
 

@@ -1,0 +1,176 @@
+"""Compiled KSD kernels of the reduced mechanism: step 3's equilibrium residual and tangent in one
+pass, the joints' relative poses (steps 1, 3 and 4) and their intended rotations (step 1).
+
+The same formulas as `flexmb.ksd.reduced.ReducedMechanism.equilibrium` (the numpy path, kept and
+tested equal to 1e-12 in tests/test_kernels.py), written term by term over the J joints: numpy's
+~60 calls on (J, 3, 3) stacks cost ~50 us per evaluation on the manipulator (issue 21).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..jit import njit
+
+__all__ = ["equilibrium", "relative", "intended_angle"]
+
+
+@njit
+def _skew(v, out):
+    out[0, 0], out[0, 1], out[0, 2] = 0.0, -v[2], v[1]
+    out[1, 0], out[1, 1], out[1, 2] = v[2], 0.0, -v[0]
+    out[2, 0], out[2, 1], out[2, 2] = -v[1], v[0], 0.0
+
+
+@njit
+def equilibrium(p, Rrel, F_all, Ft_all, rb_all, ra_all, K, Fh, p_hat, R_hat, cols, load_at, loads, tangent, r, T):
+    """Adds the joints' wrenches on their links and minus the loads to ``r`` (6 n_links,), and with
+    ``tangent`` the joints' 12 x 12 blocks to ``T`` (6 n_links, 6 n_links). The joints' relative
+    poses ``p`` (J, 3), ``Rrel``, frame axes ``F_all`` and their transposes ``Ft_all`` (J, 3, 3) (as
+    `relative` gives them: its ``F`` and ``Ft`` enter as numpy's path uses them) and arms ``rb_all``, ``ra_all``
+    (J, 3) from `relative`; condensed stiffness ``K`` (J, 6, 6) and force ``Fh`` (J, 6) about the
+    near pose ``p_hat``, ``R_hat``; ``cols`` (J, 12) the DOFs of links a then b; ``loads`` (L,) on
+    the residual entries ``load_at``."""
+    F = np.empty((3, 3))
+    Q = np.empty((3, 3))
+    xi = np.empty(6)
+    w = np.empty(6)
+    f, mB, rb, ra = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    Sf, SmB, Srb, Sra = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    C = np.zeros((6, 12))
+    Jr = np.empty((6, 12))
+    dw = np.empty((6, 12))
+    D = np.empty((2, 3, 12))
+    dm = np.empty((2, 3, 12))
+    blocks = np.empty((12, 12))
+    Dq = np.empty((3, 3))
+    tmp = np.empty((3, 12))
+    for j in range(len(cols)):
+        for i in range(3):
+            rb[i], ra[i] = rb_all[j, i], ra_all[j, i]
+            xi[i] = p[j, i] - p_hat[j, i]
+            for k in range(3):
+                F[i, k] = F_all[j, i, k]
+        for i in range(3):  # Q = R_rel R_hat^T
+            for k in range(3):
+                Q[i, k] = Rrel[j, i, 0] * R_hat[j, k, 0] + Rrel[j, i, 1] * R_hat[j, k, 1] + Rrel[j, i, 2] * R_hat[j, k, 2]
+        xi[3], xi[4], xi[5] = 0.5 * (Q[2, 1] - Q[1, 2]), 0.5 * (Q[0, 2] - Q[2, 0]), 0.5 * (Q[1, 0] - Q[0, 1])
+        for i in range(6):
+            acc = 0.0
+            for k in range(6):
+                acc += K[j, i, k] * xi[k]
+            w[i] = acc + Fh[j, i]
+        for i in range(3):  # force and moment on B in global axes
+            f[i] = F[i, 0] * w[0] + F[i, 1] * w[1] + F[i, 2] * w[2]
+            mB[i] = F[i, 0] * w[3] + F[i, 1] * w[4] + F[i, 2] * w[5]
+        mb = (mB[0] + rb[1] * f[2] - rb[2] * f[1], mB[1] + rb[2] * f[0] - rb[0] * f[2],
+              mB[2] + rb[0] * f[1] - rb[1] * f[0])  # about link b's and link a's reference points
+        ma = (mB[0] + ra[1] * f[2] - ra[2] * f[1], mB[1] + ra[2] * f[0] - ra[0] * f[2],
+              mB[2] + ra[0] * f[1] - ra[1] * f[0])
+        for i in range(3):
+            r[cols[j, 6 + i]] += f[i]
+            r[cols[j, 9 + i]] += mb[i]
+            r[cols[j, i]] -= f[i]
+            r[cols[j, 3 + i]] -= ma[i]
+        if not tangent:
+            continue
+        _skew(f, Sf)
+        _skew(mB, SmB)
+        _skew(rb, Srb)
+        _skew(ra, Sra)
+        # d(p, omega) / d(dx_a, dphi_a, dx_b, dphi_b) = diag(F^T, F^T) [[-I, skew(ra), I, -skew(rb)], [0, -I, 0, I]]
+        for i in range(3):
+            for k in range(3):
+                C[i, k] = -1.0 if i == k else 0.0
+                C[i, 3 + k] = Sra[i, k]
+                C[i, 6 + k] = 1.0 if i == k else 0.0
+                C[i, 9 + k] = -Srb[i, k]
+                C[3 + i, 3 + k] = -1.0 if i == k else 0.0
+                C[3 + i, 9 + k] = 1.0 if i == k else 0.0
+        for h in range(2):
+            for i in range(3):
+                for c in range(12):
+                    Jr[3 * h + i, c] = (Ft_all[j, i, 0] * C[3 * h, c] + Ft_all[j, i, 1] * C[3 * h + 1, c]
+                                        + Ft_all[j, i, 2] * C[3 * h + 2, c])
+        tr = Q[0, 0] + Q[1, 1] + Q[2, 2]
+        for i in range(3):  # d unskew(Q) / d omega = (trace(Q) I - Q) / 2
+            for k in range(3):
+                Dq[i, k] = 0.5 * ((tr if i == k else 0.0) - Q[i, k])
+        for i in range(3):
+            for c in range(12):
+                tmp[i, c] = Dq[i, 0] * Jr[3, c] + Dq[i, 1] * Jr[4, c] + Dq[i, 2] * Jr[5, c]
+        Jr[3:] = tmp
+        for i in range(6):
+            for c in range(12):
+                acc = 0.0
+                for k in range(6):
+                    acc += K[j, i, k] * Jr[k, c]
+                dw[i, c] = acc
+        for h in range(2):  # d(f, mB) = F d(w); F turns with link a
+            for i in range(3):
+                for c in range(12):
+                    D[h, i, c] = F[i, 0] * dw[3 * h, c] + F[i, 1] * dw[3 * h + 1, c] + F[i, 2] * dw[3 * h + 2, c]
+        for i in range(3):
+            for k in range(3):
+                D[0, i, 3 + k] -= Sf[i, k]
+                D[1, i, 3 + k] -= SmB[i, k]
+        # d(mB + r x f) = dmB + skew(r) df - skew(f) dr about b and a, with
+        # d(rb) = (0, 0, 0, -skew(rb)) and d(ra) = (-I, 0, I, -skew(rb))
+        for i in range(3):
+            for c in range(12):
+                dm[0, i, c] = D[1, i, c] + Srb[i, 0] * D[0, 0, c] + Srb[i, 1] * D[0, 1, c] + Srb[i, 2] * D[0, 2, c]
+                dm[1, i, c] = D[1, i, c] + Sra[i, 0] * D[0, 0, c] + Sra[i, 1] * D[0, 1, c] + Sra[i, 2] * D[0, 2, c]
+        for i in range(3):
+            for k in range(3):
+                fr = Sf[i, 0] * Srb[0, k] + Sf[i, 1] * Srb[1, k] + Sf[i, 2] * Srb[2, k]
+                dm[0, i, 9 + k] += fr
+                dm[1, i, 9 + k] += fr
+                dm[1, i, k] += Sf[i, k]
+                dm[1, i, 6 + k] -= Sf[i, k]
+        for i in range(3):  # rows: on a (force, moment), on b
+            for c in range(12):
+                blocks[i, c] = -D[0, i, c]
+                blocks[3 + i, c] = -dm[1, i, c]
+                blocks[6 + i, c] = D[0, i, c]
+                blocks[9 + i, c] = dm[0, i, c]
+        for i in range(12):
+            for c in range(12):
+                T[cols[j, i], cols[j, c]] += blocks[i, c]
+    for i in range(len(load_at)):
+        r[load_at[i]] -= loads[i]
+
+
+@njit
+def relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra):
+    """`flexmb.ksd.geometry.JointFrames.relative` term by term: fills node B's position ``p``
+    (J, 3) and rotation ``Rrel`` (J, 3, 3) in the joint frame, the frame axes ``F = R_a P``, the arms
+    ``rb`` from link b and ``ra`` from link a (J, 3)."""
+    RPb = np.empty((3, 3))
+    d = np.empty(3)
+    for j in range(len(a)):
+        ia, ib = a[j], b[j]
+        for i in range(3):
+            arm_a = R[ia, i, 0] * s_a[j, 0] + R[ia, i, 1] * s_a[j, 1] + R[ia, i, 2] * s_a[j, 2]
+            rb[j, i] = R[ib, i, 0] * s_b[j, 0] + R[ib, i, 1] * s_b[j, 1] + R[ib, i, 2] * s_b[j, 2]
+            d[i] = (x[ib, i] + rb[j, i]) - (x[ia, i] + arm_a)
+            ra[j, i] = (x[ib, i] + rb[j, i]) - x[ia, i]
+            for k in range(3):
+                F[j, i, k] = R[ia, i, 0] * P[j, 0, k] + R[ia, i, 1] * P[j, 1, k] + R[ia, i, 2] * P[j, 2, k]
+                RPb[i, k] = R[ib, i, 0] * P[j, 0, k] + R[ib, i, 1] * P[j, 1, k] + R[ib, i, 2] * P[j, 2, k]
+        for i in range(3):
+            p[j, i] = d[0] * F[j, 0, i] + d[1] * F[j, 1, i] + d[2] * F[j, 2, i]
+            for k in range(3):
+                Rrel[j, i, k] = F[j, 0, i] * RPb[0, k] + F[j, 1, i] * RPb[1, k] + F[j, 2, i] * RPb[2, k]
+
+
+@njit
+def intended_angle(R, theta, dtheta):
+    """`flexmb.ksd.geometry.intended_angle` term by term for ``R`` (J, 3, 3): fills ``theta`` (J,)
+    and ``dtheta`` (J, 3)."""
+    for j in range(R.shape[0]):
+        s, c = R[j, 1, 0] - R[j, 0, 1], R[j, 0, 0] + R[j, 1, 1]
+        n = s * s + c * c
+        theta[j] = np.arctan2(s, c)
+        dtheta[j, 0] = (c * -R[j, 2, 0] - s * -R[j, 2, 1]) / n
+        dtheta[j, 1] = (c * -R[j, 2, 1] - s * R[j, 2, 0]) / n
+        dtheta[j, 2] = (c * c + s * s) / n  # (c ds_z - s dc_z) / n with ds_z = c, dc_z = -s

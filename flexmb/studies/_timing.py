@@ -17,7 +17,7 @@ CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 def interleaved(mechanism, methods, repeats: int, consecutive: int = 1, clock: str = "wall") -> tuple[dict, dict]:
     """Solve ``mechanism`` with every method ``repeats`` times, the methods interleaved so that
     drifts of the machine hit all alike, garbage collection paused during each solve (as timeit).
-    Call after a warm-up solve. Returns the last solution and the median wall time [s] per method.
+    Call after a warm-up solve. Returns the last solution and the median time [s] per method on ``clock``.
 
     ``consecutive=1``: one solve per method and round after a full collection, so every solve
     starts with the caches left by another method (a single solve). ``consecutive=k > 1``: k

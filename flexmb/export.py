@@ -49,6 +49,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from ._validate import finite
 from .errors import ModelError, ParameterError, UnsupportedStrategyError, require
 from .fe.model import FEModel
 from .fe.section_geometry import mode_scale, point_motion, section_outlines, shaped_elements
@@ -379,12 +380,7 @@ def mode_mesh(modes, k: int, *, solution: Solution | None = None, scale: float |
     if scale is None:
         scale = mode_scale(model, state, shape, x, u[:len(x)])
     else:
-        try:
-            scale = float(scale)
-        except (TypeError, ValueError):
-            raise ParameterError(f"{owner}: scale={scale!r} must be a finite number or None") from None
-        if not math.isfinite(scale):
-            raise ParameterError(f"{owner}: scale={scale!r} must be a finite number or None")
+        scale = finite(owner, "scale", scale)
     i32 = np.int32
     return meshio.Mesh(
         X, cells,

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import itertools
-import math
 import os
 import pickle
 import signal
@@ -21,6 +20,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
+from ._validate import positive
 from .errors import FlexmbError, ParameterError
 from .table import Table, column
 
@@ -113,7 +113,7 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
     if on_error not in ON_ERROR:
         raise ParameterError(f"parameter_study: on_error={on_error!r}; valid: {', '.join(ON_ERROR)}")
     if timeout is not None:
-        timeout = _positive("timeout", timeout)
+        timeout = positive("parameter_study", "timeout", timeout)  # [s]
     if max_workers is not None and (isinstance(max_workers, bool) or not isinstance(max_workers, (int, np.integer))
                                     or max_workers < 1):
         raise ParameterError(f"parameter_study: max_workers={max_workers!r} must be an integer >= 1 (or None: the "
@@ -148,16 +148,6 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
         raise StudyError(f"parameter_study: design {i} {designs[i]!r} failed: {outcomes[i][1]} (the other designs' "
                          "results are in exc.table)", table, i, designs[i])
     return _table(designs, outcomes, "cancelled")
-
-
-def _positive(name: str, value) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if isinstance(value, (bool, str, bytes)) or not (math.isfinite(x) and x > 0):
-        raise ParameterError(f"parameter_study: {name}={value!r} must be a finite number of seconds > 0 (or None)")
-    return x
 
 
 def _check_picklable(function) -> None:

@@ -32,6 +32,7 @@ import weakref
 import attrs
 import numpy as np
 
+from .._validate import positive
 from ..errors import ModelError, ParameterError
 from ..sections import properties
 
@@ -397,12 +398,7 @@ def element_stresses(model, state, joints: dict, concentration=None, limit=None,
     el = model.elements
     kt = _factors(owner, joints, len(el.L0), concentration)
     if limit is not None:
-        try:
-            lim = float(limit)
-        except (TypeError, ValueError):
-            lim = np.nan
-        if isinstance(limit, (bool, str, bytes)) or not (np.isfinite(lim) and lim > 0):
-            raise ParameterError(f"{owner}: limit={limit!r} must be a stress [Pa] > 0 (the yield or fatigue strength)")
+        lim = positive(owner, "limit", limit)  # a stress [Pa]: the yield or fatigue strength
     res = section_resultants(model, state, axial)  # (E, 2, k)
     nE = len(el.L0)
     normal, shear, vm = np.zeros(nE), np.zeros(nE), np.zeros(nE)

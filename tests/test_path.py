@@ -388,15 +388,21 @@ def test_hinged_euler_columns_bifurcate_at_their_closed_form_loads(held, critica
     assert path.stable[0] and not path.stable[-1]
 
 
-def test_the_load_factor_derivative_with_a_hinge_motor():
-    """A motor hinge ramps its angle with the load factor: its constraint row's rate is part of
-    d r / d lam (central differences, as above, at lam = 0.4)."""
+def _motor_on_leaf(angle: float, elements: int) -> flexmb.Mechanism:
+    """A hinge motor (ground G to link A, at the origin) turning A, and a 0.1 m leaf spring from A to B."""
     m = flexmb.Mechanism(dim=2)
     m.add_link("G", fixed=True)
     m.add_link("A")
     m.add_link("B", (0.1, 0.0))
-    m.add_joint("G", "A", "hinge", angle=0.5, origin=(0.0, 0.0))
-    m.add_joint("A", "B", "leaf_spring", elements=3)
+    m.add_joint("G", "A", "hinge", angle=angle, origin=(0.0, 0.0))
+    m.add_joint("A", "B", "leaf_spring", elements=elements)
+    return m
+
+
+def test_the_load_factor_derivative_with_a_hinge_motor():
+    """A motor hinge ramps its angle with the load factor: its constraint row's rate is part of
+    d r / d lam (central differences, as above, at lam = 0.4)."""
+    m = _motor_on_leaf(0.5, elements=3)
     m.apply_force("B", (0.0, -2.0))
     problem = m.compile().problem
     lam, h = 0.4, 1e-6
@@ -412,12 +418,7 @@ def test_the_load_factor_derivative_with_a_hinge_motor():
 
 def test_a_motor_alone_is_something_to_scale():
     """A hinge motor turning a leaf spring: the path follows the motor (the leaf bends with it)."""
-    m = flexmb.Mechanism(dim=2)
-    m.add_link("G", fixed=True)
-    m.add_link("A")
-    m.add_link("B", (0.1, 0.0))
-    m.add_joint("G", "A", "hinge", angle=0.3, origin=(0.0, 0.0))
-    m.add_joint("A", "B", "leaf_spring", elements=4)
+    m = _motor_on_leaf(0.3, elements=4)
     m.prescribe("B", x=0.0, y=0.0)  # B pinned: the motor bends the leaf
     path = flexmb.trace(m, arc_length=0.1, max_load_factor=1.0, progress=False)
     assert path.stopped_by == "max_load_factor" and path[-1].pose("A")[1] == pytest.approx(0.3, abs=1e-12)

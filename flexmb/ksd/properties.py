@@ -26,7 +26,7 @@ from .joint_mass import condensed
 from ..rotations import unskew
 from .geometry import ACTIVE, LinkPoses, rz
 from .kinematics import solve_kinematics
-from .reduced import ReducedMechanism
+from .reduced import ReducedMechanism, reduced_mechanism
 
 __all__ = ["reduced_tangent", "reduced_mass", "link_poses", "near", "full_eobs",
            "node_displacements", "eob_axial_forces"]
@@ -66,20 +66,6 @@ def near_configuration(red: ReducedMechanism, table: bool = True, step1=None):
 
 
 _NEAR = weakref.WeakKeyDictionary()
-_SETUP = weakref.WeakKeyDictionary()
-
-
-def _setup(compiled, database):
-    """The compiled mechanism's `ReducedMechanism`, kept while the joint databases it read are
-    unchanged (`ReducedMechanism.current`; `flexmb.solve` keeps an unchanged mechanism's compiled
-    model, so the solutions of a sweep share it: 0.3 of the manipulator's 2.2 ms `modes`)."""
-    per = _SETUP.setdefault(compiled, {})
-    red = per.get(database)
-    if red is None or not red.current():
-        red = per[database] = ReducedMechanism(compiled, database)
-    return red
-
-
 def _database(solution, database):
     """``database``, or when None the folder the solve read (``solution.stages["setup"]``): the
     properties of a solve with ``database=FOLDER`` use that folder's fits, not the shipped ones."""
@@ -96,7 +82,7 @@ def near(solution, database=None):
     database = _database(solution, database)
     per = _NEAR.setdefault(solution, {})
     if database not in per:
-        red = _setup(solution.compiled, database)
+        red = reduced_mechanism(solution.compiled, database)  # the solve's own set-up, shared
         step1 = (solution.stages or {}).get("kinematics", {})
         step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
         per[database] = red, near_configuration(red, step1=step1)

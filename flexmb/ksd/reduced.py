@@ -470,3 +470,20 @@ class ReducedMechanism:
         out[self.fe_dofs] = r_links[self.emb_dofs]
         return out
 
+
+def setup_key(folder) -> tuple:
+    return "ksd", None if folder is None else os.fspath(folder)
+
+
+def reduced_mechanism(compiled, folder=None) -> ReducedMechanism:
+    """The `ReducedMechanism` of ``compiled`` (steps 1-2's set-up: joint frames, templates,
+    constraint sets, the start of step 1), built once per compiled mechanism and database folder
+    (`flexmb.solve` keeps the compiled model of an unchanged mechanism, `flexmb.compiled`) and
+    rebuilt when a joint database it read has changed (`ReducedMechanism.current`)."""
+    key = setup_key(folder)
+    derived = getattr(compiled, "derived", {})
+    red = derived.get(key)
+    if red is not None and red.current():
+        return red
+    red = derived[key] = ReducedMechanism(compiled, folder)
+    return red

@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError
 from ..ksd.geometry import ACTIVE, compose, rz
 from ..ksd.kinematics import _correction, _gesv, _norm, solve_kinematics
-from ..ksd.reduced import ReducedMechanism
+from ..ksd.reduced import ReducedMechanism, reduced_mechanism, setup_key
 from ..linear import single_threaded
 from ..results import Solution
 from ..rotations import unskew
@@ -107,24 +107,6 @@ def _reachable(red: ReducedMechanism) -> None:
                             "range; use method='conventional' or retrain with `flexmb train --range`")
 
 
-def _setup_key(folder) -> tuple:
-    return "ksd", None if folder is None else os.fspath(folder)
-
-
-def reduced_mechanism(compiled, folder=None) -> ReducedMechanism:
-    """The `ReducedMechanism` of ``compiled`` (steps 1-2's set-up: joint frames, templates,
-    constraint sets, the start of step 1), built once per compiled mechanism and database folder
-    (`flexmb.solve` keeps the compiled model of an unchanged mechanism, `flexmb.compiled`) and
-    rebuilt when a joint database it read has changed (`ReducedMechanism.current`)."""
-    key = _setup_key(folder)
-    derived = getattr(compiled, "derived", {})
-    red = derived.get(key)
-    if red is not None and red.current():
-        return red
-    red = derived[key] = ReducedMechanism(compiled, folder)
-    return red
-
-
 @attrs.frozen(kw_only=True)
 class _KSD:
     """Kinematically Started Deformation method (Dwarshuis et al. 2020).
@@ -174,7 +156,7 @@ class _KSD:
         interleaved, load 2.5; step 1 from rest, ~12 constraint evaluations, is most of the rest)."""
         moved = reduced_mechanism(base, self.database).with_values(compiled)
         if moved is not None:
-            compiled.derived[_setup_key(self.database)] = moved
+            compiled.derived[setup_key(self.database)] = moved
 
     def solve(self, compiled) -> Solution:
         with single_threaded():  # small dense systems throughout (flexmb.linear.single_threaded)

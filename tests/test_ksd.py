@@ -276,6 +276,23 @@ def test_constraint_jacobian_is_the_finite_difference_one(dim, build):
     assert none is None
 
 
+@pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("build", [_reduced, _two_kinds])
+def test_compiled_constraint_jacobian_is_the_finite_difference_one(dim, build):
+    """Step 1's compiled constraints (`flexmb.ksd.reduced_jit.constraints`, the kinematic solve's
+    one call per iteration): their Jacobian against central differences of their own values, in a
+    deformed configuration, one and two constraint groups (equations in group order)."""
+    from flexmb.ksd.kinematics import compiled_constraints
+
+    red = build(dim)
+    poses = _random_poses(red, np.random.default_rng(1))
+    c, J, _, _ = compiled_constraints(red, poses)
+    Jfd = _fd(lambda p: compiled_constraints(red, p)[0], poses, red)
+    act = (np.arange(red.n_links)[:, None] * 6 + red.active).ravel()
+    assert np.max(np.abs(J[:, act] - Jfd[:, act])) < 1e-7 * np.abs(J).max()
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_reduced_equilibrium_jacobian_is_the_finite_difference_one(dim):
     """Step 3's residual (joint wrenches with the EOB stiffness, statics for node A, dead loads at

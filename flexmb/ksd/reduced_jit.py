@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..closed_form.linkage_jit import _solve_in_place
+from ..fe.model_jit import compose3d
 from ..jit import njit
 
 __all__ = ["equilibrium", "relative", "intended_angle"]
@@ -174,3 +176,215 @@ def intended_angle(R, theta, dtheta):
         dtheta[j, 0] = (c * -R[j, 2, 0] - s * -R[j, 2, 1]) / n
         dtheta[j, 1] = (c * -R[j, 2, 1] - s * R[j, 2, 0]) / n
         dtheta[j, 2] = (c * c + s * s) / n  # (c ds_z - s dc_z) / n with ds_z = c, dc_z = -s
+
+
+# -- step 1: the whole kinematic solve -----------------------------------------------------------
+
+#: constraint codes of `kinematics` (`flexmb.ksd.constraints.NAMES` order)
+CODES = {"x": 0, "y": 1, "z": 2, "tilt_x": 3, "tilt_y": 4, "symmetric": 5, "length": 6}
+
+
+@njit
+def _norm_at(v, at):
+    acc = 0.0
+    for i in range(len(at)):
+        acc += v[at[i]] * v[at[i]]
+    return np.sqrt(acc)
+
+
+@njit
+def _correction(A, r, rows, cols, n_dofs, dz):
+    """`flexmb.ksd.kinematics._correction`: ``A[rows][:, cols] x = -r[rows]`` into ``dz`` (n_dofs,)
+    on ``cols`` (zero elsewhere); False when singular."""
+    n = len(cols)
+    M = np.empty((n, n))
+    x = np.empty(n)
+    for i in range(n):
+        x[i] = -r[rows[i]]
+        for k in range(n):
+            M[i, k] = A[rows[i], cols[k]]
+    ok = _solve_in_place(M, x)
+    for i in range(n_dofs):
+        dz[i] = 0.0
+    if ok:
+        for i in range(n):
+            dz[cols[i]] = x[i]
+    return ok
+
+
+@njit
+def _move(x, R, angle, dz):
+    """`flexmb.ksd.geometry.LinkPoses.moved` in place."""
+    n = x.shape[0]
+    w = np.empty((n, 3))
+    for l in range(n):
+        for i in range(3):
+            x[l, i] += dz[6 * l + i]
+            w[l, i] = dz[6 * l + 3 + i]
+        angle[l] += dz[6 * l + 5]
+    out = np.empty((n, 3, 3))
+    compose3d(R, w, out)
+    R[:] = out
+
+
+@njit
+def _prescribe(x, R, angle, X0, lt, ct, vt, lr, W, lam):
+    """`flexmb.ksd.reduced.ReducedMechanism.with_prescribed` in place."""
+    for i in range(len(lt)):
+        x[lt[i], ct[i]] = X0[lt[i], ct[i]] + lam * vt[i]
+    if len(lr):
+        w = lam * W
+        out = np.empty((len(lr), 3, 3))
+        eye = np.zeros((len(lr), 3, 3))
+        for i in range(len(lr)):
+            eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0
+        compose3d(eye, w, out)
+        for i in range(len(lr)):
+            R[lr[i]] = out[i]
+            angle[lr[i]] = w[i, 2]
+
+
+@njit
+def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols, jacobian, c, jac, theta, p):
+    """All joints' kinematic constraints (`flexmb.ksd.reduced.ReducedMechanism.constraint_equations`
+    without hinges, `flexmb.ksd.constraints.ConstraintSet.evaluate` term by term): values ``c``
+    (J m,) and, with ``jacobian``, ``jac`` (J m, 6 n_links) (overwritten), the intended rotations
+    ``theta`` (J,) and positions ``p`` (J, 3). Per joint and row: ``code`` (`CODES`), ``inv`` 1/D0,
+    ``rest`` the linear rows' rest value, ``nm`` (J, 3, 2) the symmetric row's (n0, m0)/D0,
+    ``fpow``, ``fcoef`` (J, m, P) the trained function subtracted (zero coefficients: none)."""
+    J, m = code.shape
+    Rrel, F, rb, ra = np.empty((J, 3, 3)), np.empty((J, 3, 3)), np.empty((J, 3)), np.empty((J, 3))
+    relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra)
+    dth = np.empty((J, 3))
+    intended_angle(Rrel, theta, dth)
+    if jacobian:
+        jac[:] = 0.0
+    g = np.empty(6)
+    gF, gW = np.empty(3), np.empty(3)
+    for j in range(J):
+        h = 0.5 * theta[j]
+        ch, sh = np.cos(h), np.sin(h)
+        pq0 = p[j, 0] * nm[j, 0, 0] + p[j, 1] * nm[j, 1, 0] + p[j, 2] * nm[j, 2, 0]
+        pq1 = p[j, 0] * nm[j, 0, 1] + p[j, 1] * nm[j, 1, 1] + p[j, 2] * nm[j, 2, 1]
+        for k in range(m):
+            row = j * m + k
+            kind = code[j, k]
+            for i in range(6):
+                g[i] = 0.0
+            if kind <= 2:  # p_c / D0 minus its rest value
+                val = p[j, kind] * inv[j] - rest[j, k]
+                g[kind] = inv[j]
+            elif kind <= 4:  # tilt: component of R e_z, gradient (R e_z) x e_c
+                cc = kind - 3
+                val = Rrel[j, cc, 2]
+                if cc == 0:
+                    g[4], g[5] = Rrel[j, 2, 2], -Rrel[j, 1, 2]
+                else:
+                    g[3], g[5] = -Rrel[j, 2, 2], Rrel[j, 0, 2]
+            elif kind == 5:  # symmetric: p . n(theta / 2) / D0
+                val = ch * pq0 + sh * pq1
+                for i in range(3):
+                    g[i] = ch * nm[j, i, 0] + sh * nm[j, i, 1]
+                    g[3 + i] = 0.5 * (ch * pq1 - sh * pq0) * dth[j, i]
+            else:  # length
+                r = np.sqrt(p[j, 0] * p[j, 0] + p[j, 1] * p[j, 1] + p[j, 2] * p[j, 2])
+                val = r * inv[j] - 1.0
+                for i in range(3):
+                    g[i] = p[j, i] * (inv[j] / r)
+            f, df = 0.0, 0.0
+            for q in range(fpow.shape[2]):
+                e = fpow[j, k, q]
+                f += fcoef[j, k, q] * theta[j] ** e
+                df += fcoef[j, k, q] * e * theta[j] ** max(e - 1.0, 0.0)
+            c[row] = val - f
+            if not jacobian:
+                continue
+            for i in range(3):
+                g[3 + i] -= df * dth[j, i]
+            # d(p, omega) / d(links) = diag(F^T, F^T) [[-I, skew(ra), I, -skew(rb)], [0, -I, 0, I]]
+            for i in range(3):
+                gF[i] = F[j, i, 0] * g[0] + F[j, i, 1] * g[1] + F[j, i, 2] * g[2]
+                gW[i] = F[j, i, 0] * g[3] + F[j, i, 1] * g[4] + F[j, i, 2] * g[5]
+            xa = (gF[1] * ra[j, 2] - gF[2] * ra[j, 1], gF[2] * ra[j, 0] - gF[0] * ra[j, 2],
+                  gF[0] * ra[j, 1] - gF[1] * ra[j, 0])
+            xb = (rb[j, 1] * gF[2] - rb[j, 2] * gF[1], rb[j, 2] * gF[0] - rb[j, 0] * gF[2],
+                  rb[j, 0] * gF[1] - rb[j, 1] * gF[0])
+            for i in range(3):
+                jac[row, cols[j, i]] += -gF[i]
+                jac[row, cols[j, 3 + i]] += xa[i] - gW[i]
+                jac[row, cols[j, 6 + i]] += gF[i]
+                jac[row, cols[j, 9 + i]] += xb[i] + gW[i]
+
+
+@njit
+def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free, prescribed, values, lam_rate,
+               X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
+               tol, max_iter, max_rotation, stop_beyond_half_turn, c, theta, p, history):
+    """`flexmb.ksd.kinematics.solve_kinematics` without hinges, the same steps: ``x``, ``R``,
+    ``angle`` start at rest and end at the solution, ``jac0`` the Jacobian at rest (overwritten),
+    ``path_theta`` the intended rotations at rest; fills ``c``, ``theta``, ``p`` and ``history``
+    (iterations' residuals, at most its length). Returns (status, iterations, residual, load
+    factor): status 0 converged, 1 failed (the step fell below 1e-4 of the motion)."""
+    n_dofs = jac0.shape[1]
+    nL = x.shape[0]
+    xt, Rt, at_ = x.copy(), R.copy(), angle.copy()
+    dz = np.zeros(n_dofs)
+    rhs = np.empty(jac0.shape[0])
+    jac = np.empty_like(jac0)
+    path = path_theta.copy()
+    lam, dlam = 0.0, 1.0
+    if largest > 0.0:
+        dlam = min(1.0, step_rotation / largest)
+    iterations, res = 0, np.inf
+    while True:
+        target = lam + dlam
+        xt[:], Rt[:], at_[:] = x, R, angle
+        _prescribe(xt, Rt, at_, X0, lt, ct, vt, lr, W, target)
+        for i in range(len(rhs)):  # predictor: jac0[:, pres] (dlam values) + dlam lam_rate
+            acc = dlam * lam_rate[i]
+            for k in range(len(prescribed)):
+                acc += jac0[i, prescribed[k]] * (dlam * values[k])
+            rhs[i] = acc
+        if _correction(jac0, rhs, rows, free, n_dofs, dz):
+            _move(xt, Rt, at_, dz)
+        accepted, prev = False, np.inf
+        for _ in range(max_iter):
+            constraints(xt, Rt, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols, True, c, jac, theta, p)
+            res = _norm_at(c, rows)
+            if not np.isfinite(res) or res > prev:
+                break
+            if res < tol:
+                accepted = True
+                break
+            prev = res
+            ok = _correction(jac, c, rows, free, n_dofs, dz)
+            turn = 0.0
+            for l in range(nL):
+                for i in range(3, 6):
+                    turn = max(turn, abs(dz[6 * l + i]))
+            if not ok or turn > max_rotation:
+                break
+            _move(xt, Rt, at_, dz)
+            if iterations < len(history):
+                history[iterations] = res
+            iterations += 1
+        if accepted:
+            x[:], R[:], angle[:] = xt, Rt, at_
+            lam = target
+            beyond = False
+            for j in range(len(theta)):
+                theta[j] = path[j] + (theta[j] - path[j] + np.pi) % (2.0 * np.pi) - np.pi
+                path[j] = theta[j]
+                beyond = beyond or abs(theta[j]) > np.pi
+            if lam >= 1.0 - 1e-14:
+                break
+            if stop_beyond_half_turn and beyond:
+                break
+            step = step_rotation / largest if largest > 0.0 else 1.0
+            dlam = min(2.0 * dlam, 1.0 - lam, step)
+            jac0[:] = jac  # the predictor's, at the accepted poses
+        else:
+            dlam *= 0.5
+            if dlam < 1e-4:
+                return 1, iterations, res, lam
+    return 0, iterations, res, lam

@@ -314,11 +314,13 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
 
 def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam: float, hinge_path, history) -> dict:
     """`solve_kinematics`' info, with a warning where removed (redundant) equations are violated."""
-    removed = getattr(red, "_removed_rows", None)
+    removed, names = getattr(red, "_removed_rows", None) or (None, None)
     if removed is None:  # the equations `_independent_rows` left out (kept with the set-up)
         keep = np.zeros(len(c), dtype=bool)
         keep[kinematic_start(red)[2]] = True
-        removed = red._removed_rows = np.flatnonzero(~keep)
+        removed = np.flatnonzero(~keep)
+        names = [red.rows[k] for k in removed]
+        red._removed_rows = removed, names
     if len(removed) and np.abs(c[removed]).max() > 1e-6:
         k = removed[np.argmax(np.abs(c[removed]))]
         warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
@@ -328,4 +330,4 @@ def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam
     return {"iterations": iterations, "residual": res, "load_factor": lam, "hinge_angles": hinge_path,
             "equations": len(c), "removed": len(removed),
             "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
-            "removed_equations": [red.rows[k] for k in removed], "history": history}
+            "removed_equations": list(names), "history": history}

@@ -514,6 +514,7 @@ def eob_lookup(t, c, k, theta, b_pos, root, powers, ocoef, emb, K, Fh, recover, 
     v = np.empty((J, c.shape[1]))
     bspline(t, c, k, theta, v)
     eye = np.zeros((ni, 3, 3))
+    tp = np.empty(len(powers))
     for i in range(ni):
         eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0
     for j in range(J):
@@ -543,11 +544,13 @@ def eob_lookup(t, c, k, theta, b_pos, root, powers, ocoef, emb, K, Fh, recover, 
             for q in range(dim):
                 x_int[j, i, q] = v[j, at + i * dim + q] + (b_pos[j, q] if root[i] == 1 else 0.0)
         comp = 1 if dim == 2 else 3
+        for q in range(len(powers)):
+            tp[q] = theta[j] ** powers[q]
         for i in range(ni * comp):  # the internal nodes' orientations: polynomials in theta
-            acc = 0.0
-            for q in range(len(powers)):
-                acc += theta[j] ** powers[q] * ocoef[q, i]
-            v[j, i] = acc
+            v[j, i] = 0.0
+        for q in range(len(powers)):
+            for i in range(ni * comp):
+                v[j, i] += tp[q] * ocoef[q, i]
         if dim == 2:
             for i in range(ni):
                 a_int[j, i] = v[j, i]

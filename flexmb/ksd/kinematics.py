@@ -174,7 +174,7 @@ def _compiled_arrays(red: ReducedMechanism) -> dict:
     code, inv, rest = np.zeros((J, m), dtype=np.int64), np.zeros(J), np.zeros((J, m))
     nm = np.zeros((J, 3, 2))
     width = max(len(cs.powers) // 2 if cs.fun is not None else 1 for cs in red._sets)
-    fpow, fcoef = np.zeros((J, m, width)), np.zeros((J, m, width))
+    fun, fpow, fcoef = np.zeros((J, m), dtype=np.bool_), np.zeros((J, width)), np.zeros((J, m, width))
     at = 0
     for (_, cons, idx), cs in zip(red.groups, red._sets):
         s = slice(at, at + len(idx))
@@ -184,14 +184,15 @@ def _compiled_arrays(red: ReducedMechanism) -> dict:
             rest[s, np.arange(m)[cs.lin]] = cs.lin_rest
         if cs.fun is not None:
             P = len(cs.powers) // 2
+            fpow[s, :P] = cs.powers[:P]
             for i, k in enumerate(np.arange(m)[cs.fun]):
-                fpow[s, k, :P], fcoef[s, k, :P] = cs.powers[:P], cs.coef[:P, i]
+                fun[s, k], fcoef[s, k, :P] = True, cs.coef[:P, i]
         at += len(idx)
     fr = red.frames
     c = np.ascontiguousarray
     arrays = red._kinematics_jit = {
         "order": order, "a": c(fr.a[order]), "b": c(fr.b[order]), "s_a": c(fr.s_a[order]), "s_b": c(fr.s_b[order]),
-        "P": c(fr.P[order]), "code": code, "inv": inv, "rest": rest, "nm": nm, "fpow": fpow, "fcoef": fcoef,
+        "P": c(fr.P[order]), "code": code, "inv": inv, "rest": rest, "nm": nm, "fun": fun, "fpow": fpow, "fcoef": fcoef,
         "cols": c(red._cols[order])}
     return arrays
 
@@ -207,7 +208,7 @@ def compiled_constraints(red: ReducedMechanism, poses: LinkPoses):
     c, jac = np.empty(red.n_equations), np.empty((red.n_equations, 6 * red.n_links))
     theta, p = np.empty(len(order)), np.empty((len(order), 3))
     constraints(np.ascontiguousarray(poses.x, dtype=float), np.ascontiguousarray(poses.R, dtype=float), k["a"],
-                k["b"], k["s_a"], k["s_b"], k["P"], k["code"], k["inv"], k["rest"], k["nm"], k["fpow"], k["fcoef"],
+                k["b"], k["s_a"], k["s_b"], k["P"], k["code"], k["inv"], k["rest"], k["nm"], k["fun"], k["fpow"], k["fcoef"],
                 k["cols"], True, c, jac, theta, p)
     out_theta, out_p = np.empty(len(order)), np.empty((len(order), 3))
     out_theta[order], out_p[order] = theta, p
@@ -231,7 +232,7 @@ def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotati
     status, iterations, res, lam = kinematics(
         x, R, angle, jac0.copy(), path_theta[order], float(largest), STEP_ROTATION, rows, red.free, red.prescribed,
         red.values, red.lam_rate, red.X0, lt, ct, vt, lr, W, k["a"], k["b"], k["s_a"], k["s_b"], k["P"],
-        k["code"], k["inv"], k["rest"], k["nm"], k["fpow"], k["fcoef"], k["cols"], tol, max_iter, max_rotation,
+        k["code"], k["inv"], k["rest"], k["nm"], k["fun"], k["fpow"], k["fcoef"], k["cols"], tol, max_iter, max_rotation,
         stop_beyond_half_turn, c, theta, p, history)
     if status:
         raise ConvergenceError(

@@ -249,13 +249,14 @@ def _prescribe(x, R, angle, X0, lt, ct, vt, lr, W, lam):
 
 
 @njit
-def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols, jacobian, c, jac, theta, p):
+def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fun, fpow, fcoef, cols, jacobian, c, jac, theta, p):
     """All joints' kinematic constraints (`flexmb.ksd.reduced.ReducedMechanism.constraint_equations`
     without hinges, `flexmb.ksd.constraints.ConstraintSet.evaluate` term by term): values ``c``
     (J m,) and, with ``jacobian``, ``jac`` (J m, 6 n_links) (overwritten), the intended rotations
     ``theta`` (J,) and positions ``p`` (J, 3). Per joint and row: ``code`` (`CODES`), ``inv`` 1/D0,
     ``rest`` the linear rows' rest value, ``nm`` (J, 3, 2) the symmetric row's (n0, m0)/D0,
-    ``fpow``, ``fcoef`` (J, m, P) the trained function subtracted (zero coefficients: none)."""
+    ``fun`` (J, m) whether the row subtracts a trained function, its powers ``fpow`` (J, P) and
+    coefficients ``fcoef`` (J, m, P)."""
     J, m = code.shape
     Rrel, F, rb, ra = np.empty((J, 3, 3)), np.empty((J, 3, 3)), np.empty((J, 3)), np.empty((J, 3))
     relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra)
@@ -265,7 +266,12 @@ def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
         jac[:] = 0.0
     g = np.empty(6)
     gF, gW = np.empty(3), np.empty(3)
+    NP = fpow.shape[1]
+    tp, td = np.empty(NP), np.empty(NP)
     for j in range(J):
+        for q in range(NP):  # theta's powers, and those of the derivative
+            tp[q] = theta[j] ** fpow[j, q]
+            td[q] = theta[j] ** max(fpow[j, q] - 1.0, 0.0)
         h = 0.5 * theta[j]
         ch, sh = np.cos(h), np.sin(h)
         pq0 = p[j, 0] * nm[j, 0, 0] + p[j, 1] * nm[j, 1, 0] + p[j, 2] * nm[j, 2, 0]
@@ -296,10 +302,10 @@ def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
                 for i in range(3):
                     g[i] = p[j, i] * (inv[j] / r)
             f, df = 0.0, 0.0
-            for q in range(fpow.shape[2]):
-                e = fpow[j, k, q]
-                f += fcoef[j, k, q] * theta[j] ** e
-                df += fcoef[j, k, q] * e * theta[j] ** max(e - 1.0, 0.0)
+            if fun[j, k]:
+                for q in range(NP):
+                    f += fcoef[j, k, q] * tp[q]
+                    df += fcoef[j, k, q] * fpow[j, q] * td[q]
             c[row] = val - f
             if not jacobian:
                 continue
@@ -322,7 +328,7 @@ def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
 
 @njit
 def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free, prescribed, values, lam_rate,
-               X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
+               X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P, code, inv, rest, nm, fun, fpow, fcoef, cols,
                tol, max_iter, max_rotation, stop_beyond_half_turn, c, theta, p, history):
     """`flexmb.ksd.kinematics.solve_kinematics` without hinges, the same steps: ``x``, ``R``,
     ``angle`` start at rest and end at the solution, ``jac0`` the Jacobian at rest (overwritten),
@@ -353,7 +359,7 @@ def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free
             _move(xt, Rt, at_, dz)
         accepted, prev = False, np.inf
         for _ in range(max_iter):
-            constraints(xt, Rt, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols, True, c, jac, theta, p)
+            constraints(xt, Rt, a, b, s_a, s_b, P, code, inv, rest, nm, fun, fpow, fcoef, cols, True, c, jac, theta, p)
             res = _norm_at(c, rows)
             if not np.isfinite(res) or res > prev:
                 break

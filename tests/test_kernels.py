@@ -355,7 +355,13 @@ def test_ksd_tabulated_eob_kernel_equals_numpy(kernels, dim):
     lo, hi = lookup.range
     theta = np.concatenate([np.linspace(lo, hi, 301), [lo - 1e-9, hi + 1e-9, lo, hi]])
     kernels("numba")
-    K, F, rec, x_int, rot_int = lookup.compiled(theta[:7], 1e-3 * np.random.default_rng(3).normal(size=(7, dim)))
+    b = 1e-3 * np.random.default_rng(3).normal(size=(7, dim))
+    K, F, rec, x_int, rot_int = lookup.compiled(theta[:7], b)
+    # a group's joints in rows of the whole mechanism's arrays: the same numbers there
+    at = np.array([6, 0, 1, 2, 3, 4, 5])
+    K2, F2, rec2, *_ = lookup.compiled(theta[:9], np.concatenate([b, np.ones((2, dim))]), at)
+    assert np.array_equal(K2[:7], K) and np.array_equal(F2[:7], F) and np.array_equal(rec2, rec[at])
+    assert np.all(K2[7:] == 0.0) and np.all(F2[7:] == 0.0)
     t, c, k = lookup._compiled_args[:3]
     values = np.empty((len(theta), c.shape[1]))
     bspline(t, c, k, theta, values)

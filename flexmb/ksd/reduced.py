@@ -491,30 +491,25 @@ class ReducedMechanism:
         (J, 3, 3) node B's near pose (the manipulator: ~95 -> ~15 us)."""
         from .reduced_jit import internal as kernel
 
-        model = self.compiled.problem.model
-        dim, nL, fr = self.dim, self.n_links, self.frames
-        pos = model.x0.copy()
+        try:
+            x0, rot0, frames, none = self._state_arrays
+        except AttributeError:  # what does not change from solve to solve, kept with the set-up
+            model, fr = self.compiled.problem.model, self.frames
+            rot0 = np.zeros(model.n_nodes) if self.dim == 2 else np.repeat(_EYE[None], model.n_nodes, axis=0)
+            none = (np.empty((0, 0, 3, 3)), np.empty((0, 0)))  # the other dimension's orientations
+            frames = (fr.a, fr.b, fr.s_a, fr.s_b, fr.P)
+            x0, rot0, frames, none = self._state_arrays = (model.x0, rot0, frames, none)
+        dim, nL = self.dim, self.n_links
+        pos, rot = x0.copy(), rot0.copy()
         pos[:nL] = poses.x[:, :dim]
-        if dim == 2:
-            ang, rot = np.zeros(model.n_nodes), np.empty((0, 3, 3))
-            ang[:nL] = poses.angle
-        else:
-            try:
-                rot = self._identities.copy()
-            except AttributeError:
-                self._identities = np.repeat(_EYE[None], model.n_nodes, axis=0)
-                rot = self._identities.copy()
-            rot[:nL] = poses.R
-            ang = np.empty(0)
-        x, R, angle = (np.ascontiguousarray(v, dtype=float) for v in (poses.x, poses.R, poses.angle))
+        rot[:nL] = poses.angle if dim == 2 else poses.R
+        ang, rot = (rot, none[0]) if dim == 2 else (np.empty(0), rot)
         for idx, recover, x_int, rot_int in internal:
             if x_int.shape[1] == 0:
                 continue
-            nodes = self._group_nodes[id(idx)]
-            f = np.ascontiguousarray
-            kernel(x, R, angle, fr.a, fr.b, fr.s_a, fr.s_b, fr.P, p_hat, R_hat, idx, nodes, f(recover, dtype=float),
-                   f(x_int, dtype=float), f(rot_int, dtype=float) if dim == 3 else np.empty((0, 0, 3, 3)),
-                   f(rot_int, dtype=float) if dim == 2 else np.empty((0, 0)), self.active, dim, pos, rot, ang)
+            kernel(poses.x, poses.R, poses.angle, *frames, p_hat, R_hat, idx, self._group_nodes[id(idx)], recover,
+                   x_int, rot_int if dim == 3 else none[0], rot_int if dim == 2 else none[1], self.active, dim, pos,
+                   rot, ang)
         return State(pos, ang if dim == 2 else rot)
 
     def reaction_vector(self, r_links: np.ndarray) -> np.ndarray:

@@ -507,16 +507,22 @@ def bspline(t, c, k, x, out):
 
 
 @njit
-def eob_lookup(t, c, k, theta, b_pos, root, powers, ocoef, emb, K, Fh, recover, x_int, R_int, a_int):
+def eob_lookup(t, c, k, theta_all, b_all, at, root, powers, ocoef, emb, K, Fh, recover, x_int, R_int, a_int):
     """`flexmb.ksd.eob_table.Lookup.__call__` and step 2's use of it in one pass, for Jg joints:
-    the spline (`bspline`) at ``theta`` split as `flexmb.database.eob_format.NAMES` (K_T, F0, G,
-    RK, r0, rG, P0), node B's near position ``b_pos`` (Jg, dim) in the terms linear in it. Fills
-    ``K`` (Jg, 6, 6) and ``Fh`` (Jg, 6) on the active components ``emb`` (the rest untouched),
+    the spline (`bspline`) at their ``theta_all[at]`` split as `flexmb.database.eob_format.NAMES`
+    (K_T, F0, G, RK, r0, rG, P0), node B's near position ``b_all[at, :dim]`` in the terms linear in
+    it; ``at`` (Jg,) the joints' indices. Fills their rows of ``K`` (J, 6, 6) and ``Fh`` (J, 6) on
+    the active components ``emb`` (the rest untouched),
     ``recover`` (Jg, n_i nd, nd + 1), the internal nodes' near positions ``x_int`` (Jg, n_i, dim)
     and orientations (`flexmb.ksd.eob.EOBTemplate.orientations`, the internal nodes' polynomial
     ``powers``, ``ocoef``): matrices ``R_int`` (Jg, n_i, 3, 3) in 3D, angles ``a_int`` (Jg, n_i) in 2D."""
-    J, dim = len(theta), b_pos.shape[1]
+    J, dim = len(at), x_int.shape[2]
     nd, ni = len(emb), x_int.shape[1]
+    theta, b_pos = np.empty(J), np.empty((J, dim))
+    for j in range(J):
+        theta[j] = theta_all[at[j]]
+        for q in range(dim):
+            b_pos[j, q] = b_all[at[j], q]
     v = np.empty((J, c.shape[1]))
     bspline(t, c, k, theta, v)
     eye = np.zeros((ni, 3, 3))
@@ -524,31 +530,30 @@ def eob_lookup(t, c, k, theta, b_pos, root, powers, ocoef, emb, K, Fh, recover, 
     for i in range(ni):
         eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0
     for j in range(J):
-        at = 0
         for i in range(nd):
             for q in range(nd):
-                K[j, emb[i], emb[q]] = v[j, at + i * nd + q]
-        at += nd * nd
-        g = at + nd
+                K[at[j], emb[i], emb[q]] = v[j, i * nd + q]
+        s = nd * nd
+        g = s + nd
         for i in range(nd):  # F0 + G b (numpy's order: the product first)
             acc = 0.0
             for q in range(dim):
                 acc += v[j, g + i * dim + q] * b_pos[j, q]
-            Fh[j, emb[i]] = v[j, at + i] + acc
-        at = g + nd * dim
+            Fh[at[j], emb[i]] = v[j, s + i] + acc
+        s = g + nd * dim
         m = ni * nd
-        r0, rG = at + m * nd, at + m * nd + m
+        r0, rG = s + m * nd, s + m * nd + m
         for i in range(m):
             for q in range(nd):
-                recover[j, i, q] = v[j, at + i * nd + q]
+                recover[j, i, q] = v[j, s + i * nd + q]
             acc = 0.0
             for q in range(dim):
                 acc += v[j, rG + i * dim + q] * b_pos[j, q]
             recover[j, i, nd] = v[j, r0 + i] + acc
-        at = rG + m * dim
+        s = rG + m * dim
         for i in range(ni):
             for q in range(dim):
-                x_int[j, i, q] = v[j, at + i * dim + q] + (b_pos[j, q] if root[i] == 1 else 0.0)
+                x_int[j, i, q] = v[j, s + i * dim + q] + (b_pos[j, q] if root[i] == 1 else 0.0)
         comp = 1 if dim == 2 else 3
         for q in range(len(powers)):
             tp[q] = theta[j] ** powers[q]

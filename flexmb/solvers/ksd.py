@@ -208,9 +208,7 @@ class _KSD:
             if not self.full and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
                 tabulated += len(idx)
                 if compiled_path:  # tabulated, one compiled call (flexmb.ksd.reduced_jit.eob_lookup)
-                    Kg, Fg, *e = tpl.lookup.compiled(theta[idx], p_hat[idx, :dim])
-                    K[idx], Fh[idx] = Kg, Fg
-                    eobs.append(e)
+                    eobs.append(list(tpl.lookup.compiled(theta, p_hat, idx, K, Fh)[2:]))
                     continue
                 e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
             elif compiled_path:  # outside `solve`'s thread limit: the Craig-Bampton solves' BLAS
@@ -220,8 +218,8 @@ class _KSD:
                 e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
             K[idx[:, None, None], emb[:, None], emb] = e.K_T
             Fh[idx[:, None], emb] = e.F_hat_T
-            eobs.append([e.recover, e.node_position[:, 2:],
-                         e.node_rotation[:, 2:] if dim == 3 else e.node_angle[:, 2:]] if compiled_path else e)
+            eobs.append([np.ascontiguousarray(a) for a in (e.recover, e.node_position[:, 2:], e.node_rotation[:, 2:]
+                         if dim == 3 else e.node_angle[:, 2:])] if compiled_path else e)
         R_hat = rz(theta)
         stages["eob"] = {"joints": J, "tabulated": tabulated}  # step 2: EOBs built, of them looked up
         t = lap("eob", t)

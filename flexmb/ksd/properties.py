@@ -79,20 +79,21 @@ def near(solution, database=None):
     database (default: the one the solve used; a second property of the same solution skips it),
     from step 1's intended rotations and near positions that the solve keeps in
     ``solution.stages["kinematics"]`` (solving step 1 again took 2 of the manipulator's 4 ms) and,
-    with the solve's database, step 2's EOBs, stiffness and preload it keeps in
-    ``solution.stages["eob"]["near"]`` (the same arrays `near_configuration` would rebuild)."""
+    with the solve's database, its `ReducedMechanism` and step 2's EOBs, stiffness and preload it
+    keeps in ``solution.stages["eob"]["near"]`` (the same arrays `near_configuration` would
+    rebuild; the set-up as the solve found it current)."""
     database = _database(solution, database)
     per = _NEAR.setdefault(solution, {})
     if database not in per:
-        red = reduced_mechanism(solution.compiled, database)  # the solve's own set-up, shared
         stages = solution.stages or {}
         step1 = stages.get("kinematics", {})
         step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
         step2 = stages.get("eob", {}).get("near")
         if step1 is not None and step2 is not None and database == _database(solution, None):
-            eobs, K, Fh = step2  # the solve's own step 2 with this database: 0.1 ms not spent again
+            red, eobs, K, Fh = step2  # the solve's own set-up and step 2: 0.1 ms not spent again
             per[database] = red, (eobs, K, Fh, step1[1], rz(step1[0]), step1[0])
         else:
+            red = reduced_mechanism(solution.compiled, database)  # the solve's own set-up, shared
             per[database] = red, near_configuration(red, step1=step1)
     return per[database]
 

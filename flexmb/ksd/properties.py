@@ -91,7 +91,8 @@ def near(solution, database=None):
         step1 = stages.get("kinematics", {})
         step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
         step2 = stages.get("eob", {}).get("near")
-        if step1 is not None and step2 is not None and database == _database(solution, None):
+        if (step1 is not None and step2 is not None and database == _database(solution, None)
+                and all(hasattr(e, "recover") for e in step2[1])):  # EOB objects (the compiled step 2 keeps arrays)
             red, eobs, K, Fh = step2  # the solve's own set-up and step 2: 0.1 ms not spent again
             per[database] = red, (eobs, K, Fh, step1[1], rz(step1[0]), step1[0])
         else:

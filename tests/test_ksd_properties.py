@@ -378,3 +378,64 @@ def test_the_properties_of_a_solve_with_a_database_folder_use_that_folders_data(
     for got, expected in zip(own._eob_axial(), eob_axial_forces(own, tmp_path)):  # Solution.stresses' axial forces
         np.testing.assert_array_equal(got, expected)
     assert not np.allclose(flexmb.compliance(own, "B"), flexmb.compliance(shipped, "B"), rtol=1e-6, atol=0)
+
+
+def _loaded_pivot_2d():
+    """A planar cross flexure (not in the paper) turned 0.4 rad under a dead force (50, -50) N on B."""
+    m = cross_flexure_pivot(5, dim=2, rotation=0.4)
+    m.apply_force("B", [50.0, -50.0])
+    return m
+
+
+@pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
+@pytest.mark.parametrize("case", ["manipulator", "four-bar", "planar pivot"])
+def test_compiled_modal_assembly_equals_the_numpy_one(case):
+    """`reduced_modal_model` assembled by `flexmb.ksd.properties_jit` (joint by joint) and by the
+    numpy path ((J, 2 nd, 6 n_links) arrays) on the same solution: stiffness, mass and the
+    recovered shapes of random reduced vectors equal to 1e-12 of their largest entries (the same
+    sums in another order), and so the frequencies (3D manipulator, planar four-bar, a loaded
+    planar pivot)."""
+    from flexmb.ksd import properties
+
+    m = {"manipulator": lambda: manipulator("joint", np.radians(35)), "four-bar": lambda: fourbar(5, displacement=0.1),
+         "planar pivot": _loaded_pivot_2d}[case]()
+    sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
+    got = {}
+    previous = flexmb.jit.use("numpy")
+    try:
+        for mode in ("numpy", "numba"):
+            flexmb.jit.use(mode)
+            properties._NEAR.pop(sol, None)
+            K, M, to_full = properties.reduced_modal_model(sol, 6)
+            v = np.random.default_rng(3).standard_normal((len(K), 4))
+            got[mode] = (K, M, to_full(v), flexmb.modes(sol, n=6).frequencies)
+    finally:
+        flexmb.jit.use("numba" if previous else "numpy")
+    for a, b in zip(got["numpy"], got["numba"]):
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-12 * np.abs(a).max())
+    np.testing.assert_allclose(got["numba"][3], got["numpy"][3], rtol=1e-12)
+
+
+@pytest.mark.parametrize("case", ["manipulator", "planar pivot"])
+def test_properties_reuse_the_solves_step_2(case, monkeypatch):
+    """`near` takes the solve's EOBs, stiffness and preload (``stages["eob"]["near"]``) instead of
+    building them again: the very arrays `near_configuration` builds from step 1 (equal), and the
+    same modes and stresses whether or not the solve kept them. (The numpy path: the compiled
+    step 2 keeps the lookup's arrays, not EOB objects, and `near` rebuilds from step 1.)"""
+    from flexmb.ksd import properties
+
+    monkeypatch.setattr(flexmb.jit, "_enabled", False)
+
+    m = manipulator("joint", np.radians(-25)) if case == "manipulator" else _loaded_pivot_2d()
+    sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
+    red, kept = near(sol)
+    assert kept[0] is sol.stages["eob"]["near"][1]  # taken, not rebuilt
+    step1 = (sol.stages["kinematics"]["theta"], sol.stages["kinematics"]["p_hat"])
+    built = properties.near_configuration(red, step1=step1)
+    for a, b in zip(kept[1:], built[1:]):
+        np.testing.assert_array_equal(a, b)
+    f, vm = flexmb.modes(sol, n=4).frequencies, sol.stresses().von_mises
+    properties._NEAR.pop(sol)
+    del sol.stages["eob"]["near"]
+    np.testing.assert_array_equal(flexmb.modes(sol, n=4).frequencies, f)
+    np.testing.assert_array_equal(sol.stresses().von_mises, vm)

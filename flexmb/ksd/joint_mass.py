@@ -211,19 +211,29 @@ def condensed(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = Tru
     n_fixed = max(0, min(n_fixed, ni))
     if not n_fixed:
         return Mb, np.zeros((J, 0, b)), np.zeros((J, 0)), (X, np.zeros((J, ni, 0)))
+    blocks = tpl._blocks
+    whole = len(blocks) == 1 and blocks[0].shape[0] == 1 and np.array_equal(blocks[0][0], np.arange(ni))
     w_all, v_all, c_all = [], [], []  # per chain its lowest Ritz fixed-interface modes
-    for k, idx in enumerate(tpl._blocks):
+    for k, idx in enumerate(blocks):
         P = data.basis(n_fixed)[k]  # (c, s, r)
         w, V = _lowest(parts[f"S{k}"], n_fixed)
         m = w.shape[-1]
         a = parts[f"L{k}"] @ V  # (J, c, r, m): Ritz coefficients, M_ii-normalised
         Cr = parts[f"C{k}"]
-        full = np.zeros((J, idx.shape[0], ni, m))  # each chain's modes on all interior DOFs
-        full[:, np.arange(idx.shape[0])[:, None], idx] = P @ a
+        if whole:  # one chain on all interior DOFs in order (three_x_infinity): no scatter
+            v_all.append((P @ a)[:, 0])
+        else:
+            full = np.zeros((J, idx.shape[0], ni, m))  # each chain's modes on all interior DOFs
+            full[:, np.arange(idx.shape[0])[:, None], idx] = P @ a
+            v_all.append(np.moveaxis(full, 2, 1).reshape(J, ni, -1))
         w_all.append(w[..., :m].reshape(J, -1))
-        v_all.append(np.moveaxis(full, 2, 1).reshape(J, ni, -1))
         c_all.append((np.swapaxes(a, -1, -2) @ Cr).reshape(J, -1, b))
-    w, v, C = np.concatenate(w_all, axis=1), np.concatenate(v_all, axis=2), np.concatenate(c_all, axis=1)
+    if len(blocks) == 1:
+        w, v, C = w_all[0], v_all[0], c_all[0]
+    else:
+        w, v, C = np.concatenate(w_all, axis=1), np.concatenate(v_all, axis=2), np.concatenate(c_all, axis=1)
     pick = np.argsort(w, axis=1)[:, :n_fixed]
+    if pick.shape[1] == w.shape[1] and (pick == np.arange(w.shape[1])).all():  # in order already (one chain)
+        return Mb, C, w, (X, v)
     return (Mb, np.take_along_axis(C, pick[:, :, None], axis=1), np.take_along_axis(w, pick, axis=1),
             (X, np.take_along_axis(v, pick[:, None, :], axis=2)))

@@ -19,6 +19,7 @@ import weakref
 
 import numpy as np
 
+from .. import jit
 from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
 from .eob_forces import axial_forces
@@ -26,6 +27,7 @@ from .joint_mass import condensed
 from ..rotations import unskew
 from .geometry import ACTIVE, LinkPoses, rz
 from .kinematics import solve_kinematics
+from . import properties_jit
 from .reduced import ReducedMechanism, reduced_mechanism
 
 __all__ = ["reduced_tangent", "reduced_mass", "link_poses", "near", "full_eobs",
@@ -78,14 +80,24 @@ def near(solution, database=None):
     """The solution's `ReducedMechanism` and `near_configuration`, built once per solution and
     database (default: the one the solve used; a second property of the same solution skips it),
     from step 1's intended rotations and near positions that the solve keeps in
-    ``solution.stages["kinematics"]`` (solving step 1 again took 2 of the manipulator's 4 ms)."""
+    ``solution.stages["kinematics"]`` (solving step 1 again took 2 of the manipulator's 4 ms) and,
+    with the solve's database, its `ReducedMechanism` and step 2's EOBs, stiffness and preload it
+    keeps in ``solution.stages["eob"]["near"]`` (the same arrays `near_configuration` would
+    rebuild; the set-up as the solve found it current)."""
     database = _database(solution, database)
     per = _NEAR.setdefault(solution, {})
     if database not in per:
-        red = reduced_mechanism(solution.compiled, database)  # the solve's own set-up, shared
-        step1 = (solution.stages or {}).get("kinematics", {})
+        stages = solution.stages or {}
+        step1 = stages.get("kinematics", {})
         step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
-        per[database] = red, near_configuration(red, step1=step1)
+        step2 = stages.get("eob", {}).get("near")
+        if (step1 is not None and step2 is not None and database == _database(solution, None)
+                and all(hasattr(e, "recover") for e in step2[1])):  # EOB objects (the compiled step 2 keeps arrays)
+            red, eobs, K, Fh = step2  # the solve's own set-up and step 2: 0.1 ms not spent again
+            per[database] = red, (eobs, K, Fh, step1[1], rz(step1[0]), step1[0])
+        else:
+            red = reduced_mechanism(solution.compiled, database)  # the solve's own set-up, shared
+            per[database] = red, near_configuration(red, step1=step1)
     return per[database]
 
 
@@ -158,12 +170,33 @@ def reduced_mass(solution, database=None) -> np.ndarray:
     return reduced_modal_model(solution, 0, database)[1]
 
 
+_STATIC = weakref.WeakKeyDictionary()
+
+
+def _static(red: ReducedMechanism) -> dict:
+    """What `reduced_modal_model` reads of a `ReducedMechanism` alone, gathered once: the joints
+    by name, each group's joints' node DOFs (Jg, nodes ndof) and the links' 3D-form DOFs' places
+    among their FE DOFs (``pos6`` (6 n_links,), -1: not a DOF of the planar model)."""
+    out = _STATIC.get(red)
+    if out is None:
+        nd = len(red.active)
+        pos6 = np.full(6 * red.n_links, -1, dtype=np.int64)
+        pos6[red.emb_dofs] = np.arange(len(red.emb_dofs))
+        dofs = [(np.array([red.joint_nodes[j] for j in idx])[:, :, None] * nd + np.arange(nd)).reshape(len(idx), -1)
+                for _, _, idx in red.groups]
+        out = _STATIC[red] = {"joints": {key: jt for key, jt, *_ in red.compiled.joints}, "pos6": pos6,
+                              "dofs": dofs, "whole": bool(np.array_equal(red.emb_dofs, np.arange(6 * red.n_links)))}
+    return out
+
+
 def reduced_modal_model(solution, n_fixed: int, database=None):
     """The KSD-reduced mechanism for free vibration: stiffness and mass (n, n) on the links' FE
     DOFs (n_links ndof) followed by ``n_fixed`` fixed-interface modal coordinates per joint (in
     joint order), and a function mapping a vector of those (n, k) to the full model's DOFs
-    (n_dofs, k): links as they are, joint interiors from the Craig-Bampton transformation."""
-    red = near(solution, database)[0]
+    (n_dofs, k): links as they are, joint interiors from the Craig-Bampton transformation.
+    With the compiled kernels the assembly is `flexmb.ksd.properties_jit` (the same sums)."""
+    red, (_, _, _, _, _, theta) = near(solution, database)
+    st = _static(red)
     poses = link_poses(red, solution.state)
     fr = red.frames
     oA, F = fr.frame_a(poses)
@@ -171,38 +204,46 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
     emb, nL, J = red.active, red.n_links, len(red.joint_names)
     model = solution.compiled.problem.model
     nl = nL * model.ndof
-    M6 = np.zeros((6 * nL, 6 * nL))
-    joints = {key: jt for key, jt, *_ in red.compiled.joints}
-    coupling, w2, recover = [None] * J, [None] * J, [None] * J
-    theta = near(solution, database)[1][5]
     nd = len(emb)
-    Ft = np.zeros((J, 6, 6))  # the joint frames' axes on both halves of a link twist
-    Ft[:, :3, :3] = Ft[:, 3:, 3:] = np.swapaxes(F, 1, 2)
-    levers = (Ft[:, None] @ lever(np.stack([oA - poses.x[fr.a], geo["rb"]], axis=1), 3))[..., emb, :]  # (J, 2, nd, 6)
-    G = np.zeros((J, 2, nd, nL, 6))  # joint j's interface DOFs (A, B) from the links' twists
-    ar = np.arange(J)
-    G[ar, 0, :, fr.a] = levers[:, 0]
-    G[ar, 1, :, fr.b] = levers[:, 1]
-    G = G.reshape(J, 2 * nd, 6 * nL)
-    for tpl, _, idx in red.groups:
-        Mbs, Cs, ws, (Xs, Phis) = condensed(tpl, joints[red.joint_names[idx[0]]], theta[idx], n_fixed)
-        Gg = G[idx]
-        M6 += (np.swapaxes(Gg, 1, 2) @ Mbs @ Gg).sum(axis=0)
-        CG = (Cs @ Gg)[..., red.emb_dofs]
-        for k, j in enumerate(idx):
-            coupling[j], w2[j] = CG[k], ws[k]
-            recover[j] = (Gg[k][:, red.emb_dofs], Xs[k], Phis[k], F[j])
-    nm = [len(w) for w in w2]
-    n = nl + sum(nm)
-    M, K = np.zeros((n, n)), np.zeros((n, n))
-    M[:nl, :nl] = M6[np.ix_(red.emb_dofs, red.emb_dofs)]
-    K[:nl, :nl] = reduced_tangent(solution, database)[0]
+    arms = np.stack([oA - poses.x[fr.a], geo["rb"]], axis=1)  # (J, 2, 3): nodes A, B from links a, b
+    compiled = jit.enabled()
+    if compiled:  # G[j] (2 nd, 12) on links a, b's twists, placed by pos[j] among the links' DOFs
+        G, pos = np.empty((J, 2 * nd, 12)), np.empty((J, 12), dtype=np.int64)
+        properties_jit.interface_maps(np.ascontiguousarray(F), arms, fr.a, fr.b, emb, st["pos6"], G, pos)
+    else:
+        Ft = np.zeros((J, 6, 6))  # the joint frames' axes on both halves of a link twist
+        Ft[:, :3, :3] = Ft[:, 3:, 3:] = np.swapaxes(F, 1, 2)
+        levers = (Ft[:, None] @ lever(arms, 3))[..., emb, :]  # (J, 2, nd, 6)
+        G = np.zeros((J, 2, nd, nL, 6))  # joint j's interface DOFs (A, B) from the links' twists
+        ar = np.arange(J)
+        G[ar, 0, :, fr.a] = levers[:, 0]
+        G[ar, 1, :, fr.b] = levers[:, 1]
+        G = G.reshape(J, 2 * nd, 6 * nL)
+    parts = [condensed(tpl, st["joints"][red.joint_names[idx[0]]], theta[idx], n_fixed) for tpl, _, idx in red.groups]
+    nm = np.zeros(J, dtype=np.int64)
+    for (_, _, idx), (_, _, ws, _) in zip(red.groups, parts):
+        nm[idx] = ws.shape[1]
     at = nl + np.concatenate([[0], np.cumsum(nm)])
-    for j in range(J):
-        sl = slice(at[j], at[j + 1])
-        M[sl, :nl], M[:nl, sl] = coupling[j], coupling[j].T
-        M[sl, sl] = np.eye(nm[j])
-        K[sl, sl] = np.diag(w2[j])
+    n = int(at[-1])
+    M, K = np.zeros((n, n)), np.zeros((n, n))
+    if compiled:
+        for (_, _, idx), (Mbs, Cs, _, _) in zip(red.groups, parts):
+            properties_jit.assemble_mass(G, pos, idx, Mbs, Cs, at, M)
+    else:
+        M6 = np.zeros((6 * nL, 6 * nL))
+        for (_, _, idx), (Mbs, Cs, _, _) in zip(red.groups, parts):
+            Gg = G[idx]
+            M6 += (np.swapaxes(Gg, 1, 2) @ Mbs @ Gg).sum(axis=0)
+            CG = (Cs @ Gg)[..., red.emb_dofs]
+            for k, j in enumerate(idx):
+                sl = slice(at[j], at[j + 1])
+                M[sl, :nl], M[:nl, sl] = CG[k], CG[k].T
+                M[sl, sl] = np.eye(nm[j])
+        M[:nl, :nl] = M6 if st["whole"] else M6[np.ix_(red.emb_dofs, red.emb_dofs)]
+    K[:nl, :nl] = reduced_tangent(solution, database)[0]
+    for (_, _, idx), (_, _, ws, _) in zip(red.groups, parts):
+        rows = (at[idx][:, None] + np.arange(ws.shape[1])).ravel()
+        K[rows, rows] = ws.ravel()
     rigid = model.rigid_masses
     if rigid is not None and (rigid.node < nL).any():
         on = rigid.node < nL
@@ -212,19 +253,22 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
 
     def to_full(v):
         v = np.asarray(v, dtype=float).reshape(n, -1)
-        out = np.zeros((model.n_dofs, v.shape[1]))
+        k = v.shape[1]
+        out = np.zeros((model.n_dofs, k))
         out[:nl] = v[:nl]
-        nd, dim = model.ndof, model.dim
-        for j in range(J):
-            Gl, X, Phi, Fj = recover[j]
-            q = X @ (Gl @ v[:nl]) + Phi @ v[at[j]:at[j + 1]]  # interior DOFs in the joint frame
-            q = q.reshape(-1, nd, v.shape[1])
-            R = Fj[:dim, :dim]
+        dim = model.dim
+        for (_, _, idx), (_, _, ws, (Xs, Phis)), dofs in zip(red.groups, parts, st["dofs"]):
+            if compiled:
+                qb = G[idx] @ v[pos[idx]]  # (Jg, 2 nd, k): interface DOFs in the joint frames
+            else:
+                qb = G[idx][:, :, red.emb_dofs] @ v[:nl]
+            eta = v[at[idx][:, None] + np.arange(ws.shape[1])]  # (Jg, m, k)
+            q = (Xs @ qb + Phis @ eta).reshape(len(idx), -1, nd, k)  # interior DOFs in the joint frames
+            Fg = F[idx]
             g = np.empty_like(q)
-            g[:, :dim] = np.einsum("ab,nbk->nak", R, q[:, :dim])
-            g[:, dim:] = np.einsum("ab,nbk->nak", Fj, q[:, 3:]) if dim == 3 else q[:, 2:]
-            nodes = np.asarray(red.joint_nodes[j])
-            out[(nodes[:, None] * nd + np.arange(nd)).ravel()] = g.reshape(-1, v.shape[1])
+            g[:, :, :dim] = np.einsum("jab,jnbk->jnak", Fg[:, :dim, :dim], q[:, :, :dim])
+            g[:, :, dim:] = np.einsum("jab,jnbk->jnak", Fg, q[:, :, 3:]) if dim == 3 else q[:, :, 2:]
+            out[dofs.ravel()] = g.reshape(-1, k)
         return out
 
     return K, 0.5 * (M + M.T), to_full

@@ -222,6 +222,8 @@ class _KSD:
                          if dim == 3 else e.node_angle[:, 2:])] if compiled_path else e)
         R_hat = rz(theta)
         stages["eob"] = {"joints": J, "tabulated": tabulated}  # step 2: EOBs built, of them looked up
+        if not self.full:  # step 2's EOBs, kept for flexmb.ksd.properties.near (not rebuilt)
+            stages["eob"]["near"] = (red, eobs, K, Fh)
         t = lap("eob", t)
 
         poses3, ok3, hist3, r3, mu, angles = self._reduced(red, poses, K, Fh, p_hat, R_hat, info["hinge_angles"])

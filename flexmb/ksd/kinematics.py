@@ -217,7 +217,8 @@ def compiled_constraints(red: ReducedMechanism, poses: LinkPoses):
 
 def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool):
     """`solve_kinematics` through `flexmb.ksd.reduced_jit.kinematics` (no hinges): the same steps in
-    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21)."""
+    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21). Its info's
+    ``history`` holds the first 64 ``max_iter`` iterations' residuals (``iterations`` counts all)."""
     from .reduced_jit import kinematics
 
     rest, jac0, rows, path_theta, largest = kinematic_start(red)
@@ -256,6 +257,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     motion reached (``load_factor``: 1 unless stopped beyond half a turn), the 3D hinges' angles
     (``hinge_angles``, turns counted; None in 2D or without hinges), the equations
     kept/removed and the largest residual of the removed (redundant) equations at the solution.
+    With the compiled kernels and no hinges the same steps run in one call (`_solve_compiled`).
     """
     if red.hinges is None and jit.enabled():
         poses, theta, p, c, iterations, res, lam, history = _solve_compiled(red, tol, max_iter, max_rotation,

@@ -2,8 +2,10 @@
 
 Each measurement is a fresh Python process (``NUMBA_CACHE_DIR`` a new temporary folder for the
 cold run, the same folder again for the cached one) that imports flexmb, then times the first
-call of each kernel: the 2D and 3D beam elements (one small solve each) and the closed-form
-linkage (a gripper solve); the numpy path's first call for comparison. Writes the "compile"
+call of each kernel: the 2D and 3D beam elements (one small solve each), the closed-form
+linkage (a gripper solve), KSD-reduced's steps 1-4 and its modes and stresses (the manipulator;
+the first modes also build the joints' condensed-mass table once); the numpy path's first call
+for comparison. Writes the "compile"
 section of BENCHMARKS.md. Run: python benchmarks/bench_compile.py [--quick]
 """
 
@@ -38,6 +40,12 @@ for name, make in cases.items():
 m = flexmb.models.gripper(force=50.0)
 t = time.perf_counter(); flexmb.solve(m, method="newton"); first = time.perf_counter() - t
 t = time.perf_counter(); flexmb.solve(m, method="newton"); out["closed-form linkage (gripper)"] = (first, time.perf_counter() - t)
+m = flexmb.models.manipulator("joint", np.radians(45))
+t = time.perf_counter(); sol = flexmb.solve(m, method="ksd-reduced"); first = time.perf_counter() - t
+t = time.perf_counter(); sol = flexmb.solve(m, method="ksd-reduced"); out["KSD-reduced (manipulator, 45 deg)"] = (first, time.perf_counter() - t)
+t = time.perf_counter(); flexmb.modes(sol, n=6); sol.stresses(); first = time.perf_counter() - t
+sol = flexmb.solve(m, method="ksd-reduced")
+t = time.perf_counter(); flexmb.modes(sol, n=6); sol.stresses(); out["KSD-reduced modes + stresses (same)"] = (first, time.perf_counter() - t)
 print(json.dumps(out))
 """
 

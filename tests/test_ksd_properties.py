@@ -436,3 +436,26 @@ def test_properties_reuse_the_solves_step_2(case):
     del sol.stages["eob"]["near"]
     np.testing.assert_array_equal(flexmb.modes(sol, n=4).frequencies, f)
     np.testing.assert_array_equal(sol.stresses().von_mises, vm)
+
+
+@pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
+def test_compiled_spline_evaluation_is_scipys():
+    """`flexmb.ksd.splined.SplinedTable` evaluated by the compiled kernel (the same de Boor basis,
+    the coefficient rows summed outermost) equals scipy's `BSpline` to 1e-15 of each column's
+    largest value, inside the range and at its ends, for the condensed mass of the 3D
+    three_x_infinity and the planar cross flexure (whose grid is finer)."""
+    from flexmb.ksd.joint_mass import joint_mass
+
+    for m in (manipulator("joint", 0.3), _loaded_pivot_2d()):
+        tpl, joint = _template(m)
+        table = joint_mass(tpl, joint).table(6)
+        theta = np.r_[np.random.default_rng(5).uniform(*table.range, 40), table.range]
+        previous = flexmb.jit.use("numpy")
+        try:
+            want = table(theta)
+            flexmb.jit.use("numba")
+            got = table(theta)
+        finally:
+            flexmb.jit.use("numba" if previous else "numpy")
+        for name, w in want.items():
+            np.testing.assert_allclose(got[name], w, rtol=0, atol=1e-15 * np.abs(w).max())

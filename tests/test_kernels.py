@@ -238,6 +238,137 @@ def test_ksd_equilibrium_kernel_equals_numpy(kernels, case):
         assert a.shape == b.shape and _rel(a, b) < 1e-12
 
 
+def _two_kinds(dim):
+    """The four-bar (Dwarshuis et al. 2020 Sec. 4.3) with thicker upper flexures: two joint
+    values, two constraint groups (not a paper case)."""
+    import attrs
+
+    m = flexmb.models.fourbar(2, displacement=0.1, dim=dim)
+    thick = attrs.evolve(m.graph.edges["left", "top", "top_left"]["joint"], thickness=1.5e-3)
+    for link, name in (("left", "top_left"), ("right", "top_right")):
+        m.graph.edges[link, "top", name]["joint"] = thick
+    return m
+
+
+def _ksd_cases():
+    """Mechanisms for the KSD kernels: the manipulator (Sec. 4.4) in both cases, at 45 deg and
+    another rotation, the four-bar in 2D and 3D and with two joint kinds, the cross-flexure pivot
+    in 2D and 3D (none of these but the 45 deg manipulator is a paper value)."""
+    man = flexmb.models.manipulator
+    return {"joint 45": lambda: man("joint", np.radians(45.0)), "location 45": lambda: man("location", np.radians(45.0)),
+            "joint -20": lambda: man("joint", np.radians(-20.0)),
+            "location -30": lambda: man("location", np.radians(-30.0)),
+            "cross pivot 2d": lambda: flexmb.models.cross_flexure_pivot(dim=2, rotation=0.3),
+            "cross pivot 3d": lambda: flexmb.models.cross_flexure_pivot(dim=3, rotation=-0.25),
+            "fourbar 2d": lambda: flexmb.models.fourbar(3, displacement=0.05, moment=2.0, dim=2),
+            "fourbar 3d": lambda: flexmb.models.fourbar(3, displacement=0.05, moment=2.0),
+            "two kinds 2d": lambda: _two_kinds(2), "two kinds 3d": lambda: _two_kinds(3)}
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_ksd_constraint_kernel_equals_numpy(kernels, dim):
+    # KSD step 1's constraints (Dwarshuis et al. 2020 Sec. 2.2, every kind of row: x, y, z, tilts,
+    # symmetric, length) at random deformed link poses: the compiled values and Jacobian equal
+    # ReducedMechanism.constraint_equations' numpy ones
+    from flexmb.ksd.kinematics import compiled_constraints
+    from flexmb.ksd.reduced import ReducedMechanism
+
+    for m in (_two_kinds(dim), flexmb.models.manipulator("joint", np.radians(30.0))):
+        red = ReducedMechanism(m.compile())
+        rng = np.random.default_rng(7)
+        dz = np.zeros((red.n_links, 6))
+        dz[:, red.active] = 0.05 * rng.standard_normal((red.n_links, len(red.active)))
+        poses = red.rest().moved(dz)
+        kernels("numpy")
+        c, J, theta, p = red.constraint_equations(poses)
+        kernels("numba")
+        c2, J2, theta2, p2 = compiled_constraints(red, poses)
+        for a, b in ((c, c2), (J, J2), (theta, theta2), (p, p2)):
+            assert a.shape == b.shape and _rel(a, b) < 1e-12
+
+
+@pytest.mark.parametrize("case", list(_ksd_cases()))
+def test_ksd_kinematics_kernel_equals_numpy(kernels, case):
+    # KSD step 1 (Sec. 2.2: Newton on the database constraints, the motion in steps) in one
+    # compiled call against solve_kinematics' numpy loop: the same poses, rotations, iterations
+    from flexmb.ksd.kinematics import solve_kinematics
+    from flexmb.ksd.reduced import ReducedMechanism
+
+    red = ReducedMechanism(_ksd_cases()[case]().compile())
+    out = {}
+    for path in ("numpy", "numba"):
+        kernels(path)
+        out[path] = solve_kinematics(red, stop_beyond_half_turn=True)
+    (a, ta, pa, ia), (b, tb, pb, ib) = out["numpy"], out["numba"]
+    assert ia["iterations"] == ib["iterations"] and ia["removed_equations"] == ib["removed_equations"]
+    assert ia["load_factor"] == ib["load_factor"] == 1.0
+    assert np.allclose(ia["history"], ib["history"], rtol=1e-9, atol=1e-14)
+    for u, v in ((a.x, b.x), (a.R, b.R), (a.angle, b.angle), (ta, tb), (pa, pb)):
+        assert np.abs(u - v).max() <= 1e-12 * max(np.abs(u).max(), 1.0)
+
+
+@pytest.mark.parametrize("case", list(_ksd_cases()))
+def test_ksd_reduced_compiled_stages_equal_numpy(kernels, case):
+    # KSD-reduced steps 1-4 (Dwarshuis et al. 2020 Sec. 2) with the compiled stages (one call each:
+    # kinematics, tabulated EOBs, step 3's Newton loop, step 4) against the numpy path: the same
+    # iterations, node positions and rotations to 1e-12, the reduced residual (reactions) to 1e-9
+    # of its largest entry (its free entries are the converged residual, ~1e-11 N: roundoff)
+    m = _ksd_cases()[case]()
+    out = {}
+    for path in ("numpy", "numba"):
+        kernels(path)
+        out[path] = flexmb.solve(m, method="ksd-reduced")
+    a, b = out["numpy"], out["numba"]
+    assert a.converged and b.converged and a.iterations == b.iterations
+    assert a.stages["eob"]["tabulated"] == b.stages["eob"]["tabulated"]
+    assert _rel(a.node_positions(), b.node_positions()) < 1e-12
+    assert _rel(a.state.rotations, b.state.rotations) < 1e-12
+    assert _rel(a.residual, b.residual) < 1e-9
+
+
+def _table_2d():
+    """A cross-flexure pivot's joint (2D, not the shipped table's joint) with its condensation
+    tabulated on a coarse grid (flexmb.ksd.eob_table.tabulate) attached to its template."""
+    from flexmb.ksd.eob_table import Lookup, tabulate
+    from flexmb.ksd.reduced import ReducedMechanism
+
+    red = ReducedMechanism(flexmb.models.cross_flexure_pivot(dim=2, rotation=0.3).compile())
+    tpl = red.groups[0][0]
+    return Lookup(tpl, tabulate(tpl, {}, step_deg=2.0, degree=5))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_ksd_tabulated_eob_kernel_equals_numpy(kernels, dim):
+    # step 2's tabulated condensation (Eqs. 2.4-2.6 sampled against theta, flexmb.ksd.eob_table):
+    # the compiled de Boor evaluation equals scipy's BSpline to 1e-13 over the whole range and
+    # beyond its ends by the slack, and eob_lookup's stiffness, force, recovery and near poses
+    # equal Lookup.__call__'s; 3D: the manipulator's shipped table, 2D: a table made here
+    from flexmb.ksd.geometry import ACTIVE
+    from flexmb.ksd.reduced import ReducedMechanism
+    from flexmb.ksd.reduced_jit import bspline
+
+    if dim == 3:
+        red = ReducedMechanism(flexmb.models.manipulator("joint", np.radians(10.0)).compile())
+        lookup = red.groups[0][0].lookup
+    else:
+        lookup = _table_2d()
+    lo, hi = lookup.range
+    theta = np.concatenate([np.linspace(lo, hi, 301), [lo - 1e-9, hi + 1e-9, lo, hi]])
+    kernels("numba")
+    K, F, rec, x_int, rot_int = lookup.compiled(theta[:7], 1e-3 * np.random.default_rng(3).normal(size=(7, dim)))
+    t, c, k = lookup._compiled_args[:3]
+    values = np.empty((len(theta), c.shape[1]))
+    bspline(t, c, k, theta, values)
+    assert np.abs(values - lookup._spline(theta)).max() <= 1e-13 * np.abs(lookup.table.values).max()
+    kernels("numpy")
+    e = lookup(theta[:7], 1e-3 * np.random.default_rng(3).normal(size=(7, dim)))
+    emb = ACTIVE[dim]
+    assert _rel(K[:, emb[:, None], emb], e.K_T) < 1e-12 and _rel(F[:, emb], e.F_hat_T) < 1e-12
+    assert np.all(K[:, np.setdiff1d(np.arange(6), emb)] == 0.0)
+    assert _rel(rec, e.recover) < 1e-12 and _rel(x_int, e.node_position[:, 2:]) < 1e-12
+    assert _rel(rot_int, e.node_rotation[:, 2:] if dim == 3 else e.node_angle[:, 2:]) < 1e-12
+
+
 def test_bad_kernel_choice_is_refused():
     with pytest.raises(flexmb.ParameterError, match="FLEXMB_KERNELS"):
         jit.use("fortran")

@@ -247,6 +247,18 @@ def _fd(f, poses, red, h=1e-7):
     return np.array(cols).T
 
 
+def _random_joints(red, rng):
+    """Random condensed joints for step 3: symmetric positive stiffnesses (J, 6, 6) of N/m and
+    N m/rad scales, forces (J, 6), near poses of node B ``p_hat`` (J, 3) and ``R_hat`` (J, 3, 3)."""
+    J = len(red.joint_names)
+    A = rng.standard_normal((J, 6, 6))
+    W = np.sqrt([1e5, 1e5, 1e5, 10, 10, 10])  # N/m and N m/rad scales
+    K = W[:, None] * (A @ np.swapaxes(A, 1, 2)) * W
+    F_hat = rng.standard_normal((J, 6)) * [5, 5, 5, 1, 1, 1]
+    p_hat = red.b0 + 0.01 * rng.standard_normal((J, 3))
+    return K, F_hat, p_hat, expm_so3(0.2 * rng.standard_normal((J, 3)))
+
+
 def _two_kinds(dim):
     """The four-bar with thicker upper flexures: two joint values, so two constraint groups."""
     m = flexmb.models.fourbar(2, displacement=0.1, dim=dim)
@@ -276,19 +288,62 @@ def test_constraint_jacobian_is_the_finite_difference_one(dim, build):
     assert none is None
 
 
+@pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("build", [_reduced, _two_kinds])
+def test_compiled_constraint_jacobian_is_the_finite_difference_one(dim, build):
+    """Step 1's compiled constraints (`flexmb.ksd.reduced_jit.constraints`, the kinematic solve's
+    one call per iteration): their Jacobian against central differences of their own values, in a
+    deformed configuration, one and two constraint groups (equations in group order)."""
+    from flexmb.ksd.kinematics import compiled_constraints
+
+    red = build(dim)
+    poses = _random_poses(red, np.random.default_rng(1))
+    c, J, _, _ = compiled_constraints(red, poses)
+    Jfd = _fd(lambda p: compiled_constraints(red, p)[0], poses, red)
+    act = (np.arange(red.n_links)[:, None] * 6 + red.active).ravel()
+    assert np.max(np.abs(J[:, act] - Jfd[:, act])) < 1e-7 * np.abs(J).max()
+
+
+@pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compiled_step3_tangent_is_the_finite_difference_one(dim):
+    """Step 3's compiled evaluation (`flexmb.ksd.reduced_jit._evaluate`, what its Newton loop
+    `reduced_newton` calls: joint wrenches, dead loads at offset points turned with their links):
+    its tangent against central differences of its residual, deformed, random joint stiffness;
+    its residual equals `ReducedMechanism.equilibrium`'s."""
+    from flexmb.ksd.reduced_jit import _evaluate
+
+    rng = np.random.default_rng(4)
+    red = _reduced(dim)
+    assert red.load_offset.any()
+    K, F_hat, p_hat, R_hat = _random_joints(red, rng)
+    n = 6 * red.n_links
+    fr = red.frames
+
+    def evaluate(poses):
+        r, T = np.empty(n), np.empty((n, n))
+        _evaluate(np.ascontiguousarray(poses.x), np.ascontiguousarray(poses.R), fr.a, fr.b, fr.s_a, fr.s_b, fr.P, K,
+                  F_hat, p_hat, R_hat, red._cols, red.load_node, red.load_offset, red.load_force, red.load_moment, r, T)
+        return r, T
+
+    poses = _random_poses(red, rng)
+    r, T = evaluate(poses)
+    np.testing.assert_allclose(r, red.equilibrium(poses, K, F_hat, p_hat, R_hat, tangent=False)[0], rtol=0,
+                               atol=1e-12 * np.abs(r).max())
+    Tfd = _fd(lambda p: evaluate(p)[0], poses, red)
+    act = (np.arange(red.n_links)[:, None] * 6 + red.active).ravel()
+    d = np.sqrt(np.abs(np.diag(T)))[act]
+    assert (np.abs(T[np.ix_(act, act)] - Tfd[np.ix_(act, act)]) / np.outer(d, d)).max() < 1e-6
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_reduced_equilibrium_jacobian_is_the_finite_difference_one(dim):
     """Step 3's residual (joint wrenches with the EOB stiffness, statics for node A, dead loads at
     offset points) and its analytic Jacobian, at a deformed state with a random joint stiffness."""
     rng = np.random.default_rng(2)
     red = _reduced(dim)
-    J = len(red.joint_names)
-    A = rng.standard_normal((J, 6, 6))
-    W = np.sqrt([1e5, 1e5, 1e5, 10, 10, 10])  # N/m and N m/rad scales
-    K = W[:, None] * (A @ np.swapaxes(A, 1, 2)) * W
-    F_hat = rng.standard_normal((J, 6)) * [5, 5, 5, 1, 1, 1]
-    p_hat = red.b0 + 0.01 * rng.standard_normal((J, 3))
-    R_hat = expm_so3(0.2 * rng.standard_normal((J, 3)))
+    K, F_hat, p_hat, R_hat = _random_joints(red, rng)
     poses = _random_poses(red, rng)
     r, Kr = red.equilibrium(poses, K, F_hat, p_hat, R_hat)
     Kfd = _fd(lambda p: red.equilibrium(p, K, F_hat, p_hat, R_hat, tangent=False)[0], poses, red)
@@ -750,13 +805,7 @@ def test_hinged_reduced_equilibrium_tangent_is_the_finite_difference_one(dim):
     coordinates and the multipliers, at a deformed state with random multipliers."""
     rng = np.random.default_rng(5)
     red = _hinged(dim)
-    J = len(red.joint_names)
-    A = rng.standard_normal((J, 6, 6))
-    W = np.sqrt([1e5, 1e5, 1e5, 10, 10, 10])
-    K = W[:, None] * (A @ np.swapaxes(A, 1, 2)) * W
-    F_hat = rng.standard_normal((J, 6)) * [5, 5, 5, 1, 1, 1]
-    p_hat = red.b0 + 0.01 * rng.standard_normal((J, 3))
-    R_hat = expm_so3(0.2 * rng.standard_normal((J, 3)))
+    K, F_hat, p_hat, R_hat = _random_joints(red, rng)
     poses = _random_poses(red, rng)
     # multipliers of physical size: constraint forces of tens of N and N m (scale s: `flexmb.fe.ideal`)
     mu = 10.0 * rng.standard_normal(red.hinges.n_rows) / red.hinges.scale[np.nonzero(red.hinges.active)[1]]

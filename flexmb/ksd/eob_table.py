@@ -24,6 +24,7 @@ from scipy.interpolate import make_interp_spline
 from ..database.eob_format import NAMES, EOBTable
 from ..database.eob_format import plain_parameters
 from .eob import EOB
+from .geometry import ACTIVE
 
 __all__ = ["tabulate", "Lookup", "lookup_for", "STEP_DEG", "FINEST_DEG", "DEGREE", "TOL"]
 
@@ -31,6 +32,9 @@ STEP_DEG = 1.0  # first grid step [deg]
 FINEST_DEG = 0.125  # finest grid step [deg]
 DEGREE = 7  # spline degree
 TOL = 1e-9  # interpolation error accepted, relative to each quantity's largest entry
+#: how far beyond the grid's ends [rad] the table is used: step 1's roundoff (the kinematic solve's
+#: 1e-9 rad, as `flexmb.solvers.ksd` accepts a trained range)
+SLACK = 1e-9
 
 
 def _sample(tpl, theta: np.ndarray) -> dict:
@@ -114,9 +118,44 @@ class Lookup:
         self.range = (float(table.theta[0]), float(table.theta[-1]))
         self._spline = make_interp_spline(table.theta, table.values, k=table.degree, axis=0)
 
+    def compiled(self, theta: np.ndarray, b_position: np.ndarray):
+        """`__call__`'s quantities through `flexmb.ksd.reduced_jit.eob_lookup` (one call instead of
+        ~40 numpy ones): ``K`` (J, 6, 6) and ``F_hat`` (J, 6) embedded in 3D form (`ACTIVE`),
+        ``recover`` (J, n_i nd, nd + 1), the internal nodes' near positions (J, n_i, dim) and
+        orientations (3D: matrices (J, n_i, 3, 3); 2D: angles (J, n_i))."""
+        from .reduced_jit import eob_lookup
+
+        tpl = self.tpl
+        dim, nd, ni = tpl.dim, tpl.nd, tpl.n_nodes - 2
+        try:
+            args = self._compiled_args
+        except AttributeError:
+            c = np.ascontiguousarray
+            comp = 1 if dim == 2 else 3
+            assert tuple(n for n, *_ in self.table.layout) == NAMES
+            args = self._compiled_args = (
+                c(self._spline.t, dtype=float), c(self._spline.c.reshape(len(self._spline.c), -1), dtype=float),
+                int(self._spline.k), c(tpl.root, dtype=np.int64), c(tpl._powers, dtype=float),
+                c(tpl._coef[:, comp * tpl.n_elements:], dtype=float), ACTIVE[dim])
+        t, coef, k, root, powers, ocoef, emb = args
+        J = len(theta)
+        K, F = np.zeros((J, 6, 6)), np.zeros((J, 6))
+        recover, x_int = np.empty((J, ni * nd, nd + 1)), np.empty((J, ni, dim))
+        R_int = np.empty((J, ni, 3, 3) if dim == 3 else (0, 0, 3, 3))
+        a_int = np.empty((J, ni) if dim == 2 else (0, 0))
+        eob_lookup(t, coef, k, np.ascontiguousarray(theta, dtype=float), np.ascontiguousarray(b_position, dtype=float),
+                   root, powers, ocoef, emb, K, F, recover, x_int, R_int, a_int)
+        return K, F, recover, x_int, (R_int if dim == 3 else a_int)
+
     def covers(self, theta: np.ndarray) -> bool:
-        """Whether every ``theta`` [rad] lies on the grid's range (else: evaluate directly)."""
-        return bool(np.all((theta >= self.range[0]) & (theta <= self.range[1])))
+        """Whether every ``theta`` [rad] lies on the grid's range (else: evaluate directly), up to
+        `SLACK` beyond its ends (the spline's end polynomials continued there). Without the slack
+        the end of the range was decided by roundoff: the manipulator's location case at 45 deg
+        reaches 45 deg plus 4e-16 rad or minus 5e-16 by the order of step 1's sums, and the
+        direct evaluation there (differing by the table's 1e-9) moved node positions by 2e-12
+        relative and cost ~1 ms more."""
+        lo, hi = self.range
+        return bool(np.all((theta >= lo - SLACK) & (theta <= hi + SLACK)))
 
     def __call__(self, theta: np.ndarray, b_position: np.ndarray) -> EOB:
         """The condensation at ``theta`` (J,) with node B's near position ``b_position`` (J, dim),

@@ -17,7 +17,9 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg import lapack
 
+from .. import jit
 from ..errors import ConvergenceError, TopologyError, UnsupportedStrategyError
+from .geometry import LinkPoses
 from .reduced import ReducedMechanism
 
 __all__ = ["solve_kinematics", "kinematic_start", "turn_rate", "STEP_ROTATION"]
@@ -157,6 +159,89 @@ def kinematic_start(red: ReducedMechanism):
     return start
 
 
+def _compiled_arrays(red: ReducedMechanism) -> dict:
+    """What `flexmb.ksd.reduced_jit.kinematics` reads of ``red`` besides the prescribed values, per
+    joint in the equations' order (group by group): frames, constraint codes, 1/D0, the linear
+    rows' rest values, the symmetric row's directions and the trained functions as padded
+    polynomials. Built once per set-up (kept on ``red``; `ReducedMechanism.with_values` shares it)."""
+    arrays = getattr(red, "_kinematics_jit", None)
+    if arrays is not None:
+        return arrays
+    from .reduced_jit import CODES
+
+    order = np.concatenate([idx for _, _, idx in red.groups])
+    J, m = len(order), len(red.groups[0][1])
+    code, inv, rest = np.zeros((J, m), dtype=np.int64), np.zeros(J), np.zeros((J, m))
+    nm = np.zeros((J, 3, 2))
+    width = max(len(cs.powers) // 2 if cs.fun is not None else 1 for cs in red._sets)
+    fpow, fcoef = np.zeros((J, m, width)), np.zeros((J, m, width))
+    at = 0
+    for (_, cons, idx), cs in zip(red.groups, red._sets):
+        s = slice(at, at + len(idx))
+        code[s] = [CODES[n] for n in cons]
+        inv[s], nm[s] = cs.inv, cs._nm
+        if cs.lin is not None:
+            rest[s, np.arange(m)[cs.lin]] = cs.lin_rest
+        if cs.fun is not None:
+            P = len(cs.powers) // 2
+            for i, k in enumerate(np.arange(m)[cs.fun]):
+                fpow[s, k, :P], fcoef[s, k, :P] = cs.powers[:P], cs.coef[:P, i]
+        at += len(idx)
+    fr = red.frames
+    c = np.ascontiguousarray
+    arrays = red._kinematics_jit = {
+        "order": order, "a": c(fr.a[order]), "b": c(fr.b[order]), "s_a": c(fr.s_a[order]), "s_b": c(fr.s_b[order]),
+        "P": c(fr.P[order]), "code": code, "inv": inv, "rest": rest, "nm": nm, "fpow": fpow, "fcoef": fcoef,
+        "cols": c(red._cols[order])}
+    return arrays
+
+
+def compiled_constraints(red: ReducedMechanism, poses: LinkPoses):
+    """`ReducedMechanism.constraint_equations` (no hinges) through the compiled kernel of step 1,
+    `flexmb.ksd.reduced_jit.constraints`: values (m,), Jacobian (m, 6 n_links), ``theta`` (J,),
+    ``p`` (J, 3) (tests hold it equal to the numpy path and to finite differences)."""
+    from .reduced_jit import constraints
+
+    k = _compiled_arrays(red)
+    order = k["order"]
+    c, jac = np.empty(red.n_equations), np.empty((red.n_equations, 6 * red.n_links))
+    theta, p = np.empty(len(order)), np.empty((len(order), 3))
+    constraints(np.ascontiguousarray(poses.x, dtype=float), np.ascontiguousarray(poses.R, dtype=float), k["a"],
+                k["b"], k["s_a"], k["s_b"], k["P"], k["code"], k["inv"], k["rest"], k["nm"], k["fpow"], k["fcoef"],
+                k["cols"], True, c, jac, theta, p)
+    out_theta, out_p = np.empty(len(order)), np.empty((len(order), 3))
+    out_theta[order], out_p[order] = theta, p
+    return c, jac, out_theta, out_p
+
+
+def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool):
+    """`solve_kinematics` through `flexmb.ksd.reduced_jit.kinematics` (no hinges): the same steps in
+    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21)."""
+    from .reduced_jit import kinematics
+
+    rest, jac0, rows, path_theta, largest = kinematic_start(red)
+    k = _compiled_arrays(red)
+    order = k["order"]
+    J = len(order)
+    x, R, angle = rest.x.copy(), rest.R.copy(), rest.angle.copy()
+    c = np.empty(red.n_equations)
+    theta, p = np.empty(J), np.empty((J, 3))
+    history = np.empty(64 * max_iter)
+    (lt, ct, vt), (lr, W) = red._moves
+    status, iterations, res, lam = kinematics(
+        x, R, angle, jac0.copy(), path_theta[order], float(largest), STEP_ROTATION, rows, red.free, red.prescribed,
+        red.values, red.lam_rate, red.X0, lt, ct, vt, lr, W, k["a"], k["b"], k["s_a"], k["s_b"], k["P"],
+        k["code"], k["inv"], k["rest"], k["nm"], k["fpow"], k["fcoef"], k["cols"], tol, max_iter, max_rotation,
+        stop_beyond_half_turn, c, theta, p, history)
+    if status:
+        raise ConvergenceError(
+            f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
+            f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
+    out_theta, out_p = np.empty(J), np.empty((J, 3))
+    out_theta[order], out_p[order] = theta, p
+    return LinkPoses(x, R, angle), out_theta, out_p, c, iterations, res, lam, history[:min(iterations, len(history))].tolist()
+
+
 def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5,
                      stop_beyond_half_turn: bool = False):
     """KSD step 1: link poses satisfying all joint constraints and the prescribed motion.
@@ -171,6 +256,10 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     (``hinge_angles``, turns counted; None in 2D or without hinges), the equations
     kept/removed and the largest residual of the removed (redundant) equations at the solution.
     """
+    if red.hinges is None and jit.enabled():
+        poses, theta, p, c, iterations, res, lam, history = _solve_compiled(red, tol, max_iter, max_rotation,
+                                                                            stop_beyond_half_turn)
+        return poses, theta, p, _info(red, c, iterations, res, lam, None, history)
     rest, jac0, rows, path_theta, largest = kinematic_start(red)  # jac0: at the last accepted poses (predictor)
     free = red.free
     at_free, at_pres = (rows[:, None], free), (rows[:, None], red.prescribed)
@@ -220,16 +309,23 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
                 raise ConvergenceError(
                     f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
                     f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
-    keep = np.zeros(len(c), dtype=bool)
-    keep[rows] = True
-    removed = np.flatnonzero(~keep)
+    return poses, theta, p, _info(red, c, iterations, res, lam, hinge_path, history)
+
+
+def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam: float, hinge_path, history) -> dict:
+    """`solve_kinematics`' info, with a warning where removed (redundant) equations are violated."""
+    removed = getattr(red, "_removed_rows", None)
+    if removed is None:  # the equations `_independent_rows` left out (kept with the set-up)
+        keep = np.zeros(len(c), dtype=bool)
+        keep[kinematic_start(red)[2]] = True
+        removed = red._removed_rows = np.flatnonzero(~keep)
     if len(removed) and np.abs(c[removed]).max() > 1e-6:
         k = removed[np.argmax(np.abs(c[removed]))]
         warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
                       f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
                       "rad); the kinematic start and KSD-reduced are approximate there (KSD-full is not affected)",
-                      RuntimeWarning, stacklevel=3)
-    info = {"iterations": iterations, "residual": res, "load_factor": lam, "hinge_angles": hinge_path, "equations": len(c), "removed": len(removed),
+                      RuntimeWarning, stacklevel=4)
+    return {"iterations": iterations, "residual": res, "load_factor": lam, "hinge_angles": hinge_path,
+            "equations": len(c), "removed": len(removed),
             "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
             "removed_equations": [red.rows[k] for k in removed], "history": history}
-    return poses, theta, p, info

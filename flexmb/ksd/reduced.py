@@ -464,6 +464,40 @@ class ReducedMechanism:
         return State(pos, rot, np.array(multipliers, dtype=float),
                      None if hinge_angles is None else np.array(hinge_angles, dtype=float))
 
+    def fe_state_compiled(self, poses: LinkPoses, internal, p_hat: np.ndarray, R_hat: np.ndarray) -> State:
+        """Step 4 and `fe_state` (no hinges) through `flexmb.ksd.reduced_jit.internal`, one call per
+        group: ``internal`` holds per group ``(idx, recover, x_int, rot_int)`` (step 2's recovery
+        (Jg, n_i nd, nd + 1) and the internal nodes' near poses: positions (Jg, n_i, dim),
+        rotations (Jg, n_i, 3, 3) in 3D or angles (Jg, n_i) in 2D), ``p_hat``, ``R_hat`` (J, 3),
+        (J, 3, 3) node B's near pose (the manipulator: ~95 -> ~15 us)."""
+        from .reduced_jit import internal as kernel
+
+        model = self.compiled.problem.model
+        dim, nL, fr = self.dim, self.n_links, self.frames
+        pos = model.x0.copy()
+        pos[:nL] = poses.x[:, :dim]
+        if dim == 2:
+            ang, rot = np.zeros(model.n_nodes), np.empty((0, 3, 3))
+            ang[:nL] = poses.angle
+        else:
+            try:
+                rot = self._identities.copy()
+            except AttributeError:
+                self._identities = np.repeat(_EYE[None], model.n_nodes, axis=0)
+                rot = self._identities.copy()
+            rot[:nL] = poses.R
+            ang = np.empty(0)
+        x, R, angle = (np.ascontiguousarray(v, dtype=float) for v in (poses.x, poses.R, poses.angle))
+        for idx, recover, x_int, rot_int in internal:
+            if x_int.shape[1] == 0:
+                continue
+            nodes = self._group_nodes[id(idx)]
+            f = np.ascontiguousarray
+            kernel(x, R, angle, fr.a, fr.b, fr.s_a, fr.s_b, fr.P, p_hat, R_hat, idx, nodes, f(recover, dtype=float),
+                   f(x_int, dtype=float), f(rot_int, dtype=float) if dim == 3 else np.empty((0, 0, 3, 3)),
+                   f(rot_int, dtype=float) if dim == 2 else np.empty((0, 0)), self.active, dim, pos, rot, ang)
+        return State(pos, ang if dim == 2 else rot)
+
     def reaction_vector(self, r_links: np.ndarray) -> np.ndarray:
         """The full model's residual layout with the reduced residual on the link DOFs."""
         out = np.zeros(self.compiled.problem.model.n_dofs)

@@ -1,5 +1,8 @@
 """Compiled KSD kernels of the reduced mechanism: step 3's equilibrium residual and tangent in one
-pass, the joints' relative poses (steps 1, 3 and 4) and their intended rotations (step 1).
+pass, the joints' relative poses (steps 1, 3 and 4) and their intended rotations (step 1); and
+whole stages, each one call (issue 21: with ~850 Python calls per solve the call overhead was
+most of KSD-reduced's time): step 1's kinematic solve (`kinematics`), step 2's tabulated
+condensation (`eob_lookup`), step 3's Newton loop (`reduced_newton`) and step 4 (`internal`).
 
 The same formulas as `flexmb.ksd.reduced.ReducedMechanism.equilibrium` (the numpy path, kept and
 tested equal to 1e-12 in tests/test_kernels.py), written term by term over the J joints: numpy's
@@ -10,9 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..closed_form.linkage_jit import _solve_in_place
+from ..fe.model_jit import compose3d
 from ..jit import njit
 
-__all__ = ["equilibrium", "relative", "intended_angle"]
+__all__ = ["equilibrium", "relative", "intended_angle", "constraints", "kinematics", "reduced_newton", "bspline",
+           "eob_lookup", "internal"]
 
 
 @njit
@@ -174,3 +180,436 @@ def intended_angle(R, theta, dtheta):
         dtheta[j, 0] = (c * -R[j, 2, 0] - s * -R[j, 2, 1]) / n
         dtheta[j, 1] = (c * -R[j, 2, 1] - s * R[j, 2, 0]) / n
         dtheta[j, 2] = (c * c + s * s) / n  # (c ds_z - s dc_z) / n with ds_z = c, dc_z = -s
+
+
+# -- step 1: the whole kinematic solve -----------------------------------------------------------
+
+#: constraint codes of `kinematics` (`flexmb.ksd.constraints.NAMES` order)
+CODES = {"x": 0, "y": 1, "z": 2, "tilt_x": 3, "tilt_y": 4, "symmetric": 5, "length": 6}
+
+
+@njit
+def _norm_at(v, at):
+    acc = 0.0
+    for i in range(len(at)):
+        acc += v[at[i]] * v[at[i]]
+    return np.sqrt(acc)
+
+
+@njit
+def _correction(A, r, rows, cols, n_dofs, dz):
+    """`flexmb.ksd.kinematics._correction`: ``A[rows][:, cols] x = -r[rows]`` into ``dz`` (n_dofs,)
+    on ``cols`` (zero elsewhere); False when singular."""
+    n = len(cols)
+    M = np.empty((n, n))
+    x = np.empty(n)
+    for i in range(n):
+        x[i] = -r[rows[i]]
+        for k in range(n):
+            M[i, k] = A[rows[i], cols[k]]
+    ok = _solve_in_place(M, x)
+    for i in range(n_dofs):
+        dz[i] = 0.0
+    if ok:
+        for i in range(n):
+            dz[cols[i]] = x[i]
+    return ok
+
+
+@njit
+def _move(x, R, angle, dz):
+    """`flexmb.ksd.geometry.LinkPoses.moved` in place."""
+    n = x.shape[0]
+    w = np.empty((n, 3))
+    for l in range(n):
+        for i in range(3):
+            x[l, i] += dz[6 * l + i]
+            w[l, i] = dz[6 * l + 3 + i]
+        angle[l] += dz[6 * l + 5]
+    out = np.empty((n, 3, 3))
+    compose3d(R, w, out)
+    R[:] = out
+
+
+@njit
+def _prescribe(x, R, angle, X0, lt, ct, vt, lr, W, lam):
+    """`flexmb.ksd.reduced.ReducedMechanism.with_prescribed` in place."""
+    for i in range(len(lt)):
+        x[lt[i], ct[i]] = X0[lt[i], ct[i]] + lam * vt[i]
+    if len(lr):
+        w = lam * W
+        out = np.empty((len(lr), 3, 3))
+        eye = np.zeros((len(lr), 3, 3))
+        for i in range(len(lr)):
+            eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0
+        compose3d(eye, w, out)
+        for i in range(len(lr)):
+            R[lr[i]] = out[i]
+            angle[lr[i]] = w[i, 2]
+
+
+@njit
+def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols, jacobian, c, jac, theta, p):
+    """All joints' kinematic constraints (`flexmb.ksd.reduced.ReducedMechanism.constraint_equations`
+    without hinges, `flexmb.ksd.constraints.ConstraintSet.evaluate` term by term): values ``c``
+    (J m,) and, with ``jacobian``, ``jac`` (J m, 6 n_links) (overwritten), the intended rotations
+    ``theta`` (J,) and positions ``p`` (J, 3). Per joint and row: ``code`` (`CODES`), ``inv`` 1/D0,
+    ``rest`` the linear rows' rest value, ``nm`` (J, 3, 2) the symmetric row's (n0, m0)/D0,
+    ``fpow``, ``fcoef`` (J, m, P) the trained function subtracted (zero coefficients: none)."""
+    J, m = code.shape
+    Rrel, F, rb, ra = np.empty((J, 3, 3)), np.empty((J, 3, 3)), np.empty((J, 3)), np.empty((J, 3))
+    relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra)
+    dth = np.empty((J, 3))
+    intended_angle(Rrel, theta, dth)
+    if jacobian:
+        jac[:] = 0.0
+    g = np.empty(6)
+    gF, gW = np.empty(3), np.empty(3)
+    for j in range(J):
+        h = 0.5 * theta[j]
+        ch, sh = np.cos(h), np.sin(h)
+        pq0 = p[j, 0] * nm[j, 0, 0] + p[j, 1] * nm[j, 1, 0] + p[j, 2] * nm[j, 2, 0]
+        pq1 = p[j, 0] * nm[j, 0, 1] + p[j, 1] * nm[j, 1, 1] + p[j, 2] * nm[j, 2, 1]
+        for k in range(m):
+            row = j * m + k
+            kind = code[j, k]
+            for i in range(6):
+                g[i] = 0.0
+            if kind <= 2:  # p_c / D0 minus its rest value
+                val = p[j, kind] * inv[j] - rest[j, k]
+                g[kind] = inv[j]
+            elif kind <= 4:  # tilt: component of R e_z, gradient (R e_z) x e_c
+                cc = kind - 3
+                val = Rrel[j, cc, 2]
+                if cc == 0:
+                    g[4], g[5] = Rrel[j, 2, 2], -Rrel[j, 1, 2]
+                else:
+                    g[3], g[5] = -Rrel[j, 2, 2], Rrel[j, 0, 2]
+            elif kind == 5:  # symmetric: p . n(theta / 2) / D0
+                val = ch * pq0 + sh * pq1
+                for i in range(3):
+                    g[i] = ch * nm[j, i, 0] + sh * nm[j, i, 1]
+                    g[3 + i] = 0.5 * (ch * pq1 - sh * pq0) * dth[j, i]
+            else:  # length
+                r = np.sqrt(p[j, 0] * p[j, 0] + p[j, 1] * p[j, 1] + p[j, 2] * p[j, 2])
+                val = r * inv[j] - 1.0
+                for i in range(3):
+                    g[i] = p[j, i] * (inv[j] / r)
+            f, df = 0.0, 0.0
+            for q in range(fpow.shape[2]):
+                e = fpow[j, k, q]
+                f += fcoef[j, k, q] * theta[j] ** e
+                df += fcoef[j, k, q] * e * theta[j] ** max(e - 1.0, 0.0)
+            c[row] = val - f
+            if not jacobian:
+                continue
+            for i in range(3):
+                g[3 + i] -= df * dth[j, i]
+            # d(p, omega) / d(links) = diag(F^T, F^T) [[-I, skew(ra), I, -skew(rb)], [0, -I, 0, I]]
+            for i in range(3):
+                gF[i] = F[j, i, 0] * g[0] + F[j, i, 1] * g[1] + F[j, i, 2] * g[2]
+                gW[i] = F[j, i, 0] * g[3] + F[j, i, 1] * g[4] + F[j, i, 2] * g[5]
+            xa = (gF[1] * ra[j, 2] - gF[2] * ra[j, 1], gF[2] * ra[j, 0] - gF[0] * ra[j, 2],
+                  gF[0] * ra[j, 1] - gF[1] * ra[j, 0])
+            xb = (rb[j, 1] * gF[2] - rb[j, 2] * gF[1], rb[j, 2] * gF[0] - rb[j, 0] * gF[2],
+                  rb[j, 0] * gF[1] - rb[j, 1] * gF[0])
+            for i in range(3):
+                jac[row, cols[j, i]] += -gF[i]
+                jac[row, cols[j, 3 + i]] += xa[i] - gW[i]
+                jac[row, cols[j, 6 + i]] += gF[i]
+                jac[row, cols[j, 9 + i]] += xb[i] + gW[i]
+
+
+@njit
+def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free, prescribed, values, lam_rate,
+               X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
+               tol, max_iter, max_rotation, stop_beyond_half_turn, c, theta, p, history):
+    """`flexmb.ksd.kinematics.solve_kinematics` without hinges, the same steps: ``x``, ``R``,
+    ``angle`` start at rest and end at the solution, ``jac0`` the Jacobian at rest (overwritten),
+    ``path_theta`` the intended rotations at rest; fills ``c``, ``theta``, ``p`` and ``history``
+    (iterations' residuals, at most its length). Returns (status, iterations, residual, load
+    factor): status 0 converged, 1 failed (the step fell below 1e-4 of the motion)."""
+    n_dofs = jac0.shape[1]
+    nL = x.shape[0]
+    xt, Rt, at_ = x.copy(), R.copy(), angle.copy()
+    dz = np.zeros(n_dofs)
+    rhs = np.empty(jac0.shape[0])
+    jac = np.empty_like(jac0)
+    path = path_theta.copy()
+    lam, dlam = 0.0, 1.0
+    if largest > 0.0:
+        dlam = min(1.0, step_rotation / largest)
+    iterations, res = 0, np.inf
+    while True:
+        target = lam + dlam
+        xt[:], Rt[:], at_[:] = x, R, angle
+        _prescribe(xt, Rt, at_, X0, lt, ct, vt, lr, W, target)
+        for i in range(len(rhs)):  # predictor: jac0[:, pres] (dlam values) + dlam lam_rate
+            acc = dlam * lam_rate[i]
+            for k in range(len(prescribed)):
+                acc += jac0[i, prescribed[k]] * (dlam * values[k])
+            rhs[i] = acc
+        if _correction(jac0, rhs, rows, free, n_dofs, dz):
+            _move(xt, Rt, at_, dz)
+        accepted, prev = False, np.inf
+        for _ in range(max_iter):
+            constraints(xt, Rt, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols, True, c, jac, theta, p)
+            res = _norm_at(c, rows)
+            if not np.isfinite(res) or res > prev:
+                break
+            if res < tol:
+                accepted = True
+                break
+            prev = res
+            ok = _correction(jac, c, rows, free, n_dofs, dz)
+            turn = 0.0
+            for l in range(nL):
+                for i in range(3, 6):
+                    turn = max(turn, abs(dz[6 * l + i]))
+            if not ok or turn > max_rotation:
+                break
+            _move(xt, Rt, at_, dz)
+            if iterations < len(history):
+                history[iterations] = res
+            iterations += 1
+        if accepted:
+            x[:], R[:], angle[:] = xt, Rt, at_
+            lam = target
+            beyond = False
+            for j in range(len(theta)):
+                theta[j] = path[j] + (theta[j] - path[j] + np.pi) % (2.0 * np.pi) - np.pi
+                path[j] = theta[j]
+                beyond = beyond or abs(theta[j]) > np.pi
+            if lam >= 1.0 - 1e-14:
+                break
+            if stop_beyond_half_turn and beyond:
+                break
+            step = step_rotation / largest if largest > 0.0 else 1.0
+            dlam = min(2.0 * dlam, 1.0 - lam, step)
+            jac0[:] = jac  # the predictor's, at the accepted poses
+        else:
+            dlam *= 0.5
+            if dlam < 1e-4:
+                return 1, iterations, res, lam
+    return 0, iterations, res, lam
+
+
+# -- step 3: Newton on the reduced mechanism -------------------------------------------------------
+
+@njit
+def _evaluate(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_node, load_offset, load_force, load_moment,
+              r, T):
+    """Step 3's residual ``r`` and tangent ``T`` at the poses (`flexmb.ksd.reduced.ReducedMechanism.equilibrium`):
+    `relative`, the loads (turned with their links at their offsets) and `equilibrium`."""
+    J, L = len(a), len(load_node)
+    p, Rrel, F, Ft, rb, ra = (np.empty((J, 3)), np.empty((J, 3, 3)), np.empty((J, 3, 3)), np.empty((J, 3, 3)),
+                              np.empty((J, 3)), np.empty((J, 3)))
+    relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra)
+    for j in range(J):
+        for i in range(3):
+            for k in range(3):
+                Ft[j, i, k] = F[j, k, i]
+    loads, load_at = np.empty(6 * L), np.empty(6 * L, dtype=np.int64)
+    d = np.empty((L, 3))
+    for l in range(L):
+        n = load_node[l]
+        for i in range(3):
+            d[l, i] = R[n, i, 0] * load_offset[l, 0] + R[n, i, 1] * load_offset[l, 1] + R[n, i, 2] * load_offset[l, 2]
+        f = load_force[l]
+        loads[6 * l:6 * l + 3] = f
+        loads[6 * l + 3] = load_moment[l, 0] + (d[l, 1] * f[2] - d[l, 2] * f[1])
+        loads[6 * l + 4] = load_moment[l, 1] + (d[l, 2] * f[0] - d[l, 0] * f[2])
+        loads[6 * l + 5] = load_moment[l, 2] + (d[l, 0] * f[1] - d[l, 1] * f[0])
+        for i in range(6):
+            load_at[6 * l + i] = 6 * n + i
+    r[:] = 0.0
+    T[:] = 0.0
+    equilibrium(p, Rrel, F, Ft, rb, ra, K, Fh, p_hat, R_hat, cols, load_at, loads, True, r, T)
+    Sf, Sd = np.empty((3, 3)), np.empty((3, 3))
+    for l in range(L):  # d(d x f)/dphi of a load at an offset point: -skew(f) skew(d)
+        _skew(load_force[l], Sf)
+        _skew(d[l], Sd)
+        n = 6 * load_node[l] + 3
+        for i in range(3):
+            for k in range(3):
+                T[n + i, n + k] -= Sf[i, 0] * Sd[0, k] + Sf[i, 1] * Sd[1, k] + Sf[i, 2] * Sd[2, k]
+
+
+@njit
+def reduced_newton(x, R, angle, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_node, load_offset, load_force,
+                   load_moment, free, tol, max_iter, divergence, history, r):
+    """`flexmb.solvers.ksd.KSDReduced._reduced` without hinges, the same loop: Newton on the
+    equilibrium of the reduced mechanism from the poses ``x``, ``R``, ``angle`` (updated in place).
+    Fills ``history`` (max_iter,) and ``r`` (the links' last residual); returns (converged,
+    iterations, last residual norm)."""
+    n = r.shape[0]
+    T = np.empty((n, n))
+    dz = np.empty(n)
+    _evaluate(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_node, load_offset, load_force, load_moment, r, T)
+    res = _norm_at(r, free)
+    it = 0
+    for _ in range(max_iter):
+        if res < tol and it > 0:
+            return True, it, res
+        if not _correction(T, r, free, free, n, dz):
+            break
+        _move(x, R, angle, dz)
+        _evaluate(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_node, load_offset, load_force, load_moment,
+                  r, T)
+        prev, res = res, _norm_at(r, free)
+        history[it] = res
+        it += 1
+        # as the conventional method: the divergence test starts after the first correction
+        if not np.isfinite(res) or (it > 1 and res > divergence * prev):
+            break
+    return res < tol, it, res
+
+
+# -- step 2: the tabulated condensation ------------------------------------------------------------
+
+@njit
+def bspline(t, c, k, x, out):
+    """``out[j] = sum_i B_i(x[j]) c[i]``: a B-spline of degree ``k`` on knots ``t`` with coefficients
+    ``c`` (n, m) at ``x`` (J,) (de Boor's recursion, scipy's ``_deBoor_D``; the interval of x with
+    ``t[l] <= x < t[l + 1]``, the last one closed)."""
+    n = len(t) - k - 1
+    h, hh = np.empty(k + 1), np.empty(k + 1)
+    for j in range(len(x)):
+        xj = x[j]
+        l = k
+        while l < n - 1 and xj >= t[l + 1]:
+            l += 1
+        h[0] = 1.0
+        for d in range(1, k + 1):
+            for i in range(d):
+                hh[i] = h[i]
+            h[0] = 0.0
+            for i in range(1, d + 1):
+                xb, xa = t[l + i], t[l + i - d]
+                if xb == xa:
+                    h[i] = 0.0
+                    continue
+                w = hh[i - 1] / (xb - xa)
+                h[i - 1] += w * (xb - xj)
+                h[i] = w * (xj - xa)
+        for q in range(c.shape[1]):
+            out[j, q] = 0.0
+        for i in range(k + 1):
+            row = l - k + i
+            for q in range(c.shape[1]):
+                out[j, q] += h[i] * c[row, q]
+
+
+@njit
+def eob_lookup(t, c, k, theta, b_pos, root, powers, ocoef, emb, K, Fh, recover, x_int, R_int, a_int):
+    """`flexmb.ksd.eob_table.Lookup.__call__` and step 2's use of it in one pass, for Jg joints:
+    the spline (`bspline`) at ``theta`` split as `flexmb.database.eob_format.NAMES` (K_T, F0, G,
+    RK, r0, rG, P0), node B's near position ``b_pos`` (Jg, dim) in the terms linear in it. Fills
+    ``K`` (Jg, 6, 6) and ``Fh`` (Jg, 6) on the active components ``emb`` (the rest untouched),
+    ``recover`` (Jg, n_i nd, nd + 1), the internal nodes' near positions ``x_int`` (Jg, n_i, dim)
+    and orientations (`flexmb.ksd.eob.EOBTemplate.orientations`, the internal nodes' polynomial
+    ``powers``, ``ocoef``): matrices ``R_int`` (Jg, n_i, 3, 3) in 3D, angles ``a_int`` (Jg, n_i) in 2D."""
+    J, dim = len(theta), b_pos.shape[1]
+    nd, ni = len(emb), x_int.shape[1]
+    v = np.empty((J, c.shape[1]))
+    bspline(t, c, k, theta, v)
+    eye = np.zeros((ni, 3, 3))
+    for i in range(ni):
+        eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0
+    for j in range(J):
+        at = 0
+        for i in range(nd):
+            for q in range(nd):
+                K[j, emb[i], emb[q]] = v[j, at + i * nd + q]
+        at += nd * nd
+        g = at + nd
+        for i in range(nd):  # F0 + G b (numpy's order: the product first)
+            acc = 0.0
+            for q in range(dim):
+                acc += v[j, g + i * dim + q] * b_pos[j, q]
+            Fh[j, emb[i]] = v[j, at + i] + acc
+        at = g + nd * dim
+        m = ni * nd
+        r0, rG = at + m * nd, at + m * nd + m
+        for i in range(m):
+            for q in range(nd):
+                recover[j, i, q] = v[j, at + i * nd + q]
+            acc = 0.0
+            for q in range(dim):
+                acc += v[j, rG + i * dim + q] * b_pos[j, q]
+            recover[j, i, nd] = v[j, r0 + i] + acc
+        at = rG + m * dim
+        for i in range(ni):
+            for q in range(dim):
+                x_int[j, i, q] = v[j, at + i * dim + q] + (b_pos[j, q] if root[i] == 1 else 0.0)
+        comp = 1 if dim == 2 else 3
+        for i in range(ni * comp):  # the internal nodes' orientations: polynomials in theta
+            acc = 0.0
+            for q in range(len(powers)):
+                acc += theta[j] ** powers[q] * ocoef[q, i]
+            v[j, i] = acc
+        if dim == 2:
+            for i in range(ni):
+                a_int[j, i] = v[j, i]
+        else:
+            compose3d(eye, v[j, :3 * ni].reshape(ni, 3), R_int[j])
+
+
+# -- step 4: the internal nodes ----------------------------------------------------------------------
+
+@njit
+def internal(x, R, angle, a, b, s_a, s_b, P, p_hat, R_hat, joints, nodes, recover, x_int, R_int, a_int, emb, dim,
+             pos, rot, ang):
+    """Step 4 (Eq. 2.6) for one group of joints and `flexmb.ksd.reduced.ReducedMechanism.fe_state`'s
+    placing of them: node B's displacement from its near pose in the joint frame (``p - p_hat``,
+    ``unskew(R_rel R_hat^T)``), the internal nodes' ``q_i = -recover [q_B, 1]`` added to their near
+    poses (``x_int``; ``R_int`` turned by the spins in 3D, ``a_int`` plus the angle in 2D), turned
+    into global axes by the joint frame: positions into ``pos`` (N, dim), rotations into ``rot``
+    (N, 3, 3) in 3D or angles into ``ang`` (N,) in 2D, at FE ``nodes`` (Jg, n_i) of ``joints`` (Jg,)."""
+    Jall = len(a)
+    p, Rrel, F, rb, ra = np.empty((Jall, 3)), np.empty((Jall, 3, 3)), np.empty((Jall, 3, 3)), np.empty((Jall, 3)), np.empty((Jall, 3))
+    relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra)
+    nd, ni = len(emb), x_int.shape[1]
+    xi6, xiB, xi, o = np.empty(6), np.empty(6), np.empty((ni, nd)), np.empty(3)
+    Q, tmp = np.empty((3, 3)), np.empty((3, 3))
+    spin, Rl = np.empty((ni, 3)), np.empty((ni, 3, 3))
+    for g in range(len(joints)):
+        j = joints[g]
+        for i in range(3):
+            for k in range(3):
+                Q[i, k] = Rrel[j, i, 0] * R_hat[j, k, 0] + Rrel[j, i, 1] * R_hat[j, k, 1] + Rrel[j, i, 2] * R_hat[j, k, 2]
+            xi6[i] = p[j, i] - p_hat[j, i]
+        xi6[3], xi6[4], xi6[5] = 0.5 * (Q[2, 1] - Q[1, 2]), 0.5 * (Q[0, 2] - Q[2, 0]), 0.5 * (Q[1, 0] - Q[0, 1])
+        for i in range(nd):
+            xiB[i] = xi6[emb[i]]
+        ia = a[j]
+        for i in range(3):  # the joint frame's origin o_A = x_a + R_a s_a
+            o[i] = x[ia, i] + R[ia, i, 0] * s_a[j, 0] + R[ia, i, 1] * s_a[j, 1] + R[ia, i, 2] * s_a[j, 2]
+        for n in range(ni):
+            for i in range(nd):
+                row = n * nd + i
+                acc = recover[g, row, nd]
+                for q in range(nd):
+                    acc += recover[g, row, q] * xiB[q]
+                xi[n, i] = -acc
+            node = nodes[g, n]
+            for i in range(dim):
+                acc = o[i]
+                for q in range(dim):
+                    acc += F[j, i, q] * (x_int[g, n, q] + xi[n, q])
+                pos[node, i] = acc
+            if dim == 2:
+                ang[node] = angle[ia] + (a_int[g, n] + xi[n, 2])
+            else:
+                spin[n] = xi[n, 3:]
+        if dim == 2:
+            continue
+        compose3d(R_int[g], spin, Rl)
+        for n in range(ni):
+            node = nodes[g, n]
+            for i in range(3):  # F Rl P^T
+                for k in range(3):
+                    tmp[i, k] = F[j, i, 0] * Rl[n, 0, k] + F[j, i, 1] * Rl[n, 1, k] + F[j, i, 2] * Rl[n, 2, k]
+            for i in range(3):
+                for k in range(3):
+                    rot[node, i, k] = tmp[i, 0] * P[j, k, 0] + tmp[i, 1] * P[j, k, 1] + tmp[i, 2] * P[j, k, 2]

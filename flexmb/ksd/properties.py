@@ -277,9 +277,11 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
             eta = v[at[idx][:, None] + np.arange(ws.shape[1])]  # (Jg, m, k)
             q = (Xs @ qb + Phis @ eta).reshape(len(idx), -1, nd, k)  # interior DOFs in the joint frames
             Fg = F[idx]
-            g = np.empty_like(q)
-            g[:, :, :dim] = np.einsum("jab,jnbk->jnak", Fg[:, :dim, :dim], q[:, :, :dim])
-            g[:, :, dim:] = np.einsum("jab,jnbk->jnak", Fg, q[:, :, 3:]) if dim == 3 else q[:, :, 2:]
+            if dim == 3:  # both halves of each node's DOFs turned by the joint frame
+                g = Fg[:, None, None] @ q.reshape(len(idx), -1, 2, 3, k)
+            else:
+                g = q.copy()
+                g[:, :, :2] = Fg[:, None, :2, :2] @ q[:, :, :2]
             out[dofs.ravel()] = g.reshape(-1, k)
         return out
 

@@ -27,6 +27,8 @@ The linearisation (SPACAR's convention for the eigenfrequencies of a configurati
 
 from __future__ import annotations
 
+import functools
+
 import attrs
 import numpy as np
 import scipy.linalg as sla
@@ -316,11 +318,9 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
 
 
 def _dense(K, M, n, symmetric):
-    try:
-        np.linalg.cholesky(M)
-    except np.linalg.LinAlgError:
+    if _lapack.dpotrf(M, lower=1, clean=0)[1] != 0:  # not positive definite (np.linalg.cholesky's test, 10 us less)
         raise ModelError("modes: the mass matrix on the free DOFs is singular (a combination of free directions "
-                         "carries no mass); hold it or give the parts mass") from None
+                         "carries no mass); hold it or give the parts mass")
     # Inverted (shift-invert) form M x = mu (K - sigma M) x, lambda = sigma + 1/mu: the lowest
     # modes come out with *relative* accuracy. On K x = lambda M x directly LAPACK's error is
     # eps * lambda_max, and a leaf's axial/bending stiffness ratio (12 L^2/t^2 per element) makes
@@ -341,6 +341,12 @@ def _dense(K, M, n, symmetric):
     return lam.real[order], _real(vec[:, order])
 
 
+@functools.lru_cache(maxsize=64)
+def _sygvx_lwork(nf: int) -> int:
+    """LAPACK's optimal work size of ``dsygvx`` for order ``nf`` (a query per call cost ~10 us)."""
+    return int(_lapack.dsygvx_lwork(nf, uplo="L")[0])
+
+
 def _highest_pairs(A, B, n):
     """The ``n`` highest eigenpairs of ``A x = mu B x`` (``B`` definite): what
     ``scipy.linalg.eigh(A, B, subset_by_index=[nf - n, nf - 1])`` returns, by the same LAPACK
@@ -350,7 +356,7 @@ def _highest_pairs(A, B, n):
     if not (np.isfinite(A).all() and np.isfinite(B).all()):
         raise ValueError("array must not contain infs or NaNs")
     nf = len(A)
-    lwork = int(_lapack.dsygvx_lwork(nf, uplo="L")[0])
+    lwork = _sygvx_lwork(nf)
     mu, vec, m, _, info = _lapack.dsygvx(A, B, itype=1, jobz="V", range="I", il=nf - n + 1, iu=nf,
                                          uplo="L", lwork=lwork)
     if info != 0:  # B not definite (info > nf) or not converged

@@ -170,7 +170,7 @@ def reduced_tangent(solution, database=None):
     per = _NEAR[solution]
     if key not in per:  # built once per solution: `flexmb.modes` and `flexmb.compliance` share it
         _, Kr = red.equilibrium(link_poses(red, solution.state), K, Fh, p_hat, R_hat, tangent=True)
-        per[key] = Kr[np.ix_(red.emb_dofs, red.emb_dofs)]
+        per[key] = Kr.copy() if _static(red)["whole"] else Kr[np.ix_(red.emb_dofs, red.emb_dofs)]  # 3D: all
     return per[key].copy(), red
 
 

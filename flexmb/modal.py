@@ -237,9 +237,10 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     modes plus `KSD_FIXED_INTERFACE_MODES` fixed-interface modes), shapes recovered on every node.
     Measured against the full model: the manipulator's first three parasitic frequencies over
     +-45 deg within 0.55 % (median 0.13 %), the four-bar's 0.46 % at d = 0.1 m (6.8 % at 0.3 m);
-    solve + modes 3.4 ms per configuration of the manipulator against the full model's 22 ms
-    (fastest of 11, `benchmarks/bench_properties.py`, load 1.9; the joints' condensed mass is
-    tabulated, `flexmb.ksd.joint_mass`).
+    solve + modes 1.9 ms per configuration of the manipulator against the full model's 19 ms
+    (mean over the 19 positions of the fastest of 11 interleaved, load 1.6; the joints' condensed
+    mass is tabulated, `flexmb.ksd.joint_mass`). Of the 1.2 ms of modes, the three joints' Ritz
+    fixed-interface eigenproblems (54 x 54, LAPACK ``dsyevr``, bisection-bound) take ~0.4 ms.
 
     Dense LAPACK below `DENSE_BELOW` free DOFs (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
     tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises `ConvergenceError` for an unconverged

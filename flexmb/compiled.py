@@ -45,30 +45,33 @@ def fingerprint(mechanism) -> tuple:
     in ``mechanism.graph`` directly is seen too. An equal value in a new object counts as a change
     (a needless compile, never a stale one)."""
     graph = mechanism.graph
-    objs, counts = [], [mechanism.dim, len(graph), graph.number_of_edges()]
+    objs, counts = [], [mechanism.dim, len(graph)]
+    add, extend, count = objs.append, objs.extend, counts.append  # bound once: ~10 -> ~6 us a call
     for name, data in graph.nodes(data=True):
-        objs.append(name)
-        objs.extend(data.keys())
-        objs.extend(data.values())
-        counts.append(len(data))
+        add(name)
+        extend(data)
+        extend(data.values())
+        count(len(data))
+    edges = 0
     for a, b, name, data in graph.edges(keys=True, data=True):
-        objs += (a, b, name)
-        objs.extend(data.keys())
-        objs.extend(data.values())
-        counts.append(len(data))
+        extend((a, b, name))
+        extend(data)
+        extend(data.values())
+        count(len(data))
+        edges += 1
     state = vars(mechanism)
     loads, prescribed, points = state.get("_loads", ()), state.get("_prescribed", {}), state.get("_points", {})
-    objs.extend(loads)
-    objs.extend(prescribed.keys())
+    extend(loads)
+    extend(prescribed)
     for motion in prescribed.values():  # a link's prescribed components: floats or read-only arrays
-        objs.append(motion)
-        objs.extend(motion.keys())
-        objs.extend(motion.values())
-        counts.append(len(motion))
-    objs.extend(points.keys())
-    objs.extend(points.values())
-    objs.append(state.get("_actuation"))
-    counts += (len(loads), len(prescribed), len(points))
+        add(motion)
+        extend(motion)
+        extend(motion.values())
+        count(len(motion))
+    extend(points)
+    extend(points.values())
+    add(state.get("_actuation"))
+    counts += (edges, len(loads), len(prescribed), len(points))
     return (tuple(counts), tuple(map(id, objs))), objs
 
 

@@ -355,7 +355,13 @@ def test_ksd_tabulated_eob_kernel_equals_numpy(kernels, dim):
     lo, hi = lookup.range
     theta = np.concatenate([np.linspace(lo, hi, 301), [lo - 1e-9, hi + 1e-9, lo, hi]])
     kernels("numba")
-    K, F, rec, x_int, rot_int = lookup.compiled(theta[:7], 1e-3 * np.random.default_rng(3).normal(size=(7, dim)))
+    b = 1e-3 * np.random.default_rng(3).normal(size=(7, dim))
+    K, F, rec, x_int, rot_int = lookup.compiled(theta[:7], b)
+    # a group's joints in rows of the whole mechanism's arrays: the same numbers there
+    at = np.array([6, 0, 1, 2, 3, 4, 5])
+    K2, F2, rec2, *_ = lookup.compiled(theta[:9], np.concatenate([b, np.ones((2, dim))]), at)
+    assert np.array_equal(K2[:7], K) and np.array_equal(F2[:7], F) and np.array_equal(rec2, rec[at])
+    assert np.all(K2[7:] == 0.0) and np.all(F2[7:] == 0.0)
     t, c, k = lookup._compiled_args[:3]
     values = np.empty((len(theta), c.shape[1]))
     bspline(t, c, k, theta, values)
@@ -367,6 +373,38 @@ def test_ksd_tabulated_eob_kernel_equals_numpy(kernels, dim):
     assert np.all(K[:, np.setdiff1d(np.arange(6), emb)] == 0.0)
     assert _rel(rec, e.recover) < 1e-12 and _rel(x_int, e.node_position[:, 2:]) < 1e-12
     assert _rel(rot_int, e.node_rotation[:, 2:] if dim == 3 else e.node_angle[:, 2:]) < 1e-12
+
+
+def _rod(dim):
+    """A cantilevered rod of circular section (a LeafSpring given flexmb.circle, 1 mm, 50 mm) bent
+    and pulled at its end: not a paper case; the circle's resultant-moment stress in 3D."""
+    m = flexmb.Mechanism(dim=dim)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=(0.05, 0.0, 0.0)[:dim])
+    m.add_joint("A", "B", flexmb.LeafSpring(length=0.05, elements=4, section=flexmb.circle(1e-3, 200e9, 76.9e9)))
+    m.apply_force("B", (2.0, 0.3, 0.2)[:dim])
+    if dim == 3:
+        m.apply_moment("B", (0.0, 0.004, 0.0))
+    return m
+
+
+@pytest.mark.parametrize("build", [lambda: flexmb.models.manipulator("joint", np.radians(30.0)),
+                                   lambda: flexmb.models.fourbar(3, displacement=0.05, moment=2.0, dim=2),
+                                   lambda: _rod(3), lambda: _rod(2)])
+def test_peak_stress_kernel_equals_numpy(kernels, build):
+    # the plausibility check's peak normal stress (|N|/A plus the larger end's bending stress,
+    # flexmb.fe.stress.peak_normal_stress) from the compiled pass equals the numpy function on
+    # the manipulator (rectangles, 3D), the planar four-bar and a rod of circular section
+    from flexmb.fe.stress import peak_normal_stress
+    from flexmb.plausibility import peak_stress
+
+    sol = flexmb.solve(build(), raise_on_failure=True)
+    model = sol.compiled.problem.model
+    kernels("numba")  # the same element stresses (the compiled assembly) into both
+    a, b = peak_stress(model, sol.state), peak_normal_stress(model, sol.state)
+    assert a.shape == b.shape and _rel(a, b) < 1e-12 and np.all(b > 0)
+    kernels("numpy")  # without the kernels: the numpy function itself
+    assert np.array_equal(peak_stress(model, sol.state), peak_normal_stress(model, sol.state))
 
 
 def test_bad_kernel_choice_is_refused():

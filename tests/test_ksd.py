@@ -706,6 +706,36 @@ def test_the_ksd_set_up_is_rebuilt_when_its_joint_database_changes(tmp_path):
                                   red.groups[0][0].data.elements.coefficients)
 
 
+def test_the_ksd_set_up_sees_a_database_file_appear_earlier_or_become_a_broken_link(tmp_path):
+    """The freshness check (one lstat per folder searched, a stat through a link): a database file
+    put into a folder searched before the one the set-up read, and that file turned into a
+    broken link, both make the kept set-up stale (not a paper case: the search path's order)."""
+    import shutil
+
+    from flexmb.compiled import compiled_for
+    from flexmb.database import store
+    from flexmb.solvers.ksd import reduced_mechanism
+
+    m = flexmb.models.cross_flexure_pivot(2, dim=2, rotation=0.3)
+    joint = next(iter(m.joints.values()))
+    src = store.locate(joint, 2)
+    c = compiled_for(m)
+    shipped = reduced_mechanism(c, tmp_path)  # nothing in tmp_path yet: the shipped file
+    assert shipped.current()
+    for f in src.parent.glob(src.stem + "*"):
+        shutil.copy2(f, tmp_path / f.name)
+    assert not shipped.current()  # the same bytes, but another file found first
+    own = reduced_mechanism(c, tmp_path)
+    assert own is not shipped and own.current() and reduced_mechanism(c, tmp_path) is own
+    (tmp_path / src.name).unlink()
+    (tmp_path / src.name).symlink_to(tmp_path / "missing.json")
+    assert not own.current()
+    (tmp_path / src.name).unlink()
+    (tmp_path / src.name).symlink_to(src)  # a link to the shipped file: a valid file again, read through it
+    linked = reduced_mechanism(c, tmp_path)
+    assert linked is not own and linked.current() and reduced_mechanism(c, tmp_path) is linked
+
+
 # -- KSD with ideal hinges (issue 19 item 4) -------------------------------------------------------
 
 def hinged_fourbar(rotation=0.3, k=0.0, motor=False, dim=2, elements_per_leaf=3):

@@ -1,11 +1,17 @@
-"""Compiled kernel of `flexmb.fe.stress.perimeter_peaks`: the same coarse-then-fine search over a
-section's perimeter points, row by row, the same floating-point operations in the same order
-(the numpy path's results to the last bit; tests/test_stress.py holds them equal to 1e-12).
+"""Compiled stress kernels: `flexmb.fe.stress.perimeter_peaks`'s search (`perimeter_search`) and
+the peak normal stress of every element (`peak_normal_stress`).
 
-The numpy path builds (rows, points) temporaries for the coarse points and gathers the fine
-windows: 1.5 ms of the manipulator's 2 ms `Solution.stresses` (162 element ends, two sections);
-compiled ~0.13 ms, of which the coarse points (vectorised, `_coarse`) ~0.015 ms and the three
-running maxima per end most of the rest.
+`perimeter_search`: the same coarse-then-fine search over a section's perimeter points, row by
+row, the same floating-point operations in the same order (the numpy path's results to the last
+bit; tests/test_stress.py holds them equal to 1e-12). The numpy path builds (rows, points)
+temporaries for the coarse points and gathers the fine windows: 1.5 ms of the manipulator's 2 ms
+`Solution.stresses` (162 element ends, two sections); compiled ~0.13 ms, of which the coarse
+points (vectorised, `_coarse`) ~0.015 ms and the three running maxima per end most of the rest.
+
+`peak_normal_stress`: `flexmb.fe.stress.peak_normal_stress`'s terms for the plausibility check
+every solve runs (`flexmb.plausibility.peak_stress`): numpy's ~12 calls on the manipulator's 81
+elements cost ~17 us of a ~0.3 ms KSD-reduced solve, this loop ~1 us (issue 21); held equal to
+the numpy function in tests/test_kernels.py.
 """
 
 from __future__ import annotations
@@ -14,7 +20,7 @@ import numpy as np
 
 from ..jit import njit
 
-__all__ = ["perimeter_search"]
+__all__ = ["perimeter_search", "peak_normal_stress"]
 
 
 @njit
@@ -98,3 +104,25 @@ def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
                 out[i, k] = np.nan
             else:
                 out[i, k] = peak if peak >= fine else fine
+
+
+@njit
+def peak_normal_stress(sig, L0, A, ymax, Iz, zmax_Iy, ymax_Iz, circle, dim, out):
+    """Fills ``out`` (E,) with ``|N|/A`` plus the larger end's bending stress from the generalised
+    stresses ``sig`` (E, modes): 2D ``|L0 sig_1,2| ymax / Iz``; 3D ``|My| zmax/Iy + |Mz| ymax/Iz``
+    with ``My = L0 sig_2,3``, ``Mz = L0 sig_4,5`` (ends p, q), a circle ``hypot(My, Mz) ymax/Iz``
+    (numpy's association order kept: the same floating-point result)."""
+    for e in range(len(L0)):
+        axial = abs(sig[e, 0]) / A[e]
+        if dim == 2:
+            bend = max(abs(L0[e] * sig[e, 1]), abs(L0[e] * sig[e, 2])) * ymax[e] / Iz[e]
+        else:
+            bend = -np.inf
+            for end in range(2):
+                My, Mz = L0[e] * sig[e, 2 + end], L0[e] * sig[e, 4 + end]
+                if circle[e]:
+                    b = np.hypot(My, Mz) * ymax_Iz[e]
+                else:
+                    b = abs(My) * zmax_Iy[e] + abs(Mz) * ymax_Iz[e]
+                bend = max(bend, b)
+        out[e] = axial + bend

@@ -118,11 +118,13 @@ class Lookup:
         self.range = (float(table.theta[0]), float(table.theta[-1]))
         self._spline = make_interp_spline(table.theta, table.values, k=table.degree, axis=0)
 
-    def compiled(self, theta: np.ndarray, b_position: np.ndarray):
+    def compiled(self, theta: np.ndarray, b_position: np.ndarray, at: np.ndarray | None = None, K=None, F_hat=None):
         """`__call__`'s quantities through `flexmb.ksd.reduced_jit.eob_lookup` (one call instead of
-        ~40 numpy ones): ``K`` (J, 6, 6) and ``F_hat`` (J, 6) embedded in 3D form (`ACTIVE`),
-        ``recover`` (J, n_i nd, nd + 1), the internal nodes' near positions (J, n_i, dim) and
-        orientations (3D: matrices (J, n_i, 3, 3); 2D: angles (J, n_i))."""
+        ~40 numpy ones) for the joints ``at`` (None: all) of ``theta`` (J,) and ``b_position``
+        (J, >= dim): their stiffness and force into rows ``at`` of ``K`` (J, 6, 6) and ``F_hat``
+        (J, 6) in 3D form (`ACTIVE`; new zero arrays when None); returns ``K``, ``F_hat``,
+        ``recover`` (Jg, n_i nd, nd + 1), the internal nodes' near positions (Jg, n_i, dim) and
+        orientations (3D: matrices (Jg, n_i, 3, 3); 2D: angles (Jg, n_i))."""
         from .reduced_jit import eob_lookup
 
         tpl = self.tpl
@@ -138,14 +140,18 @@ class Lookup:
                 int(self._spline.k), c(tpl.root, dtype=np.int64), c(tpl._powers, dtype=float),
                 c(tpl._coef[:, comp * tpl.n_elements:], dtype=float), ACTIVE[dim])
         t, coef, k, root, powers, ocoef, emb = args
+        theta = np.ascontiguousarray(theta, dtype=float)
         J = len(theta)
-        K, F = np.zeros((J, 6, 6)), np.zeros((J, 6))
-        recover, x_int = np.empty((J, ni * nd, nd + 1)), np.empty((J, ni, dim))
-        R_int = np.empty((J, ni, 3, 3) if dim == 3 else (0, 0, 3, 3))
-        a_int = np.empty((J, ni) if dim == 2 else (0, 0))
-        eob_lookup(t, coef, k, np.ascontiguousarray(theta, dtype=float), np.ascontiguousarray(b_position, dtype=float),
-                   root, powers, ocoef, emb, K, F, recover, x_int, R_int, a_int)
-        return K, F, recover, x_int, (R_int if dim == 3 else a_int)
+        at = np.arange(J) if at is None else at
+        K = np.zeros((J, 6, 6)) if K is None else K
+        F_hat = np.zeros((J, 6)) if F_hat is None else F_hat
+        Jg = len(at)
+        recover, x_int = np.empty((Jg, ni * nd, nd + 1)), np.empty((Jg, ni, dim))
+        R_int = np.empty((Jg, ni, 3, 3) if dim == 3 else (0, 0, 3, 3))
+        a_int = np.empty((Jg, ni) if dim == 2 else (0, 0))
+        eob_lookup(t, coef, k, theta, np.ascontiguousarray(b_position, dtype=float), at, root, powers, ocoef, emb, K,
+                   F_hat, recover, x_int, R_int, a_int)
+        return K, F_hat, recover, x_int, (R_int if dim == 3 else a_int)
 
     def covers(self, theta: np.ndarray) -> bool:
         """Whether every ``theta`` [rad] lies on the grid's range (else: evaluate directly), up to
@@ -155,7 +161,7 @@ class Lookup:
         direct evaluation there (differing by the table's 1e-9) moved node positions by 2e-12
         relative and cost ~1 ms more."""
         lo, hi = self.range
-        return bool(np.all((theta >= lo - SLACK) & (theta <= hi + SLACK)))
+        return all(lo - SLACK <= t <= hi + SLACK for t in np.ravel(theta).tolist())  # a few joints: no ufuncs
 
     def __call__(self, theta: np.ndarray, b_position: np.ndarray) -> EOB:
         """The condensation at ``theta`` (J,) with node B's near position ``b_position`` (J, dim),

@@ -174,7 +174,7 @@ def _compiled_arrays(red: ReducedMechanism) -> dict:
     code, inv, rest = np.zeros((J, m), dtype=np.int64), np.zeros(J), np.zeros((J, m))
     nm = np.zeros((J, 3, 2))
     width = max(len(cs.powers) // 2 if cs.fun is not None else 1 for cs in red._sets)
-    fpow, fcoef = np.zeros((J, m, width)), np.zeros((J, m, width))
+    fun, fpow, fcoef = np.zeros((J, m), dtype=np.bool_), np.zeros((J, width)), np.zeros((J, m, width))
     at = 0
     for (_, cons, idx), cs in zip(red.groups, red._sets):
         s = slice(at, at + len(idx))
@@ -184,14 +184,15 @@ def _compiled_arrays(red: ReducedMechanism) -> dict:
             rest[s, np.arange(m)[cs.lin]] = cs.lin_rest
         if cs.fun is not None:
             P = len(cs.powers) // 2
+            fpow[s, :P] = cs.powers[:P]
             for i, k in enumerate(np.arange(m)[cs.fun]):
-                fpow[s, k, :P], fcoef[s, k, :P] = cs.powers[:P], cs.coef[:P, i]
+                fun[s, k], fcoef[s, k, :P] = True, cs.coef[:P, i]
         at += len(idx)
     fr = red.frames
     c = np.ascontiguousarray
     arrays = red._kinematics_jit = {
         "order": order, "a": c(fr.a[order]), "b": c(fr.b[order]), "s_a": c(fr.s_a[order]), "s_b": c(fr.s_b[order]),
-        "P": c(fr.P[order]), "code": code, "inv": inv, "rest": rest, "nm": nm, "fpow": fpow, "fcoef": fcoef,
+        "P": c(fr.P[order]), "code": code, "inv": inv, "rest": rest, "nm": nm, "fun": fun, "fpow": fpow, "fcoef": fcoef,
         "cols": c(red._cols[order])}
     return arrays
 
@@ -207,7 +208,7 @@ def compiled_constraints(red: ReducedMechanism, poses: LinkPoses):
     c, jac = np.empty(red.n_equations), np.empty((red.n_equations, 6 * red.n_links))
     theta, p = np.empty(len(order)), np.empty((len(order), 3))
     constraints(np.ascontiguousarray(poses.x, dtype=float), np.ascontiguousarray(poses.R, dtype=float), k["a"],
-                k["b"], k["s_a"], k["s_b"], k["P"], k["code"], k["inv"], k["rest"], k["nm"], k["fpow"], k["fcoef"],
+                k["b"], k["s_a"], k["s_b"], k["P"], k["code"], k["inv"], k["rest"], k["nm"], k["fun"], k["fpow"], k["fcoef"],
                 k["cols"], True, c, jac, theta, p)
     out_theta, out_p = np.empty(len(order)), np.empty((len(order), 3))
     out_theta[order], out_p[order] = theta, p
@@ -216,7 +217,8 @@ def compiled_constraints(red: ReducedMechanism, poses: LinkPoses):
 
 def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool):
     """`solve_kinematics` through `flexmb.ksd.reduced_jit.kinematics` (no hinges): the same steps in
-    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21)."""
+    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21). Its info's
+    ``history`` holds the first 64 ``max_iter`` iterations' residuals (``iterations`` counts all)."""
     from .reduced_jit import kinematics
 
     rest, jac0, rows, path_theta, largest = kinematic_start(red)
@@ -231,7 +233,7 @@ def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotati
     status, iterations, res, lam = kinematics(
         x, R, angle, jac0.copy(), path_theta[order], float(largest), STEP_ROTATION, rows, red.free, red.prescribed,
         red.values, red.lam_rate, red.X0, lt, ct, vt, lr, W, k["a"], k["b"], k["s_a"], k["s_b"], k["P"],
-        k["code"], k["inv"], k["rest"], k["nm"], k["fpow"], k["fcoef"], k["cols"], tol, max_iter, max_rotation,
+        k["code"], k["inv"], k["rest"], k["nm"], k["fun"], k["fpow"], k["fcoef"], k["cols"], tol, max_iter, max_rotation,
         stop_beyond_half_turn, c, theta, p, history)
     if status:
         raise ConvergenceError(
@@ -255,6 +257,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     motion reached (``load_factor``: 1 unless stopped beyond half a turn), the 3D hinges' angles
     (``hinge_angles``, turns counted; None in 2D or without hinges), the equations
     kept/removed and the largest residual of the removed (redundant) equations at the solution.
+    With the compiled kernels and no hinges the same steps run in one call (`_solve_compiled`).
     """
     if red.hinges is None and jit.enabled():
         poses, theta, p, c, iterations, res, lam, history = _solve_compiled(red, tol, max_iter, max_rotation,
@@ -314,11 +317,13 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
 
 def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam: float, hinge_path, history) -> dict:
     """`solve_kinematics`' info, with a warning where removed (redundant) equations are violated."""
-    removed = getattr(red, "_removed_rows", None)
+    removed, names = getattr(red, "_removed_rows", None) or (None, None)
     if removed is None:  # the equations `_independent_rows` left out (kept with the set-up)
         keep = np.zeros(len(c), dtype=bool)
         keep[kinematic_start(red)[2]] = True
-        removed = red._removed_rows = np.flatnonzero(~keep)
+        removed = np.flatnonzero(~keep)
+        names = [red.rows[k] for k in removed]
+        red._removed_rows = removed, names
     if len(removed) and np.abs(c[removed]).max() > 1e-6:
         k = removed[np.argmax(np.abs(c[removed]))]
         warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
@@ -328,4 +333,4 @@ def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam
     return {"iterations": iterations, "residual": res, "load_factor": lam, "hinge_angles": hinge_path,
             "equations": len(c), "removed": len(removed),
             "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
-            "removed_equations": [red.rows[k] for k in removed], "history": history}
+            "removed_equations": list(names), "history": history}

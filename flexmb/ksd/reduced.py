@@ -13,6 +13,7 @@ import copy
 
 import functools
 import os
+import stat
 
 import numpy as np
 
@@ -72,28 +73,45 @@ def _folders(folder, environment: tuple) -> tuple:
     return tuple(os.fspath(f) for f in search_path(folder))
 
 
-def _database_file(joint, dim: int, folder) -> tuple:
+def _database_file(joint, dim: int, folder, name: str | None = None) -> tuple:
     """Where `template` finds ``joint``'s database and in what state: the folders searched, the
     file found (None if none) and its identity and times (device, inode, size, modification and
     status-change times [ns]). A file replaced (a new inode), rewritten (new times) or given its
     old modification time back (`os.utime` sets the status-change time) changes it; equal
-    signatures mean `template` reads the same file as when they were taken. Two stats (~5 us;
-    `template` reads and parses the file, ~150 us)."""
+    signatures mean `template` reads the same file as when they were taken. ``name``: the file's
+    name when known (`_file_name`). One ``lstat`` per folder searched, a ``stat`` where a link
+    is found (~6 us for the shipped data; `template` reads and parses the file, ~150 us)."""
     folders = _folders(None if folder is None else os.fspath(folder),
                        tuple(os.environ.get(k) for k in _SEARCH_INPUTS))
-    name = file_name(joint.kind, dim, joint.database_key())
+    if name is None:
+        name = _file_name(joint, dim)
     for f in folders:
         path = os.path.join(f, name)
         try:
-            st = os.stat(path)
-        except FileNotFoundError:
-            if os.path.lexists(path):  # a broken link: `template` stops here (and refuses)
-                return folders, path, None
+            st = os.lstat(path)
+        except FileNotFoundError:  # nothing there, not even a broken link: the next folder
             continue
         except OSError:
             return folders, path, None
+        if stat.S_ISLNK(st.st_mode):
+            try:
+                st = os.stat(path)
+            except OSError:  # a broken link: `template` stops here (and refuses)
+                return folders, path, None
         return folders, path, (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
     return folders, None, None
+
+
+def _file_name(joint, dim: int) -> str:
+    """`flexmb.database.store.file_name` of ``joint`` (kept per joint value: it is immutable)."""
+    if hashable(joint):
+        return _cached_file_name(joint, dim)
+    return file_name(joint.kind, dim, joint.database_key())
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_file_name(joint, dim: int) -> str:
+    return file_name(joint.kind, dim, joint.database_key())
 
 
 def _embed(v: np.ndarray, dim: int) -> np.ndarray:
@@ -267,7 +285,8 @@ class ReducedMechanism:
         """Whether the joint databases this set-up was built from are still the ones `template`
         would read (same folders searched, same file, same bytes); False when one changed or is gone."""
         for jt, _, signature in self._templates:
-            if signature is None or signature[2] is None or _database_file(jt, self.dim, self.folder) != signature:
+            if signature is None or signature[2] is None or _database_file(
+                    jt, self.dim, self.folder, os.path.basename(signature[1])) != signature:
                 return False
         return True
 
@@ -472,30 +491,25 @@ class ReducedMechanism:
         (J, 3, 3) node B's near pose (the manipulator: ~95 -> ~15 us)."""
         from .reduced_jit import internal as kernel
 
-        model = self.compiled.problem.model
-        dim, nL, fr = self.dim, self.n_links, self.frames
-        pos = model.x0.copy()
+        try:
+            x0, rot0, frames, none = self._state_arrays
+        except AttributeError:  # what does not change from solve to solve, kept with the set-up
+            model, fr = self.compiled.problem.model, self.frames
+            rot0 = np.zeros(model.n_nodes) if self.dim == 2 else np.repeat(_EYE[None], model.n_nodes, axis=0)
+            none = (np.empty((0, 0, 3, 3)), np.empty((0, 0)))  # the other dimension's orientations
+            frames = (fr.a, fr.b, fr.s_a, fr.s_b, fr.P)
+            x0, rot0, frames, none = self._state_arrays = (model.x0, rot0, frames, none)
+        dim, nL = self.dim, self.n_links
+        pos, rot = x0.copy(), rot0.copy()
         pos[:nL] = poses.x[:, :dim]
-        if dim == 2:
-            ang, rot = np.zeros(model.n_nodes), np.empty((0, 3, 3))
-            ang[:nL] = poses.angle
-        else:
-            try:
-                rot = self._identities.copy()
-            except AttributeError:
-                self._identities = np.repeat(_EYE[None], model.n_nodes, axis=0)
-                rot = self._identities.copy()
-            rot[:nL] = poses.R
-            ang = np.empty(0)
-        x, R, angle = (np.ascontiguousarray(v, dtype=float) for v in (poses.x, poses.R, poses.angle))
+        rot[:nL] = poses.angle if dim == 2 else poses.R
+        ang, rot = (rot, none[0]) if dim == 2 else (np.empty(0), rot)
         for idx, recover, x_int, rot_int in internal:
             if x_int.shape[1] == 0:
                 continue
-            nodes = self._group_nodes[id(idx)]
-            f = np.ascontiguousarray
-            kernel(x, R, angle, fr.a, fr.b, fr.s_a, fr.s_b, fr.P, p_hat, R_hat, idx, nodes, f(recover, dtype=float),
-                   f(x_int, dtype=float), f(rot_int, dtype=float) if dim == 3 else np.empty((0, 0, 3, 3)),
-                   f(rot_int, dtype=float) if dim == 2 else np.empty((0, 0)), self.active, dim, pos, rot, ang)
+            kernel(poses.x, poses.R, poses.angle, *frames, p_hat, R_hat, idx, self._group_nodes[id(idx)], recover,
+                   x_int, rot_int if dim == 3 else none[0], rot_int if dim == 2 else none[1], self.active, dim, pos,
+                   rot, ang)
         return State(pos, ang if dim == 2 else rot)
 
     def reaction_vector(self, r_links: np.ndarray) -> np.ndarray:

@@ -249,13 +249,14 @@ def _prescribe(x, R, angle, X0, lt, ct, vt, lr, W, lam):
 
 
 @njit
-def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols, jacobian, c, jac, theta, p):
+def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fun, fpow, fcoef, cols, jacobian, c, jac, theta, p):
     """All joints' kinematic constraints (`flexmb.ksd.reduced.ReducedMechanism.constraint_equations`
     without hinges, `flexmb.ksd.constraints.ConstraintSet.evaluate` term by term): values ``c``
     (J m,) and, with ``jacobian``, ``jac`` (J m, 6 n_links) (overwritten), the intended rotations
     ``theta`` (J,) and positions ``p`` (J, 3). Per joint and row: ``code`` (`CODES`), ``inv`` 1/D0,
     ``rest`` the linear rows' rest value, ``nm`` (J, 3, 2) the symmetric row's (n0, m0)/D0,
-    ``fpow``, ``fcoef`` (J, m, P) the trained function subtracted (zero coefficients: none)."""
+    ``fun`` (J, m) whether the row subtracts a trained function, its powers ``fpow`` (J, P) and
+    coefficients ``fcoef`` (J, m, P)."""
     J, m = code.shape
     Rrel, F, rb, ra = np.empty((J, 3, 3)), np.empty((J, 3, 3)), np.empty((J, 3)), np.empty((J, 3))
     relative(x, R, a, b, s_a, s_b, P, p, Rrel, F, rb, ra)
@@ -265,7 +266,12 @@ def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
         jac[:] = 0.0
     g = np.empty(6)
     gF, gW = np.empty(3), np.empty(3)
+    NP = fpow.shape[1]
+    tp, td = np.empty(NP), np.empty(NP)
     for j in range(J):
+        for q in range(NP):  # theta's powers, and those of the derivative
+            tp[q] = theta[j] ** fpow[j, q]
+            td[q] = theta[j] ** max(fpow[j, q] - 1.0, 0.0)
         h = 0.5 * theta[j]
         ch, sh = np.cos(h), np.sin(h)
         pq0 = p[j, 0] * nm[j, 0, 0] + p[j, 1] * nm[j, 1, 0] + p[j, 2] * nm[j, 2, 0]
@@ -296,10 +302,10 @@ def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
                 for i in range(3):
                     g[i] = p[j, i] * (inv[j] / r)
             f, df = 0.0, 0.0
-            for q in range(fpow.shape[2]):
-                e = fpow[j, k, q]
-                f += fcoef[j, k, q] * theta[j] ** e
-                df += fcoef[j, k, q] * e * theta[j] ** max(e - 1.0, 0.0)
+            if fun[j, k]:
+                for q in range(NP):
+                    f += fcoef[j, k, q] * tp[q]
+                    df += fcoef[j, k, q] * fpow[j, q] * td[q]
             c[row] = val - f
             if not jacobian:
                 continue
@@ -322,7 +328,7 @@ def constraints(x, R, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
 
 @njit
 def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free, prescribed, values, lam_rate,
-               X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols,
+               X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P, code, inv, rest, nm, fun, fpow, fcoef, cols,
                tol, max_iter, max_rotation, stop_beyond_half_turn, c, theta, p, history):
     """`flexmb.ksd.kinematics.solve_kinematics` without hinges, the same steps: ``x``, ``R``,
     ``angle`` start at rest and end at the solution, ``jac0`` the Jacobian at rest (overwritten),
@@ -353,7 +359,7 @@ def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free
             _move(xt, Rt, at_, dz)
         accepted, prev = False, np.inf
         for _ in range(max_iter):
-            constraints(xt, Rt, a, b, s_a, s_b, P, code, inv, rest, nm, fpow, fcoef, cols, True, c, jac, theta, p)
+            constraints(xt, Rt, a, b, s_a, s_b, P, code, inv, rest, nm, fun, fpow, fcoef, cols, True, c, jac, theta, p)
             res = _norm_at(c, rows)
             if not np.isfinite(res) or res > prev:
                 break
@@ -501,53 +507,61 @@ def bspline(t, c, k, x, out):
 
 
 @njit
-def eob_lookup(t, c, k, theta, b_pos, root, powers, ocoef, emb, K, Fh, recover, x_int, R_int, a_int):
+def eob_lookup(t, c, k, theta_all, b_all, at, root, powers, ocoef, emb, K, Fh, recover, x_int, R_int, a_int):
     """`flexmb.ksd.eob_table.Lookup.__call__` and step 2's use of it in one pass, for Jg joints:
-    the spline (`bspline`) at ``theta`` split as `flexmb.database.eob_format.NAMES` (K_T, F0, G,
-    RK, r0, rG, P0), node B's near position ``b_pos`` (Jg, dim) in the terms linear in it. Fills
-    ``K`` (Jg, 6, 6) and ``Fh`` (Jg, 6) on the active components ``emb`` (the rest untouched),
+    the spline (`bspline`) at their ``theta_all[at]`` split as `flexmb.database.eob_format.NAMES`
+    (K_T, F0, G, RK, r0, rG, P0), node B's near position ``b_all[at, :dim]`` in the terms linear in
+    it; ``at`` (Jg,) the joints' indices. Fills their rows of ``K`` (J, 6, 6) and ``Fh`` (J, 6) on
+    the active components ``emb`` (the rest untouched),
     ``recover`` (Jg, n_i nd, nd + 1), the internal nodes' near positions ``x_int`` (Jg, n_i, dim)
     and orientations (`flexmb.ksd.eob.EOBTemplate.orientations`, the internal nodes' polynomial
     ``powers``, ``ocoef``): matrices ``R_int`` (Jg, n_i, 3, 3) in 3D, angles ``a_int`` (Jg, n_i) in 2D."""
-    J, dim = len(theta), b_pos.shape[1]
+    J, dim = len(at), x_int.shape[2]
     nd, ni = len(emb), x_int.shape[1]
+    theta, b_pos = np.empty(J), np.empty((J, dim))
+    for j in range(J):
+        theta[j] = theta_all[at[j]]
+        for q in range(dim):
+            b_pos[j, q] = b_all[at[j], q]
     v = np.empty((J, c.shape[1]))
     bspline(t, c, k, theta, v)
     eye = np.zeros((ni, 3, 3))
+    tp = np.empty(len(powers))
     for i in range(ni):
         eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0
     for j in range(J):
-        at = 0
         for i in range(nd):
             for q in range(nd):
-                K[j, emb[i], emb[q]] = v[j, at + i * nd + q]
-        at += nd * nd
-        g = at + nd
+                K[at[j], emb[i], emb[q]] = v[j, i * nd + q]
+        s = nd * nd
+        g = s + nd
         for i in range(nd):  # F0 + G b (numpy's order: the product first)
             acc = 0.0
             for q in range(dim):
                 acc += v[j, g + i * dim + q] * b_pos[j, q]
-            Fh[j, emb[i]] = v[j, at + i] + acc
-        at = g + nd * dim
+            Fh[at[j], emb[i]] = v[j, s + i] + acc
+        s = g + nd * dim
         m = ni * nd
-        r0, rG = at + m * nd, at + m * nd + m
+        r0, rG = s + m * nd, s + m * nd + m
         for i in range(m):
             for q in range(nd):
-                recover[j, i, q] = v[j, at + i * nd + q]
+                recover[j, i, q] = v[j, s + i * nd + q]
             acc = 0.0
             for q in range(dim):
                 acc += v[j, rG + i * dim + q] * b_pos[j, q]
             recover[j, i, nd] = v[j, r0 + i] + acc
-        at = rG + m * dim
+        s = rG + m * dim
         for i in range(ni):
             for q in range(dim):
-                x_int[j, i, q] = v[j, at + i * dim + q] + (b_pos[j, q] if root[i] == 1 else 0.0)
+                x_int[j, i, q] = v[j, s + i * dim + q] + (b_pos[j, q] if root[i] == 1 else 0.0)
         comp = 1 if dim == 2 else 3
+        for q in range(len(powers)):
+            tp[q] = theta[j] ** powers[q]
         for i in range(ni * comp):  # the internal nodes' orientations: polynomials in theta
-            acc = 0.0
-            for q in range(len(powers)):
-                acc += theta[j] ** powers[q] * ocoef[q, i]
-            v[j, i] = acc
+            v[j, i] = 0.0
+        for q in range(len(powers)):
+            for i in range(ni * comp):
+                v[j, i] += tp[q] * ocoef[q, i]
         if dim == 2:
             for i in range(ni):
                 a_int[j, i] = v[j, i]

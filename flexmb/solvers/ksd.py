@@ -160,8 +160,15 @@ class _KSD:
             compiled.derived[setup_key(self.database)] = moved
 
     def solve(self, compiled) -> Solution:
+        if self._compiled_path(compiled):  # no BLAS call but the direct EOBs', which enter it themselves
+            return self._solve(compiled)  # (entering costs ~11 us, 3 % of the manipulator's solve)
         with single_threaded():  # small dense systems throughout (flexmb.linear.single_threaded)
             return self._solve(compiled)
+
+    def _compiled_path(self, compiled) -> bool:
+        """Whether steps 1-4 run as compiled stages (`flexmb.ksd.reduced_jit`): KSD-reduced with the
+        compiled kernels and no hinges (those keep the numpy loops)."""
+        return not self.full and jit.enabled() and getattr(compiled.problem.model, "hinges", None) is None
 
     def _solve(self, compiled) -> Solution:
         t0 = time.perf_counter()
@@ -196,22 +203,23 @@ class _KSD:
         K = np.zeros((J, 6, 6))
         Fh = np.zeros((J, 6))
         eobs, tabulated = [], 0
-        compiled_path = jit.enabled() and not self.full and red.hinges is None  # steps 2-4 as arrays, compiled
+        compiled_path = self._compiled_path(compiled)  # steps 2-4 as arrays, compiled
         for tpl, _, idx in red.groups:
             if not self.full and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
                 tabulated += len(idx)
                 if compiled_path:  # tabulated, one compiled call (flexmb.ksd.reduced_jit.eob_lookup)
-                    Kg, Fg, *e = tpl.lookup.compiled(theta[idx], p_hat[idx, :dim])
-                    K[idx], Fh[idx] = Kg, Fg
-                    eobs.append(e)
+                    eobs.append(list(tpl.lookup.compiled(theta, p_hat, idx, K, Fh)[2:]))
                     continue
                 e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
+            elif compiled_path:  # outside `solve`'s thread limit: the Craig-Bampton solves' BLAS
+                with single_threaded():
+                    e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
             else:
                 e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
             K[idx[:, None, None], emb[:, None], emb] = e.K_T
             Fh[idx[:, None], emb] = e.F_hat_T
-            eobs.append([e.recover, e.node_position[:, 2:],
-                         e.node_rotation[:, 2:] if dim == 3 else e.node_angle[:, 2:]] if compiled_path else e)
+            eobs.append([np.ascontiguousarray(a) for a in (e.recover, e.node_position[:, 2:], e.node_rotation[:, 2:]
+                         if dim == 3 else e.node_angle[:, 2:])] if compiled_path else e)
         R_hat = rz(theta)
         stages["eob"] = {"joints": J, "tabulated": tabulated}  # step 2: EOBs built, of them looked up
         if not self.full:  # step 2's EOBs, kept for flexmb.ksd.properties.near (not rebuilt)

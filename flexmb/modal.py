@@ -177,15 +177,13 @@ def held_dofs(solution, held, owner: str = "modes") -> np.ndarray:
     """Sorted global DOF indices that ``held`` (as in `modes`) holds; errors name ``owner``."""
     compiled = solution.compiled
     problem, model = compiled.problem, compiled.problem.model
+    if isinstance(held, str) and held in ("prescribed", "floating"):  # the fixed links' DOFs not needed
+        return np.unique(problem.prescribed) if held == "prescribed" else np.zeros(0, dtype=np.int64)
     fixed = [compiled.link_node[name] for name in compiled.fixed]
     ground = model.node_dofs[fixed].ravel() if fixed else np.zeros(0, dtype=np.int64)
     if isinstance(held, str):
-        if held == "prescribed":
-            return np.unique(problem.prescribed)
         if held == "none":
             return np.unique(ground)
-        if held == "floating":
-            return np.zeros(0, dtype=np.int64)
         raise ParameterError(f"{owner}: held={held!r}; valid: 'prescribed', 'none', 'floating' or a sequence of "
                              "links and (link, component) pairs")
     comps = _COMPONENTS[model.dim]
@@ -265,7 +263,7 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ParameterError(f"modes: n={n!r} must be an integer in [1, the number of free motions]")
     if reduced:  # small and dense: no sparse bookkeeping (measured 1-2 ms of a 4 ms call)
-        K, M, Z = K[np.ix_(free, free)], M[np.ix_(free, free)], None
+        K, M, Z = K.take(free, 0).take(free, 1), M.take(free, 0).take(free, 1), None
     else:
         K, M = stiffness_and_mass(solution)
         free, Z = constrained(model, free, K, solution.state)  # hinges: the motions they allow (Z), multipliers out

@@ -34,7 +34,7 @@ from ..fe.model import State
 from .eob import lever
 from .splined import SplinedTable
 
-__all__ = ["condensed", "joint_mass", "RITZ_SAMPLES"]
+__all__ = ["condensed", "condensed_subspace", "joint_mass", "RITZ_SAMPLES", "TIE"]
 
 #: Intended rotations at which a joint's fixed-interface modes are sampled for its Ritz basis,
 #: evenly over the trained range. Measured on three_x_infinity (3D, 3 el./leaf, one interior
@@ -43,6 +43,11 @@ __all__ = ["condensed", "joint_mass", "RITZ_SAMPLES"]
 #: 8.5e-7, 13 (73) 8.2e-11 largest relative error (the 2D cross flexure's chains of 12 DOFs:
 #: complete with any, 2e-12).
 RITZ_SAMPLES = 9
+
+#: Relative distance under which two fixed-interface eigenvalues count as tied at the cut
+#: (`condensed_subspace`): far above roundoff (equal chains tie to ~1e-13), far below the
+#: distinct eigenvalues of a joint's chains.
+TIE = 1e-6
 
 
 def _block_diagonal(blocks):
@@ -79,10 +84,7 @@ class _JointMass:
         self.n = n = N * nd
         dofs = tpl.element_dofs
         self._kidx = (dofs[:, :, None] * n + dofs[:, None, :]).ravel()
-        blocks = tpl._blocks  # one chain on all interior DOFs in order (three_x_infinity): no scatter
-        self.whole = len(blocks) == 1 and blocks[0].shape[0] == 1 and np.array_equal(blocks[0][0],
-                                                                                      np.arange(n - 2 * nd))
-        self._basis, self._tables = {}, {}
+        self._basis, self._tables, self._cut, self._ref = {}, {}, {}, {}
 
     def nodes(self, eob) -> np.ndarray:
         """The joints' mass (J, n, n) on the EOB's node DOFs at its near configuration (``eob``
@@ -113,8 +115,9 @@ class _JointMass:
             eob = tpl.evaluate(theta, np.zeros((len(theta), tpl.dim)))
             K, M, b = eob.K_nodes, self.nodes(eob), 2 * tpl.nd
             out = []
-            for idx in tpl._blocks:
-                k = min(n_fixed, idx.shape[1])
+            counts = self.cut(n_fixed)
+            for idx, kept in zip(tpl._blocks, counts):
+                k = min(max(n_fixed, int(kept.max(initial=0))), idx.shape[1])
                 U, rank = [], []
                 for chain in idx:
                     at = np.ix_(b + chain, b + chain)
@@ -157,13 +160,101 @@ class _JointMass:
         out["Mb"], out["X"] = 0.5 * (Mb + np.swapaxes(Mb, 1, 2)), X
         return out
 
+    def cut(self, n_fixed: int) -> list:
+        """Per block of chains the fixed-interface modes each chain keeps (list of (c,) ints): the
+        lowest ``n_fixed`` over all chains at the trained range's middle rotation (the interior's
+        exact modes, `scipy.linalg.eigh`), completed by every eigenvalue within `TIE` of the
+        last one kept (`condensed_subspace`'s tie rule)."""
+        if n_fixed not in self._cut:
+            tpl = self.tpl
+            mid = np.array([0.5 * (tpl.data.range[0] + tpl.data.range[1])])
+            eob = tpl.evaluate(mid, np.zeros((1, tpl.dim)))
+            K, M, b = eob.K_nodes[0], self.nodes(eob)[0], 2 * tpl.nd
+            pooled = []  # (eigenvalue, block, chain)
+            for k, idx in enumerate(tpl._blocks):
+                for i, chain in enumerate(idx):
+                    at = np.ix_(b + chain, b + chain)
+                    top = min(n_fixed + 1, len(chain))
+                    w = sla.eigh(0.5 * (K[at] + K[at].T), M[at], eigvals_only=True, subset_by_index=[0, top - 1])
+                    pooled += [(float(v), k, i) for v in w]
+            pooled.sort()
+            counts = [np.zeros(len(idx), dtype=np.int64) for idx in tpl._blocks]
+            if n_fixed and pooled:
+                last = pooled[min(n_fixed, len(pooled)) - 1][0]
+                for v, k, i in pooled:
+                    if v <= last + TIE * abs(last):
+                        counts[k][i] += 1
+            self._cut[n_fixed] = counts
+        return self._cut[n_fixed]
+
+    def modal_parts(self, parts: dict, n_fixed: int, align: bool) -> dict:
+        """From `project`'s arrays (J joints) the interior modal coordinates `cut` keeps, chain
+        by chain in block order: their stiffness ``Kq`` (J, m, m), coupling ``C = Q^T M_i T``
+        (J, m, b) and interior shapes ``Phi`` (J, n_i, m), mass-normalised (``Q^T M_ii Q = I``).
+        ``align=False``: the chains' lowest Ritz modes themselves (``Kq = diag(omega^2)``);
+        ``align=True``: the basis of their span nearest (orthogonal Procrustes in the mass inner
+        product) to the one at the range's middle rotation, ``Q = Pi Q_0 (Q_0^T M Pi Q_0)^-1/2``
+        with ``Pi`` the projector on the kept span: it depends on the rotation only through the
+        span, so it is smooth where the span is (the gap above the cut open) and can be splined."""
+        counts = self.cut(n_fixed)
+        m = int(sum(c.sum() for c in counts))
+        X = parts["X"]
+        J, ni, b = X.shape[0], X.shape[1], X.shape[2]
+        Kq, C, Phi = np.zeros((J, m, m)), np.zeros((J, m, b)), np.zeros((J, ni, m))
+        at = 0
+        for k, idx in enumerate(self.tpl._blocks):
+            P = self.basis(n_fixed)[k]  # (c, s, r)
+            for i, chain in enumerate(idx):
+                kc = int(counts[k][i])
+                if not kc:
+                    continue
+                w, V = _lowest(parts[f"S{k}"][:, i], kc)
+                Lt = parts[f"L{k}"][:, i]  # L^-T: Ritz coefficients a = L^-T V
+                a = Lt @ V
+                if align:
+                    ref = self.reference(n_fixed)[(k, i)]
+                    A = np.swapaxes(V, 1, 2) @ np.linalg.solve(Lt, np.broadcast_to(ref, (J,) + ref.shape))
+                    U, _, Wt = np.linalg.svd(A)
+                    R = U @ Wt
+                    a = a @ R
+                    Kq[:, at:at + kc, at:at + kc] = np.swapaxes(R, 1, 2) @ (w[:, :, None] * R)
+                else:
+                    Kq[:, range(at, at + kc), range(at, at + kc)] = w
+                C[:, at:at + kc] = np.swapaxes(a, 1, 2) @ parts[f"C{k}"][:, i]
+                Phi[:, chain, at:at + kc] = P[i] @ a
+                at += kc
+        return {"Kq": 0.5 * (Kq + np.swapaxes(Kq, 1, 2)), "C": C, "Phi": Phi}
+
+    def reference(self, n_fixed: int) -> dict:
+        """Per chain ``(block, chain)`` the Ritz coefficients (r, k) of its kept modes at the
+        trained range's middle rotation: the basis `modal_parts` aligns to."""
+        if n_fixed not in self._ref:
+            tpl = self.tpl
+            mid = np.array([0.5 * (tpl.data.range[0] + tpl.data.range[1])])
+            parts = self.project(tpl.evaluate(mid, np.zeros((1, tpl.dim))), n_fixed)
+            ref, counts = {}, self.cut(n_fixed)
+            for k, idx in enumerate(tpl._blocks):
+                for i in range(len(idx)):
+                    if counts[k][i]:
+                        ref[(k, i)] = (parts[f"L{k}"][0, i] @ _lowest(parts[f"S{k}"][0, i], int(counts[k][i]))[1])
+            self._ref[n_fixed] = ref
+        return self._ref[n_fixed]
+
     def table(self, n_fixed: int) -> SplinedTable:
-        """`project` splined over the trained range (`flexmb.ksd.splined.SplinedTable`)."""
+        """Over the trained range (`flexmb.ksd.splined.SplinedTable`): ``Mb``, ``X`` and, with
+        ``n_fixed``, `modal_parts` aligned (``Kq``, ``C``, ``Phi``): no eigenproblem per
+        configuration."""
         if n_fixed not in self._tables:
             tpl = self.tpl
-            self._tables[n_fixed] = SplinedTable(
-                lambda theta: self.project(tpl.evaluate(theta, np.zeros((len(theta), tpl.dim))), n_fixed),
-                *tpl.data.range)
+
+            def sample(theta):
+                parts = self.project(tpl.evaluate(theta, np.zeros((len(theta), tpl.dim))), n_fixed)
+                out = {"Mb": parts["Mb"], "X": parts["X"]}
+                if n_fixed and self.cut(n_fixed) and sum(c.sum() for c in self.cut(n_fixed)):
+                    out.update(self.modal_parts(parts, n_fixed, align=True))
+                return out
+
+            self._tables[n_fixed] = SplinedTable(sample, *tpl.data.range)
         return self._tables[n_fixed]
 
 
@@ -195,48 +286,44 @@ def joint_mass(tpl, joint) -> _JointMass:
     return data if data is not None else _JOINT_MASS.setdefault(tpl, _JointMass(tpl, joint))
 
 
-def condensed(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = True):
-    """Condensed mass of J joints of one template at intended rotations ``theta`` (J,) [rad], in
-    their joint frames (module notes): ``M_b`` (J, 2 nd, 2 nd) on nodes A and B, the lowest
-    ``n_fixed`` fixed-interface modes' coupling ``Phi^T M T`` (J, n_fixed, 2 nd) and ``omega^2``
-    (J, n_fixed), and the interior transformation ``(X, Phi)``: interior DOFs ``X q_b + Phi eta``.
-    ``table``: interpolate the tabulated projections (rotations inside the trained range), else
-    assemble and condense at ``theta`` directly."""
+def condensed_subspace(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = True):
+    """Condensed mass of J joints of one template at intended rotations ``theta`` (J,) [rad] in
+    their joint frames, for free vibration: ``M_b`` (J, b, b) on nodes A and B, and of the kept
+    fixed-interface modes' span (m coordinates, `_JointMass.cut`) the stiffness ``K_q`` (J, m,
+    m), the coupling ``Q^T M T`` (J, m, b) and the interior transformation ``(X, Q)``: interior
+    DOFs ``X q_b + Q eta``; the coordinates' mass is the identity. The frequencies of a model
+    built with them depend on the span alone, not on the basis ``Q`` within it.
+
+    ``table`` (rotations inside the trained range): ``K_q``, the coupling and ``Q`` splined in
+    an aligned basis (`_JointMass.modal_parts`), no eigenproblem per configuration; else the
+    Ritz eigenproblems solved at ``theta`` (``K_q = diag(omega^2)``: the reference path).
+
+    Tie rule: each chain keeps a fixed number of its lowest modes, the lowest ``n_fixed`` over
+    the joint's chains at the range's middle rotation plus every one within `TIE` of the last
+    kept (all ties at the cut, so m may exceed ``n_fixed``: three equal chains keep whole
+    triples). Chosen per configuration among tied chains, the kept modes depended on roundoff
+    (the four-bar's frequencies moved 4.8e-4 with a 4e-11 change of its solution)."""
     data = joint_mass(tpl, joint)
     theta = np.asarray(theta, dtype=float)
     J = len(theta)
     if table and data.table(n_fixed).covers(theta):
         parts = data.table(n_fixed)(theta)
+        if "Kq" in parts:
+            return parts["Mb"], parts["C"], parts["Kq"], (parts["X"], parts["Phi"])
     else:
         parts = data.project(tpl.evaluate(theta, np.zeros((J, tpl.dim))), n_fixed)
     Mb, X = parts["Mb"], parts["X"]
     b, ni = Mb.shape[-1], X.shape[1]
-    n_fixed = max(0, min(n_fixed, ni))
-    if not n_fixed:
-        return Mb, np.zeros((J, 0, b)), np.zeros((J, 0)), (X, np.zeros((J, ni, 0)))
-    blocks = tpl._blocks
-    whole = data.whole
-    w_all, v_all, c_all = [], [], []  # per chain its lowest Ritz fixed-interface modes
-    for k, idx in enumerate(blocks):
-        P = data.basis(n_fixed)[k]  # (c, s, r)
-        w, V = _lowest(parts[f"S{k}"], n_fixed)
-        m = w.shape[-1]
-        a = parts[f"L{k}"] @ V  # (J, c, r, m): Ritz coefficients, M_ii-normalised
-        Cr = parts[f"C{k}"]
-        if whole:  # one chain on all interior DOFs in order (three_x_infinity): no scatter
-            v_all.append((P @ a)[:, 0])
-        else:
-            full = np.zeros((J, idx.shape[0], ni, m))  # each chain's modes on all interior DOFs
-            full[:, np.arange(idx.shape[0])[:, None], idx] = P @ a
-            v_all.append(np.moveaxis(full, 2, 1).reshape(J, ni, -1))
-        w_all.append(w[..., :m].reshape(J, -1))
-        c_all.append((np.swapaxes(a, -1, -2) @ Cr).reshape(J, -1, b))
-    if len(blocks) == 1:
-        w, v, C = w_all[0], v_all[0], c_all[0]
-    else:
-        w, v, C = np.concatenate(w_all, axis=1), np.concatenate(v_all, axis=2), np.concatenate(c_all, axis=1)
-    if whole and w.shape[1] == n_fixed:  # one chain: LAPACK's eigenvalues come ascending
-        return Mb, C, w, (X, v)
-    pick = np.argsort(w, axis=1)[:, :n_fixed]
-    return (Mb, np.take_along_axis(C, pick[:, :, None], axis=1), np.take_along_axis(w, pick, axis=1),
-            (X, np.take_along_axis(v, pick[:, None, :], axis=2)))
+    if not n_fixed or not sum(c.sum() for c in data.cut(n_fixed)):
+        return Mb, np.zeros((J, 0, b)), np.zeros((J, 0, 0)), (X, np.zeros((J, ni, 0)))
+    modal = data.modal_parts(parts, n_fixed, align=False)
+    return Mb, modal["C"], modal["Kq"], (X, modal["Phi"])
+
+
+def condensed(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = True):
+    """`condensed_subspace` as modes: ``M_b`` (J, b, b), the kept fixed-interface modes'
+    coupling ``Phi^T M T`` (J, m, b) and ``omega^2`` (J, m), ascending, and ``(X, Phi)``
+    (tabulated: the eigenpairs of the interpolated ``K_q``)."""
+    Mb, C, Kq, (X, Q) = condensed_subspace(tpl, joint, theta, n_fixed, table)
+    w, U = np.linalg.eigh(Kq)
+    return Mb, np.swapaxes(U, 1, 2) @ C, w, (X, Q @ U)

@@ -23,7 +23,7 @@ from .. import jit
 from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
 from .eob_forces import axial_forces
-from .joint_mass import condensed
+from .joint_mass import condensed_subspace
 from ..rotations import unskew
 from .geometry import ACTIVE, LinkPoses, rz
 from .kinematics import solve_kinematics
@@ -201,12 +201,14 @@ def _static(red: ReducedMechanism) -> dict:
     return out
 
 
-def reduced_modal_model(solution, n_fixed: int, database=None):
+def reduced_modal_model(solution, n_fixed: int, database=None, table: bool = True):
     """The KSD-reduced mechanism for free vibration: stiffness and mass (n, n) on the links' FE
     DOFs (n_links ndof) followed by ``n_fixed`` fixed-interface modal coordinates per joint (in
     joint order), and a function mapping a vector of those (n, k) to the full model's DOFs
     (n_dofs, k): links as they are, joint interiors from the Craig-Bampton transformation.
-    With the compiled kernels the assembly is `flexmb.ksd.properties_jit` (the same sums)."""
+    With the compiled kernels the assembly is `flexmb.ksd.properties_jit` (the same sums).
+    ``table``: the joints' tabulated span of fixed-interface modes, else their Ritz eigenproblems
+    at the configuration (`flexmb.ksd.joint_mass.condensed_subspace`: the same frequencies)."""
     red, (_, _, _, _, _, theta) = near(solution, database)
     st = _static(red)
     poses = link_poses(red, solution.state)
@@ -231,7 +233,8 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
         G[ar, 0, :, fr.a] = levers[:, 0]
         G[ar, 1, :, fr.b] = levers[:, 1]
         G = G.reshape(J, 2 * nd, 6 * nL)
-    parts = [condensed(tpl, st["joints"][red.joint_names[idx[0]]], theta[idx], n_fixed) for tpl, _, idx in red.groups]
+    parts = [condensed_subspace(tpl, st["joints"][red.joint_names[idx[0]]], theta[idx], n_fixed, table)
+             for tpl, _, idx in red.groups]
     nm = np.zeros(J, dtype=np.int64)
     for (_, _, idx), (_, _, ws, _) in zip(red.groups, parts):
         nm[idx] = ws.shape[1]
@@ -253,9 +256,9 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
                 M[sl, sl] = np.eye(nm[j])
         M[:nl, :nl] = M6 if st["whole"] else M6[np.ix_(red.emb_dofs, red.emb_dofs)]
     K[:nl, :nl] = reduced_tangent(solution, database)[0]
-    for (_, _, idx), (_, _, ws, _) in zip(red.groups, parts):
-        rows = (at[idx][:, None] + np.arange(ws.shape[1])).ravel()
-        K[rows, rows] = ws.ravel()
+    for (_, _, idx), (_, _, Kq, _) in zip(red.groups, parts):  # each joint's modal stiffness block
+        for k, j in enumerate(idx):
+            K[at[j]:at[j + 1], at[j]:at[j + 1]] = Kq[k]
     rigid = model.rigid_masses
     if rigid is not None and (rigid.node < nL).any():
         on = rigid.node < nL

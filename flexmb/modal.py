@@ -60,6 +60,8 @@ DENSE_BELOW_NONSYMMETRIC = 90
 #: 1: +0.96/+0.06/-0.27 %, 2: -0.10/-0.24/-0.28 %, 6: -0.17/-0.25/-0.28 %, 10: -0.18/-0.26/-0.28 %
 #: (at -45 deg 6: -0.39/-0.35/-0.55 %, 10: -0.41/-0.36/-0.57 %): 6 is converged (10 moves the first
 #: three by at most 0.02 %); what is left is the EOB stiffness's (no stress stiffening).
+#: Ties at the cut are kept whole (`flexmb.ksd.joint_mass.condensed_subspace`): the four-bar's
+#: cross flexures keep 7.
 KSD_FIXED_INTERFACE_MODES = 6
 
 _COMPONENTS = {2: {"x": (0,), "y": (1,), "rotation": (2,)},
@@ -234,11 +236,11 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     tangent, each joint's mass condensed with its EOB's Craig-Bampton transformation (constraint
     modes plus `KSD_FIXED_INTERFACE_MODES` fixed-interface modes), shapes recovered on every node.
     Measured against the full model: the manipulator's first three parasitic frequencies over
-    +-45 deg within 0.55 % (median 0.13 %), the four-bar's 0.46 % at d = 0.1 m (6.8 % at 0.3 m);
-    solve + modes 1.9 ms per configuration of the manipulator against the full model's 19 ms
-    (mean over the 19 positions of the fastest of 11 interleaved, load 1.6; the joints' condensed
-    mass is tabulated, `flexmb.ksd.joint_mass`). Of the 1.2 ms of modes, the three joints' Ritz
-    fixed-interface eigenproblems (54 x 54, LAPACK ``dsyevr``, bisection-bound) take ~0.4 ms.
+    +-45 deg within 0.55 % (median 0.13 %), the four-bar's 0.46 % at d = 0.1 m (6.8 % at 0.3 m).
+    The joints' kept span of fixed-interface modes is tabulated (`flexmb.ksd.joint_mass.
+    condensed_subspace`: no eigenproblem per configuration, ties at the cut kept whole): modes
+    0.51 ms per configuration of the manipulator (mean over the 19 positions of the fastest of 7,
+    loaded host), 1.12 ms with the joints' Ritz eigenproblems solved per configuration.
 
     Dense LAPACK below `DENSE_BELOW` free DOFs (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
     tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises `ConvergenceError` for an unconverged

@@ -26,8 +26,9 @@ eigenproblems solved at the configuration (``table=False``) between grid points:
 f1-f6 5.8e-11, four-bar 2.5e-13 relative. Over three_x_infinity's +-45 deg the gap above the
 6th mode stays open but narrow (``omega_7^2 / omega_6^2`` >= 1.00085, at 0 deg, an avoided
 crossing in a cluster of the leaves' modes 3-9): the span turns quickly there, and the table
-takes the finest grid (0.125 deg, built in 3.6 s against 1.0 s for the Ritz problems' table;
-interior shapes 5e-7, coupling 9e-8, stiffness 2e-10 of their largest entries). The 2D cross
+takes the finest grid (0.125 deg; interior shapes 5e-7, coupling 9e-8, stiffness 2e-10 of their
+largest entries), sampled from the smooth Ritz projections' table (`_JointMass.ritz_table`,
+1 deg): the first ``modes`` of the manipulator, tables built, 0.72 s against 0.21 s. The 2D cross
 flexure's (three chains, +-75 deg): >= 1.107, 0.5 deg grid.
 """
 
@@ -250,21 +251,33 @@ class _JointMass:
             self._ref[n_fixed] = ref
         return self._ref[n_fixed]
 
+    def ritz_table(self, n_fixed: int) -> SplinedTable:
+        """`project` splined over the trained range: smooth in the rotation (a fixed Ritz basis
+        per chain), so a coarse grid serves (three_x_infinity: 1 deg)."""
+        key = ("ritz", n_fixed)
+        if key not in self._tables:
+            tpl = self.tpl
+            self._tables[key] = SplinedTable(
+                lambda theta: self.project(tpl.evaluate(theta, np.zeros((len(theta), tpl.dim))), n_fixed),
+                *tpl.data.range)
+        return self._tables[key]
+
     def table(self, n_fixed: int) -> SplinedTable:
         """Over the trained range (`flexmb.ksd.splined.SplinedTable`): ``Mb``, ``X`` and, with
-        ``n_fixed``, `modal_parts` aligned (``Kq``, ``C``, ``Phi``): no eigenproblem per
-        configuration."""
+        kept modes, `modal_parts` aligned (``Kq``, ``C``, ``Phi``): no eigenproblem per
+        configuration. Sampled from `ritz_table` (where the kept span turns quickly the grid
+        is fine: assembling the joint at each of its points took three_x_infinity's build 3.6 s,
+        against 0.5 s)."""
         if n_fixed not in self._tables:
-            tpl = self.tpl
+            ritz = self.ritz_table(n_fixed)
+            if not sum(c.sum() for c in self.cut(n_fixed)):
+                self._tables[n_fixed] = ritz
+            else:
+                def sample(theta):
+                    parts = ritz(theta)
+                    return {"Mb": parts["Mb"], "X": parts["X"], **self.modal_parts(parts, n_fixed, align=True)}
 
-            def sample(theta):
-                parts = self.project(tpl.evaluate(theta, np.zeros((len(theta), tpl.dim))), n_fixed)
-                out = {"Mb": parts["Mb"], "X": parts["X"]}
-                if n_fixed and self.cut(n_fixed) and sum(c.sum() for c in self.cut(n_fixed)):
-                    out.update(self.modal_parts(parts, n_fixed, align=True))
-                return out
-
-            self._tables[n_fixed] = SplinedTable(sample, *tpl.data.range)
+                self._tables[n_fixed] = SplinedTable(sample, *self.tpl.data.range)
         return self._tables[n_fixed]
 
 

@@ -39,3 +39,36 @@ def test_step_1_reports_every_iteration_however_many(kernels):
     assert ref["iterations"] > 128 and len(ref["history"]) == ref["iterations"]
     assert got["iterations"] == ref["iterations"] and len(got["history"]) == got["iterations"]
     np.testing.assert_allclose(got["history"], ref["history"], rtol=1e-9, atol=1e-14)
+
+
+@pytest.mark.parametrize("path", ["numpy", "numba"])
+def test_a_table_that_does_not_fit_the_joints_mesh_is_refused(kernels, tmp_path, path):
+    # a database file whose EOB table (flexmb.database.eob_format) declares one internal node
+    # fewer than the joint's mesh has (P0's last row dropped, its samples and checksums made
+    # consistent, as a buggy or foreign trainer might write it). The tabulated quantities' sizes
+    # follow from the mesh (Eqs. 2.4-2.6: K_T nd x nd, recovery n_i nd x (nd + 1), P0 n_i x dim);
+    # numpy broadcast the short P0 onto every internal node and the compiled lookup read past
+    # the samples' rows: converged=True with internal nodes 46 % off. Must be refused, naming
+    # the table's layout and the mesh's.
+    import attrs
+
+    from flexmb.database import store
+    from flexmb.database.eob_format import EOBTable, plain_parameters
+    from flexmb.ksd.eob_table import tabulate
+    from flexmb.ksd.reduced import template
+
+    kernels(path)
+    m = flexmb.models.cross_flexure_pivot(2, dim=2, rotation=0.5)
+    m.apply_force("B", [0.5, -0.3])
+    joint = next(iter(m.joints.values()))
+    source = store.locate(joint, 2)
+    tpl = template(joint, 2)
+    table = tabulate(tpl, plain_parameters(joint.describe()), step_deg=5.0, degree=3)
+    *head, (name, rows, cols) = table.layout
+    assert name == "P0" and rows == tpl.n_nodes - 2 > 0
+    short = EOBTable(table.parameters, table.theta, table.degree, (*head, (name, rows - 1, cols)),
+                     np.ascontiguousarray(table.values[:, :-cols]))
+    store.save(attrs.evolve(store.load(source), eob_table=short), tmp_path / source.name)
+    with pytest.raises(flexmb.DatabaseError, match=r"joint 'cross_flexure'.*EOB table.*P0.*\(1, 2\).*\(2, 2\)"):
+        flexmb.solve(m, method="ksd-reduced", database=tmp_path)
+    assert flexmb.solve(m, method="ksd-reduced").converged  # the shipped data (no table) still serve

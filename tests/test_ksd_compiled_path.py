@@ -72,3 +72,21 @@ def test_a_table_that_does_not_fit_the_joints_mesh_is_refused(kernels, tmp_path,
     with pytest.raises(flexmb.DatabaseError, match=r"joint 'cross_flexure'.*EOB table.*P0.*\(1, 2\).*\(2, 2\)"):
         flexmb.solve(m, method="ksd-reduced", database=tmp_path)
     assert flexmb.solve(m, method="ksd-reduced").converged  # the shipped data (no table) still serve
+
+
+@pytest.mark.parametrize("excess", [2e-9, 1e-6])
+def test_a_rotation_just_beyond_the_range_is_refused_saying_by_how_much(kernels, excess):
+    # three_x_infinity's shipped database and EOB table span +-45 deg (Dwarshuis et al. 2020
+    # Sec. 4.4); step 1's roundoff is allowed 1e-9 rad (flexmb.ksd.eob_table.SLACK). Just beyond,
+    # the refusal printed "turns it to 45.00 deg, outside its trained range [-45.0, 45.0] deg":
+    # it must say how far outside, in rad
+    joint = flexmb.ThreeXInfinity(elements_per_leaf=3)
+    for sign in (1.0, -1.0):
+        m = flexmb.testing.joint_mechanism(joint, 3, motion=sign * (np.radians(45.0) + excess))
+        with pytest.raises(flexmb.DatabaseError, match=r"45.00 deg, (\S+) rad outside its trained range") as err:
+            flexmb.solve(m, method="ksd-reduced")
+        stated = float(err.value.args[0].split(" deg, ")[1].split(" rad")[0])
+        assert stated == pytest.approx(excess, rel=0.05)  # two digits, of step 1's converged angle
+    m = flexmb.testing.joint_mechanism(joint, 3, motion=np.radians(45.0) + 5e-10)  # within the slack: solved
+    sol = flexmb.solve(m, method="ksd-reduced")
+    assert sol.converged and sol.stages["eob"]["tabulated"] == 1

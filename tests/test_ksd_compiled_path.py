@@ -90,3 +90,15 @@ def test_a_rotation_just_beyond_the_range_is_refused_saying_by_how_much(kernels,
     m = flexmb.testing.joint_mechanism(joint, 3, motion=np.radians(45.0) + 5e-10)  # within the slack: solved
     sol = flexmb.solve(m, method="ksd-reduced")
     assert sol.converged and sol.stages["eob"]["tabulated"] == 1
+
+
+def test_a_database_folder_that_does_not_exist_is_refused(tmp_path):
+    # database=FOLDER is searched before the user folder and the shipped data
+    # (flexmb.database.store.search_path): a misspelt folder was passed over silently and the
+    # shipped data solved instead of the user's (own range, own EOB table)
+    m = flexmb.models.cross_flexure_pivot(2, dim=2, rotation=0.3)
+    missing = tmp_path / "my_databse"
+    for method in ("ksd-reduced", "ksd-full"):
+        with pytest.raises(flexmb.ParameterError, match=r"database=.*my_databse.* is not a folder"):
+            flexmb.solve(m, method=method, database=missing)
+    assert flexmb.solve(m, method="ksd-reduced", database=tmp_path).converged  # an empty folder: searched, passed

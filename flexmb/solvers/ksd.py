@@ -44,6 +44,10 @@ def _folder_or_none(instance, attribute, value):
     if value is not None and not isinstance(value, (str, os.PathLike)):
         raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} must be a folder path or None "
                              "(the shipped data)")
+    if value is not None and not os.path.isdir(value):  # searched first, then the user's and the shipped data:
+        raise ParameterError(f"{type(instance).name}: {attribute.name}={os.fspath(value)!r} is not a folder (no "
+                             "such directory); a misspelt folder would be passed over for the user folder and the "
+                             "shipped data without a word. Give the folder `flexmb train --out` wrote, or None")
 
 
 def _requested(red: ReducedMechanism) -> str:

@@ -27,6 +27,8 @@ The linearisation (SPACAR's convention for the eigenfrequencies of a configurati
 
 from __future__ import annotations
 
+import functools
+
 import attrs
 import numpy as np
 import scipy.linalg as sla
@@ -175,15 +177,13 @@ def held_dofs(solution, held, owner: str = "modes") -> np.ndarray:
     """Sorted global DOF indices that ``held`` (as in `modes`) holds; errors name ``owner``."""
     compiled = solution.compiled
     problem, model = compiled.problem, compiled.problem.model
+    if isinstance(held, str) and held in ("prescribed", "floating"):  # the fixed links' DOFs not needed
+        return np.unique(problem.prescribed) if held == "prescribed" else np.zeros(0, dtype=np.int64)
     fixed = [compiled.link_node[name] for name in compiled.fixed]
     ground = model.node_dofs[fixed].ravel() if fixed else np.zeros(0, dtype=np.int64)
     if isinstance(held, str):
-        if held == "prescribed":
-            return np.unique(problem.prescribed)
         if held == "none":
             return np.unique(ground)
-        if held == "floating":
-            return np.zeros(0, dtype=np.int64)
         raise ParameterError(f"{owner}: held={held!r}; valid: 'prescribed', 'none', 'floating' or a sequence of "
                              "links and (link, component) pairs")
     comps = _COMPONENTS[model.dim]
@@ -235,9 +235,10 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     modes plus `KSD_FIXED_INTERFACE_MODES` fixed-interface modes), shapes recovered on every node.
     Measured against the full model: the manipulator's first three parasitic frequencies over
     +-45 deg within 0.55 % (median 0.13 %), the four-bar's 0.46 % at d = 0.1 m (6.8 % at 0.3 m);
-    solve + modes 3.4 ms per configuration of the manipulator against the full model's 22 ms
-    (fastest of 11, `benchmarks/bench_properties.py`, load 1.9; the joints' condensed mass is
-    tabulated, `flexmb.ksd.joint_mass`).
+    solve + modes 1.9 ms per configuration of the manipulator against the full model's 19 ms
+    (mean over the 19 positions of the fastest of 11 interleaved, load 1.6; the joints' condensed
+    mass is tabulated, `flexmb.ksd.joint_mass`). Of the 1.2 ms of modes, the three joints' Ritz
+    fixed-interface eigenproblems (54 x 54, LAPACK ``dsyevr``, bisection-bound) take ~0.4 ms.
 
     Dense LAPACK below `DENSE_BELOW` free DOFs (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
     tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises `ConvergenceError` for an unconverged
@@ -262,7 +263,7 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ParameterError(f"modes: n={n!r} must be an integer in [1, the number of free motions]")
     if reduced:  # small and dense: no sparse bookkeeping (measured 1-2 ms of a 4 ms call)
-        K, M, Z = K[np.ix_(free, free)], M[np.ix_(free, free)], None
+        K, M, Z = K.take(free, 0).take(free, 1), M.take(free, 0).take(free, 1), None
     else:
         K, M = stiffness_and_mass(solution)
         free, Z = constrained(model, free, K, solution.state)  # hinges: the motions they allow (Z), multipliers out
@@ -316,11 +317,9 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
 
 
 def _dense(K, M, n, symmetric):
-    try:
-        np.linalg.cholesky(M)
-    except np.linalg.LinAlgError:
+    if _lapack.dpotrf(M, lower=1, clean=0)[1] != 0:  # not positive definite (np.linalg.cholesky's test, 10 us less)
         raise ModelError("modes: the mass matrix on the free DOFs is singular (a combination of free directions "
-                         "carries no mass); hold it or give the parts mass") from None
+                         "carries no mass); hold it or give the parts mass")
     # Inverted (shift-invert) form M x = mu (K - sigma M) x, lambda = sigma + 1/mu: the lowest
     # modes come out with *relative* accuracy. On K x = lambda M x directly LAPACK's error is
     # eps * lambda_max, and a leaf's axial/bending stiffness ratio (12 L^2/t^2 per element) makes
@@ -341,6 +340,12 @@ def _dense(K, M, n, symmetric):
     return lam.real[order], _real(vec[:, order])
 
 
+@functools.lru_cache(maxsize=64)
+def _sygvx_lwork(nf: int) -> int:
+    """LAPACK's optimal work size of ``dsygvx`` for order ``nf`` (a query per call cost ~10 us)."""
+    return int(_lapack.dsygvx_lwork(nf, uplo="L")[0])
+
+
 def _highest_pairs(A, B, n):
     """The ``n`` highest eigenpairs of ``A x = mu B x`` (``B`` definite): what
     ``scipy.linalg.eigh(A, B, subset_by_index=[nf - n, nf - 1])`` returns, by the same LAPACK
@@ -350,7 +355,7 @@ def _highest_pairs(A, B, n):
     if not (np.isfinite(A).all() and np.isfinite(B).all()):
         raise ValueError("array must not contain infs or NaNs")
     nf = len(A)
-    lwork = int(_lapack.dsygvx_lwork(nf, uplo="L")[0])
+    lwork = _sygvx_lwork(nf)
     mu, vec, m, _, info = _lapack.dsygvx(A, B, itype=1, jobz="V", range="I", il=nf - n + 1, iu=nf,
                                          uplo="L", lwork=lwork)
     if info != 0:  # B not definite (info > nf) or not converged

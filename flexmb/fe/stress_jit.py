@@ -5,7 +5,8 @@ the peak normal stress of every element (`peak_normal_stress`).
 row, the same floating-point operations in the same order (the numpy path's results to the last
 bit; tests/test_stress.py holds them equal to 1e-12). The numpy path builds (rows, points)
 temporaries for the coarse points and gathers the fine windows: 1.5 ms of the manipulator's 2 ms
-`Solution.stresses` (162 element ends, two sections).
+`Solution.stresses` (162 element ends, two sections); compiled ~0.13 ms, of which the coarse
+points (vectorised, `_coarse`) ~0.015 ms and the three running maxima per end most of the rest.
 
 `peak_normal_stress`: `flexmb.fe.stress.peak_normal_stress`'s terms for the plausibility check
 every solve runs (`flexmb.plausibility.peak_stress`): numpy's ~12 calls on the manipulator's 81
@@ -38,6 +39,30 @@ def _argmax(value, n):
 
 
 @njit
+def _wrap(p, P):
+    """``p % P`` for ``-P <= p < 2 P`` (an integer division per fine point: 47 -> 39 us for the
+    manipulator's 54 element ends of one section)."""
+    if p < 0:
+        return p + P
+    if p >= P:
+        return p - P
+    return p
+
+
+@njit
+def _coarse(u0, u1, u2, u3, u4, u5, u6, u7, nA, Vy, Vz, T, My, Mz, a, t, v):
+    """|sigma_x|, |tau|^2 and von Mises^2 at the coarse points (one loop LLVM vectorises)."""
+    for c in range(len(a)):
+        sx = nA + My * u0[c] - Mz * u1[c]
+        t0 = T * u2[c] + Vy * u4[c] + Vz * u6[c]
+        t1 = T * u3[c] + Vy * u5[c] + Vz * u7[c]
+        t2 = t0 * t0 + t1 * t1
+        a[c] = abs(sx)
+        t[c] = t2
+        v[c] = sx * sx + 3.0 * t2
+
+
+@njit
 def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
     """Per row of ``rows`` (R, 6) ``[N, Vy, Vz, T, My, Mz]`` the peak ``|sigma_x|``, ``|tau|^2``
     and von Mises stress squared over the perimeter points into ``out`` (R, 3): each searched on
@@ -53,26 +78,27 @@ def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
     for i in range(rows.shape[0]):
         N, Vy, Vz, T, My, Mz = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4], rows[i, 5]
         nA = N / A
-        for c in range(nc):
-            sx = nA + My * u[0, c] - Mz * u[1, c]
-            t0 = T * u[2, c] + Vy * u[4, c] + Vz * u[6, c]
-            t1 = T * u[3, c] + Vy * u[5, c] + Vz * u[7, c]
-            t2 = t0 * t0 + t1 * t1
-            coarse[0, c] = abs(sx)
-            coarse[1, c] = t2
-            coarse[2, c] = sx * sx + 3.0 * t2
+        _coarse(u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], nA, Vy, Vz, T, My, Mz,
+                coarse[0], coarse[1], coarse[2])
         for k in range(3):
             best = _argmax(coarse[k], nc)
             peak = coarse[k, best]
-            for w in range(nw):
-                p = (best * step + w - step) % P
-                if k != 1:
-                    sx = nA + My * units[0, p] - Mz * units[1, p]
-                if k != 0:
+            start = best * step - step
+            if k == 0:
+                for w in range(nw):
+                    p = _wrap(start + w, P)
+                    window[w] = abs(nA + My * units[0, p] - Mz * units[1, p])
+            else:
+                for w in range(nw):
+                    p = _wrap(start + w, P)
                     t0 = T * units[2, p] + Vy * units[4, p] + Vz * units[6, p]
                     t1 = T * units[3, p] + Vy * units[5, p] + Vz * units[7, p]
                     t2 = t0 * t0 + t1 * t1
-                window[w] = abs(sx) if k == 0 else (t2 if k == 1 else sx * sx + 3.0 * t2)
+                    if k == 1:
+                        window[w] = t2
+                    else:
+                        sx = nA + My * units[0, p] - Mz * units[1, p]
+                        window[w] = sx * sx + 3.0 * t2
             fine = window[_argmax(window, nw)]  # as np.max: NaN if any
             if peak != peak or fine != fine:
                 out[i, k] = np.nan

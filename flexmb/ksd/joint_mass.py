@@ -79,6 +79,9 @@ class _JointMass:
         self.n = n = N * nd
         dofs = tpl.element_dofs
         self._kidx = (dofs[:, :, None] * n + dofs[:, None, :]).ravel()
+        blocks = tpl._blocks  # one chain on all interior DOFs in order (three_x_infinity): no scatter
+        self.whole = len(blocks) == 1 and blocks[0].shape[0] == 1 and np.array_equal(blocks[0][0],
+                                                                                      np.arange(n - 2 * nd))
         self._basis, self._tables = {}, {}
 
     def nodes(self, eob) -> np.ndarray:
@@ -212,7 +215,7 @@ def condensed(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = Tru
     if not n_fixed:
         return Mb, np.zeros((J, 0, b)), np.zeros((J, 0)), (X, np.zeros((J, ni, 0)))
     blocks = tpl._blocks
-    whole = len(blocks) == 1 and blocks[0].shape[0] == 1 and np.array_equal(blocks[0][0], np.arange(ni))
+    whole = data.whole
     w_all, v_all, c_all = [], [], []  # per chain its lowest Ritz fixed-interface modes
     for k, idx in enumerate(blocks):
         P = data.basis(n_fixed)[k]  # (c, s, r)
@@ -232,8 +235,8 @@ def condensed(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = Tru
         w, v, C = w_all[0], v_all[0], c_all[0]
     else:
         w, v, C = np.concatenate(w_all, axis=1), np.concatenate(v_all, axis=2), np.concatenate(c_all, axis=1)
-    pick = np.argsort(w, axis=1)[:, :n_fixed]
-    if pick.shape[1] == w.shape[1] and (pick == np.arange(w.shape[1])).all():  # in order already (one chain)
+    if whole and w.shape[1] == n_fixed:  # one chain: LAPACK's eigenvalues come ascending
         return Mb, C, w, (X, v)
+    pick = np.argsort(w, axis=1)[:, :n_fixed]
     return (Mb, np.take_along_axis(C, pick[:, :, None], axis=1), np.take_along_axis(w, pick, axis=1),
             (X, np.take_along_axis(v, pick[:, None, :], axis=2)))

@@ -67,6 +67,17 @@ def near_configuration(red: ReducedMechanism, table: bool = True, step1=None):
     return eobs, K, Fh, p_hat, rz(theta), theta
 
 
+class _LookedUp:
+    """A group's tabulated EOBs as the compiled solve keeps them (``[recover, node positions,
+    node rotations]``, `flexmb.ksd.reduced_jit`): what the properties read of a tabulated `EOB`,
+    the Craig-Bampton recovery ``recover`` (Jg, n_i, nd + 1); no element-level fields."""
+
+    K_nodes = None
+
+    def __init__(self, recover):
+        self.recover = recover
+
+
 _NEAR = weakref.WeakKeyDictionary()
 def _database(solution, database):
     """``database``, or when None the folder the solve read (``solution.stages["setup"]``): the
@@ -91,9 +102,10 @@ def near(solution, database=None):
         step1 = stages.get("kinematics", {})
         step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
         step2 = stages.get("eob", {}).get("near")
-        if (step1 is not None and step2 is not None and database == _database(solution, None)
-                and all(hasattr(e, "recover") for e in step2[1])):  # EOB objects (the compiled step 2 keeps arrays)
+        if step1 is not None and step2 is not None and database == _database(solution, None):
             red, eobs, K, Fh = step2  # the solve's own set-up and step 2: 0.1 ms not spent again
+            # the compiled step 2 keeps a group's lookup as arrays [recover, positions, rotations]
+            eobs = [_LookedUp(e[0]) if isinstance(e, (list, tuple)) else e for e in eobs]
             per[database] = red, (eobs, K, Fh, step1[1], rz(step1[0]), step1[0])
         else:
             red = reduced_mechanism(solution.compiled, database)  # the solve's own set-up, shared
@@ -158,7 +170,7 @@ def reduced_tangent(solution, database=None):
     per = _NEAR[solution]
     if key not in per:  # built once per solution: `flexmb.modes` and `flexmb.compliance` share it
         _, Kr = red.equilibrium(link_poses(red, solution.state), K, Fh, p_hat, R_hat, tangent=True)
-        per[key] = Kr[np.ix_(red.emb_dofs, red.emb_dofs)]
+        per[key] = Kr.copy() if _static(red)["whole"] else Kr[np.ix_(red.emb_dofs, red.emb_dofs)]  # 3D: all
     return per[key].copy(), red
 
 
@@ -265,9 +277,11 @@ def reduced_modal_model(solution, n_fixed: int, database=None):
             eta = v[at[idx][:, None] + np.arange(ws.shape[1])]  # (Jg, m, k)
             q = (Xs @ qb + Phis @ eta).reshape(len(idx), -1, nd, k)  # interior DOFs in the joint frames
             Fg = F[idx]
-            g = np.empty_like(q)
-            g[:, :, :dim] = np.einsum("jab,jnbk->jnak", Fg[:, :dim, :dim], q[:, :, :dim])
-            g[:, :, dim:] = np.einsum("jab,jnbk->jnak", Fg, q[:, :, 3:]) if dim == 3 else q[:, :, 2:]
+            if dim == 3:  # both halves of each node's DOFs turned by the joint frame
+                g = Fg[:, None, None] @ q.reshape(len(idx), -1, 2, 3, k)
+            else:
+                g = q.copy()
+                g[:, :, :2] = Fg[:, None, :2, :2] @ q[:, :, :2]
             out[dofs.ravel()] = g.reshape(-1, k)
         return out
 

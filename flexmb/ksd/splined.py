@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
+from .. import jit
+
 __all__ = ["SplinedTable", "STEP_DEG", "FINEST_DEG", "DEGREE", "TOL"]
 
 STEP_DEG = 1.0  # first grid step [deg]
@@ -49,6 +51,9 @@ class SplinedTable:
                 break
             step /= 2
         self.step, self._spline = step, spline
+        # knots, coefficients (contiguous) and degree as the compiled evaluation reads them
+        # (BSpline's ``c`` is a property: 7 us per read)
+        self._tck = (spline.t, np.ascontiguousarray(spline.c), int(spline.k))
         self._shapes = {name: v.shape[1:] for name, v in parts.items()}
 
     @staticmethod
@@ -66,7 +71,16 @@ class SplinedTable:
         return bool(np.all((theta >= self.range[0]) & (theta <= self.range[1])))
 
     def __call__(self, theta: np.ndarray) -> dict:
-        flat, out, at = self._spline(np.asarray(theta, dtype=float)), {}, 0
+        theta = np.asarray(theta, dtype=float)
+        if jit.enabled() and theta.ndim == 1:  # compiled, row by row (flexmb.ksd.properties_jit)
+            from . import properties_jit
+
+            t, c, k = self._tck
+            flat = np.empty((len(theta), c.shape[1]))
+            properties_jit.bspline_rows(t, c, k, theta, flat)
+        else:
+            flat = self._spline(theta)
+        out, at = {}, 0
         for name, shape in self._shapes.items():
             size = int(np.prod(shape))
             out[name] = flat[:, at:at + size].reshape((len(flat),) + shape)

@@ -102,3 +102,25 @@ def test_a_database_folder_that_does_not_exist_is_refused(tmp_path):
         with pytest.raises(flexmb.ParameterError, match=r"database=.*my_databse.* is not a folder"):
             flexmb.solve(m, method=method, database=missing)
     assert flexmb.solve(m, method="ksd-reduced", database=tmp_path).converged  # an empty folder: searched, passed
+
+
+@pytest.mark.parametrize("path", ["numpy", "numba"])
+def test_a_failed_solve_says_why_a_tolerance_below_roundoff(kernels, path):
+    # the manipulator's location case at 40 deg (Dwarshuis et al. 2020 Sec. 4.4; not a figure's
+    # value) converges with the defaults. A kinematic_tol below the constraints' roundoff
+    # (~1e-15, lengths over D0 and rad) stopped step 1 with "the database constraints cannot
+    # reach it"; a tol below step 3's roundoff (~5e-12 N) with "a singular or diverging reduced
+    # tangent". Each message must name the residual reached and the tolerance instead
+    kernels(path)
+    m = flexmb.models.manipulator("location", np.radians(40.0))
+    assert flexmb.solve(m, method="ksd-reduced").converged
+    with pytest.warns(flexmb.ConvergenceWarning):
+        sol = flexmb.solve(m, method="ksd-reduced", kinematic_tol=1e-17)
+    assert not sol.converged and "roundoff, above kinematic_tol 1e-17" in sol.message
+    assert "cannot reach" not in sol.message
+    with pytest.warns(flexmb.ConvergenceWarning):
+        sol = flexmb.solve(m, method="ksd-reduced", tol=1e-14)
+    assert not sol.converged and "in max_iter=20 iterations" in sol.message and "tol 1e-14" in sol.message
+    assert "singular or diverging" not in sol.message
+    history = sol.stages["reduced"]["history"]
+    assert len(history) == 20 and max(history[4:]) < 1e-9  # stalled at roundoff after the fourth

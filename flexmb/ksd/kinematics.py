@@ -243,9 +243,7 @@ def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotati
             break
         room = iterations
     if status:
-        raise ConvergenceError(
-            f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
-            f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
+        raise _not_converged(lam, res, tol)
     out_theta, out_p = np.empty(J), np.empty((J, 3))
     out_theta[order], out_p[order] = theta, p
     return LinkPoses(x, R, angle), out_theta, out_p, c, iterations, res, lam, history[:iterations].tolist()
@@ -316,10 +314,19 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
         else:
             dlam *= 0.5
             if dlam < 1e-4:
-                raise ConvergenceError(
-                    f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
-                    f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
+                raise _not_converged(lam, res, tol)
     return poses, theta, p, _info(red, c, iterations, res, lam, hinge_path, history)
+
+
+def _not_converged(lam: float, res: float, tol: float) -> ConvergenceError:
+    """Step 1's failure, with the last constraint residual against ``tol``: a residual that
+    stalls at roundoff (~1e-16..1e-13, lengths over D0 and rad) above a smaller ``tol`` is not the
+    database failing to reach the motion (``kinematic_tol=1e-17`` on the manipulator read as if)."""
+    reason = (f"the constraint residual stalls at {res:.3g}, roundoff, above kinematic_tol {tol:.3g}: use a "
+              "larger kinematic_tol (default 1e-10)" if np.isfinite(res) and res < 1e-12 else
+              f"last constraint residual {res:.3g}, kinematic_tol {tol:.3g}: the database constraints cannot reach it")
+    return ConvergenceError(f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond {lam:.4g} "
+                            f"of the prescribed motion ({reason})", None)
 
 
 def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam: float, hinge_path, history) -> dict:

@@ -249,6 +249,10 @@ class _KSD:
                    if ok3 else f"KSD-reduced: step 3 did not converge (residual {last:.3g} after {len(hist3)} "
                                "iterations; a singular or diverging reduced tangent: the unintended deformation may "
                                "be too large for the linearised joints, use method='ksd-full' or 'conventional')")
+            if not ok3 and len(hist3) >= self.max_iter and np.all(np.isfinite(hist3)):  # ran out, not diverged
+                msg = (f"KSD-reduced: step 3 did not converge in max_iter={self.max_iter} iterations (residual "
+                       f"{last:.3g}, smallest {min(hist3):.3g}, tol {self.tol:.3g}): raise max_iter, or tol if the "
+                       "residual stalls at the roundoff of the joints' forces")
             sol = Solution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
                            residual_history=np.array(hist3), load_factor=1.0, steps=1, rejected_steps=0,
                            wall_time=times, message=msg, state=state, residual=red.reaction_vector(r3),

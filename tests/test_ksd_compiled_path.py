@@ -124,3 +124,55 @@ def test_a_failed_solve_says_why_a_tolerance_below_roundoff(kernels, path):
     assert "singular or diverging" not in sol.message
     history = sol.stages["reduced"]["history"]
     assert len(history) == 20 and max(history[4:]) < 1e-9  # stalled at roundoff after the fourth
+
+
+def _arrays(sol):
+    """Every array a KSD-reduced Solution hands out, stages included (step 2's kept lookup)."""
+    _, eobs, K, Fh = sol.stages["eob"]["near"]
+    kin = sol.stages["kinematics"]
+    return [sol.state.positions, sol.state.rotations, sol.residual, sol.residual_history, kin["theta"], kin["p_hat"],
+            K, Fh] + [a for group in eobs for a in group]
+
+
+def test_consecutive_compiled_solves_share_no_arrays(kernels):
+    # the compiled path keeps its set-up (frames, kernels' inputs, the table's spline) with the
+    # compiled mechanism; what a solve returns must be its own: the manipulator's location case
+    # (Sec. 4.4) at -40 deg solved twice, the first solution's arrays overwritten, a third solve
+    # equal to the second to the last bit
+    kernels("numba")
+    m = flexmb.models.manipulator("location", np.radians(-40.0))
+    first, second = (flexmb.solve(m, method="ksd-reduced") for _ in range(2))
+    for a, b in zip(_arrays(first), _arrays(second)):
+        assert not np.shares_memory(a, b)
+    for a in _arrays(first):
+        if a.flags.writeable:  # the residual and its history are read-only
+            a[...] = 0.0
+    third = flexmb.solve(m, method="ksd-reduced")
+    for a, b in zip(_arrays(second), _arrays(third)):
+        assert np.array_equal(a, b)
+
+
+def test_threads_solving_on_the_compiled_path_agree_with_serial_solves(kernels):
+    # four threads, two on one mechanism object, solving the manipulator (both cases, Sec. 4.4)
+    # and a planar four-bar (Sec. 4.3) on the compiled path: every solve equals the serial one
+    # to the last bit
+    import threading
+
+    kernels("numba")
+    mechanisms = [flexmb.models.manipulator("joint", np.radians(30.0)), flexmb.models.manipulator("location", -0.6),
+                  flexmb.models.fourbar(2, displacement=0.1, moment=0.5, dim=2)]
+    reference = [flexmb.solve(m, method="ksd-reduced").node_positions() for m in mechanisms]
+    wrong = []
+
+    def run(k):
+        for _ in range(15):
+            sol = flexmb.solve(mechanisms[k], method="ksd-reduced")
+            if not (sol.converged and np.array_equal(sol.node_positions(), reference[k])):
+                wrong.append(k)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in (0, 1, 2, 0)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert wrong == []

@@ -23,10 +23,11 @@ from scipy.interpolate import make_interp_spline
 
 from ..database.eob_format import NAMES, EOBTable
 from ..database.eob_format import plain_parameters
+from ..errors import DatabaseError
 from .eob import EOB
 from .geometry import ACTIVE
 
-__all__ = ["tabulate", "Lookup", "lookup_for", "STEP_DEG", "FINEST_DEG", "DEGREE", "TOL"]
+__all__ = ["tabulate", "Lookup", "lookup_for", "layout", "STEP_DEG", "FINEST_DEG", "DEGREE", "TOL"]
 
 STEP_DEG = 1.0  # first grid step [deg]
 FINEST_DEG = 0.125  # finest grid step [deg]
@@ -97,7 +98,22 @@ def lookup_for(tpl, joint):
     if table is None or _stiffness_parameters(table.parameters) != _stiffness_parameters(
             plain_parameters(joint.describe())):
         return None
+    expected = layout(tpl)
+    if tuple(table.layout) != expected:  # both paths would read it by the mesh's sizes: refuse
+        bad = [f"{n} {(r, c)} (the mesh's {(er, ec)})" for (n, r, c), (_, er, ec) in zip(table.layout, expected)
+               if (r, c) != (er, ec)]
+        raise DatabaseError(f"the EOB table {table.source or ''} does not fit the joint's mesh ({tpl.n_nodes} nodes, "
+                            f"{tpl.nd} DOFs a node): {', '.join(bad)}; re-create it with `flexmb train --eob-table`")
     return Lookup(tpl, table)
+
+
+def layout(tpl) -> tuple:
+    """The (name, rows, cols) of each tabulated quantity (`NAMES`) for ``tpl``'s mesh, as `_sample`
+    gives them: K_T (nd, nd), F0 (nd, 1), G (nd, dim), RK (n_i nd, nd), r0 (n_i nd, 1), rG
+    (n_i nd, dim), P0 (n_i, dim), n_i = the internal nodes."""
+    nd, dim, ni = tpl.nd, tpl.dim, tpl.n_nodes - 2
+    sizes = ((nd, nd), (nd, 1), (nd, dim), (ni * nd, nd), (ni * nd, 1), (ni * nd, dim), (ni, dim))
+    return tuple((n, r, c) for n, (r, c) in zip(NAMES, sizes))
 
 
 #: joint parameters that do not enter the EOB condensation (mass, strength)

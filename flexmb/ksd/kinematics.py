@@ -217,31 +217,36 @@ def compiled_constraints(red: ReducedMechanism, poses: LinkPoses):
 
 def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool):
     """`solve_kinematics` through `flexmb.ksd.reduced_jit.kinematics` (no hinges): the same steps in
-    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21). Its info's
-    ``history`` holds the first 64 ``max_iter`` iterations' residuals (``iterations`` counts all)."""
+    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21). The kernel keeps
+    the residuals of the first 64 ``max_iter`` iterations (the manipulator needs ~5); beyond that
+    (a motion of many turns: the 2D pivot turned 300 rad with max_iter=2, 191 iterations) it runs
+    again with room for all, so info's ``history`` holds every iteration, as the numpy loop's."""
     from .reduced_jit import kinematics
 
     rest, jac0, rows, path_theta, largest = kinematic_start(red)
     k = _compiled_arrays(red)
     order = k["order"]
     J = len(order)
-    x, R, angle = rest.x.copy(), rest.R.copy(), rest.angle.copy()
-    c = np.empty(red.n_equations)
-    theta, p = np.empty(J), np.empty((J, 3))
-    history = np.empty(64 * max_iter)
     (lt, ct, vt), (lr, W) = red._moves
-    status, iterations, res, lam = kinematics(
-        x, R, angle, jac0.copy(), path_theta[order], float(largest), STEP_ROTATION, rows, red.free, red.prescribed,
-        red.values, red.lam_rate, red.X0, lt, ct, vt, lr, W, k["a"], k["b"], k["s_a"], k["s_b"], k["P"],
-        k["code"], k["inv"], k["rest"], k["nm"], k["fun"], k["fpow"], k["fcoef"], k["cols"], tol, max_iter, max_rotation,
-        stop_beyond_half_turn, c, theta, p, history)
+    room = 64 * max_iter
+    while True:  # deterministic: a second run repeats the first, with a longer history
+        x, R, angle = rest.x.copy(), rest.R.copy(), rest.angle.copy()
+        c = np.empty(red.n_equations)
+        theta, p = np.empty(J), np.empty((J, 3))
+        history = np.empty(room)
+        status, iterations, res, lam = kinematics(
+            x, R, angle, jac0.copy(), path_theta[order], float(largest), STEP_ROTATION, rows, red.free, red.prescribed,
+            red.values, red.lam_rate, red.X0, lt, ct, vt, lr, W, k["a"], k["b"], k["s_a"], k["s_b"], k["P"],
+            k["code"], k["inv"], k["rest"], k["nm"], k["fun"], k["fpow"], k["fcoef"], k["cols"], tol, max_iter,
+            max_rotation, stop_beyond_half_turn, c, theta, p, history)
+        if iterations <= room:
+            break
+        room = iterations
     if status:
-        raise ConvergenceError(
-            f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
-            f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
+        raise _not_converged(lam, res, tol)
     out_theta, out_p = np.empty(J), np.empty((J, 3))
     out_theta[order], out_p[order] = theta, p
-    return LinkPoses(x, R, angle), out_theta, out_p, c, iterations, res, lam, history[:min(iterations, len(history))].tolist()
+    return LinkPoses(x, R, angle), out_theta, out_p, c, iterations, res, lam, history[:iterations].tolist()
 
 
 def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5,
@@ -309,10 +314,19 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
         else:
             dlam *= 0.5
             if dlam < 1e-4:
-                raise ConvergenceError(
-                    f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond "
-                    f"{lam:.4g} of the prescribed motion (the database constraints cannot reach it)", None)
+                raise _not_converged(lam, res, tol)
     return poses, theta, p, _info(red, c, iterations, res, lam, hinge_path, history)
+
+
+def _not_converged(lam: float, res: float, tol: float) -> ConvergenceError:
+    """Step 1's failure, with the last constraint residual against ``tol``: a residual that
+    stalls at roundoff (~1e-16..1e-13, lengths over D0 and rad) above a smaller ``tol`` is not the
+    database failing to reach the motion (``kinematic_tol=1e-17`` on the manipulator read as if)."""
+    reason = (f"the constraint residual stalls at {res:.3g}, roundoff, above kinematic_tol {tol:.3g}: use a "
+              "larger kinematic_tol (default 1e-10)" if np.isfinite(res) and res < 1e-12 else
+              f"last constraint residual {res:.3g}, kinematic_tol {tol:.3g}: the database constraints cannot reach it")
+    return ConvergenceError(f"KSD step 1: the kinematics of the reduced mechanism did not converge beyond {lam:.4g} "
+                            f"of the prescribed motion ({reason})", None)
 
 
 def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam: float, hinge_path, history) -> dict:

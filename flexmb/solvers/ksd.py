@@ -44,6 +44,10 @@ def _folder_or_none(instance, attribute, value):
     if value is not None and not isinstance(value, (str, os.PathLike)):
         raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} must be a folder path or None "
                              "(the shipped data)")
+    if value is not None and not os.path.isdir(value):  # searched first, then the user's and the shipped data:
+        raise ParameterError(f"{type(instance).name}: {attribute.name}={os.fspath(value)!r} is not a folder (no "
+                             "such directory); a misspelt folder would be passed over for the user folder and the "
+                             "shipped data without a word. Give the folder `flexmb train --out` wrote, or None")
 
 
 def _requested(red: ReducedMechanism) -> str:
@@ -65,7 +69,8 @@ def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool, reached
             if not lo - 1e-9 <= theta[j] <= hi + 1e-9:  # 1e-9 rad: the kinematic solve's roundoff
                 trained = f"outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg"
                 head = f"joint {red.joint_names[j]!r} ({tpl.data.kind}): the requested motion ({_requested(red)}) turns it"
-                msg = (f"{head} to {np.degrees(theta[j]):.2f} deg, {trained}" if reached >= 1.0 - 1e-14 else
+                beyond = max(lo - theta[j], theta[j] - hi)  # [rad]: at 2 decimals 45 + 1e-6 rad reads 45.00 deg
+                msg = (f"{head} to {np.degrees(theta[j]):.2f} deg, {beyond:.2g} rad {trained}" if reached >= 1.0 - 1e-14 else
                        f"{head} {trained}: step 1 stopped at {np.degrees(theta[j]):.2f} deg, {100 * reached:.3g} % of "
                        "the way")
                 if strict:
@@ -244,6 +249,10 @@ class _KSD:
                    if ok3 else f"KSD-reduced: step 3 did not converge (residual {last:.3g} after {len(hist3)} "
                                "iterations; a singular or diverging reduced tangent: the unintended deformation may "
                                "be too large for the linearised joints, use method='ksd-full' or 'conventional')")
+            if not ok3 and len(hist3) >= self.max_iter and np.all(np.isfinite(hist3)):  # ran out, not diverged
+                msg = (f"KSD-reduced: step 3 did not converge in max_iter={self.max_iter} iterations (residual "
+                       f"{last:.3g}, smallest {min(hist3):.3g}, tol {self.tol:.3g}): raise max_iter, or tol if the "
+                       "residual stalls at the roundoff of the joints' forces")
             sol = Solution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
                            residual_history=np.array(hist3), load_factor=1.0, steps=1, rejected_steps=0,
                            wall_time=times, message=msg, state=state, residual=red.reaction_vector(r3),

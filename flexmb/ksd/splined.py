@@ -55,6 +55,11 @@ class SplinedTable:
         # (BSpline's ``c`` is a property: 7 us per read)
         self._tck = (spline.t, np.ascontiguousarray(spline.c), int(spline.k))
         self._shapes = {name: v.shape[1:] for name, v in parts.items()}
+        self._slices, at = [], 0  # each array's columns among the spline's (np.prod per call: 20 us)
+        for name, shape in self._shapes.items():
+            size = int(np.prod(shape))
+            self._slices.append((name, shape, at, at + size))
+            at += size
 
     @staticmethod
     def _at(parts, name):
@@ -68,7 +73,7 @@ class SplinedTable:
 
     def covers(self, theta: np.ndarray) -> bool:
         """Whether every ``theta`` [rad] lies on the table's range."""
-        return bool(np.all((theta >= self.range[0]) & (theta <= self.range[1])))
+        return bool(theta.min(initial=np.inf) >= self.range[0] and theta.max(initial=-np.inf) <= self.range[1])
 
     def __call__(self, theta: np.ndarray) -> dict:
         theta = np.asarray(theta, dtype=float)
@@ -80,9 +85,5 @@ class SplinedTable:
             properties_jit.bspline_rows(t, c, k, theta, flat)
         else:
             flat = self._spline(theta)
-        out, at = {}, 0
-        for name, shape in self._shapes.items():
-            size = int(np.prod(shape))
-            out[name] = flat[:, at:at + size].reshape((len(flat),) + shape)
-            at += size
-        return out
+        J = len(flat)
+        return {name: flat[:, a:b].reshape((J,) + shape) for name, shape, a, b in self._slices}

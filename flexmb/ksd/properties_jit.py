@@ -11,7 +11,7 @@ import numpy as np
 
 from ..jit import njit
 
-__all__ = ["interface_maps", "assemble_mass"]
+__all__ = ["interface_maps", "joint_maps", "assemble_mass"]
 
 
 @njit
@@ -43,6 +43,24 @@ def interface_maps(F, arm, a, b, emb, pos6, G, pos):
                     G[j, nd * side + i, 6 * side + c] = T[emb[i], c] if p >= 0 else 0.0
                 for i in range(nd):
                     G[j, nd * (1 - side) + i, 6 * side + c] = 0.0
+
+
+@njit
+def joint_maps(R, a, b, s_a, s_b, P, emb, pos6, F, G, pos):
+    """`interface_maps` from the links' rotations ``R`` (n_links, 3, 3) directly: the joint
+    frames' axes ``F = R_a P`` (filled, (J, 3, 3)) and the arms of node A from link a (``R_a
+    s_a``) and of node B from link b (``R_b s_b``), as `flexmb.ksd.geometry.JointFrames.frame_a`
+    and ``relative`` give them (their three numpy calls and the stacking: ~20 us of the
+    manipulator's modes)."""
+    arm = np.empty((F.shape[0], 2, 3))
+    for j in range(F.shape[0]):
+        ia, ib = a[j], b[j]
+        for i in range(3):
+            arm[j, 0, i] = R[ia, i, 0] * s_a[j, 0] + R[ia, i, 1] * s_a[j, 1] + R[ia, i, 2] * s_a[j, 2]
+            arm[j, 1, i] = R[ib, i, 0] * s_b[j, 0] + R[ib, i, 1] * s_b[j, 1] + R[ib, i, 2] * s_b[j, 2]
+            for k in range(3):
+                F[j, i, k] = R[ia, i, 0] * P[j, 0, k] + R[ia, i, 1] * P[j, 1, k] + R[ia, i, 2] * P[j, 2, k]
+    interface_maps(F, arm, a, b, emb, pos6, G, pos)
 
 
 @njit

@@ -538,7 +538,8 @@ def _check_joint(data: JointData, joint, dim: int, path: Path) -> None:
     b0 = np.asarray(joint.interface_b(dim), dtype=float)
     D0 = float(np.linalg.norm(b0))
     if abs(data.length - D0) > 1e-9 * D0:
-        raise DatabaseError(f"joint database {path} states D0 = {data.length!r} m, the joint's is {D0!r} m")
+        raise DatabaseError(f"joint database {path} states D0 = {data.length!r}, the joint's is {D0!r} (the distance "
+                            "A to B in the model's length unit)")
     for k, name in enumerate(("x/D0", "y/D0", "z/D0")[:dim]):
         f = data.functions[name]
         if abs(float(f(0.0)) - b0[k] / D0) > f.max_residual + 1e-9:

@@ -239,8 +239,10 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     +-45 deg within 0.55 % (median 0.13 %), the four-bar's 0.46 % at d = 0.1 m (6.8 % at 0.3 m).
     The joints' kept span of fixed-interface modes is tabulated (`flexmb.ksd.joint_mass.
     condensed_subspace`: no eigenproblem per configuration, ties at the cut kept whole): modes
-    0.51 ms per configuration of the manipulator (mean over the 19 positions of the fastest of 7,
-    loaded host), 1.12 ms with the joints' Ritz eigenproblems solved per configuration.
+    0.42 ms per configuration of the manipulator (mean over the 19 positions of the fastest of 7,
+    loaded host; 0.61-0.64 ms interleaved with the conventional solve and properties, whose
+    runs evict the tables from cache), against 1.12 (1.34-1.41) ms with the joints' Ritz
+    eigenproblems solved per configuration; solve + modes 18-19x faster than the full model's.
 
     Dense LAPACK below `DENSE_BELOW` free DOFs (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
     tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises `ConvergenceError` for an unconverged

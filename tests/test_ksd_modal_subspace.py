@@ -3,6 +3,7 @@
 solved per configuration, and a kept span that does not depend on roundoff (the tie rule)."""
 
 import functools
+import weakref
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ import pytest
 import flexmb
 import flexmb.modal as modal
 from flexmb.ksd import properties
+from flexmb.ksd import joint_mass as jm
 from flexmb.ksd.joint_mass import joint_mass
 from flexmb.models import fourbar, manipulator
 
@@ -87,3 +89,45 @@ def test_modes_of_a_turned_pivot_with_a_massive_stage(deg):
     np.testing.assert_allclose(_frequencies(red, 3, True), _frequencies(red, 3, False), rtol=1e-7)
     for u, v in zip(a.shapes.reshape(3, -1), b.shapes.reshape(3, -1)):
         assert min(np.abs(u - v).max(), np.abs(u + v).max()) <= 0.02 * np.abs(u).max()
+
+
+def test_a_crossing_at_the_cut_is_detected_from_the_samples():
+    """A chain whose kept mode (one of a 2D Ritz space) swaps between two samples, as a true
+    eigenvalue crossing at the cut makes it (constructed: the kept vector e1 below 0 deg, e2
+    above, the two eigenvalues meeting there): the neighbouring spans' overlap is 0 and the
+    gap 1 at the crossing, so `span_check` refuses the table; a smoothly turning span (1 deg
+    per sample) passes with overlap cos(1 deg)."""
+    theta = np.radians(np.linspace(-2.0, 2.0, 9))
+    lam1, lam2 = 1.0 + theta, 1.0 - theta  # cross at 0: the lower one is kept
+    gap = np.maximum(lam1, lam2) / np.minimum(lam1, lam2)
+    kept = np.where((lam1 <= lam2)[:, None, None], [[1.0], [0.0]], [[0.0], [1.0]])
+    sv = np.abs(kept[:, 0])  # against the middle sample's e1 (theta = 0 keeps e1)
+    margins = jm.span_margins([(theta, [(gap, sv, kept)])], theta[1] - theta[0])
+    assert margins["neighbour"][0] == pytest.approx(0.0, abs=1e-12)
+    assert margins["gap"][0] == pytest.approx(1.0)
+    assert "neighbouring samples' span overlap 0 < 0.9" in jm.span_check(margins)
+    turning = np.stack([np.cos(theta), np.sin(theta)], axis=1)[:, :, None]
+    smooth = jm.span_margins([(theta, [(np.full(9, 2.0), np.cos(theta)[:, None], turning)])], theta[1] - theta[0])
+    assert smooth["neighbour"][0] == pytest.approx(np.cos(theta[1] - theta[0]))
+    assert jm.span_check(smooth) == ""
+
+
+def test_a_refused_table_falls_back_to_the_per_configuration_eigensolve(monkeypatch):
+    """With the neighbour threshold raised above the manipulator's measured overlap (0.982, at
+    its avoided crossing at 0 deg) its joint's table is refused, the reason recorded, and
+    `condensed_subspace` gives exactly the Ritz eigenproblems solved per configuration."""
+    sol = flexmb.solve(manipulator("joint", np.radians(10.0)), method="ksd-reduced", raise_on_failure=True)
+    red, _ = properties.near(sol)
+    tpl, _, idx = red.groups[0]
+    joint = {k: j for k, j, *_ in sol.compiled.joints}[red.joint_names[idx[0]]]
+    monkeypatch.setattr(jm, "_JOINT_MASS", weakref.WeakKeyDictionary())
+    monkeypatch.setattr(jm, "NEIGHBOUR_MIN", 0.99)
+    theta = np.radians([-30.0, 0.3, 12.0])
+    got = jm.condensed_subspace(tpl, joint, theta, 6)
+    data = jm.joint_mass(tpl, joint)
+    assert data.table(6) is None
+    assert "neighbouring samples' span overlap 0.98" in data.refused[6]
+    assert 0.98 < data.margins[6]["neighbour"][0] < 0.99
+    want = jm.condensed_subspace(tpl, joint, theta, 6, table=False)
+    for a, b in zip(got[:3] + got[3], want[:3] + want[3]):
+        np.testing.assert_array_equal(a, b)

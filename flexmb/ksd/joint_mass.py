@@ -29,7 +29,10 @@ crossing in a cluster of the leaves' modes 3-9): the span turns quickly there, a
 takes the finest grid (0.125 deg; interior shapes 5e-7, coupling 9e-8, stiffness 2e-10 of their
 largest entries), sampled from the smooth Ritz projections' table (`_JointMass.ritz_table`,
 1 deg): the first ``modes`` of the manipulator, tables built, 0.72 s against 0.21 s. The 2D cross
-flexure's (three chains, +-75 deg): >= 1.107, 0.5 deg grid.
+flexure's (three chains, +-75 deg): >= 1.099, 0.5 deg grid. A template whose kept span is not
+smooth over the range (a crossing at the cut: `span_check`, thresholds `GAP_MIN`, `ALIGN_MIN`,
+`NEIGHBOUR_MIN` with the measured margins) gets no table: its Ritz eigenproblems are solved per
+configuration, the reason kept in `_JointMass.refused`.
 """
 
 from __future__ import annotations
@@ -45,7 +48,8 @@ from ..fe.model import State
 from .eob import lever
 from .splined import SplinedTable
 
-__all__ = ["condensed", "condensed_subspace", "joint_mass", "RITZ_SAMPLES", "TIE"]
+__all__ = ["condensed", "condensed_subspace", "joint_mass", "span_check", "span_margins", "RITZ_SAMPLES", "TIE",
+           "GAP_MIN", "ALIGN_MIN", "NEIGHBOUR_MIN"]
 
 #: Intended rotations at which a joint's fixed-interface modes are sampled for its Ritz basis,
 #: evenly over the trained range. Measured on three_x_infinity (3D, 3 el./leaf, one interior
@@ -96,6 +100,7 @@ class _JointMass:
         dofs = tpl.element_dofs
         self._kidx = (dofs[:, :, None] * n + dofs[:, None, :]).ravel()
         self._basis, self._tables, self._cut, self._ref = {}, {}, {}, {}
+        self.margins, self.refused = {}, {}  # per n_fixed: `span_margins`, `span_check`'s reason
 
     def nodes(self, eob) -> np.ndarray:
         """The joints' mass (J, n, n) on the EOB's node DOFs at its near configuration (``eob``
@@ -198,7 +203,7 @@ class _JointMass:
             self._cut[n_fixed] = counts
         return self._cut[n_fixed]
 
-    def modal_parts(self, parts: dict, n_fixed: int, align: bool) -> dict:
+    def modal_parts(self, parts: dict, n_fixed: int, align: bool, checks: list | None = None) -> dict:
         """From `project`'s arrays (J joints) the interior modal coordinates `cut` keeps, chain
         by chain in block order: their stiffness ``Kq`` (J, m, m), coupling ``C = Q^T M_i T``
         (J, m, b) and interior shapes ``Phi`` (J, n_i, m), mass-normalised (``Q^T M_ii Q = I``).
@@ -206,7 +211,10 @@ class _JointMass:
         ``align=True``: the basis of their span nearest (orthogonal Procrustes in the mass inner
         product) to the one at the range's middle rotation, ``Q = Pi Q_0 (Q_0^T M Pi Q_0)^-1/2``
         with ``Pi`` the projector on the kept span: it depends on the rotation only through the
-        span, so it is smooth where the span is (the gap above the cut open) and can be splined."""
+        span, so it is smooth where the span is (the gap above the cut open) and can be splined.
+        ``checks`` (a list, with ``align``): appended per chain ``(gap, sv, a)``: the ratio
+        ``omega^2_{k+1} / omega^2_k`` above the chain's cut (J,), the alignment's singular values
+        (J, k) and the kept span's Ritz coefficients (J, r, k) (`table`'s crossing check)."""
         counts = self.cut(n_fixed)
         m = int(sum(c.sum() for c in counts))
         X = parts["X"]
@@ -219,15 +227,23 @@ class _JointMass:
                 kc = int(counts[k][i])
                 if not kc:
                     continue
-                w, V = _lowest(parts[f"S{k}"][:, i], kc)
+                r = parts[f"S{k}"].shape[-1]
+                if checks is not None and kc < r:  # one eigenvalue above the cut: the gap
+                    w, V = _lowest(parts[f"S{k}"][:, i], kc + 1)
+                    gap, w, V = w[:, kc] / w[:, kc - 1], w[:, :kc], V[:, :, :kc]
+                else:
+                    w, V = _lowest(parts[f"S{k}"][:, i], kc)
+                    gap = np.full(len(w), np.inf)
                 Lt = parts[f"L{k}"][:, i]  # L^-T: Ritz coefficients a = L^-T V
                 a = Lt @ V
                 if align:
                     ref = self.reference(n_fixed)[(k, i)]
                     A = np.swapaxes(V, 1, 2) @ np.linalg.solve(Lt, np.broadcast_to(ref, (J,) + ref.shape))
-                    U, _, Wt = np.linalg.svd(A)
+                    U, sv, Wt = np.linalg.svd(A)
                     R = U @ Wt
                     a = a @ R
+                    if checks is not None:
+                        checks.append((gap, sv, a))
                     Kq[:, at:at + kc, at:at + kc] = np.swapaxes(R, 1, 2) @ (w[:, :, None] * R)
                 else:
                     Kq[:, range(at, at + kc), range(at, at + kc)] = w
@@ -262,23 +278,84 @@ class _JointMass:
                 *tpl.data.range)
         return self._tables[key]
 
-    def table(self, n_fixed: int) -> SplinedTable:
+    def table(self, n_fixed: int) -> SplinedTable | None:
         """Over the trained range (`flexmb.ksd.splined.SplinedTable`): ``Mb``, ``X`` and, with
         kept modes, `modal_parts` aligned (``Kq``, ``C``, ``Phi``): no eigenproblem per
         configuration. Sampled from `ritz_table` (where the kept span turns quickly the grid
         is fine: assembling the joint at each of its points took three_x_infinity's build 3.6 s,
-        against 0.5 s)."""
+        against 0.5 s). None where `span_check` refuses it (the reason in ``refused``)."""
         if n_fixed not in self._tables:
             ritz = self.ritz_table(n_fixed)
             if not sum(c.sum() for c in self.cut(n_fixed)):
                 self._tables[n_fixed] = ritz
             else:
-                def sample(theta):
-                    parts = ritz(theta)
-                    return {"Mb": parts["Mb"], "X": parts["X"], **self.modal_parts(parts, n_fixed, align=True)}
+                seen = []  # (theta, per chain (gap, sv, a)) of every sample
 
-                self._tables[n_fixed] = SplinedTable(sample, *self.tpl.data.range)
+                def sample(theta):
+                    parts, checks = ritz(theta), []
+                    out = {"Mb": parts["Mb"], "X": parts["X"], **self.modal_parts(parts, n_fixed, True, checks)}
+                    seen.append((theta, checks))
+                    return out
+
+                table = SplinedTable(sample, *self.tpl.data.range)
+                self.margins[n_fixed] = margins = span_margins(seen, np.radians(table.step))
+                reason = span_check(margins)
+                if reason:
+                    self.refused[n_fixed] = reason
+                self._tables[n_fixed] = None if reason else table
         return self._tables[n_fixed]
+
+
+#: `span_check`'s thresholds. The kept span of a chain's fixed-interface modes is splined only
+#: where it is a smooth function of the rotation: a true eigenvalue crossing at the cut anywhere
+#: in the trained range swaps a mode in and out between two samples, and the spline would
+#: interpolate across the jump (a silently wrong mass model). On the table's finest grid, per
+#: chain and sample: the gap above the cut ``omega^2_{k+1} / omega^2_k`` >= `GAP_MIN`, the
+#: alignment's smallest singular value (the kept span against the range's middle one) >=
+#: `ALIGN_MIN`, and the span's overlap with its neighbour's (the cosine of their largest
+#: principal angle, Euclidean, in the fixed Ritz basis) >= `NEIGHBOUR_MIN`. Measured margins
+#: (gap / alignment / neighbour overlap): the manipulator's three_x_infinity (+-45 deg, 0.125 deg
+#: grid) 1.00086 (at 0 deg, an avoided crossing: its spline reproduces the shapes to 5e-7) / 0.58
+#: (at -45 deg) / 0.982 (at 0 deg, 11 deg of turn per step); the four-bar's 2D cross flexure
+#: (+-75 deg, 0.5 deg grid) 1.099 / 0.17 / 0.997. A crossing between two samples gives an overlap
+#: near 0 (a whole mode swapped) whatever the gap at the samples; an avoided one sharper than the
+#: finest grid resolves (26 deg of turn per step) is refused as well.
+GAP_MIN = 1.0 + 1e-4
+ALIGN_MIN = 0.05
+NEIGHBOUR_MIN = 0.9
+
+
+def span_margins(seen: list, step: float) -> dict:
+    """From `_JointMass.table`'s samples ``[(theta, [(gap, sv, a) per chain])]`` those on the
+    finest grid (spacing ``step`` [rad]): the smallest gap above the cut, alignment singular
+    value and neighbouring samples' span overlap, over chains and samples, with the rotation
+    [rad] of each."""
+    out = {"gap": (np.inf, None), "align": (np.inf, None), "neighbour": (np.inf, None)}
+    for theta, checks in seen:
+        if len(theta) < 2 or not np.isclose(theta[1] - theta[0], step, rtol=1e-6):
+            continue
+        for gap, sv, a in checks:
+            for key, v in (("gap", gap), ("align", sv.min(axis=-1))):
+                i = int(np.argmin(v))
+                if v[i] < out[key][0]:
+                    out[key] = (float(v[i]), float(theta[i]))
+            Q = np.linalg.qr(a)[0]
+            cos = np.linalg.svd(np.swapaxes(Q[:-1], 1, 2) @ Q[1:], compute_uv=False).min(axis=-1)
+            i = int(np.argmin(cos))
+            if cos[i] < out["neighbour"][0]:
+                out["neighbour"] = (float(cos[i]), float(0.5 * (theta[i] + theta[i + 1])))
+    return out
+
+
+def span_check(margins: dict) -> str:
+    """Why the kept span may not be splined (`span_margins` below a threshold), or ''."""
+    limits = {"gap": (GAP_MIN, "gap above the cut omega^2_k+1/omega^2_k"),
+              "align": (ALIGN_MIN, "alignment's smallest singular value"),
+              "neighbour": (NEIGHBOUR_MIN, "neighbouring samples' span overlap")}
+    out = [f"{what} {margins[key][0]:.6g} < {lim:g} at {np.degrees(margins[key][1]):.3f} deg"
+           for key, (lim, what) in limits.items() if margins[key][0] < lim]
+    return ("fixed-interface span not tabulated (an eigenvalue crossing at the cut?): " + "; ".join(out)
+            + "; the Ritz eigenproblems are solved per configuration") if out else ""
 
 
 _JOINT_MASS = weakref.WeakKeyDictionary()
@@ -333,8 +410,9 @@ def condensed_subspace(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: b
     data = joint_mass(tpl, joint)
     theta = np.asarray(theta, dtype=float)
     J = len(theta)
-    if table and data.table(n_fixed).covers(theta):
-        parts = data.table(n_fixed)(theta)
+    tab = data.table(n_fixed) if table else None
+    if tab is not None and tab.covers(theta):
+        parts = tab(theta)
         if "Kq" in parts:
             return parts["Mb"], parts["C"], parts["Kq"], (parts["X"], parts["Phi"])
     else:

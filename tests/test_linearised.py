@@ -242,3 +242,33 @@ def test_sparse_non_symmetric_buckling_equals_dense(monkeypatch):
     dense = flexmb.buckling(sol, n=2, held="none", base=base)
     monkeypatch.setattr(linearised, "DENSE_BELOW", 0)
     np.testing.assert_allclose(flexmb.buckling(sol, n=2, held="none", base=base), dense, rtol=1e-8)
+
+
+def test_dense_solve_is_scipys_bit_for_bit_with_its_singular_and_ill_conditioned_tests():
+    """`flexmb.linearised._solve_dense` (LAPACK dgetrf/dgecon/dgetrs directly) returns exactly
+    `scipy.linalg.solve`'s answer for a non-symmetric matrix, raises `LinAlgError` where scipy
+    does (an exactly singular one) and warns `LinAlgWarning` where scipy does (rcond below eps,
+    here a 5 x 5 of singular values 1-4 and 1e-16)."""
+    import warnings
+
+    import scipy.linalg as sla
+
+    from flexmb.linearised import _solve_dense
+
+    rng = np.random.default_rng(3)
+    A, b = rng.normal(size=(9, 9)), rng.normal(size=(9, 3))
+    np.testing.assert_array_equal(_solve_dense(A, b), sla.solve(A, b))
+    S = A.copy()
+    S[:, 4] = 0.0  # an exactly zero pivot
+    for solver in (sla.solve, _solve_dense):
+        with pytest.raises(np.linalg.LinAlgError):
+            solver(S, b)
+    Q, P = np.linalg.qr(rng.normal(size=(5, 5)))[0], np.linalg.qr(rng.normal(size=(5, 5)))[0]
+    ill = Q @ np.diag([1.0, 2.0, 3.0, 4.0, 1e-16]) @ P
+    for solver in (sla.solve, _solve_dense):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", sla.LinAlgWarning)
+            with pytest.raises(sla.LinAlgWarning):
+                solver(ill, b[:5])
+    sym = A + A.T  # scipy's own symmetric path
+    np.testing.assert_array_equal(_solve_dense(sym, b), sla.solve(sym, b))

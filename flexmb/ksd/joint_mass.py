@@ -317,7 +317,10 @@ class _JointMass:
 #: (gap / alignment / neighbour overlap): the manipulator's three_x_infinity (+-45 deg, 0.125 deg
 #: grid) 1.00086 (at 0 deg, an avoided crossing: its spline reproduces the shapes to 5e-7) / 0.58
 #: (at -45 deg) / 0.982 (at 0 deg, 11 deg of turn per step); the four-bar's 2D cross flexure
-#: (+-75 deg, 0.5 deg grid) 1.099 / 0.17 / 0.997. A crossing between two samples gives an overlap
+#: (+-75 deg, 0.5 deg grid) 1.099 / 0.17 / 0.997; refused: the planar cross flexure pivot's
+#: (`flexmb.models.cross_flexure_pivot`, two chains of 3 kept modes) 1.126 / 1.7e-4 (at 62.75
+#: deg: the aligned basis flips there; splined across it, f3 at 62.6 deg was 3 % off the Ritz
+#: eigensolve) / 0.9998. A crossing between two samples gives an overlap
 #: near 0 (a whole mode swapped) whatever the gap at the samples; an avoided one sharper than the
 #: finest grid resolves (26 deg of turn per step) is refused as well.
 GAP_MIN = 1.0 + 1e-4

@@ -22,7 +22,7 @@ import numpy as np
 from .. import jit
 from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
-from .eob_forces import axial_forces
+from .eob_forces import axial_forces, force_table
 from .joint_mass import condensed_subspace
 from ..rotations import unskew
 from .geometry import ACTIVE, LinkPoses, rz
@@ -127,15 +127,19 @@ def full_eobs(solution, database=None) -> list:
     return per[key]
 
 
+def _interface_b(red, solution, p_hat, R_hat) -> np.ndarray:
+    """Node B's displacement (J, nd) from its near pose at the solution, in the joint frames."""
+    p, Rrel, _ = red.frames.relative(link_poses(red, solution.state))
+    return np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, ACTIVE[red.dim]]
+
+
 def node_displacements(solution, database=None) -> list:
     """Per group of joints the EOB node displacements (Jg, N nd) from the near poses at the
     solution (node A held: zero; node B from the links' poses; internal nodes by the
     Craig-Bampton recovery, Eq. 2.6), as KSD step 4 computes them."""
     red, (eobs, _, _, p_hat, R_hat, _) = near(solution, database)
-    emb = ACTIVE[red.dim]
-    nd = len(emb)
-    p, Rrel, _ = red.frames.relative(link_poses(red, solution.state))
-    xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
+    nd = len(ACTIVE[red.dim])
+    xi_B = _interface_b(red, solution, p_hat, R_hat)
     out = []
     for (_, _, idx), e in zip(red.groups, eobs):
         xi = -(np.einsum("jab,jb->ja", e.recover[:, :, :nd], xi_B[idx]) + e.recover[:, :, nd])
@@ -151,13 +155,29 @@ def eob_axial_forces(solution, database=None):
     its axial stiffness spoils the axial forces they imply (four-bar at d = 0.3 m, 5 el./leaf:
     2620 N against the converged 169 N; the EOB's within 1.4 N); the moments they imply are
     first-order accurate."""
-    red, (eobs, _, _, p_hat, _, theta) = near(solution, database)
-    at, values = [], []
+    red, (eobs, _, _, p_hat, R_hat, theta) = near(solution, database)
+    st = _static(red)
+    if jit.enabled():  # the tabulated forces and the node displacements in one compiled pass per group
+        xi_B, values, q = _interface_b(red, solution, p_hat, R_hat), [], None
+        b_position = np.ascontiguousarray(p_hat[:, :red.dim])
+        for g, ((tpl, _, idx), e) in enumerate(zip(red.groups, eobs)):
+            table = force_table(tpl)
+            if table.covers(theta[idx]):
+                p = table(theta[idx])
+                out = np.empty((len(idx), tpl.n_elements))
+                properties_jit.eob_axial(np.ascontiguousarray(e.recover), xi_B, idx, tpl.element_dofs, p["A"],
+                                         p["c0"], p["G"], b_position, out)
+            else:
+                q = node_displacements(solution, database) if q is None else q
+                full = e if getattr(e, "K_nodes", None) is not None else None
+                out = axial_forces(tpl, theta[idx], p_hat[idx, :red.dim], q[g], full)
+            values.append(out.ravel())
+        return st["elements"].copy(), np.concatenate(values)
+    values = []
     for (tpl, _, idx), e, q in zip(red.groups, eobs, node_displacements(solution, database)):
-        at.append(np.concatenate([red.compiled.joint_elements[red.joint_names[j]] for j in idx]))
         full = e if getattr(e, "K_nodes", None) is not None else None  # a tabulated one has no elements
         values.append(axial_forces(tpl, theta[idx], p_hat[idx, :red.dim], q, full).ravel())
-    return np.concatenate(at), np.concatenate(values)
+    return st["elements"].copy(), np.concatenate(values)
 
 
 def reduced_tangent(solution, database=None):
@@ -196,7 +216,10 @@ def _static(red: ReducedMechanism) -> dict:
         pos6[red.emb_dofs] = np.arange(len(red.emb_dofs))
         dofs = [(np.array([red.joint_nodes[j] for j in idx])[:, :, None] * nd + np.arange(nd)).reshape(len(idx), -1)
                 for _, _, idx in red.groups]
+        elements = np.concatenate([np.concatenate([red.compiled.joint_elements[red.joint_names[j]] for j in idx])
+                                   for _, _, idx in red.groups])
         out = _STATIC[red] = {"joints": {key: jt for key, jt, *_ in red.compiled.joints}, "pos6": pos6,
+                              "elements": elements,
                               "dofs": dofs, "whole": bool(np.array_equal(red.emb_dofs, np.arange(6 * red.n_links)))}
     return out
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..jit import njit
 
-__all__ = ["interface_maps", "joint_maps", "assemble_mass"]
+__all__ = ["interface_maps", "joint_maps", "assemble_mass", "bspline_rows", "eob_axial"]
 
 
 @njit
@@ -131,3 +131,36 @@ def bspline_rows(t, c, k, x, out):
             ha = h[a]
             for m in range(c.shape[1]):
                 row[m] += ca[m] * ha
+
+
+@njit
+def eob_axial(recover, xi_b, idx, element_dofs, A, c0, G, b_position, out):
+    """Joints ``idx`` of one template (Jg): the elements' axial forces ``out`` (Jg, E) from the
+    tabulated coefficients (`flexmb.ksd.eob_forces`: ``A`` (Jg, E, 2 nd), ``c0`` (Jg, E), ``G``
+    (Jg, E, dim)) and the node displacements `flexmb.ksd.properties.node_displacements` gives
+    (node A 0, node B ``xi_b[j]`` (nd,), internal nodes ``-(recover[:, :nd] xi_b + recover[:,
+    nd])``), built per joint in place of the (Jg, N nd) array: ``N = A . q[element_dofs] + c0 +
+    G p`` in numpy's order of the sums."""
+    Jg, ni, nd1 = recover.shape
+    nd = nd1 - 1
+    E, w = element_dofs.shape
+    dim = G.shape[2]
+    q = np.empty(2 * nd + ni)
+    for k in range(Jg):
+        j = idx[k]
+        for c in range(nd):
+            q[c] = 0.0
+            q[nd + c] = xi_b[j, c]
+        for r in range(ni):
+            s = 0.0
+            for c in range(nd):
+                s += recover[k, r, c] * xi_b[j, c]
+            q[2 * nd + r] = -(s + recover[k, r, nd])
+        for e in range(E):
+            s = 0.0
+            for m in range(w):
+                s += A[k, e, m] * q[element_dofs[e, m]]
+            g = 0.0
+            for d in range(dim):
+                g += G[k, e, d] * b_position[j, d]
+            out[k, e] = s + c0[k, e] + g

@@ -89,7 +89,9 @@ class Modes:
     shapes
         Mass-normalised mode shapes per FE node (n, nodes, ndof): ``phi^T M phi = 1``; columns are
         ``[dx, dy, dtheta]`` (2D) or ``[dx, dy, dz, spin_x, spin_y, spin_z]`` (3D), global axes;
-        held DOFs are 0. The largest component of each shape is positive.
+        held DOFs are 0. The largest component of each shape is positive. (A KSD-reduced
+        solution's are recovered on the joints' internal nodes when first read: ``modes``
+        itself reads none of the joints' interior tables.)
     link_shapes
         The shapes of the links' reference points, ``{link: (n, ndof)}``.
     held
@@ -105,12 +107,19 @@ class Modes:
 
     frequencies: np.ndarray = attrs.field(converter=_read_only)
     eigenvalues: np.ndarray = attrs.field(converter=_read_only)
-    shapes: np.ndarray = attrs.field(converter=_read_only)
+    _shapes: np.ndarray = attrs.field(converter=lambda a: a if callable(a) else _read_only(a), repr=False)
     link_shapes: dict = attrs.field(converter=lambda d: {k: _read_only(a) for k, a in d.items()})
     held: np.ndarray = attrs.field(converter=_read_only)
     symmetric: bool
     solver: str
     solution: object = attrs.field(default=None, repr=False)
+
+    @property
+    def shapes(self) -> np.ndarray:
+        """The mode shapes per node (see the class notes), built on first use where deferred."""
+        if callable(self._shapes):
+            object.__setattr__(self, "_shapes", _read_only(self._shapes()))
+        return self._shapes
 
 
 def _full_pattern(model, loads):
@@ -312,11 +321,15 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
         vec = Z @ vec
     full = np.zeros((n, size if reduced else model.n_dofs))
     full[:, free] = vec.T
-    if reduced:
-        full = to_full(full.T).T
-    shapes = full[:, :model.n_nodes * model.ndof].reshape(n, model.n_nodes, model.ndof)
+    nd = model.ndof
     freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
-    link_shapes = {link: shapes[:, node].copy() for link, node in compiled.link_node.items()}
+    # the links' nodes' DOFs lead the reduced vector as the full one (flexmb.ksd.properties)
+    link_shapes = {link: full[:, node * nd:(node + 1) * nd].copy() for link, node in compiled.link_node.items()}
+    if reduced:  # the joints' interiors recovered when the shapes are first read
+        def shapes():
+            return to_full(full.T).T[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)
+    else:
+        shapes = full[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)
     return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, solver, solution)
 
 

@@ -150,3 +150,30 @@ def test_a_planar_cross_flexure_turned_where_the_alignment_degenerates():
     tpl, _, idx = r.groups[0]
     data = joint_mass(tpl, {k: j for k, j, *_ in red.compiled.joints}[r.joint_names[idx[0]]])
     assert data.table(6) is None and "alignment's smallest singular value" in data.refused[6]
+
+
+def test_the_interior_recovery_is_read_only_when_the_shapes_are():
+    """`condensed_subspace(..., recovery=False)` defers the joints' interior transformation
+    (``X``, fixed-interface shapes): called, it gives bit for bit what ``recovery=True`` gives,
+    and a KSD-reduced `Modes` builds its shapes per node on first access (once, read-only): the
+    links' rows equal to ``link_shapes``, the joints' internal nodes moving (recovered; their
+    agreement with the full model: `test_modes_of_a_turned_pivot_with_a_massive_stage`)."""
+    sol = flexmb.solve(manipulator("joint", np.radians(-17.0)), method="ksd-reduced", raise_on_failure=True)
+    red, _ = properties.near(sol)
+    tpl, _, idx = red.groups[0]
+    joint = {k: j for k, j, *_ in sol.compiled.joints}[red.joint_names[idx[0]]]
+    theta = np.radians([-17.0, 3.3, 40.1])
+    eager = jm.condensed_subspace(tpl, joint, theta, 6)
+    lazy = jm.condensed_subspace(tpl, joint, theta, 6, recovery=False)
+    for a, b in zip(eager[:3] + eager[3], lazy[:3] + lazy[3]()):
+        np.testing.assert_array_equal(a, b)
+    result = flexmb.modes(sol, n=4)
+    assert callable(result._shapes)
+    shapes = result.shapes
+    assert not shapes.flags.writeable and result.shapes is shapes
+    for link, node in sol.compiled.link_node.items():
+        np.testing.assert_array_equal(shapes[:, node], result.link_shapes[link])
+    assert shapes.shape == (4, sol.compiled.problem.model.n_nodes, 6)
+    internal = np.concatenate([np.asarray(n) for n in sol.compiled.joint_nodes.values()])
+    internal = internal[internal >= len(sol.compiled.link_node)]
+    assert (np.abs(shapes[:, internal]).max(axis=(1, 2)) > 0.1 * np.abs(shapes).max(axis=(1, 2))).all()

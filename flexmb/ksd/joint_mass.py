@@ -389,7 +389,7 @@ def joint_mass(tpl, joint) -> _JointMass:
     return data if data is not None else _JOINT_MASS.setdefault(tpl, _JointMass(tpl, joint))
 
 
-def condensed_subspace(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = True):
+def condensed_subspace(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = True, recovery: bool = True):
     """Condensed mass of J joints of one template at intended rotations ``theta`` (J,) [rad] in
     their joint frames, for free vibration: ``M_b`` (J, b, b) on nodes A and B, and of the kept
     fixed-interface modes' span (m coordinates, `_JointMass.cut`) the stiffness ``K_q`` (J, m,
@@ -409,23 +409,34 @@ def condensed_subspace(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: b
     effect against that choice: the manipulator's joints (one chain) unchanged (3e-11); the
     four-bar's cross flexures keep 3 + 2 + 2 modes (a triple tied at the 6th), f1-f6 over its
     stroke moved by up to 1.3e-3 relative (f1-f3 1.2e-3), now smooth in the solution (1e-10 m
-    of stroke at rest: 5e-10, before 1.7e-5)."""
+    of stroke at rest: 5e-10, before 1.7e-5).
+
+    ``recovery=False``: the last item is a function returning ``(X, Q)`` when called, so a caller
+    that needs no interior shapes reads no table columns of them (the manipulator's joint
+    table: 2400 columns, of which ``M_b``, ``K_q`` and the coupling are 252; a ``modes`` call
+    read ~460 KB of it, now ~48 KB)."""
     data = joint_mass(tpl, joint)
     theta = np.asarray(theta, dtype=float)
     J = len(theta)
     tab = data.table(n_fixed) if table else None
     if tab is not None and tab.covers(theta):
+        if "Kq" in tab._shapes:
+            parts = tab(theta, ("Mb", "C", "Kq"))
+            if recovery:
+                rec = tab(theta, ("X", "Phi"))
+                return parts["Mb"], parts["C"], parts["Kq"], (rec["X"], rec["Phi"])
+            return parts["Mb"], parts["C"], parts["Kq"], lambda: tuple(tab(theta, ("X", "Phi")).values())
         parts = tab(theta)
-        if "Kq" in parts:
-            return parts["Mb"], parts["C"], parts["Kq"], (parts["X"], parts["Phi"])
     else:
         parts = data.project(tpl.evaluate(theta, np.zeros((J, tpl.dim))), n_fixed)
     Mb, X = parts["Mb"], parts["X"]
     b, ni = Mb.shape[-1], X.shape[1]
     if not n_fixed or not sum(c.sum() for c in data.cut(n_fixed)):
-        return Mb, np.zeros((J, 0, b)), np.zeros((J, 0, 0)), (X, np.zeros((J, ni, 0)))
+        rec = (X, np.zeros((J, ni, 0)))
+        return Mb, np.zeros((J, 0, b)), np.zeros((J, 0, 0)), rec if recovery else lambda: rec
     modal = data.modal_parts(parts, n_fixed, align=False)
-    return Mb, modal["C"], modal["Kq"], (X, modal["Phi"])
+    rec = (X, modal["Phi"])
+    return Mb, modal["C"], modal["Kq"], rec if recovery else lambda: rec
 
 
 def condensed(tpl, joint, theta: np.ndarray, n_fixed: int = 0, table: bool = True):

@@ -228,7 +228,8 @@ def reduced_modal_model(solution, n_fixed: int, database=None, table: bool = Tru
     """The KSD-reduced mechanism for free vibration: stiffness and mass (n, n) on the links' FE
     DOFs (n_links ndof) followed by ``n_fixed`` fixed-interface modal coordinates per joint (in
     joint order), and a function mapping a vector of those (n, k) to the full model's DOFs
-    (n_dofs, k): links as they are, joint interiors from the Craig-Bampton transformation.
+    (n_dofs, k): links as they are, joint interiors from the Craig-Bampton transformation (the
+    joints' ``X`` and fixed-interface shapes read from their tables on its first call).
     With the compiled kernels the assembly is `flexmb.ksd.properties_jit` (the same sums).
     ``table``: the joints' tabulated span of fixed-interface modes, else their Ritz eigenproblems
     at the configuration (`flexmb.ksd.joint_mass.condensed_subspace`: the same frequencies)."""
@@ -256,8 +257,9 @@ def reduced_modal_model(solution, n_fixed: int, database=None, table: bool = Tru
         G[ar, 0, :, fr.a] = levers[:, 0]
         G[ar, 1, :, fr.b] = levers[:, 1]
         G = G.reshape(J, 2 * nd, 6 * nL)
-    parts = [condensed_subspace(tpl, st["joints"][red.joint_names[idx[0]]], theta[idx], n_fixed, table)
-             for tpl, _, idx in red.groups]
+    parts = [condensed_subspace(tpl, st["joints"][red.joint_names[idx[0]]], theta[idx], n_fixed, table,
+                                recovery=False) for tpl, _, idx in red.groups]  # interior shapes: when to_full asks
+    recovered = []
     nm = np.zeros(J, dtype=np.int64)
     for (_, _, idx), (_, _, ws, _) in zip(red.groups, parts):
         nm[idx] = ws.shape[1]
@@ -295,7 +297,9 @@ def reduced_modal_model(solution, n_fixed: int, database=None, table: bool = Tru
         out = np.zeros((model.n_dofs, k))
         out[:nl] = v[:nl]
         dim = model.dim
-        for (_, _, idx), (_, _, ws, (Xs, Phis)), dofs in zip(red.groups, parts, st["dofs"]):
+        if not recovered:  # the joints' interior transformations (X, Phi), read once
+            recovered.extend(rec() for *_, rec in parts)
+        for (_, _, idx), (_, _, ws, _), (Xs, Phis), dofs in zip(red.groups, parts, recovered, st["dofs"]):
             if compiled:  # (a compiled pass measured no faster: 30 against 27 us on the manipulator)
                 qb = G[idx] @ v[pos[idx]]  # (Jg, 2 nd, k): interface DOFs in the joint frames
             else:

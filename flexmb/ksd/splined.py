@@ -9,7 +9,7 @@ half-way between to `TOL` relative to each array's largest entry.
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
+from scipy.interpolate import BSpline, make_interp_spline
 
 from .. import jit
 
@@ -28,7 +28,9 @@ TOL = 1e-7
 
 class SplinedTable:
     """``sample(theta (S,)) -> {name: (S, ...) array}`` splined over ``[lo, hi]`` [rad]; calling
-    it at rotations (J,) gives ``{name: (J, ...)}``. ``step``: the grid step used [deg]."""
+    it at rotations (J,) gives ``{name: (J, ...)}`` (``names``: only those arrays, from their
+    own copy of the coefficients: a call reads only what it returns). ``step``: the grid step
+    used [deg]."""
 
     def __init__(self, sample, lo: float, hi: float):
         self.range = (lo, hi)
@@ -60,6 +62,23 @@ class SplinedTable:
             size = int(np.prod(shape))
             self._slices.append((name, shape, at, at + size))
             at += size
+        self._parts = {}  # names -> (BSpline, (t, c, k), slices) of those arrays' columns alone
+
+    def _part(self, names: tuple):
+        """The spline of the arrays ``names`` alone (their columns' coefficients contiguous)."""
+        part = self._parts.get(names)
+        if part is None:
+            spans = {name: (shape, a, b) for name, shape, a, b in self._slices}
+            cols = np.concatenate([np.arange(spans[n][1], spans[n][2]) for n in names])
+            t, c, k = self._tck
+            c = np.ascontiguousarray(c[:, cols])
+            slices, at = [], 0
+            for n in names:
+                shape, a, b = spans[n]
+                slices.append((n, shape, at, at + b - a))
+                at += b - a
+            part = self._parts[names] = (BSpline(t, c, k), (t, c, k), slices)
+        return part
 
     @staticmethod
     def _at(parts, name):
@@ -75,15 +94,16 @@ class SplinedTable:
         """Whether every ``theta`` [rad] lies on the table's range."""
         return bool(theta.min(initial=np.inf) >= self.range[0] and theta.max(initial=-np.inf) <= self.range[1])
 
-    def __call__(self, theta: np.ndarray) -> dict:
+    def __call__(self, theta: np.ndarray, names: tuple | None = None) -> dict:
         theta = np.asarray(theta, dtype=float)
+        spline, tck, slices = (self._spline, self._tck, self._slices) if names is None else self._part(tuple(names))
         if jit.enabled() and theta.ndim == 1:  # compiled, row by row (flexmb.ksd.properties_jit)
             from . import properties_jit
 
-            t, c, k = self._tck
+            t, c, k = tck
             flat = np.empty((len(theta), c.shape[1]))
             properties_jit.bspline_rows(t, c, k, theta, flat)
         else:
-            flat = self._spline(theta)
+            flat = spline(theta)
         J = len(flat)
-        return {name: flat[:, a:b].reshape((J,) + shape) for name, shape, a, b in self._slices}
+        return {name: flat[:, a:b].reshape((J,) + shape) for name, shape, a, b in slices}

@@ -28,6 +28,8 @@ The linearisation (SPACAR's convention for the eigenfrequencies of a configurati
 from __future__ import annotations
 
 import functools
+import warnings
+import weakref
 
 import attrs
 import numpy as np
@@ -222,6 +224,29 @@ def held_dofs(solution, held, owner: str = "modes") -> np.ndarray:
     return np.unique(np.concatenate(out).astype(np.int64))
 
 
+_HELD = weakref.WeakKeyDictionary()
+_PLAUSIBLE_MASS = weakref.WeakKeyDictionary()  # models whose density fits E and the lengths (check_mass_units)
+
+
+def _held_and_free(solution, held):
+    """`held_dofs` and the free DOFs (sorted), kept per compiled mechanism for the named ``held``
+    ("prescribed", "none", "floating": ~10 us of a KSD-reduced ``modes`` each call)."""
+    compiled = solution.compiled
+    key = held if isinstance(held, str) else None
+    per = _HELD.setdefault(compiled, {})
+    if key is None or key not in per:
+        held_idx = held_dofs(solution, held)
+        keep = np.ones(compiled.problem.model.n_dofs, dtype=bool)
+        keep[held_idx] = False
+        out = held_idx, np.flatnonzero(keep)  # np.setdiff1d's sort: 0.15 ms of the manipulator's KSD-reduced 2.2 ms
+        if key is None:
+            return out
+        for a in out:
+            a.flags.writeable = False
+        per[key] = out
+    return per[key]
+
+
 def _dof_name(compiled, dof: int) -> str:
     model = compiled.problem.model
     node, comp = divmod(int(dof), model.ndof)
@@ -261,10 +286,7 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     reduced = getattr(solution, "method", None) == "ksd-reduced"  # not a Solution: solvable_problem names it
     problem = _converged(solution) if reduced else solvable_problem(solution)
     compiled, model = solution.compiled, problem.model
-    held_idx = held_dofs(solution, held)
-    keep = np.ones(model.n_dofs, dtype=bool)
-    keep[held_idx] = False
-    free = np.flatnonzero(keep)  # np.setdiff1d's sort: 0.15 ms of the manipulator's KSD-reduced 2.2 ms
+    held_idx, free = _held_and_free(solution, held)
     if reduced:  # the reduced mechanism: the links' DOFs and the joints' modal coordinates
         if model.hinges is not None:
             raise UnsupportedStrategyError("modes of a KSD-reduced solution with hinges are not available: solve with "
@@ -281,8 +303,14 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
         K, M = stiffness_and_mass(solution)
         free, Z = constrained(model, free, K, solution.state)  # hinges: the motions they allow (Z), multipliers out
         K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
-    if len(model.elements.L0):
-        check_mass_units(solution, model, stacklevel=3)
+    if len(model.elements.L0) and model not in _PLAUSIBLE_MASS:
+        with warnings.catch_warnings(record=True) as caught:  # a model's sections are checked once
+            warnings.simplefilter("always")
+            check_mass_units(solution, model, stacklevel=3)
+        if caught:  # warned: again, as the caller's filters take it (each call)
+            check_mass_units(solution, model, stacklevel=3)
+        else:
+            _PLAUSIBLE_MASS[model] = True
     if Z is not None:
         K, M = (Z.T @ K @ Z).tocsr(), (Z.T @ M @ Z).tocsr()
     nf = K.shape[0]

@@ -799,3 +799,23 @@ def test_a_leaf_given_a_section_and_other_sizes_is_refused_naming_both():
     # the slenderness check reads the section's thickness: a 2 mm bar 1 mm long is refused
     with pytest.raises(flexmb.ParameterError, match=r"thickness=0.002 m \(section\) must be < length=0.001 m"):
         flexmb.LeafSpring(length=1e-3, section=flexmb.rectangle(0.01, 2e-3, **STEEL))
+
+
+def test_the_density_check_warns_at_every_modes_call_of_a_wrong_model():
+    """`flexmb.modes` checks a model's densities once while they fit (`modal._PLAUSIBLE_MASS`),
+    but a model that warns warns at every call (the leaf of the previous test, 7800 in N, mm,
+    MPa), and its frequencies are the same each time."""
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("g", fixed=True)
+    m.add_link("tip", position=(50.0, 0.0))
+    m.add_joint("g", "tip", flexmb.LeafSpring(length=50.0, width=10.0, thickness=0.5, E=2e5, G=7.7e4,
+                                              density=7800.0, elements=4))
+    sol = flexmb.solve(m)
+    f = []
+    for _ in range(3):
+        with pytest.warns(flexmb.PlausibilityWarning, match=r"density=7800 .*mass per length cubed"):
+            f.append(flexmb.modes(sol, n=2).frequencies)
+    np.testing.assert_array_equal(f[0], f[2])
+    from flexmb import modal
+
+    assert sol.compiled.problem.model not in modal._PLAUSIBLE_MASS

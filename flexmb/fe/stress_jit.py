@@ -24,6 +24,17 @@ __all__ = ["perimeter_search", "peak_normal_stress"]
 
 
 @njit
+def _wrap(p, P):
+    """``p % P`` for ``-P <= p < 2 P`` (an integer division per fine point: 47 -> 39 us for the
+    manipulator's 54 element ends of one section)."""
+    if p < 0:
+        return p + P
+    if p >= P:
+        return p - P
+    return p
+
+
+@njit
 def _coarse(u0, u1, u2, u3, u4, u5, u6, u7, nA, Vy, Vz, T, My, Mz, a, t, v):
     """|sigma_x|, |tau|^2 and von Mises^2 at the coarse points (one loop LLVM vectorises)."""
     for c in range(len(a)):
@@ -37,32 +48,20 @@ def _coarse(u0, u1, u2, u3, u4, u5, u6, u7, nA, Vy, Vz, T, My, Mz, a, t, v):
 
 
 @njit
-def _argmax3(c0, c1, c2, n, best):
-    """numpy's argmax (the first NaN if any, else the first largest) of ``c0[:n]``, ``c1[:n]``
-    and ``c2[:n]`` in one pass, into ``best`` (3,)."""
-    b0 = b1 = b2 = 0
-    v0, v1, v2 = c0[0], c1[0], c2[0]
-    n0 = v0 != v0; n1 = v1 != v1; n2 = v2 != v2
+def _argmax3(coarse, n, best):
+    """numpy's argmax (the first NaN if any, else the first largest) of each row of ``coarse[:,
+    :n]`` (3, n) in one pass, into ``best`` (3,)."""
+    for k in range(3):
+        best[k] = 0
     for p in range(1, n):
-        a = c0[p]
-        if not n0:
-            if a != a:
-                b0 = p; n0 = True
-            elif a > v0:
-                b0, v0 = p, a
-        a = c1[p]
-        if not n1:
-            if a != a:
-                b1 = p; n1 = True
-            elif a > v1:
-                b1, v1 = p, a
-        a = c2[p]
-        if not n2:
-            if a != a:
-                b2 = p; n2 = True
-            elif a > v2:
-                b2, v2 = p, a
-    best[0], best[1], best[2] = b0, b1, b2
+        for k in range(3):
+            cur = coarse[k, best[k]]
+            if cur != cur:  # a NaN found first: kept
+                continue
+            v = coarse[k, p]
+            if v != v or v > cur:
+                best[k] = p
+
 
 @njit
 def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
@@ -85,7 +84,7 @@ def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
         nA = N / A
         _coarse(u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], nA, Vy, Vz, T, My, Mz,
                 coarse[0], coarse[1], coarse[2])
-        _argmax3(coarse[0], coarse[1], coarse[2], nc, best)
+        _argmax3(coarse, nc, best)
         for k in range(3):
             b = best[k]
             peak = coarse[k, b]
@@ -94,11 +93,7 @@ def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
             fnan = False
             if k == 0:
                 for w in range(nw):
-                    p = start + w
-                    if p < 0:
-                        p += P
-                    elif p >= P:
-                        p -= P
+                    p = _wrap(start + w, P)
                     v = abs(nA + My * units[0, p] - Mz * units[1, p])
                     if v != v:
                         fnan = True
@@ -106,11 +101,7 @@ def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
                         fine = v
             elif k == 1:
                 for w in range(nw):
-                    p = start + w
-                    if p < 0:
-                        p += P
-                    elif p >= P:
-                        p -= P
+                    p = _wrap(start + w, P)
                     t0 = T * units[2, p] + Vy * units[4, p] + Vz * units[6, p]
                     t1 = T * units[3, p] + Vy * units[5, p] + Vz * units[7, p]
                     v = t0 * t0 + t1 * t1
@@ -120,11 +111,7 @@ def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
                         fine = v
             else:
                 for w in range(nw):
-                    p = start + w
-                    if p < 0:
-                        p += P
-                    elif p >= P:
-                        p -= P
+                    p = _wrap(start + w, P)
                     t0 = T * units[2, p] + Vy * units[4, p] + Vz * units[6, p]
                     t1 = T * units[3, p] + Vy * units[5, p] + Vz * units[7, p]
                     t2 = t0 * t0 + t1 * t1

@@ -130,6 +130,11 @@ def full_eobs(solution, database=None) -> list:
 def _interface_b(red, solution, p_hat, R_hat) -> np.ndarray:
     """Node B's displacement (J, nd) from its near pose at the solution, in the joint frames."""
     p, Rrel, _ = red.frames.relative(link_poses(red, solution.state))
+    if jit.enabled():
+        out = np.empty((len(p), len(ACTIVE[red.dim])))
+        properties_jit.interface_b(p, Rrel, np.ascontiguousarray(p_hat, dtype=float),
+                                   np.ascontiguousarray(R_hat, dtype=float), ACTIVE[red.dim], out)
+        return out
     return np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, ACTIVE[red.dim]]
 
 

@@ -322,7 +322,9 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
         raise ParameterError(f"modes: n={n!r} must be an integer in [1, {nf}] (the {what}: {nf})")
     dM = M.diagonal()
     scale = float(dM.max(initial=0.0))
-    massless = np.flatnonzero(~(dM > 1e-14 * scale)) if scale > 0 else np.arange(nf)
+    massive = dM > 1e-14 * scale
+    massless = np.flatnonzero(~massive) if scale > 0 and not massive.all() else \
+        np.zeros(0, dtype=np.int64) if scale > 0 else np.arange(nf)
     if len(massless) and Z is not None:
         raise ModelError(f"modes: {len(massless)} of the motions the hinges allow carry no mass; give the links "
                          "mass (add_link(..., mass=, inertia=)) or the joints (their sections) density, or hold them (held=...)")

@@ -265,10 +265,13 @@ def reduced_modal_model(solution, n_fixed: int, database=None, table: bool = Tru
     parts = [condensed_subspace(tpl, st["joints"][red.joint_names[idx[0]]], theta[idx], n_fixed, table,
                                 recovery=False) for tpl, _, idx in red.groups]  # interior shapes: when to_full asks
     recovered = []
-    nm = np.zeros(J, dtype=np.int64)
-    for (_, _, idx), (_, _, ws, _) in zip(red.groups, parts):
-        nm[idx] = ws.shape[1]
-    at = nl + np.concatenate([[0], np.cumsum(nm)])
+    counts = tuple(ws.shape[1] for _, _, ws, _ in parts)  # modal coordinates per joint of each group
+    if counts not in st:  # each joint's first modal coordinate, per kept counts: ~6 us a call
+        nm = np.zeros(J, dtype=np.int64)
+        for (_, _, idx), c in zip(red.groups, counts):
+            nm[idx] = c
+        st[counts] = nm, nl + np.concatenate([[0], np.cumsum(nm)])
+    nm, at = st[counts]
     n = int(at[-1])
     M, K = np.zeros((n, n)), np.zeros((n, n))
     if compiled:

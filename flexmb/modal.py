@@ -272,11 +272,14 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     Measured against the full model: the manipulator's first three parasitic frequencies over
     +-45 deg within 0.55 % (median 0.13 %), the four-bar's 0.46 % at d = 0.1 m (6.8 % at 0.3 m).
     The joints' kept span of fixed-interface modes is tabulated (`flexmb.ksd.joint_mass.
-    condensed_subspace`: no eigenproblem per configuration, ties at the cut kept whole): modes
-    0.42 ms per configuration of the manipulator (mean over the 19 positions of the fastest of 7,
-    loaded host; 0.61-0.64 ms interleaved with the conventional solve and properties, whose
-    runs evict the tables from cache), against 1.12 (1.34-1.41) ms with the joints' Ritz
-    eigenproblems solved per configuration; solve + modes 18-19x faster than the full model's.
+    condensed_subspace`: no eigenproblem per configuration, ties at the cut kept whole; a
+    template whose kept span is not smooth over its range solves them per configuration, `flexmb.
+    ksd.joint_mass.span_check`), the joints' interior recovery read only when ``shapes`` is: modes
+    of a freshly solved manipulator configuration 0.35 ms (fastest of 40; 0.47 ms right after a
+    conventional solve and modes, whose runs evict the tables and LAPACK from cache; 0.52 ms in
+    bench_properties' interleaved runs, before 0.61-0.64), of which the 27-DOF eigenproblem
+    0.12 ms, the reduced model 0.14 ms (the tangent 0.05 ms, shared with `flexmb.compliance`).
+    Solve + modes ~22x faster than the full model's (loaded host).
 
     Dense LAPACK below `DENSE_BELOW` free DOFs (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
     tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises `ConvergenceError` for an unconverged

@@ -123,6 +123,10 @@ class Modes:
             object.__setattr__(self, "_shapes", _read_only(self._shapes()))
         return self._shapes
 
+    def __reduce__(self):  # pickled with its shapes built (a deferred recovery is a closure)
+        return Modes, (self.frequencies, self.eigenvalues, self.shapes, self.link_shapes, self.held, self.symmetric,
+                       self.solver, self.solution)
+
 
 def _full_pattern(model, loads):
     ed = model.element_dofs

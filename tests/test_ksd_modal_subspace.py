@@ -156,7 +156,7 @@ def test_the_interior_recovery_is_read_only_when_the_shapes_are():
     """`condensed_subspace(..., recovery=False)` defers the joints' interior transformation
     (``X``, fixed-interface shapes): called, it gives bit for bit what ``recovery=True`` gives,
     and a KSD-reduced `Modes` builds its shapes per node on first access (once, read-only): the
-    links' rows equal to ``link_shapes``, the joints' internal nodes moving (recovered; their
+    links' rows equal to ``link_shapes`` (and a pickled copy's), the joints' internal nodes moving (recovered; their
     agreement with the full model: `test_modes_of_a_turned_pivot_with_a_massive_stage`)."""
     sol = flexmb.solve(manipulator("joint", np.radians(-17.0)), method="ksd-reduced", raise_on_failure=True)
     red, _ = properties.near(sol)
@@ -169,6 +169,11 @@ def test_the_interior_recovery_is_read_only_when_the_shapes_are():
         np.testing.assert_array_equal(a, b)
     result = flexmb.modes(sol, n=4)
     assert callable(result._shapes)
+    import pickle
+
+    copy = pickle.loads(pickle.dumps(result))  # pickled with its shapes built
+    np.testing.assert_array_equal(copy.shapes, result.shapes)
+    np.testing.assert_array_equal(copy.frequencies, result.frequencies)
     shapes = result.shapes
     assert not shapes.flags.writeable and result.shapes is shapes
     for link, node in sol.compiled.link_node.items():

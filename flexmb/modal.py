@@ -110,11 +110,19 @@ class Modes:
     frequencies: np.ndarray = attrs.field(converter=_read_only)
     eigenvalues: np.ndarray = attrs.field(converter=_read_only)
     _shapes: np.ndarray = attrs.field(converter=lambda a: a if callable(a) else _read_only(a), repr=False)
-    link_shapes: dict = attrs.field(converter=lambda d: {k: _read_only(a) for k, a in d.items()})
+    _link_shapes: dict = attrs.field(converter=lambda d: d if callable(d) else {k: _read_only(a) for k, a in d.items()},
+                                     repr=False)
     held: np.ndarray = attrs.field(converter=_read_only)
     symmetric: bool
     solver: str
     solution: object = attrs.field(default=None, repr=False)
+
+    @property
+    def link_shapes(self) -> dict:
+        """The links' shapes (see the class notes), built on first use where deferred."""
+        if callable(self._link_shapes):
+            object.__setattr__(self, "_link_shapes", {k: _read_only(a) for k, a in self._link_shapes().items()})
+        return self._link_shapes
 
     @property
     def shapes(self) -> np.ndarray:
@@ -343,31 +351,65 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     asym = abs(K - K.T).max()
     tol = max(10.0 * solution.tolerance, 1e-11 * abs(K).max())
     symmetric = bool(asym <= tol)
-    if nf < (DENSE_BELOW if symmetric else DENSE_BELOW_NONSYMMETRIC) or n >= nf - 1:  # ARPACK: n < nf - 1
+    dense = nf < (DENSE_BELOW if symmetric else DENSE_BELOW_NONSYMMETRIC) or n >= nf - 1  # ARPACK: n < nf - 1
+    lam = _dense_eigenvalues(K, M, n) if reduced and dense and symmetric else None
+    nd = model.ndof
+    if lam is not None:  # KSD-reduced: the vectors (shapes, link shapes) solved when first read
+        vectors = functools.lru_cache(maxsize=None)(lambda: _normalised(_dense(K, M, n, True)[1], M, Z, free, n, size))
+        shapes = lambda: to_full(vectors().T).T[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)  # noqa: E731
+        link_shapes = lambda: _link_rows(vectors(), compiled, nd)  # noqa: E731
+        freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
+        return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, "dense", solution)
+    if dense:
         lam, vec = _dense(*(A.toarray() if sp.issparse(A) else A for A in (K, M)), n, symmetric)
         solver = "dense"
     else:
         lam, vec = _sparse(sp.csr_array(K), sp.csr_array(M), n, symmetric)
         solver = "sparse"
-    # mass-normalise (eigh's are already), sign: largest component positive
-    norm = np.sqrt(np.einsum("ik,ik->k", vec, M @ vec))
-    vec = vec / norm
-    big = np.argmax(np.abs(vec), axis=0)
-    vec = vec * np.sign(vec[big, np.arange(vec.shape[1])])
-    if Z is not None:
-        vec = Z @ vec
-    full = np.zeros((n, size if reduced else model.n_dofs))
-    full[:, free] = vec.T
-    nd = model.ndof
+    full = _normalised(vec, M, Z, free, n, size if reduced else model.n_dofs)
     freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
-    # the links' nodes' DOFs lead the reduced vector as the full one (flexmb.ksd.properties)
-    link_shapes = {link: full[:, node * nd:(node + 1) * nd].copy() for link, node in compiled.link_node.items()}
+    link_shapes = _link_rows(full, compiled, nd)
     if reduced:  # the joints' interiors recovered when the shapes are first read
         def shapes():
             return to_full(full.T).T[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)
     else:
         shapes = full[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)
     return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, solver, solution)
+
+
+def _normalised(vec, M, Z, free, n, size):
+    """Eigenvectors on the free DOFs (nf, n) -> mass-normalised (eigh's are already), the largest
+    component positive, on all ``size`` DOFs (n, size), held ones 0 (``Z``: the hinges' motions)."""
+    norm = np.sqrt(np.einsum("ik,ik->k", vec, M @ vec))
+    vec = vec / norm
+    big = np.argmax(np.abs(vec), axis=0)
+    vec = vec * np.sign(vec[big, np.arange(vec.shape[1])])
+    if Z is not None:
+        vec = Z @ vec
+    full = np.zeros((n, size))
+    full[:, free] = vec.T
+    return full
+
+
+def _link_rows(full, compiled, nd):
+    """The links' reference points' rows of shapes ``full`` (n, DOFs): their nodes' DOFs (which
+    lead a KSD-reduced vector as they do the full one, `flexmb.ksd.properties`)."""
+    return {link: full[:, node * nd:(node + 1) * nd].copy() for link, node in compiled.link_node.items()}
+
+
+def _dense_eigenvalues(K, M, n):
+    """`_dense`'s eigenvalues alone for a symmetric problem (LAPACK without the vectors: 51 against
+    71 us for the KSD-reduced manipulator's 27 DOFs; the same to ~1e-15), the same mass check;
+    None where it would fall back to the direct form (an unstable equilibrium)."""
+    if _lapack.dpotrf(M, lower=1, clean=0)[1] != 0:
+        _dense(K, M, n, True)  # its ModelError
+    sigma = _shift(K, M)
+    Ks = K - sigma * M
+    try:
+        mu = _highest_pairs(M, 0.5 * (Ks + Ks.T), n, vectors=False)[0]
+    except np.linalg.LinAlgError:
+        return None
+    return sigma + 1.0 / mu[::-1]
 
 
 def _dense(K, M, n, symmetric):
@@ -400,7 +442,7 @@ def _sygvx_lwork(nf: int) -> int:
     return int(_lapack.dsygvx_lwork(nf, uplo="L")[0])
 
 
-def _highest_pairs(A, B, n):
+def _highest_pairs(A, B, n, vectors: bool = True):
     """The ``n`` highest eigenpairs of ``A x = mu B x`` (``B`` definite): what
     ``scipy.linalg.eigh(A, B, subset_by_index=[nf - n, nf - 1])`` returns, by the same LAPACK
     ``dsygvx`` called directly (scipy's checks cost 0.04 of its 0.15 ms at 36 DOFs, the
@@ -410,8 +452,8 @@ def _highest_pairs(A, B, n):
         raise ValueError("array must not contain infs or NaNs")
     nf = len(A)
     lwork = _sygvx_lwork(nf)
-    mu, vec, m, _, info = _lapack.dsygvx(A, B, itype=1, jobz="V", range="I", il=nf - n + 1, iu=nf,
-                                         uplo="L", lwork=lwork)
+    mu, vec, m, _, info = _lapack.dsygvx(A, B, itype=1, jobz="V" if vectors else "N", range="I", il=nf - n + 1,
+                                         iu=nf, uplo="L", lwork=lwork)
     if info != 0:  # B not definite (info > nf) or not converged
         raise np.linalg.LinAlgError(f"dsygvx info={info}")
     return mu[:m], vec[:, :m]

@@ -212,3 +212,20 @@ def test_a_heavy_stage_pivot_through_the_fast_paths_equals_the_reference_paths(d
     model, joints = sol.compiled.problem.model, sol.compiled.joint_elements
     vm, vm0 = (element_stresses(model, sol.state, joints, axial=(a, n)).von_mises for a, n in ((at, N), (at0, N0)))
     np.testing.assert_allclose(vm, vm0, rtol=1e-12)
+
+
+def test_deferred_vectors_equal_the_eager_solve(monkeypatch):
+    """A KSD-reduced `flexmb.modes` solves the eigenvalues alone (LAPACK ``dsygvx`` without
+    vectors) and the vectors when ``shapes`` or ``link_shapes`` is first read: the frequencies
+    equal the eager solve's (vectors with the values) to 1e-12 relative, the shapes and link
+    shapes bit for bit (the same call solves them)."""
+    sol = flexmb.solve(manipulator("joint", np.radians(28.0)), method="ksd-reduced", raise_on_failure=True)
+    lazy = flexmb.modes(sol, n=6)
+    assert callable(lazy._link_shapes) and callable(lazy._shapes)
+    monkeypatch.setattr(modal, "_dense_eigenvalues", lambda K, M, n: None)
+    eager = flexmb.modes(sol, n=6)
+    assert not callable(eager._link_shapes)
+    np.testing.assert_allclose(lazy.frequencies, eager.frequencies, rtol=1e-12)
+    np.testing.assert_array_equal(lazy.shapes, eager.shapes)
+    for link, rows in eager.link_shapes.items():
+        np.testing.assert_array_equal(lazy.link_shapes[link], rows)

@@ -16,7 +16,8 @@ the interior DOFs ``i`` and the interface nodes A, B ``b``:
   (`RITZ_SAMPLES`), so every projected matrix is smooth in the rotation and can be splined;
   coupling ``Phi^T M T``.
 
-`condensed_subspace` (what `flexmb.modes` uses) interpolates ``M_b``, ``X`` and, per chain,
+`condensed_subspace` (what `flexmb.modes` uses; ``X`` and the interior shapes read only when
+the mode shapes are, ``recovery=False``) interpolates ``M_b``, ``X`` and, per chain,
 the kept fixed-interface modes' span in an aligned basis (`_JointMass.modal_parts`: its
 stiffness ``Q^T K Q``, coupling and interior shapes) over the trained range
 (`flexmb.ksd.splined`, built once per joint template on first use): no eigenproblem per

@@ -23,24 +23,29 @@ __all__ = ["buckling", "compliance", "material_tangent"]
 _EPS = float(np.finfo(float).eps)
 
 
-def _solve_dense(K: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """``scipy.linalg.solve(K, rhs)``: for a non-symmetric ``K`` by the same LAPACK ``dgetrf`` /
-    ``dgetrs`` called directly, with scipy's singular test (``LinAlgError`` where the LU has a
-    zero pivot) and its ill-conditioning warning (``LinAlgWarning`` where ``dgecon``'s reciprocal
-    condition number is below eps): bit for bit scipy's answer, without its structure detection
-    and checks (~35 of the KSD-reduced manipulator's ~120 us ``compliance``). An exactly
-    symmetric ``K`` (scipy then takes its symmetric or Cholesky path) or non-finite input goes
-    to scipy itself."""
+def _solve_dense(K: np.ndarray, rhs: np.ndarray, ill_conditioned: str = "warn") -> np.ndarray:
+    """``scipy.linalg.solve(K, rhs)``: for a non-symmetric ``K`` by the same LAPACK ``dgesv``
+    (``dgetrf`` + ``dgetrs``) called directly, with scipy's singular test (``LinAlgError`` where
+    the LU has a zero pivot) and its ill-conditioning warning (``LinAlgWarning`` where
+    ``dgecon``'s reciprocal condition number is below eps; ``ill_conditioned="raise"``: raised as the
+    exception, as an ``error`` warnings filter would): bit for bit scipy's answer, without its
+    structure detection and checks (~45 of the KSD-reduced manipulator's ~120 us
+    ``compliance``). An exactly symmetric ``K`` (scipy then takes its symmetric or Cholesky
+    path) or non-finite input goes to scipy itself."""
     if not (np.isfinite(K).all() and np.isfinite(rhs).all()) or np.array_equal(K, K.T):
-        return sla.solve(K, rhs)
-    lu, piv, info = sla.lapack.dgetrf(K)
+        with warnings.catch_warnings():
+            if ill_conditioned == "raise":
+                warnings.simplefilter("error", sla.LinAlgWarning)
+            return sla.solve(K, rhs)
+    lu, piv, x, info = sla.lapack.dgesv(K, rhs)
     if info > 0:
         raise np.linalg.LinAlgError("A singular matrix detected: slice(s) [0] are singular.")
     rcond, _ = sla.lapack.dgecon(lu, np.abs(K).sum(axis=0).max())
     if rcond < _EPS:
-        warnings.warn(f"An ill-conditioned matrix detected: slice 0 has rcond = {rcond}.", sla.LinAlgWarning,
-                      stacklevel=2)
-    x, info = sla.lapack.dgetrs(lu, piv, rhs)
+        message = f"An ill-conditioned matrix detected: slice 0 has rcond = {rcond}."
+        if ill_conditioned == "raise":
+            raise sla.LinAlgWarning(message)
+        warnings.warn(message, sla.LinAlgWarning, stacklevel=2)
     return x
 
 
@@ -214,10 +219,12 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
         if Z is not None:
             rhs = Z.T @ rhs
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error", sla.LinAlgWarning)  # rcond below eps: singular
-                X = _solve_dense(K, rhs) if reduced else \
-                    problem.solve_linear(K, rhs) if K.shape[0] >= 220 else _solve_dense(K.toarray(), rhs)
+            if reduced or K.shape[0] < 220:  # rcond below eps: singular
+                X = _solve_dense(K if reduced else K.toarray(), rhs, ill_conditioned="raise")
+            else:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error", sla.LinAlgWarning)
+                    X = problem.solve_linear(K, rhs)
         except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError, ArithmeticError) as exc:
             raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
                              "leaves a rigid-body motion free, or the equilibrium is critical)") from exc

@@ -313,8 +313,9 @@ def perimeter_peaks(section, resultants):
         A, Iy, Iz = float(section.A), float(section.Iy), float(section.Iz)
         stress_jit.perimeter_search(*_units(key, Iy, Iz, PERIMETER_POINTS, COARSE_STEP), rows, A, Iy, Iz,
                                     COARSE_STEP, out)
-        out = out.reshape(n, -1, 3).max(axis=1)
-        return out[:, 0], np.sqrt(out[:, 1]), np.sqrt(out[:, 2])
+        normal, shear, vm = np.empty(n), np.empty(n), np.empty(n)
+        stress_jit.peaks_per_element(out, len(r) // n if n else 1, normal, shear, vm)
+        return normal, shear, vm
     if r.shape[-1] == 3:  # planar: no torsion, no shear along z, no bending about y
         N, Vy, Mz = r.T
         T = Vz = My = np.zeros_like(N)

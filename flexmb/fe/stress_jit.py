@@ -20,7 +20,7 @@ import numpy as np
 
 from ..jit import njit
 
-__all__ = ["perimeter_search", "peak_normal_stress"]
+__all__ = ["perimeter_search", "peaks_per_element", "peak_normal_stress"]
 
 
 @njit
@@ -147,3 +147,26 @@ def peak_normal_stress(sig, L0, A, ymax, Iz, zmax_Iy, ymax_Iz, circle, dim, out)
                     b = abs(My) * zmax_Iy[e] + abs(Mz) * ymax_Iz[e]
                 bend = max(bend, b)
         out[e] = axial + bend
+
+
+@njit
+def peaks_per_element(out, per, normal, shear, vm):
+    """`perimeter_search`'s rows (R, 3) reduced over each element's ``per`` consecutive rows
+    (its ends) as numpy's ``max`` (a NaN gives NaN): the peak ``|sigma_x|`` into ``normal``, the
+    square roots of the peak ``|tau|^2`` and von Mises squared into ``shear`` and ``vm`` (R / per,)
+    (numpy's reshape, max and two sqrt: ~7 of ~50 us per section group)."""
+    for e in range(len(normal)):
+        for k in range(3):
+            m = out[e * per, k]
+            for r in range(1, per):
+                v = out[e * per + r, k]
+                if m != m:
+                    break
+                if v != v or v > m:
+                    m = v
+            if k == 0:
+                normal[e] = m
+            elif k == 1:
+                shear[e] = np.sqrt(m)
+            else:
+                vm[e] = np.sqrt(m)

@@ -380,6 +380,30 @@ def test_the_properties_of_a_solve_with_a_database_folder_use_that_folders_data(
     assert not np.allclose(flexmb.compliance(own, "B"), flexmb.compliance(shipped, "B"), rtol=1e-6, atol=0)
 
 
+def test_properties_refuse_a_database_folder_that_vanished_after_the_solve(tmp_path, monkeypatch):
+    """A solve read ``database=FOLDER``; the folder is deleted; properties that must read the
+    database again (here: the solution's kept step 2 dropped) are refused with the folder named, not computed from the shipped fits that
+    the search would find instead (found by attack2)."""
+    import shutil
+
+    from flexmb import database
+    from flexmb.ksd import properties
+
+    m = cross_flexure_pivot(3, dim=2, rotation=0.3)
+    joint = m.joints["cross_flexure"]
+    folder = tmp_path / "fits"
+    folder.mkdir()
+    data = database.train(joint, 2, range_deg=(-40, 40), step_deg=10)
+    database.save(data, folder / database.file_name(joint.kind, 2, data.key))
+    sol = flexmb.solve(m, method="ksd-reduced", database=folder)
+    assert sol.converged
+    del sol.stages["eob"]["near"]  # the solve's step 2 not kept: near() reads the database again
+    properties._NEAR.pop(sol, None)
+    shutil.rmtree(folder)
+    with pytest.raises(flexmb.ParameterError, match="fits.*no longer exists"):
+        flexmb.modes(sol, n=3)
+
+
 def _loaded_pivot_2d():
     """A planar cross flexure (not in the paper) turned 0.4 rad under a dead force (50, -50) N on B."""
     m = cross_flexure_pivot(5, dim=2, rotation=0.4)

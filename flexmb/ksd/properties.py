@@ -20,6 +20,7 @@ import weakref
 import numpy as np
 
 from .. import jit
+from ..errors import ParameterError
 from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
 from .eob_forces import axial_forces, force_table
@@ -108,6 +109,11 @@ def near(solution, database=None):
             eobs = [_LookedUp(e[0]) if isinstance(e, (list, tuple)) else e for e in eobs]
             per[database] = red, (eobs, K, Fh, step1[1], rz(step1[0]), step1[0])
         else:
+            if database is not None and not os.path.isdir(database):  # else the search passes it over silently
+                raise ParameterError(f"the KSD properties of this {solution.method} solution read the database folder "
+                                     f"{database!r}, which no longer exists (no such directory): the shipped or user "
+                                     "data found instead need not be the fits the solve used. Restore the folder or "
+                                     "solve again")
             red = reduced_mechanism(solution.compiled, database)  # the solve's own set-up, shared
             per[database] = red, near_configuration(red, step1=step1)
     return per[database]

@@ -41,6 +41,20 @@ def _cached_template(joint, dim: int, data) -> EOBTemplate:
     return _with_lookup(EOBTemplate(joint, dim, data), joint)
 
 
+_KERNELS: list = []
+
+
+def kernels():
+    """`flexmb.ksd.reduced_jit`, imported on first use (it imports numba, ~1 s: not with flexmb) and
+    kept: a function-level relative import costs a Python call per use (Python 3.11 checks the
+    importer's ``__package__`` against ``__spec__.parent``), six per KSD-reduced solve."""
+    if not _KERNELS:
+        from . import reduced_jit
+
+        _KERNELS.append(reduced_jit)
+    return _KERNELS[0]
+
+
 def _with_lookup(tpl: EOBTemplate, joint) -> EOBTemplate:
     """``tpl`` with its database's tabulated condensation attached when it applies (issue 21)."""
     tpl.lookup = lookup_for(tpl, joint)
@@ -275,7 +289,8 @@ class ReducedMechanism:
         out = copy.copy(self)
         out.compiled = compiled
         out._set_values(np.asarray(new.values, dtype=float))
-        vars(out).pop("_reachable", None)
+        for derived in ("_reachable", "_kinematics_args", "_tabulated"):  # what the values enter
+            vars(out).pop(derived, None)
         start = vars(self).get("_kinematic_start")
         if start is not None:  # at rest (lam = 0) the same; the turn rate follows the values
             out._kinematic_start = start[:-1] + (None,)
@@ -489,8 +504,7 @@ class ReducedMechanism:
         (Jg, n_i nd, nd + 1) and the internal nodes' near poses: positions (Jg, n_i, dim),
         rotations (Jg, n_i, 3, 3) in 3D or angles (Jg, n_i) in 2D), ``p_hat``, ``R_hat`` (J, 3),
         (J, 3, 3) node B's near pose (the manipulator: ~95 -> ~15 us)."""
-        from .reduced_jit import internal as kernel
-
+        kernel = kernels().internal
         try:
             x0, rot0, frames, none = self._state_arrays
         except AttributeError:  # what does not change from solve to solve, kept with the set-up

@@ -31,8 +31,9 @@ import numpy as np
 from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError
 from .. import jit
 from ..ksd.geometry import ACTIVE, LinkPoses, compose, rz
-from ..ksd.kinematics import _correction, _gesv, _norm, solve_kinematics
-from ..ksd.reduced import ReducedMechanism, reduced_mechanism, setup_key
+from ..ksd.eob_table import SLACK
+from ..ksd.kinematics import _correction, _gesv, _info, _norm, _solve_compiled, solve_kinematics
+from ..ksd.reduced import ReducedMechanism, kernels, reduced_mechanism, setup_key
 from ..linear import single_threaded
 from ..results import Solution
 from ..rotations import unskew
@@ -113,6 +114,36 @@ def _reachable(red: ReducedMechanism) -> None:
                             "range; use method='conventional' or retrain with `flexmb train --range`")
 
 
+def _tabulated(red: ReducedMechanism):
+    """KSD-reduced's compiled path with every joint's condensation tabulated, prepared once per
+    set-up (kept on ``red``; `ReducedMechanism.with_values` drops it): per group of joints its
+    indices, `flexmb.ksd.eob_table.Lookup.kernel_args` split around the per-solve arguments and its
+    outputs' shapes; and per joint the rotations [rad] within which a solve takes this path: in
+    the trained range (up to step 1's 1e-9 rad, `_check_range`) and on the table's grid (up to
+    `flexmb.ksd.eob_table.SLACK`, `Lookup.covers`), as Python floats. None where a joint has no
+    table (its EOB is evaluated per solve: the general path)."""
+    plan = vars(red).get("_tabulated")
+    if plan is not None:
+        return plan or None
+    J = len(red.joint_names)
+    lo, hi, groups = [0.0] * J, [0.0] * J, []
+    for tpl, _, idx in red.groups:
+        lookup = tpl.lookup
+        if lookup is None:
+            red._tabulated = False
+            return None
+        t, coef, k, root, powers, ocoef, emb = lookup.kernel_args()
+        dim, nd, ni, Jg = tpl.dim, tpl.nd, tpl.n_nodes - 2, len(idx)
+        shapes = ((Jg, ni * nd, nd + 1), (Jg, ni, dim), (Jg, ni, 3, 3) if dim == 3 else (0, 0, 3, 3),
+                  (Jg, ni) if dim == 2 else (0, 0))
+        groups.append((idx, (t, coef, k), (root, powers, ocoef, emb), shapes, dim == 3))
+        (tl, th), (kl, kh) = tpl.data.range, lookup.range
+        for j in idx.tolist():
+            lo[j], hi[j] = max(tl - 1e-9, kl - SLACK), min(th + 1e-9, kh + SLACK)
+    plan = red._tabulated = (groups, lo, hi)
+    return plan
+
+
 @attrs.frozen(kw_only=True)
 class _KSD:
     """Kinematically Started Deformation method (Dwarshuis et al. 2020).
@@ -189,6 +220,17 @@ class _KSD:
 
         if self.strict_range:
             _check_reachable(red)
+        compiled_path = self._compiled_path(compiled)  # steps 2-4 as arrays, compiled
+        plan = _tabulated(red) if compiled_path and not self.full else None
+        step1 = None if plan is None else self._kinematics_tabulated(red, plan[1], plan[2])
+        if step1 is not None:  # in range and on the tables: steps 2-4 from prepared arguments
+            poses, theta, p_hat, info = step1
+            stages["kinematics"] = {**info, "theta": theta, "p_hat": p_hat}  # fresh arrays, read below only
+            t = lap("kinematics", t)
+            eobs, K, Fh, R_hat = self._eobs_tabulated(red, plan[0], theta, p_hat)
+            stages["eob"] = {"joints": len(theta), "tabulated": len(theta), "near": (red, eobs, K, Fh)}
+            t = lap("eob", t)
+            return self._steps_3_4(compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, times, t, t0, lap)
         try:
             poses, theta, p_hat, info = solve_kinematics(red, tol=self.kinematic_tol, stop_beyond_half_turn=self.strict_range)
         except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy
@@ -208,7 +250,6 @@ class _KSD:
         K = np.zeros((J, 6, 6))
         Fh = np.zeros((J, 6))
         eobs, tabulated = [], 0
-        compiled_path = self._compiled_path(compiled)  # steps 2-4 as arrays, compiled
         for tpl, _, idx in red.groups:
             if not self.full and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
                 tabulated += len(idx)
@@ -230,7 +271,37 @@ class _KSD:
         if not self.full:  # step 2's EOBs, kept for flexmb.ksd.properties.near (not rebuilt)
             stages["eob"]["near"] = (red, eobs, K, Fh)
         t = lap("eob", t)
+        return self._steps_3_4(compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, times, t, t0, lap)
 
+    def _kinematics_tabulated(self, red, lo, hi):
+        """Step 1 through `flexmb.ksd.kinematics._solve_compiled` when its intended rotations lie
+        within ``lo``, ``hi`` (J,) (`_tabulated`: in range and on the tables) and it converged:
+        ``(poses, theta, p_hat, info)``; else None (the general path solves it again and refuses,
+        warns or evaluates the EOBs directly, as it does)."""
+        out = _solve_compiled(red, self.kinematic_tol, 30, 0.5, self.strict_range, refuse=False)  # solve_kinematics' defaults
+        if out is None:
+            return None
+        poses, theta, p, c, iterations, res, lam, history = out
+        if lam < 1.0 - 1e-14 or not all(a <= th <= b for a, th, b in zip(lo, theta.tolist(), hi)):
+            return None
+        return poses, theta, p, _info(red, c, iterations, res, lam, None, history)
+
+    @staticmethod
+    def _eobs_tabulated(red, groups, theta, p_hat):
+        """Step 2 from the tables, one `flexmb.ksd.reduced_jit.eob_lookup` call per group of joints
+        with `_tabulated`'s arguments (as `flexmb.ksd.eob_table.Lookup.compiled`): the group's
+        ``[recover, near positions, near rotations]``, ``K`` (J, 6, 6), ``F_hat`` (J, 6), ``R_hat``."""
+        eob_lookup = kernels().eob_lookup
+        J = len(theta)
+        K, Fh, eobs = np.zeros((J, 6, 6)), np.zeros((J, 6)), []
+        for idx, head, tail, (rs, xs, Rs, a_s), three in groups:
+            recover, x_int, R_int, a_int = np.empty(rs), np.empty(xs), np.empty(Rs), np.empty(a_s)
+            eob_lookup(*head, theta, p_hat, idx, *tail, K, Fh, recover, x_int, R_int, a_int)
+            eobs.append([recover, x_int, R_int if three else a_int])
+        return eobs, K, Fh, rz(theta)
+
+    def _steps_3_4(self, compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, times, t, t0, lap):
+        """Steps 3 and 4 (and 5 for ``ksd-full``) from step 2's ``eobs``, ``K``, ``Fh``; the `Solution`."""
         poses3, ok3, hist3, r3, mu, angles = self._reduced(red, poses, K, Fh, p_hat, R_hat, info["hinge_angles"])
         stages["reduced"] = {"iterations": len(hist3), "residual": hist3[-1] if hist3 else np.nan,
                              "converged": ok3, "history": hist3}
@@ -319,12 +390,12 @@ class _KSD:
     def _reduced_compiled(self, red, poses, K, Fh, p_hat, R_hat):
         """`_reduced` without hinges through `flexmb.ksd.reduced_jit.reduced_newton` (the manipulator's
         joint case: ~60 -> ~15 us)."""
-        from ..ksd.reduced_jit import reduced_newton
-
-        x, R, angle = poses.x.copy(), poses.R.copy(), poses.angle.copy()
+        x, R, angle = poses.x, poses.R, poses.angle  # step 1's, fresh per solve: moved in place
+        if not (x.flags.writeable and R.flags.writeable and angle.flags.writeable):  # the rest poses (kept)
+            x, R, angle = x.copy(), R.copy(), angle.copy()
         fr = red.frames
         history, r = np.empty(self.max_iter), np.empty(6 * red.n_links)
-        ok, it, _ = reduced_newton(x, R, angle, fr.a, fr.b, fr.s_a, fr.s_b, fr.P, K, Fh, p_hat, R_hat, red._cols,
+        ok, it, _ = kernels().reduced_newton(x, R, angle, fr.a, fr.b, fr.s_a, fr.s_b, fr.P, K, Fh, p_hat, R_hat, red._cols,
                                    red.load_node, red.load_offset, red.load_force, red.load_moment, red.free,
                                    self.tol, self.max_iter, self.divergence, history, r)
         return LinkPoses(x, R, angle), bool(ok), history[:it].tolist(), r, None, None

@@ -87,6 +87,27 @@ def _folders(folder, environment: tuple) -> tuple:
     return tuple(os.fspath(f) for f in search_path(folder))
 
 
+@functools.lru_cache(maxsize=256)
+def _candidates(folder, environment: tuple, name: str) -> tuple:
+    """The paths `template` tries for the file ``name``, in `search_path`'s order."""
+    return tuple(os.path.join(f, name) for f in _folders(folder, environment))
+
+
+_ENVIRON = getattr(os.environ, "_data", None)  # CPython's os.environ storage (bytes keys on POSIX)
+_ENVIRON_KEYS = tuple(os.environ.encodekey(k) for k in _SEARCH_INPUTS) if _ENVIRON is not None and hasattr(
+    os.environ, "encodekey") else None
+
+
+def _environment() -> tuple:
+    """The values of `_SEARCH_INPUTS` (what `search_path` depends on besides its argument): read
+    from os.environ's own dict where CPython keeps one (os.environ.get costs four Python calls a
+    key, 5 keys per set-up check), else through os.environ."""
+    if _ENVIRON_KEYS is not None:
+        get = _ENVIRON.get
+        return tuple([get(k) for k in _ENVIRON_KEYS])
+    return tuple(os.environ.get(k) for k in _SEARCH_INPUTS)
+
+
 def _database_file(joint, dim: int, folder, name: str | None = None) -> tuple:
     """Where `template` finds ``joint``'s database and in what state: the folders searched, the
     file found (None if none) and its identity and times (device, inode, size, modification and
@@ -95,12 +116,12 @@ def _database_file(joint, dim: int, folder, name: str | None = None) -> tuple:
     signatures mean `template` reads the same file as when they were taken. ``name``: the file's
     name when known (`_file_name`). One ``lstat`` per folder searched, a ``stat`` where a link
     is found (~6 us for the shipped data; `template` reads and parses the file, ~150 us)."""
-    folders = _folders(None if folder is None else os.fspath(folder),
-                       tuple(os.environ.get(k) for k in _SEARCH_INPUTS))
+    folder = None if folder is None else os.fspath(folder)
+    environment = _environment()
     if name is None:
         name = _file_name(joint, dim)
-    for f in folders:
-        path = os.path.join(f, name)
+    folders = _folders(folder, environment)
+    for path in _candidates(folder, environment, name):
         try:
             st = os.lstat(path)
         except FileNotFoundError:  # nothing there, not even a broken link: the next folder
@@ -301,7 +322,7 @@ class ReducedMechanism:
         would read (same folders searched, same file, same bytes); False when one changed or is gone."""
         for jt, _, signature in self._templates:
             if signature is None or signature[2] is None or _database_file(
-                    jt, self.dim, self.folder, os.path.basename(signature[1])) != signature:
+                    jt, self.dim, self.folder, signature[1].rpartition(os.sep)[2]) != signature:
                 return False
         return True
 

@@ -22,7 +22,7 @@ from ..errors import ConvergenceError, TopologyError, UnsupportedStrategyError
 from .geometry import LinkPoses
 from .reduced import ReducedMechanism, kernels
 
-__all__ = ["solve_kinematics", "kinematic_start", "turn_rate", "STEP_ROTATION"]
+__all__ = ["solve_kinematics", "kinematics_in_range", "kinematic_start", "turn_rate", "STEP_ROTATION"]
 
 _gesv = lapack.get_lapack_funcs("gesv", (np.zeros(1),))
 _COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
@@ -237,14 +237,12 @@ def _kinematics_call(red: ReducedMechanism) -> tuple:
     return call
 
 
-def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool,
-                    refuse: bool = True):
+def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool):
     """`solve_kinematics` through `flexmb.ksd.reduced_jit.kinematics` (no hinges): the same steps in
     one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21). The kernel keeps
     the residuals of the first 64 ``max_iter`` iterations (the manipulator needs ~5); beyond that
     (a motion of many turns: the 2D pivot turned 300 rad with max_iter=2, 191 iterations) it runs
-    again with room for all, so info's ``history`` holds every iteration, as the numpy loop's.
-    ``refuse=False``: a failure returns None instead of raising."""
+    again with room for all, so info's ``history`` holds every iteration, as the numpy loop's."""
     x0, R0, angle0, jac0, middle, order, in_order = _kinematics_call(red)
     J = len(order)
     room = 64 * max_iter
@@ -259,12 +257,31 @@ def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotati
             break
         room = iterations
     if status:
-        if not refuse:
-            return None
         raise _not_converged(lam, res, tol)
     if not in_order:
         theta[order], p[order] = theta.copy(), p.copy()
     return LinkPoses(x, R, angle), theta, p, c, iterations, res, lam, history[:iterations].tolist()
+
+
+def kinematics_in_range(red: ReducedMechanism, tol: float, stop_beyond_half_turn: bool, lo: np.ndarray,
+                        hi: np.ndarray):
+    """`solve_kinematics` with its defaults (no hinges, compiled) when it converges to intended
+    rotations within ``lo``, ``hi`` (J,) [rad]: ``(poses, theta, p, info)``; None otherwise (the
+    caller solves again through `solve_kinematics`, which refuses or warns as it does). One call
+    of `flexmb.ksd.reduced_jit.kinematics_in_range`: the same kernel and numbers as `_solve_compiled`."""
+    x0, R0, angle0, jac0, middle, order, _ = _kinematics_call(red)
+    max_iter = 30
+    room = 64 * max_iter
+    while True:  # deterministic: a second run repeats the first, with a longer history
+        status, iterations, res, lam, within, x, R, angle, c, theta, p, history = kernels().kinematics_in_range(
+            x0, R0, angle0, jac0, *middle, tol, max_iter, 0.5, stop_beyond_half_turn, red.n_equations, room, order,
+            lo, hi)
+        if iterations <= room:
+            break
+        room = iterations
+    if status or not within or lam < 1.0 - 1e-14:
+        return None
+    return LinkPoses(x, R, angle), theta, p, _info(red, c, iterations, res, lam, None, history[:iterations].tolist())
 
 
 def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5,
@@ -356,7 +373,13 @@ def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam
         removed = np.flatnonzero(~keep)
         names = [red.rows[k] for k in removed]
         red._removed_rows = removed, names
-    if len(removed) and np.abs(c[removed]).max() > 1e-6:
+        red._removed_list = removed.tolist()
+    worst = 0.0
+    if len(removed):  # the removed rows' largest |value|, as np.abs(c[removed]).max() (NaN first)
+        cl = c.tolist()
+        values = [abs(cl[k]) for k in red._removed_list]
+        worst = math.nan if any(v != v for v in values) else max(values)
+    if worst > 1e-6:
         k = removed[np.argmax(np.abs(c[removed]))]
         warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
                       f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
@@ -364,5 +387,5 @@ def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam
                       RuntimeWarning, stacklevel=4)
     return {"iterations": iterations, "residual": res, "load_factor": lam, "hinge_angles": hinge_path,
             "equations": len(c), "removed": len(removed),
-            "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
+            "removed_residual": worst,
             "removed_equations": list(names), "history": history}

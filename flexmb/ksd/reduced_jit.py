@@ -17,7 +17,8 @@ from ..closed_form.linkage_jit import _solve_in_place
 from ..fe.model_jit import compose3d
 from ..jit import njit
 
-__all__ = ["equilibrium", "relative", "intended_angle", "constraints", "kinematics", "reduced_newton", "bspline",
+__all__ = ["equilibrium", "relative", "intended_angle", "constraints", "kinematics", "kinematics_in_range",
+           "reduced_newton", "bspline",
            "eob_lookup", "internal"]
 
 
@@ -398,6 +399,34 @@ def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free
             if dlam < 1e-4:
                 return 1, iterations, res, lam
     return 0, iterations, res, lam
+
+
+@njit
+def kinematics_in_range(x0, R0, angle0, jac0, path_theta, largest, step_rotation, rows, free, prescribed, values,
+                        lam_rate, X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P, code, inv, rest, nm, fun, fpow, fcoef,
+                        cols, tol, max_iter, max_rotation, stop_beyond_half_turn, n_equations, room, order, lo, hi):
+    """`kinematics` from the rest poses ``x0``, ``R0``, ``angle0`` and Jacobian ``jac0`` (read, not
+    changed) with its outputs allocated here (a solve's Python wrapper made ten numpy calls for
+    them, ~6 us each after other work has evicted the caches), the intended rotations and
+    positions put back in the joints' ``order``, and whether every rotation lies within ``lo``,
+    ``hi`` (J,). Returns (status, iterations, residual, load factor, within, x, R, angle, c,
+    theta, p, history (room,))."""
+    x, R, angle = x0.copy(), R0.copy(), angle0.copy()
+    J = len(order)
+    c, th, pp, history = np.empty(n_equations), np.empty(J), np.empty((J, 3)), np.empty(room)
+    status, iterations, res, lam = kinematics(x, R, angle, jac0.copy(), path_theta, largest, step_rotation, rows, free,
+                                              prescribed, values, lam_rate, X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P,
+                                              code, inv, rest, nm, fun, fpow, fcoef, cols, tol, max_iter,
+                                              max_rotation, stop_beyond_half_turn, c, th, pp, history)
+    theta, p = np.empty(J), np.empty((J, 3))
+    within = True
+    for i in range(J):
+        j = order[i]
+        theta[j] = th[i]
+        p[j] = pp[i]
+    for j in range(J):
+        within = within and lo[j] <= theta[j] <= hi[j]
+    return status, iterations, res, lam, within, x, R, angle, c, theta, p, history
 
 
 # -- step 3: Newton on the reduced mechanism -------------------------------------------------------

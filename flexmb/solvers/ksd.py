@@ -32,7 +32,7 @@ from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, Para
 from .. import jit
 from ..ksd.geometry import ACTIVE, LinkPoses, compose, rz
 from ..ksd.eob_table import SLACK
-from ..ksd.kinematics import _correction, _gesv, _info, _norm, _solve_compiled, solve_kinematics
+from ..ksd.kinematics import _correction, _gesv, _norm, kinematics_in_range, solve_kinematics
 from ..ksd.reduced import ReducedMechanism, kernels, reduced_mechanism, setup_key
 from ..linear import single_threaded
 from ..results import Solution
@@ -120,7 +120,7 @@ def _tabulated(red: ReducedMechanism):
     indices, `flexmb.ksd.eob_table.Lookup.kernel_args` split around the per-solve arguments and its
     outputs' shapes; and per joint the rotations [rad] within which a solve takes this path: in
     the trained range (up to step 1's 1e-9 rad, `_check_range`) and on the table's grid (up to
-    `flexmb.ksd.eob_table.SLACK`, `Lookup.covers`), as Python floats. None where a joint has no
+    `flexmb.ksd.eob_table.SLACK`, `Lookup.covers`), (J,) arrays. None where a joint has no
     table (its EOB is evaluated per solve: the general path)."""
     plan = vars(red).get("_tabulated")
     if plan is not None:
@@ -140,7 +140,7 @@ def _tabulated(red: ReducedMechanism):
         (tl, th), (kl, kh) = tpl.data.range, lookup.range
         for j in idx.tolist():
             lo[j], hi[j] = max(tl - 1e-9, kl - SLACK), min(th + 1e-9, kh + SLACK)
-    plan = red._tabulated = (groups, lo, hi)
+    plan = red._tabulated = (groups, np.array(lo), np.array(hi))
     return plan
 
 
@@ -222,7 +222,7 @@ class _KSD:
             _check_reachable(red)
         compiled_path = self._compiled_path(compiled)  # steps 2-4 as arrays, compiled
         plan = _tabulated(red) if compiled_path and not self.full else None
-        step1 = None if plan is None else self._kinematics_tabulated(red, plan[1], plan[2])
+        step1 = None if plan is None else kinematics_in_range(red, self.kinematic_tol, self.strict_range, *plan[1:])
         if step1 is not None:  # in range and on the tables: steps 2-4 from prepared arguments
             poses, theta, p_hat, info = step1
             stages["kinematics"] = {**info, "theta": theta, "p_hat": p_hat}  # fresh arrays, read below only
@@ -272,19 +272,6 @@ class _KSD:
             stages["eob"]["near"] = (red, eobs, K, Fh)
         t = lap("eob", t)
         return self._steps_3_4(compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, times, t, t0, lap)
-
-    def _kinematics_tabulated(self, red, lo, hi):
-        """Step 1 through `flexmb.ksd.kinematics._solve_compiled` when its intended rotations lie
-        within ``lo``, ``hi`` (J,) (`_tabulated`: in range and on the tables) and it converged:
-        ``(poses, theta, p_hat, info)``; else None (the general path solves it again and refuses,
-        warns or evaluates the EOBs directly, as it does)."""
-        out = _solve_compiled(red, self.kinematic_tol, 30, 0.5, self.strict_range, refuse=False)  # solve_kinematics' defaults
-        if out is None:
-            return None
-        poses, theta, p, c, iterations, res, lam, history = out
-        if lam < 1.0 - 1e-14 or not all(a <= th <= b for a, th, b in zip(lo, theta.tolist(), hi)):
-            return None
-        return poses, theta, p, _info(red, c, iterations, res, lam, None, history)
 
     @staticmethod
     def _eobs_tabulated(red, groups, theta, p_hat):

@@ -96,3 +96,38 @@ def test_the_plausibility_check_says_the_same_on_either_path(kernels, case):
     np.testing.assert_array_equal(sigma, ref)
     assert (ks, ky) == (np.argmax(ref / tab.E), np.argmax(ref / tab.yield_stress))
     assert strain == ref[ks] / tab.E[ks] and over == ref[ky] / tab.yield_stress[ky]
+
+
+def test_a_database_file_put_in_the_user_folder_between_solves_is_used(tmp_path, monkeypatch):
+    # the set-up of a KSD solve is kept with the compiled mechanism and checked per solve
+    # (ReducedMechanism.current: the folders searched, which file and its state); the check now
+    # tests a folder without the file by os.access instead of an lstat raising FileNotFoundError.
+    # The user folder (FLEXMB_DATABASE) is searched before the shipped data: a file copied there
+    # after a solve must be the one the next solve reads, and one removed again gives the shipped
+    # data back; a broken link there is refused, as `template` refuses it. 2D cross-flexure pivot
+    # (not a paper case)
+    import os
+    import shutil
+
+    from flexmb.database import store
+
+    monkeypatch.setenv("FLEXMB_DATABASE", str(tmp_path))
+    m = _pivot(10.0)
+
+    def used(sol):
+        red = sol.stages["eob"]["near"][0]
+        return red, red._templates[0][2][1]
+
+    first_red, first = used(flexmb.solve(m, method="ksd-reduced"))
+    assert not first.startswith(str(tmp_path))
+    assert used(flexmb.solve(m, method="ksd-reduced"))[0] is first_red  # unchanged: the same set-up
+    source = store.locate(next(iter(m.joints.values())), 2)
+    shutil.copy(source, tmp_path / source.name)
+    red, path = used(flexmb.solve(m, method="ksd-reduced"))
+    assert red is not first_red and path == os.path.join(str(tmp_path), source.name)
+    (tmp_path / source.name).unlink()
+    assert used(flexmb.solve(m, method="ksd-reduced"))[1] == first
+    if hasattr(os, "symlink"):
+        os.symlink(tmp_path / "nowhere.json", tmp_path / source.name)
+        with pytest.raises(flexmb.DatabaseError):
+            flexmb.solve(m, method="ksd-reduced")

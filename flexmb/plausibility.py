@@ -127,8 +127,15 @@ _FACTORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _strains(solution, model, stacklevel: int) -> None:
-    tab = section_table(model.elements)  # built once per compiled model
-    plan = _plan(model, tab)
+    try:  # the compiled path's plan, kept per model: one lookup
+        plan = _PLANS[model] if jit.enabled() else None
+    except (KeyError, TypeError):
+        plan = None
+    if plan is None:
+        tab = section_table(model.elements)  # built once per compiled model
+        plan = _plan(model, tab)
+    else:
+        tab = plan[2]
     _moduli(solution, model, stacklevel + 1)
     if plan is None:  # the numpy path, or a plugin section without extreme-fibre distances
         try:
@@ -138,7 +145,7 @@ def _strains(solution, model, stacklevel: int) -> None:
         strain, over = sigma / tab.E, sigma / tab.yield_stress
         ks, ky = int(np.argmax(strain)), int(np.argmax(over))
     else:  # one compiled call: stresses, peak stress and both argmaxes (`flexmb.plausibility_jit`)
-        kernel, args = plan
+        kernel, args = plan[:2]
         state = solution.state
         sigma = np.empty(len(tab.E))
         ks, ky, s, o = kernel(np.ascontiguousarray(state.positions, dtype=float),
@@ -158,8 +165,8 @@ def _strains(solution, model, stacklevel: int) -> None:
 
 def _plan(model, tab):
     """With the compiled kernels and sections with extreme-fibre distances, the kernel of
-    `flexmb.plausibility_jit` for ``model`` and its model arguments, built once per model (kept
-    weakly); None otherwise (the numpy path: `peak_stress`)."""
+    `flexmb.plausibility_jit` for ``model``, its model arguments and the section table, built once
+    per model (kept weakly); None otherwise (the numpy path: `peak_stress`)."""
     if not (jit.enabled() and tab.has_y and (model.dim == 2 or tab.has_z) and model.elements.S.ndim == 3):
         return None
     try:
@@ -177,7 +184,7 @@ def _build_plan(model, tab):
     c = np.ascontiguousarray
     args = (*model._ends, *model._element_data, c(model.element_dofs, dtype=np.int64), int(model.n_dofs), tab.A,
             tab.ymax, tab.Iz, tab.zmax / tab.Iy, tab.ymax / tab.Iz, tab.circle, tab.E, tab.yield_stress)
-    return (plausibility_jit.strains3d if model.dim == 3 else plausibility_jit.strains2d), args
+    return (plausibility_jit.strains3d if model.dim == 3 else plausibility_jit.strains2d), args, tab
 
 
 _PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

@@ -281,7 +281,7 @@ def kinematics_in_range(red: ReducedMechanism, tol: float, stop_beyond_half_turn
         room = iterations
     if status or not within or lam < 1.0 - 1e-14:
         return None
-    return LinkPoses(x, R, angle), theta, p, _info(red, c, iterations, res, lam, None, history[:iterations].tolist())
+    return LinkPoses(x, R, angle), theta, p, _info(red, c, iterations, res, lam, None, history.tolist())
 
 
 def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5,

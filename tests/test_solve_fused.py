@@ -50,6 +50,23 @@ def _pivot(deg, dim=2):
     return flexmb.models.cross_flexure_pivot(elements_per_leaf=5, dim=dim, rotation=np.radians(deg))
 
 
+def _mixed_kinds():
+    """A 3D chain of two joint kinds: ground A, a three_x_infinity to link B, a cross-flexure pivot
+    to link C; B turned 10 deg and C 25 deg about z (the second joint 15 deg), C pushed."""
+    a, c = flexmb.ThreeXInfinity(elements_per_leaf=3), flexmb.CrossFlexure(elements_per_leaf=3)
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    b = np.asarray(a.interface_b(3), dtype=float)
+    m.add_link("B", position=b)
+    m.add_link("C", position=b + np.asarray(c.interface_b(3), dtype=float))
+    m.add_joint("A", "B", a, name="three_x")
+    m.add_joint("B", "C", c, name="cross", origin=b)
+    m.prescribe("B", rotation=[0.0, 0.0, np.radians(10.0)])
+    m.prescribe("C", rotation=[0.0, 0.0, np.radians(25.0)])
+    m.apply_force("C", [0.5, -0.3, 0.2])
+    return m
+
+
 CHECKED = {  # (mechanism, method, options)
     "pivot 2d 20 deg, ksd-reduced": (lambda: _pivot(20.0), "ksd-reduced", {}),
     # the paper's step control alone wanders to a 6 % peak strain (tests/test_solver.py), beyond STRAIN_LIMIT
@@ -131,3 +148,72 @@ def test_a_database_file_put_in_the_user_folder_between_solves_is_used(tmp_path,
         os.symlink(tmp_path / "nowhere.json", tmp_path / source.name)
         with pytest.raises(flexmb.DatabaseError):
             flexmb.solve(m, method="ksd-reduced")
+
+
+@pytest.fixture
+def tabulated_pivots():
+    """The cross-flexure pivots' templates (2D: both thicknesses of the two-kinds four-bar and the
+    pivot's; 3D: the mixed chain's) with their condensation tabulated on a coarse grid
+    (flexmb.ksd.eob_table.tabulate, degree 5 on 2 deg) attached, so their solves take the
+    tabulated path; detached afterwards."""
+    from flexmb.ksd.eob_table import Lookup, tabulate
+    from flexmb.ksd.reduced import ReducedMechanism
+
+    attached = []
+    for m in (_two_kinds(2), _pivot(10.0), _mixed_kinds()):
+        for tpl, _, _ in ReducedMechanism(m.compile()).groups:
+            if tpl.lookup is None and all(tpl is not t for t, _ in attached):
+                attached.append((tpl, tpl.lookup))
+                tpl.lookup = Lookup(tpl, tabulate(tpl, {}, step_deg=2.0, degree=5))
+    yield
+    for tpl, previous in attached:
+        tpl.lookup = previous
+
+
+FUSED = {  # none of them a paper case
+    "mixed kinds 3d": _mixed_kinds,
+    "pivot 2d": lambda: _pivot(12.0),
+    "two kinds 2d": lambda: _two_kinds(2),
+    "three_x_infinity 3d at 17 deg, loaded": lambda: flexmb.testing.joint_mechanism(
+        flexmb.ThreeXInfinity(elements_per_leaf=3), 3, motion=np.radians(17.0), force=[2.0, -1.0, 0.5]),
+}
+
+
+@pytest.mark.parametrize("case", list(FUSED))
+def test_the_tabulated_path_equals_the_general_and_the_numpy_path(kernels, tabulated_pivots, case):
+    # KSD-reduced (Dwarshuis et al. 2020 Sec. 2, steps 1-4) with every joint tabulated and in range
+    # runs the prepared kernels with their outputs allocated inside (flexmb.solvers.ksd._tabulated):
+    # the same kernels as the general compiled path, so the same numbers to the last bit; and the
+    # numpy path's (step 2 by Lookup.__call__) to 1e-12, as tests/test_kernels.py holds the stages
+    from flexmb.solvers.ksd import _tabulated
+
+    m = FUSED[case]()
+    kernels("numba")
+    fast = flexmb.solve(m, method="ksd-reduced")
+    red = fast.stages["eob"]["near"][0]
+    assert _tabulated(red) is not None and fast.stages["eob"]["tabulated"] == len(red.joint_names)
+    red._tabulated = False  # the general compiled path for the same set-up
+    general = flexmb.solve(m, method="ksd-reduced")
+    del red._tabulated
+    kernels("numpy")
+    ref = flexmb.solve(m, method="ksd-reduced")
+    assert fast.converged and general.converged and ref.converged
+    assert fast.iterations == general.iterations == ref.iterations
+    for a, b in ((fast.state.positions, general.state.positions), (fast.state.rotations, general.state.rotations),
+                 (fast.residual, general.residual), (fast.residual_history, general.residual_history)):
+        np.testing.assert_array_equal(a, b)
+    for key in ("kinematics", "eob", "reduced"):
+        assert fast.stages[key].keys() == general.stages[key].keys()
+    np.testing.assert_array_equal(fast.stages["kinematics"]["theta"], general.stages["kinematics"]["theta"])
+    assert fast.stages["kinematics"]["history"] == general.stages["kinematics"]["history"]
+    assert fast.stages["reduced"]["history"] == general.stages["reduced"]["history"]
+    for (_, ea, Ka, Fa), (_, eb, Kb, Fb) in [(fast.stages["eob"]["near"], general.stages["eob"]["near"])]:
+        np.testing.assert_array_equal(Ka, Kb)
+        np.testing.assert_array_equal(Fa, Fb)
+        for ga, gb in zip(ea, eb):
+            for a, b in zip(ga, gb):
+                np.testing.assert_array_equal(a, b)
+    scale = np.abs(ref.state.positions).max()
+    assert np.abs(fast.state.positions - ref.state.positions).max() <= 1e-12 * scale
+    assert np.abs(fast.state.rotations - ref.state.rotations).max() <= 1e-12
+    assert not fast.state.positions.flags.writeable or not np.shares_memory(fast.state.positions, general.state.positions)

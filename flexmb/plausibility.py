@@ -59,22 +59,30 @@ def check(solution, *, stacklevel: int = 3) -> None:
         _strains(solution, problem.model, stacklevel + 1)
 
 
-def _moduli(solution, model, stacklevel: int) -> None:
+def _moduli(solution, model, stacklevel: int, tab=None) -> None:
     """A modulus that looks like GPa with lengths in m (`flexmb._validate.modulus_units`), wherever
-    it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here."""
-    tab = section_table(model.elements)
-    E, L = tab.E, tab.length
-    try:
-        k = _SUSPECT[tab]
-    except KeyError:  # decided once per section table (it cannot change)
-        bad = np.flatnonzero((E < 1e3) & (L < 1.0))
-        k = _SUSPECT[tab] = int(bad[0]) if len(bad) else -1
+    it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here.
+    ``tab``: ``model``'s `section_table` when at hand."""
+    tab = section_table(model.elements) if tab is None else tab
+    k = _suspect(tab)
     if k >= 0:
+        E, L = tab.E, tab.length
         modulus_units(f"{solution.method} ({_where(solution, k)})", float(E[k]), float(L[k]), "joint length",
                       stacklevel=stacklevel + 1)
 
 
-_SUSPECT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per section table: `_moduli`'s element or -1
+def _suspect(tab) -> int:
+    """The first element whose modulus looks like GPa with lengths in m, or -1; decided once per
+    section table (it cannot change)."""
+    try:
+        return _SUSPECT[tab]
+    except KeyError:
+        bad = np.flatnonzero((tab.E < 1e3) & (tab.length < 1.0))
+        k = _SUSPECT[tab] = int(bad[0]) if len(bad) else -1
+        return k
+
+
+_SUSPECT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per section table: `_suspect`'s verdict
 
 
 def check_mass_units(solution, model, stacklevel: int = 3) -> None:
@@ -136,7 +144,8 @@ def _strains(solution, model, stacklevel: int) -> None:
         plan = _plan(model, tab)
     else:
         tab = plan[2]
-    _moduli(solution, model, stacklevel + 1)
+    if plan is None or plan[3] >= 0:  # the plan holds the modulus verdict (`_suspect`)
+        _moduli(solution, model, stacklevel + 1, tab)
     if plan is None:  # the numpy path, or a plugin section without extreme-fibre distances
         try:
             sigma = peak_stress(model, solution.state)
@@ -165,8 +174,9 @@ def _strains(solution, model, stacklevel: int) -> None:
 
 def _plan(model, tab):
     """With the compiled kernels and sections with extreme-fibre distances, the kernel of
-    `flexmb.plausibility_jit` for ``model``, its model arguments and the section table, built once
-    per model (kept weakly); None otherwise (the numpy path: `peak_stress`)."""
+    `flexmb.plausibility_jit` for ``model``, its model arguments, the section table and its
+    `_suspect` modulus, built once per model (kept weakly); None otherwise (the numpy path:
+    `peak_stress`)."""
     if not (jit.enabled() and tab.has_y and (model.dim == 2 or tab.has_z) and model.elements.S.ndim == 3):
         return None
     try:
@@ -184,7 +194,7 @@ def _build_plan(model, tab):
     c = np.ascontiguousarray
     args = (*model._ends, *model._element_data, c(model.element_dofs, dtype=np.int64), int(model.n_dofs), tab.A,
             tab.ymax, tab.Iz, tab.zmax / tab.Iy, tab.ymax / tab.Iz, tab.circle, tab.E, tab.yield_stress)
-    return (plausibility_jit.strains3d if model.dim == 3 else plausibility_jit.strains2d), args, tab
+    return (plausibility_jit.strains3d if model.dim == 3 else plausibility_jit.strains2d), args, tab, _suspect(tab)
 
 
 _PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import operator
 import threading
 import weakref
 
@@ -45,6 +46,14 @@ def fingerprint(mechanism) -> tuple:
     The graph's own node and edge data dicts are read item by item, so replacing a link or a joint
     in ``mechanism.graph`` directly is seen too. An equal value in a new object counts as a change
     (a needless compile, never a stale one)."""
+    counts, objs = _reads(mechanism)
+    return (counts, tuple(map(id, objs))), objs
+
+
+def _reads(mechanism) -> tuple:
+    """`fingerprint`'s counts (a tuple) and objects (a list), without the objects' ids: two reads
+    are the same when their counts are equal and their objects identical one by one (while the
+    first read's objects are kept alive)."""
     graph = mechanism.graph
     objs, counts = [], [mechanism.dim, len(graph)]
     add, extend, count = objs.append, objs.extend, counts.append  # bound once: ~10 -> ~6 us a call
@@ -74,7 +83,7 @@ def fingerprint(mechanism) -> tuple:
     extend(points.values())
     add(state.get("_actuation"))
     counts += (edges, len(loads), len(prescribed), len(points))
-    return (tuple(counts), tuple(map(id, objs))), objs
+    return tuple(counts), objs
 
 
 def _edges(adj: dict) -> list:
@@ -132,17 +141,21 @@ def compiled_for(mechanism, capability: str = "fe_model") -> Compiled:
     if getattr(type(mechanism).compile, "__qualname__", "") != "Mechanism.compile":  # not flexmb's own compile
         return mechanism.compile(capability)
     try:
-        key, pins = fingerprint(mechanism)
+        counts, pins = _reads(mechanism)
     except (AttributeError, TypeError):  # not a flexmb.Mechanism's data: no cache
         return mechanism.compile(capability)
     entry = cache.get(mechanism)
-    if entry is not None and entry[0] == key and capability in entry[2]:
+    # unchanged: the same counts and the same objects one by one (`fingerprint`'s key, compared
+    # without building ~100 ids: the kept entry holds its objects alive)
+    same = entry is not None and entry[0] == counts and len(entry[1]) == len(pins) and all(
+        map(operator.is_, entry[1], pins))
+    if same and capability in entry[2]:
         return entry[2][capability]
     compiled = mechanism.compile(capability)
     if not _values_only(mechanism):
         return compiled
     _read_only(compiled)
-    built = entry[2] if entry is not None and entry[0] == key else {}
+    built = entry[2] if same else {}
     built[capability] = compiled
-    cache[mechanism] = (key, pins, built)
+    cache[mechanism] = (counts, pins, built)
     return compiled

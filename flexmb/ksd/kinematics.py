@@ -266,14 +266,15 @@ def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotati
 def kinematics_in_range(red: ReducedMechanism, tol: float, stop_beyond_half_turn: bool, lo: np.ndarray,
                         hi: np.ndarray):
     """`solve_kinematics` with its defaults (no hinges, compiled) when it converges to intended
-    rotations within ``lo``, ``hi`` (J,) [rad]: ``(poses, theta, p, info)``; None otherwise (the
+    rotations within ``lo``, ``hi`` (J,) [rad]: ``(poses, theta, p, info)`` and step 2's zeroed
+    stiffness (J, 6, 6) and force (J, 6) arrays; None otherwise (the
     caller solves again through `solve_kinematics`, which refuses or warns as it does). One call
     of `flexmb.ksd.reduced_jit.kinematics_in_range`: the same kernel and numbers as `_solve_compiled`."""
     x0, R0, angle0, jac0, middle, order, _ = _kinematics_call(red)
     max_iter = 30
     room = 64 * max_iter
     while True:  # deterministic: a second run repeats the first, with a longer history
-        status, iterations, res, lam, within, x, R, angle, c, theta, p, history = kernels().kinematics_in_range(
+        status, iterations, res, lam, within, x, R, angle, c, theta, p, history, K, Fh = kernels().kinematics_in_range(
             x0, R0, angle0, jac0, *middle, tol, max_iter, 0.5, stop_beyond_half_turn, red.n_equations, room, order,
             lo, hi)
         if iterations <= room:
@@ -281,7 +282,7 @@ def kinematics_in_range(red: ReducedMechanism, tol: float, stop_beyond_half_turn
         room = iterations
     if status or not within or lam < 1.0 - 1e-14:
         return None
-    return LinkPoses(x, R, angle), theta, p, _info(red, c, iterations, res, lam, None, history.tolist())
+    return LinkPoses(x, R, angle), theta, p, _info(red, c, iterations, res, lam, None, history.tolist()), K, Fh
 
 
 def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5,

@@ -410,7 +410,8 @@ def kinematics_in_range(x0, R0, angle0, jac0, path_theta, largest, step_rotation
     them, ~6 us each after other work has evicted the caches), the intended rotations and
     positions put back in the joints' ``order``, and whether every rotation lies within ``lo``,
     ``hi`` (J,). Returns (status, iterations, residual, load factor, within, x, R, angle, c,
-    theta, p, history (iterations, at most room))."""
+    theta, p, history (iterations, at most room), and step 2's zeroed stiffness (J, 6, 6) and
+    force (J, 6), allocated with the rest)."""
     x, R, angle = x0.copy(), R0.copy(), angle0.copy()
     J = len(order)
     c, th, pp, history = np.empty(n_equations), np.empty(J), np.empty((J, 3)), np.empty(room)
@@ -426,7 +427,8 @@ def kinematics_in_range(x0, R0, angle0, jac0, path_theta, largest, step_rotation
         p[j] = pp[i]
     for j in range(J):
         within = within and lo[j] <= theta[j] <= hi[j]
-    return status, iterations, res, lam, within, x, R, angle, c, theta, p, history[:min(iterations, room)].copy()
+    return (status, iterations, res, lam, within, x, R, angle, c, theta, p, history[:min(iterations, room)].copy(),
+            np.zeros((J, 6, 6)), np.zeros((J, 6)))
 
 
 # -- step 3: Newton on the reduced mechanism -------------------------------------------------------

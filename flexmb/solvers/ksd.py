@@ -115,6 +115,9 @@ def _reachable(red: ReducedMechanism) -> None:
                             "range; use method='conventional' or retrain with `flexmb train --range`")
 
 
+_TOL_TEXT: dict = {}  # tolerances as messages print them (a float's formatting: ~10 us after other work)
+
+
 def _tabulated(red: ReducedMechanism):
     """KSD-reduced's compiled path with every joint's condensation tabulated, prepared once per
     set-up (kept on ``red``; `ReducedMechanism.with_values` drops it): per group of joints its
@@ -280,11 +283,11 @@ class _KSD:
         other work has evicted the caches."""
         groups, _, _, frames, loads, nodes, reference, dofs = plan
         kernel = kernels()
-        poses, theta, p_hat, info = step1
+        poses, theta, p_hat, info, K, Fh = step1
         stages["kinematics"] = {**info, "theta": theta, "p_hat": p_hat}  # fresh arrays, read below only
         t = lap("kinematics", t)
         J = len(theta)
-        K, Fh, eobs, out = np.zeros((J, 6, 6)), np.zeros((J, 6)), [], []
+        eobs, out = [], []
         for idx, head, (root, powers, ocoef, emb), ni, dim in groups:  # (recover, x_int, R_int, a_int) per group
             out.append(kernel.eob_lookup_new(*head, theta, p_hat, idx, root, powers, ocoef, emb, K, Fh, ni, dim))
             eobs.append([out[-1][0], out[-1][1], out[-1][2 if dim == 3 else 3]])
@@ -317,7 +320,12 @@ class _KSD:
     def _message(self, ok3: bool, hist3: list) -> str:
         """KSD-reduced's `Solution.message` from step 3's outcome and residuals."""
         last = hist3[-1] if hist3 else np.nan
-        msg = (f"KSD-reduced: reduced mechanism in equilibrium, residual {last:.3g} < tol {self.tol:.3g}"
+        tol = _TOL_TEXT.get(self.tol)
+        if tol is None:
+            tol = f"{self.tol:.3g}"
+            if len(_TOL_TEXT) < 64:
+                _TOL_TEXT[self.tol] = tol
+        msg = (f"KSD-reduced: reduced mechanism in equilibrium, residual {last:.3g} < tol {tol}"
                if ok3 else f"KSD-reduced: step 3 did not converge (residual {last:.3g} after {len(hist3)} "
                            "iterations; a singular or diverging reduced tangent: the unintended deformation may "
                            "be too large for the linearised joints, use method='ksd-full' or 'conventional')")

@@ -3,10 +3,12 @@
 
 from __future__ import annotations
 
+import operator
 import threading
 import weakref
 
 import attrs
+import networkx as nx
 import numpy as np
 
 from ._validate import hashable
@@ -44,16 +46,25 @@ def fingerprint(mechanism) -> tuple:
     The graph's own node and edge data dicts are read item by item, so replacing a link or a joint
     in ``mechanism.graph`` directly is seen too. An equal value in a new object counts as a change
     (a needless compile, never a stale one)."""
+    counts, objs = _reads(mechanism)
+    return (counts, tuple(map(id, objs))), objs
+
+
+def _reads(mechanism) -> tuple:
+    """`fingerprint`'s counts (a tuple) and objects (a list), without the objects' ids: two reads
+    are the same when their counts are equal and their objects identical one by one (while the
+    first read's objects are kept alive)."""
     graph = mechanism.graph
     objs, counts = [], [mechanism.dim, len(graph)]
     add, extend, count = objs.append, objs.extend, counts.append  # bound once: ~10 -> ~6 us a call
-    for name, data in graph.nodes(data=True):
+    plain = type(graph) is nx.MultiGraph  # its dicts read directly, in the views' order (`_edges`)
+    for name, data in (graph._node.items() if plain else graph.nodes(data=True)):
         add(name)
         extend(data)
         extend(data.values())
         count(len(data))
     edges = 0
-    for a, b, name, data in graph.edges(keys=True, data=True):
+    for a, b, name, data in (_edges(graph._adj) if plain else graph.edges(keys=True, data=True)):
         extend((a, b, name))
         extend(data)
         extend(data.values())
@@ -72,7 +83,20 @@ def fingerprint(mechanism) -> tuple:
     extend(points.values())
     add(state.get("_actuation"))
     counts += (edges, len(loads), len(prescribed), len(points))
-    return (tuple(counts), tuple(map(id, objs))), objs
+    return tuple(counts), objs
+
+
+def _edges(adj: dict) -> list:
+    """``graph.edges(keys=True, data=True)`` of a networkx ``MultiGraph`` from its adjacency dict
+    ``adj``, in the view's order (the views' nested generators cost a few us a solve, more after
+    other work: the manipulator's fingerprint ~23 -> ~15 us)."""
+    out, seen = [], set()
+    for a, nbrs in adj.items():
+        for b, keyed in nbrs.items():
+            if b not in seen:
+                out += [(a, b, k, d) for k, d in keyed.items()]
+        seen.add(a)
+    return out
 
 
 def _values_only(mechanism) -> bool:
@@ -117,17 +141,21 @@ def compiled_for(mechanism, capability: str = "fe_model") -> Compiled:
     if getattr(type(mechanism).compile, "__qualname__", "") != "Mechanism.compile":  # not flexmb's own compile
         return mechanism.compile(capability)
     try:
-        key, pins = fingerprint(mechanism)
+        counts, pins = _reads(mechanism)
     except (AttributeError, TypeError):  # not a flexmb.Mechanism's data: no cache
         return mechanism.compile(capability)
     entry = cache.get(mechanism)
-    if entry is not None and entry[0] == key and capability in entry[2]:
+    # unchanged: the same counts and the same objects one by one (`fingerprint`'s key, compared
+    # without building ~100 ids: the kept entry holds its objects alive)
+    same = entry is not None and entry[0] == counts and len(entry[1]) == len(pins) and all(
+        map(operator.is_, entry[1], pins))
+    if same and capability in entry[2]:
         return entry[2][capability]
     compiled = mechanism.compile(capability)
     if not _values_only(mechanism):
         return compiled
     _read_only(compiled)
-    built = entry[2] if entry is not None and entry[0] == key else {}
+    built = entry[2] if same else {}
     built[capability] = compiled
-    cache[mechanism] = (key, pins, built)
+    cache[mechanism] = (counts, pins, built)
     return compiled

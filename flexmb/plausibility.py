@@ -59,16 +59,30 @@ def check(solution, *, stacklevel: int = 3) -> None:
         _strains(solution, problem.model, stacklevel + 1)
 
 
-def _moduli(solution, model, stacklevel: int) -> None:
+def _moduli(solution, model, stacklevel: int, tab=None) -> None:
     """A modulus that looks like GPa with lengths in m (`flexmb._validate.modulus_units`), wherever
-    it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here."""
-    tab = section_table(model.elements)
-    E, L = tab.E, tab.length
-    bad = np.flatnonzero((E < 1e3) & (L < 1.0))
-    if len(bad):
-        k = int(bad[0])
+    it came from: a joint's ``E`` is checked when the joint is made, a `Section`'s only here.
+    ``tab``: ``model``'s `section_table` when at hand."""
+    tab = section_table(model.elements) if tab is None else tab
+    k = _suspect(tab)
+    if k >= 0:
+        E, L = tab.E, tab.length
         modulus_units(f"{solution.method} ({_where(solution, k)})", float(E[k]), float(L[k]), "joint length",
                       stacklevel=stacklevel + 1)
+
+
+def _suspect(tab) -> int:
+    """The first element whose modulus looks like GPa with lengths in m, or -1; decided once per
+    section table (it cannot change)."""
+    try:
+        return _SUSPECT[tab]
+    except KeyError:
+        bad = np.flatnonzero((tab.E < 1e3) & (tab.length < 1.0))
+        k = _SUSPECT[tab] = int(bad[0]) if len(bad) else -1
+        return k
+
+
+_SUSPECT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per section table: `_suspect`'s verdict
 
 
 def check_mass_units(solution, model, stacklevel: int = 3) -> None:
@@ -121,26 +135,69 @@ _FACTORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _strains(solution, model, stacklevel: int) -> None:
-    _moduli(solution, model, stacklevel + 1)
-    try:
-        sigma = peak_stress(model, solution.state)
-    except ModelError:  # a plugin section without extreme-fibre distances: no stresses to check
-        return
-    tab = section_table(model.elements)  # built once per compiled model
-    strain = sigma / tab.E
-    k = int(np.argmax(strain))
-    if strain[k] > STRAIN_LIMIT:
-        warnings.warn(f"{solution.method}: peak strain {strain[k]:.3g} ({_where(solution, k)}) is beyond the elastic "
+    try:  # the compiled path's plan, kept per model: one lookup
+        plan = _PLANS[model] if jit.enabled() else None
+    except (KeyError, TypeError):
+        plan = None
+    if plan is None:
+        tab = section_table(model.elements)  # built once per compiled model
+        plan = _plan(model, tab)
+    else:
+        tab = plan[2]
+    if plan is None or plan[3] >= 0:  # the plan holds the modulus verdict (`_suspect`)
+        _moduli(solution, model, stacklevel + 1, tab)
+    if plan is None:  # the numpy path, or a plugin section without extreme-fibre distances
+        try:
+            sigma = peak_stress(model, solution.state)
+        except ModelError:  # a plugin section without extreme-fibre distances: no stresses to check
+            return
+        strain, over = sigma / tab.E, sigma / tab.yield_stress
+        ks, ky = int(np.argmax(strain)), int(np.argmax(over))
+    else:  # one compiled call: stresses, peak stress and both argmaxes (`flexmb.plausibility_jit`)
+        kernel, args = plan[:2]
+        state = solution.state
+        sigma = np.empty(len(tab.E))
+        ks, ky, s, o = kernel(np.ascontiguousarray(state.positions, dtype=float),
+                              np.ascontiguousarray(state.rotations, dtype=float), *args, sigma)
+        strain, over = {ks: s}, {ky: o}
+    if strain[ks] > STRAIN_LIMIT:
+        warnings.warn(f"{solution.method}: peak strain {strain[ks]:.3g} ({_where(solution, ks)}) is beyond the elastic "
                       f"range a linear-elastic beam model represents (limit {STRAIN_LIMIT:g}; peak stress "
-                      f"{sigma[k]:.3g}): the answer is not physical. Check the units (a length in mm where m is "
+                      f"{sigma[ks]:.3g}): the answer is not physical. Check the units (a length in mm where m is "
                       "meant?) and the size of the motion or load", PlausibilityWarning, stacklevel=stacklevel)
     ys = tab.yield_stress
-    over = sigma / ys
-    k = int(np.argmax(over))
-    if over[k] > 1.0:
-        warnings.warn(f"{solution.method}: peak stress {sigma[k]:.4g} exceeds the yield stress {ys[k]:.4g} "
-                      f"({_where(solution, k)}): the flexure yields, the linear-elastic answer does not hold there",
+    if over[ky] > 1.0:
+        warnings.warn(f"{solution.method}: peak stress {sigma[ky]:.4g} exceeds the yield stress {ys[ky]:.4g} "
+                      f"({_where(solution, ky)}): the flexure yields, the linear-elastic answer does not hold there",
                       PlausibilityWarning, stacklevel=stacklevel)
+
+
+def _plan(model, tab):
+    """With the compiled kernels and sections with extreme-fibre distances, the kernel of
+    `flexmb.plausibility_jit` for ``model``, its model arguments, the section table and its
+    `_suspect` modulus, built once per model (kept weakly); None otherwise (the numpy path:
+    `peak_stress`)."""
+    if not (jit.enabled() and tab.has_y and (model.dim == 2 or tab.has_z) and model.elements.S.ndim == 3):
+        return None
+    try:
+        plan = _PLANS[model]
+    except KeyError:
+        plan = _PLANS[model] = _build_plan(model, tab)
+    except TypeError:  # not weakly referable: no cache
+        return _build_plan(model, tab)
+    return plan
+
+
+def _build_plan(model, tab):
+    from . import plausibility_jit
+
+    c = np.ascontiguousarray
+    args = (*model._ends, *model._element_data, c(model.element_dofs, dtype=np.int64), int(model.n_dofs), tab.A,
+            tab.ymax, tab.Iz, tab.zmax / tab.Iy, tab.ymax / tab.Iz, tab.circle, tab.E, tab.yield_stress)
+    return (plausibility_jit.strains3d if model.dim == 3 else plausibility_jit.strains2d), args, tab, _suspect(tab)
+
+
+_PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _where(solution, element: int) -> str:

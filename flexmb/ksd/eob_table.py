@@ -145,16 +145,7 @@ class Lookup:
 
         tpl = self.tpl
         dim, nd, ni = tpl.dim, tpl.nd, tpl.n_nodes - 2
-        try:
-            args = self._compiled_args
-        except AttributeError:
-            c = np.ascontiguousarray
-            comp = 1 if dim == 2 else 3
-            assert tuple(n for n, *_ in self.table.layout) == NAMES
-            args = self._compiled_args = (
-                c(self._spline.t, dtype=float), c(self._spline.c.reshape(len(self._spline.c), -1), dtype=float),
-                int(self._spline.k), c(tpl.root, dtype=np.int64), c(tpl._powers, dtype=float),
-                c(tpl._coef[:, comp * tpl.n_elements:], dtype=float), ACTIVE[dim])
+        args = self.kernel_args()
         t, coef, k, root, powers, ocoef, emb = args
         theta = np.ascontiguousarray(theta, dtype=float)
         J = len(theta)
@@ -168,6 +159,23 @@ class Lookup:
         eob_lookup(t, coef, k, theta, np.ascontiguousarray(b_position, dtype=float), at, root, powers, ocoef, emb, K,
                    F_hat, recover, x_int, R_int, a_int)
         return K, F_hat, recover, x_int, (R_int if dim == 3 else a_int)
+
+    def kernel_args(self) -> tuple:
+        """`flexmb.ksd.reduced_jit.eob_lookup`'s table and template arguments, contiguous, built once:
+        the spline's knots, coefficients (n, values) and degree, the internal nodes' root flags,
+        their orientations' polynomial powers and coefficients, the active components."""
+        try:
+            return self._compiled_args
+        except AttributeError:
+            tpl = self.tpl
+            c = np.ascontiguousarray
+            comp = 1 if tpl.dim == 2 else 3
+            assert tuple(n for n, *_ in self.table.layout) == NAMES
+            args = self._compiled_args = (
+                c(self._spline.t, dtype=float), c(self._spline.c.reshape(len(self._spline.c), -1), dtype=float),
+                int(self._spline.k), c(tpl.root, dtype=np.int64), c(tpl._powers, dtype=float),
+                c(tpl._coef[:, comp * tpl.n_elements:], dtype=float), ACTIVE[tpl.dim])
+            return args
 
     def covers(self, theta: np.ndarray) -> bool:
         """Whether every ``theta`` [rad] lies on the grid's range (else: evaluate directly), up to

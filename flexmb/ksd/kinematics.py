@@ -20,9 +20,9 @@ from scipy.linalg import lapack
 from .. import jit
 from ..errors import ConvergenceError, TopologyError, UnsupportedStrategyError
 from .geometry import LinkPoses
-from .reduced import ReducedMechanism
+from .reduced import ReducedMechanism, kernels
 
-__all__ = ["solve_kinematics", "kinematic_start", "turn_rate", "STEP_ROTATION"]
+__all__ = ["solve_kinematics", "kinematics_in_range", "kinematic_start", "turn_rate", "STEP_ROTATION"]
 
 _gesv = lapack.get_lapack_funcs("gesv", (np.zeros(1),))
 _COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
@@ -215,38 +215,74 @@ def compiled_constraints(red: ReducedMechanism, poses: LinkPoses):
     return c, jac, out_theta, out_p
 
 
+def _kinematics_call(red: ReducedMechanism) -> tuple:
+    """What `_solve_compiled` hands `flexmb.ksd.reduced_jit.kinematics` besides the per-solve
+    buffers, gathered once per set-up (kept on ``red``; `ReducedMechanism.with_values` drops it,
+    the prescribed values enter): the rest poses and Jacobian (copied per solve: the kernel works
+    in them), the arguments from ``path_theta`` to ``cols`` in one tuple, the equations' joint
+    order and whether it is the joints' own (one group: no scatter back)."""
+    call = getattr(red, "_kinematics_args", None)
+    if call is not None:
+        return call
+    rest, jac0, rows, path_theta, largest = kinematic_start(red)
+    k = _compiled_arrays(red)
+    order = k["order"]
+    (lt, ct, vt), (lr, W) = red._moves
+    c = np.ascontiguousarray
+    middle = (c(path_theta[order]), float(largest), STEP_ROTATION, rows, red.free, red.prescribed, red.values,
+              red.lam_rate, red.X0, c(lt), c(ct), c(vt), c(lr), c(W), k["a"], k["b"], k["s_a"], k["s_b"], k["P"],
+              k["code"], k["inv"], k["rest"], k["nm"], k["fun"], k["fpow"], k["fcoef"], k["cols"])
+    call = red._kinematics_args = (rest.x, rest.R, rest.angle, jac0, middle, order,
+                                   bool(np.array_equal(order, np.arange(len(order)))))
+    return call
+
+
 def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool):
     """`solve_kinematics` through `flexmb.ksd.reduced_jit.kinematics` (no hinges): the same steps in
     one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21). The kernel keeps
     the residuals of the first 64 ``max_iter`` iterations (the manipulator needs ~5); beyond that
     (a motion of many turns: the 2D pivot turned 300 rad with max_iter=2, 191 iterations) it runs
     again with room for all, so info's ``history`` holds every iteration, as the numpy loop's."""
-    from .reduced_jit import kinematics
-
-    rest, jac0, rows, path_theta, largest = kinematic_start(red)
-    k = _compiled_arrays(red)
-    order = k["order"]
+    x0, R0, angle0, jac0, middle, order, in_order = _kinematics_call(red)
     J = len(order)
-    (lt, ct, vt), (lr, W) = red._moves
     room = 64 * max_iter
     while True:  # deterministic: a second run repeats the first, with a longer history
-        x, R, angle = rest.x.copy(), rest.R.copy(), rest.angle.copy()
+        x, R, angle = x0.copy(), R0.copy(), angle0.copy()
         c = np.empty(red.n_equations)
         theta, p = np.empty(J), np.empty((J, 3))
         history = np.empty(room)
-        status, iterations, res, lam = kinematics(
-            x, R, angle, jac0.copy(), path_theta[order], float(largest), STEP_ROTATION, rows, red.free, red.prescribed,
-            red.values, red.lam_rate, red.X0, lt, ct, vt, lr, W, k["a"], k["b"], k["s_a"], k["s_b"], k["P"],
-            k["code"], k["inv"], k["rest"], k["nm"], k["fun"], k["fpow"], k["fcoef"], k["cols"], tol, max_iter,
-            max_rotation, stop_beyond_half_turn, c, theta, p, history)
+        status, iterations, res, lam = kernels().kinematics(x, R, angle, jac0.copy(), *middle, tol, max_iter, max_rotation,
+                                                  stop_beyond_half_turn, c, theta, p, history)
         if iterations <= room:
             break
         room = iterations
     if status:
         raise _not_converged(lam, res, tol)
-    out_theta, out_p = np.empty(J), np.empty((J, 3))
-    out_theta[order], out_p[order] = theta, p
-    return LinkPoses(x, R, angle), out_theta, out_p, c, iterations, res, lam, history[:iterations].tolist()
+    if not in_order:
+        theta[order], p[order] = theta.copy(), p.copy()
+    return LinkPoses(x, R, angle), theta, p, c, iterations, res, lam, history[:iterations].tolist()
+
+
+def kinematics_in_range(red: ReducedMechanism, tol: float, stop_beyond_half_turn: bool, lo: np.ndarray,
+                        hi: np.ndarray):
+    """`solve_kinematics` with its defaults (no hinges, compiled) when it converges to intended
+    rotations within ``lo``, ``hi`` (J,) [rad]: ``(poses, theta, p, info)`` and step 2's zeroed
+    stiffness (J, 6, 6) and force (J, 6) arrays; None otherwise (the
+    caller solves again through `solve_kinematics`, which refuses or warns as it does). One call
+    of `flexmb.ksd.reduced_jit.kinematics_in_range`: the same kernel and numbers as `_solve_compiled`."""
+    x0, R0, angle0, jac0, middle, order, _ = _kinematics_call(red)
+    max_iter = 30
+    room = 64 * max_iter
+    while True:  # deterministic: a second run repeats the first, with a longer history
+        status, iterations, res, lam, within, x, R, angle, c, theta, p, history, K, Fh = kernels().kinematics_in_range(
+            x0, R0, angle0, jac0, *middle, tol, max_iter, 0.5, stop_beyond_half_turn, red.n_equations, room, order,
+            lo, hi)
+        if iterations <= room:
+            break
+        room = iterations
+    if status or not within or lam < 1.0 - 1e-14:
+        return None
+    return LinkPoses(x, R, angle), theta, p, _info(red, c, iterations, res, lam, None, history.tolist()), K, Fh
 
 
 def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int = 30, max_rotation: float = 0.5,
@@ -338,7 +374,13 @@ def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam
         removed = np.flatnonzero(~keep)
         names = [red.rows[k] for k in removed]
         red._removed_rows = removed, names
-    if len(removed) and np.abs(c[removed]).max() > 1e-6:
+        red._removed_list = removed.tolist()
+    worst = 0.0
+    if len(removed):  # the removed rows' largest |value|, as np.abs(c[removed]).max() (NaN first)
+        cl = c.tolist()
+        values = [abs(cl[k]) for k in red._removed_list]
+        worst = math.nan if any(v != v for v in values) else max(values)
+    if worst > 1e-6:
         k = removed[np.argmax(np.abs(c[removed]))]
         warnings.warn(f"KSD step 1: the mechanism is over-constrained with inconsistent joint constraints: the "
                       f"removed redundant equation {red.rows[k]} is violated by {abs(c[k]):.3g} (lengths over D0, "
@@ -346,5 +388,5 @@ def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam
                       RuntimeWarning, stacklevel=4)
     return {"iterations": iterations, "residual": res, "load_factor": lam, "hinge_angles": hinge_path,
             "equations": len(c), "removed": len(removed),
-            "removed_residual": float(np.abs(c[removed]).max()) if len(removed) else 0.0,
+            "removed_residual": worst,
             "removed_equations": list(names), "history": history}

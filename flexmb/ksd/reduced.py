@@ -41,6 +41,20 @@ def _cached_template(joint, dim: int, data) -> EOBTemplate:
     return _with_lookup(EOBTemplate(joint, dim, data), joint)
 
 
+_KERNELS: list = []
+
+
+def kernels():
+    """`flexmb.ksd.reduced_jit`, imported on first use (it imports numba, ~1 s: not with flexmb) and
+    kept: a function-level relative import costs a Python call per use (Python 3.11 checks the
+    importer's ``__package__`` against ``__spec__.parent``), six per KSD-reduced solve."""
+    if not _KERNELS:
+        from . import reduced_jit
+
+        _KERNELS.append(reduced_jit)
+    return _KERNELS[0]
+
+
 def _with_lookup(tpl: EOBTemplate, joint) -> EOBTemplate:
     """``tpl`` with its database's tabulated condensation attached when it applies (issue 21)."""
     tpl.lookup = lookup_for(tpl, joint)
@@ -73,20 +87,47 @@ def _folders(folder, environment: tuple) -> tuple:
     return tuple(os.fspath(f) for f in search_path(folder))
 
 
+@functools.lru_cache(maxsize=256)
+def _candidates(folder, environment: tuple, name: str) -> tuple:
+    """The paths `template` tries for the file ``name``, in `search_path`'s order."""
+    return tuple(os.path.join(f, name) for f in _folders(folder, environment))
+
+
+_ENVIRON = getattr(os.environ, "_data", None)  # CPython's os.environ storage (bytes keys on POSIX)
+_ENVIRON_KEYS = tuple(os.environ.encodekey(k) for k in _SEARCH_INPUTS) if _ENVIRON is not None and hasattr(
+    os.environ, "encodekey") else None
+
+
+_ACCESS = os.access in os.supports_follow_symlinks  # a link's own existence without an exception (POSIX)
+
+
+def _environment() -> tuple:
+    """The values of `_SEARCH_INPUTS` (what `search_path` depends on besides its argument): read
+    from os.environ's own dict where CPython keeps one (os.environ.get costs four Python calls a
+    key, 5 keys per set-up check), else through os.environ."""
+    if _ENVIRON_KEYS is not None:
+        get = _ENVIRON.get
+        return tuple([get(k) for k in _ENVIRON_KEYS])
+    return tuple(os.environ.get(k) for k in _SEARCH_INPUTS)
+
+
 def _database_file(joint, dim: int, folder, name: str | None = None) -> tuple:
     """Where `template` finds ``joint``'s database and in what state: the folders searched, the
     file found (None if none) and its identity and times (device, inode, size, modification and
     status-change times [ns]). A file replaced (a new inode), rewritten (new times) or given its
     old modification time back (`os.utime` sets the status-change time) changes it; equal
     signatures mean `template` reads the same file as when they were taken. ``name``: the file's
-    name when known (`_file_name`). One ``lstat`` per folder searched, a ``stat`` where a link
-    is found (~6 us for the shipped data; `template` reads and parses the file, ~150 us)."""
-    folders = _folders(None if folder is None else os.fspath(folder),
-                       tuple(os.environ.get(k) for k in _SEARCH_INPUTS))
+    name when known (`_file_name`). One ``access`` per folder searched (a folder without the file:
+    no exception), an ``lstat`` where the file is, a ``stat`` where it is a link (~6 us for the
+    shipped data; `template` reads and parses the file, ~150 us)."""
+    folder = None if folder is None else os.fspath(folder)
+    environment = _environment()
     if name is None:
         name = _file_name(joint, dim)
-    for f in folders:
-        path = os.path.join(f, name)
+    folders = _folders(folder, environment)
+    for path in _candidates(folder, environment, name):
+        if _ACCESS and not os.access(path, os.F_OK, follow_symlinks=False):
+            continue  # as `locate` (os.path.lexists): nothing there; no exception raised (~50 us after other work)
         try:
             st = os.lstat(path)
         except FileNotFoundError:  # nothing there, not even a broken link: the next folder
@@ -275,7 +316,8 @@ class ReducedMechanism:
         out = copy.copy(self)
         out.compiled = compiled
         out._set_values(np.asarray(new.values, dtype=float))
-        vars(out).pop("_reachable", None)
+        for derived in ("_reachable", "_kinematics_args", "_tabulated"):  # what the values enter
+            vars(out).pop(derived, None)
         start = vars(self).get("_kinematic_start")
         if start is not None:  # at rest (lam = 0) the same; the turn rate follows the values
             out._kinematic_start = start[:-1] + (None,)
@@ -286,7 +328,7 @@ class ReducedMechanism:
         would read (same folders searched, same file, same bytes); False when one changed or is gone."""
         for jt, _, signature in self._templates:
             if signature is None or signature[2] is None or _database_file(
-                    jt, self.dim, self.folder, os.path.basename(signature[1])) != signature:
+                    jt, self.dim, self.folder, signature[1].rpartition(os.sep)[2]) != signature:
                 return False
         return True
 
@@ -489,8 +531,7 @@ class ReducedMechanism:
         (Jg, n_i nd, nd + 1) and the internal nodes' near poses: positions (Jg, n_i, dim),
         rotations (Jg, n_i, 3, 3) in 3D or angles (Jg, n_i) in 2D), ``p_hat``, ``R_hat`` (J, 3),
         (J, 3, 3) node B's near pose (the manipulator: ~95 -> ~15 us)."""
-        from .reduced_jit import internal as kernel
-
+        kernel = kernels().internal
         try:
             x0, rot0, frames, none = self._state_arrays
         except AttributeError:  # what does not change from solve to solve, kept with the set-up

@@ -17,8 +17,9 @@ from ..closed_form.linkage_jit import _solve_in_place
 from ..fe.model_jit import compose3d
 from ..jit import njit
 
-__all__ = ["equilibrium", "relative", "intended_angle", "constraints", "kinematics", "reduced_newton", "bspline",
-           "eob_lookup", "internal"]
+__all__ = ["equilibrium", "relative", "intended_angle", "constraints", "kinematics", "kinematics_in_range",
+           "reduced_newton", "bspline",
+           "eob_lookup", "internal", "reduced_newton_near", "eob_lookup_new", "internal_state"]
 
 
 @njit
@@ -400,6 +401,36 @@ def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free
     return 0, iterations, res, lam
 
 
+@njit
+def kinematics_in_range(x0, R0, angle0, jac0, path_theta, largest, step_rotation, rows, free, prescribed, values,
+                        lam_rate, X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P, code, inv, rest, nm, fun, fpow, fcoef,
+                        cols, tol, max_iter, max_rotation, stop_beyond_half_turn, n_equations, room, order, lo, hi):
+    """`kinematics` from the rest poses ``x0``, ``R0``, ``angle0`` and Jacobian ``jac0`` (read, not
+    changed) with its outputs allocated here (a solve's Python wrapper made ten numpy calls for
+    them, ~6 us each after other work has evicted the caches), the intended rotations and
+    positions put back in the joints' ``order``, and whether every rotation lies within ``lo``,
+    ``hi`` (J,). Returns (status, iterations, residual, load factor, within, x, R, angle, c,
+    theta, p, history (iterations, at most room), and step 2's zeroed stiffness (J, 6, 6) and
+    force (J, 6), allocated with the rest)."""
+    x, R, angle = x0.copy(), R0.copy(), angle0.copy()
+    J = len(order)
+    c, th, pp, history = np.empty(n_equations), np.empty(J), np.empty((J, 3)), np.empty(room)
+    status, iterations, res, lam = kinematics(x, R, angle, jac0.copy(), path_theta, largest, step_rotation, rows, free,
+                                              prescribed, values, lam_rate, X0, lt, ct, vt, lr, W, a, b, s_a, s_b, P,
+                                              code, inv, rest, nm, fun, fpow, fcoef, cols, tol, max_iter,
+                                              max_rotation, stop_beyond_half_turn, c, th, pp, history)
+    theta, p = np.empty(J), np.empty((J, 3))
+    within = True
+    for i in range(J):
+        j = order[i]
+        theta[j] = th[i]
+        p[j] = pp[i]
+    for j in range(J):
+        within = within and lo[j] <= theta[j] <= hi[j]
+    return (status, iterations, res, lam, within, x, R, angle, c, theta, p, history[:min(iterations, room)].copy(),
+            np.zeros((J, 6, 6)), np.zeros((J, 6)))
+
+
 # -- step 3: Newton on the reduced mechanism -------------------------------------------------------
 
 @njit
@@ -469,6 +500,23 @@ def reduced_newton(x, R, angle, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, lo
         if not np.isfinite(res) or (it > 1 and res > divergence * prev):
             break
     return res < tol, it, res
+
+
+@njit
+def reduced_newton_near(x, R, angle, a, b, s_a, s_b, P, K, Fh, p_hat, cos, sin, cols, load_node, load_offset, load_force,
+                        load_moment, free, tol, max_iter, divergence):
+    """`reduced_newton` with node B's near rotations ``R_hat`` built here from ``cos``, ``sin`` of the
+    intended rotations (J,) (`flexmb.ksd.geometry.rz`'s entries: the same numbers) and the outputs
+    allocated here. Returns (converged, iterations, history (iterations,), the links' residual,
+    R_hat)."""
+    J = len(cos)
+    R_hat = np.zeros((J, 3, 3))
+    for j in range(J):
+        R_hat[j, 0, 0], R_hat[j, 0, 1], R_hat[j, 1, 0], R_hat[j, 1, 1], R_hat[j, 2, 2] = cos[j], -sin[j], sin[j], cos[j], 1.0
+    history, r = np.empty(max_iter), np.empty(6 * x.shape[0])
+    ok, it, _ = reduced_newton(x, R, angle, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_node, load_offset,
+                               load_force, load_moment, free, tol, max_iter, divergence, history, r)
+    return ok, it, history[:it].copy(), r, R_hat
 
 
 # -- step 2: the tabulated condensation ------------------------------------------------------------
@@ -569,6 +617,18 @@ def eob_lookup(t, c, k, theta_all, b_all, at, root, powers, ocoef, emb, K, Fh, r
             compose3d(eye, v[j, :3 * ni].reshape(ni, 3), R_int[j])
 
 
+@njit
+def eob_lookup_new(t, c, k, theta_all, b_all, at, root, powers, ocoef, emb, K, Fh, ni, dim):
+    """`eob_lookup` with the group's outputs allocated here: returns ``recover``, ``x_int``,
+    ``R_int`` ((0, 0, 3, 3) in 2D) and ``a_int`` ((0, 0) in 3D)."""
+    nd, Jg = len(emb), len(at)
+    recover, x_int = np.empty((Jg, ni * nd, nd + 1)), np.empty((Jg, ni, dim))
+    R_int = np.empty((Jg, ni, 3, 3)) if dim == 3 else np.empty((0, 0, 3, 3))
+    a_int = np.empty((Jg, ni)) if dim == 2 else np.empty((0, 0))
+    eob_lookup(t, c, k, theta_all, b_all, at, root, powers, ocoef, emb, K, Fh, recover, x_int, R_int, a_int)
+    return recover, x_int, R_int, a_int
+
+
 # -- step 4: the internal nodes ----------------------------------------------------------------------
 
 @njit
@@ -627,3 +687,32 @@ def internal(x, R, angle, a, b, s_a, s_b, P, p_hat, R_hat, joints, nodes, recove
             for i in range(3):
                 for k in range(3):
                     rot[node, i, k] = tmp[i, 0] * P[j, k, 0] + tmp[i, 1] * P[j, k, 1] + tmp[i, 2] * P[j, k, 2]
+
+
+@njit
+def internal_state(x, R, angle, a, b, s_a, s_b, P, p_hat, R_hat, joints, nodes, recover, x_int, R_int, a_int, emb, dim,
+                   x0, rot0, ang0, r, fe_dofs, emb_dofs, n_dofs):
+    """Step 4 for every group of joints (tuples ``joints`` ... ``a_int``, one entry per group, as
+    `internal` takes them) and `flexmb.ksd.reduced.ReducedMechanism.fe_state_compiled`'s state:
+    the nodes from their reference positions ``x0`` (N, dim) and orientations (``rot0`` (N, 3, 3)
+    in 3D, ``ang0`` (N,) in 2D; the other empty), the links' from ``x``, ``R``, ``angle``; and
+    `ReducedMechanism.reaction_vector` of the links' residual ``r``. Returns positions, rotations
+    (3D), angles (2D) and the reaction vector (n_dofs,)."""
+    nL = x.shape[0]
+    pos, rot, ang = x0.copy(), rot0.copy(), ang0.copy()
+    for l in range(nL):
+        for i in range(dim):
+            pos[l, i] = x[l, i]
+        if dim == 2:
+            ang[l] = angle[l]
+        else:
+            rot[l] = R[l]
+    for g in range(len(joints)):
+        if x_int[g].shape[1] == 0:
+            continue
+        internal(x, R, angle, a, b, s_a, s_b, P, p_hat, R_hat, joints[g], nodes[g], recover[g], x_int[g], R_int[g],
+                 a_int[g], emb, dim, pos, rot, ang)
+    reaction = np.zeros(n_dofs)
+    for i in range(len(fe_dofs)):
+        reaction[fe_dofs[i]] = r[emb_dofs[i]]
+    return pos, rot, ang, reaction

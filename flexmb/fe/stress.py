@@ -269,12 +269,16 @@ def stress_points(section):
 @functools.lru_cache(maxsize=256)
 def _units(key, Iy, Iz, points: int, step: int) -> tuple[np.ndarray, np.ndarray]:
     """`_points`'s per-point fields as the compiled search reads them (8, P): ``z/Iy``, ``y/Iz``
-    (as `_fields` divides them), then ``tau_T``, ``tau_Vy``, ``tau_Vz`` (two components each);
-    and their coarse points (every ``step``-th), contiguous. ``points``, ``step``: the
+    (as `_fields` divides them), then ``tau_T``, ``tau_Vy``, ``tau_Vz`` (two components each),
+    padded by ``step`` points on each side with those one period away (8, P + 2 step: each fine
+    window contiguous); and their coarse points (every ``step``-th), contiguous. ``points``, ``step``: the
     `PERIMETER_POINTS` and `COARSE_STEP` they are for (part of the cache key)."""
     yz, tT, tVy, tVz = _points(*key)
     units = np.ascontiguousarray(np.stack([yz[:, 1] / Iy, yz[:, 0] / Iz, *tT.T, *tVy.T, *tVz.T]))
-    return units, np.ascontiguousarray(units[:, ::step])
+    padded = np.ascontiguousarray(np.concatenate([units[:, -step:], units, units[:, :step]], axis=1))
+    for a in (padded, units):
+        a.flags.writeable = False
+    return padded, np.ascontiguousarray(units[:, ::step])
 
 
 def _fields(pts, r, idx=None):

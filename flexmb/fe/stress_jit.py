@@ -20,7 +20,7 @@ import numpy as np
 
 from ..jit import njit
 
-__all__ = ["perimeter_search", "peaks_per_element", "peak_normal_stress"]
+__all__ = ["perimeter_search", "element_peaks", "peaks_per_element", "peak_normal_stress"]
 
 
 @njit
@@ -79,70 +79,120 @@ def _window_max(v, nw):
 
 
 @njit
+def _search_row(units, u, N, Vy, Vz, T, My, Mz, A, step, coarse, fine, best, reuse, out, i):
+    """One row's three peaks into ``out[i]`` (`perimeter_search`); ``reuse``: the previous row
+    ``out[i - 1]`` has the same ``Vy, Vz, T`` (its ``|tau|^2`` peak is this row's)."""
+    nc = u.shape[1]
+    nw = 2 * step + 1
+    nA = N / A
+    _coarse(u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], nA, Vy, Vz, T, My, Mz,
+            coarse[0], coarse[1], coarse[2])
+    nan = False
+    for k in range(3):
+        for c in range(nc):
+            nan |= coarse[k, c] != coarse[k, c]
+    if nan:
+        _argmax3(coarse, nc, best)
+    else:
+        best[0] = _first_max(coarse[0], nc)
+        best[2] = _first_max(coarse[2], nc)
+    same = reuse and Vy == out[i - 1, 3] and Vz == out[i - 1, 4] and T == out[i - 1, 5]
+    if not nan and not same:
+        best[1] = _first_max(coarse[1], nc)
+    f0, f1, f2, f3, f4, f5, f6, f7 = units[0], units[1], units[2], units[3], units[4], units[5], units[6], units[7]
+    for k in range(3):
+        if k == 1 and same and not nan:
+            out[i, 1] = out[i - 1, 1]  # the same shear field: the same numbers
+            continue
+        b = best[k]
+        peak = coarse[k, b]
+        s = b * step  # the window's first point, -step before point b step, in the padded columns
+        if k == 0:
+            for w in range(nw):
+                fine[w] = abs(nA + My * f0[s + w] - Mz * f1[s + w])
+        elif k == 1:
+            for w in range(nw):
+                t0 = T * f2[s + w] + Vy * f4[s + w] + Vz * f6[s + w]
+                t1 = T * f3[s + w] + Vy * f5[s + w] + Vz * f7[s + w]
+                fine[w] = t0 * t0 + t1 * t1
+        else:
+            for w in range(nw):
+                t0 = T * f2[s + w] + Vy * f4[s + w] + Vz * f6[s + w]
+                t1 = T * f3[s + w] + Vy * f5[s + w] + Vz * f7[s + w]
+                t2 = t0 * t0 + t1 * t1
+                sx = nA + My * f0[s + w] - Mz * f1[s + w]
+                fine[w] = sx * sx + 3.0 * t2
+        fmax, fnan = _window_max(fine, nw)
+        if peak != peak or fnan:
+            out[i, k] = np.nan
+        else:
+            out[i, k] = peak if peak >= fmax else fmax
+    out[i, 3], out[i, 4], out[i, 5] = Vy, Vz, T
+
+
+@njit
 def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
     """Per row of ``rows`` (R, 6) ``[N, Vy, Vz, T, My, Mz]`` the peak ``|sigma_x|``, ``|tau|^2``
-    and von Mises stress squared over the perimeter points into ``out`` (R, 3): each searched on
-    every ``step``-th point (``coarse_units``, the same every ``step``-th column of ``units``),
-    then on the points within one step of the best coarse one. ``units`` (8, P + 2 step): per
-    point ``z/Iy``, ``y/Iz`` and the shear per unit torque, Vy, Vz (``tau_xy``, ``tau_xz`` each),
-    padded by one step on each side with the points one period away (`flexmb.fe.stress._units`),
-    so each fine window is contiguous. The coarse maxima found after a vectorised NaN check
-    (`_argmax3` only with a NaN: numpy's first NaN), each fine window evaluated in one loop LLVM
-    vectorises and then reduced (`_window_max`; a NaN anywhere gives NaN, as numpy); a row whose
-    ``Vy, Vz, T`` equal the previous row's (an element's other end) reuses its ``|tau|^2`` peak,
-    the same arithmetic on the same numbers. The manipulator's 162 element ends: 118 -> ~50 us,
-    the same numbers to the last bit."""
-    nc = coarse_units.shape[1]
-    u = coarse_units
-    coarse = np.empty((3, nc))
-    nw = 2 * step + 1
+    and von Mises stress squared over the perimeter points into ``out[:, :3]`` (R, 6; the last
+    three columns: the row's ``Vy, Vz, T``): each searched on every ``step``-th point
+    (``coarse_units``, the same every ``step``-th column of ``units``), then on the points within
+    one step of the best coarse one. ``units`` (8, P + 2 step): per point ``z/Iy``, ``y/Iz`` and
+    the shear per unit torque, Vy, Vz (``tau_xy``, ``tau_xz`` each), padded by one step on each
+    side with the points one period away (`flexmb.fe.stress._units`), so each fine window is
+    contiguous. The coarse maxima found after a vectorised NaN check (`_argmax3` only with a
+    NaN: numpy's first NaN), each fine window evaluated in one loop LLVM vectorises and then
+    reduced (`_window_max`; a NaN anywhere gives NaN, as numpy); a row whose ``Vy, Vz, T`` equal
+    the previous row's (an element's other end) reuses its ``|tau|^2`` peak, the same arithmetic
+    on the same numbers. The manipulator's 162 element ends: 118 -> ~85 us, the same numbers to
+    the last bit."""
+    coarse = np.empty((3, coarse_units.shape[1]))
+    fine = np.empty(2 * step + 1)
     best = np.empty(3, dtype=np.int64)
-    fine = np.empty(nw)
-    f0, f1, f2, f3, f4, f5, f6, f7 = units[0], units[1], units[2], units[3], units[4], units[5], units[6], units[7]
     for i in range(rows.shape[0]):
-        N, Vy, Vz, T, My, Mz = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4], rows[i, 5]
-        nA = N / A
-        _coarse(u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], nA, Vy, Vz, T, My, Mz,
-                coarse[0], coarse[1], coarse[2])
-        nan = False
-        for k in range(3):
-            for c in range(nc):
-                nan |= coarse[k, c] != coarse[k, c]
-        if nan:
-            _argmax3(coarse, nc, best)
+        _search_row(units, coarse_units, rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4], rows[i, 5],
+                    A, step, coarse, fine, best, i > 0, out, i)
+
+
+@njit
+def element_peaks(e, sig, L0, dim, group, units, coarse_units, A, step, kt, out, normal, shear, vm):
+    """`flexmb.fe.stress.element_stresses`'s peaks in one pass: per element its two ends' section
+    forces from its deformations ``e`` and generalised stresses ``sig`` (E, modes) as
+    `flexmb.fe.stress.section_resultants` forms them (the same operations; 2D: ``[N, Vy, 0, 0, 0,
+    Mz]``), each end's `perimeter_search` with its group's ``units`` (G, 8, P + 2 step),
+    ``coarse_units`` (G, 8, P / step) and area ``A`` (G,) (``group`` (E,)), the two ends reduced
+    as `peaks_per_element` and times ``kt`` (E,) into ``normal``, ``shear``, ``vm`` (E,).
+    ``out`` (2, 6): scratch."""
+    coarse = np.empty((3, coarse_units.shape[2]))
+    fine = np.empty(2 * step + 1)
+    best = np.empty(3, dtype=np.int64)
+    for j in range(len(L0)):
+        g = group[j]
+        U, C, a = units[g], coarse_units[g], A[g]
+        l = L0[j] + e[j, 0]
+        N = sig[j, 0]
+        if dim == 2:
+            Vy = L0[j] * (sig[j, 1] - sig[j, 2]) / l
+            _search_row(U, C, N, Vy, 0.0, 0.0, 0.0, L0[j] * sig[j, 1], a, step, coarse, fine, best, False, out, 0)
+            _search_row(U, C, N, Vy, 0.0, 0.0, 0.0, L0[j] * sig[j, 2], a, step, coarse, fine, best, True, out, 1)
         else:
-            best[0] = _first_max(coarse[0], nc)
-            best[2] = _first_max(coarse[2], nc)
-        same = i > 0 and Vy == rows[i - 1, 1] and Vz == rows[i - 1, 2] and T == rows[i - 1, 3]
-        if not nan and not same:
-            best[1] = _first_max(coarse[1], nc)
+            Vy = L0[j] * (sig[j, 4] - sig[j, 5]) / l
+            Vz = L0[j] * (sig[j, 3] - sig[j, 2]) / l
+            T = L0[j] * sig[j, 1]
+            _search_row(U, C, N, Vy, Vz, T, L0[j] * sig[j, 2], L0[j] * sig[j, 4], a, step, coarse, fine, best,
+                        False, out, 0)
+            _search_row(U, C, N, Vy, Vz, T, L0[j] * sig[j, 3], L0[j] * sig[j, 5], a, step, coarse, fine, best,
+                        True, out, 1)
         for k in range(3):
-            if k == 1 and same and not nan:
-                out[i, 1] = out[i - 1, 1]  # the same shear field: the same numbers
-                continue
-            b = best[k]
-            peak = coarse[k, b]
-            s = b * step  # the window's first point, -step before point b step, in the padded columns
+            m = out[0, k]
+            v = out[1, k]
+            if m == m and (v != v or v > m):
+                m = v
             if k == 0:
-                for w in range(nw):
-                    fine[w] = abs(nA + My * f0[s + w] - Mz * f1[s + w])
+                normal[j] = kt[j] * m
             elif k == 1:
-                for w in range(nw):
-                    t0 = T * f2[s + w] + Vy * f4[s + w] + Vz * f6[s + w]
-                    t1 = T * f3[s + w] + Vy * f5[s + w] + Vz * f7[s + w]
-                    fine[w] = t0 * t0 + t1 * t1
+                shear[j] = kt[j] * np.sqrt(m)
             else:
-                for w in range(nw):
-                    t0 = T * f2[s + w] + Vy * f4[s + w] + Vz * f6[s + w]
-                    t1 = T * f3[s + w] + Vy * f5[s + w] + Vz * f7[s + w]
-                    t2 = t0 * t0 + t1 * t1
-                    sx = nA + My * f0[s + w] - Mz * f1[s + w]
-                    fine[w] = sx * sx + 3.0 * t2
-            fmax, fnan = _window_max(fine, nw)
-            if peak != peak or fnan:
-                out[i, k] = np.nan
-            else:
-                out[i, k] = peak if peak >= fmax else fmax
+                vm[j] = kt[j] * np.sqrt(m)
 
 
 @njit

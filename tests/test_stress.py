@@ -363,3 +363,71 @@ def test_stresses_of_a_user_built_mechanism_in_mm_n_tonne_units():
         for k in ("normal", "shear", "von_mises"):
             np.testing.assert_allclose(getattr(b, k), getattr(a, k) / 1e6, rtol=1e-7)
         assert a.von_mises.max() > 1e7
+
+
+def _wire_stage():
+    """A stage on three round steel wires (1 mm) and one flat leaf (10 x 0.5 mm), 30 mm long, built
+    as a user would in mm, N, MPa: pushed sideways, twisted and pulled (bending, torsion, shear and
+    axial force in every element; two section groups)."""
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("base", (0.0, 0.0, 0.0), fixed=True)
+    m.add_link("stage", (0.0, 0.0, 30.0))
+    wire = circle(1.0, E=200000.0, nu=0.3, density=7.8e-9)
+    for k, angle in enumerate((0.0, 2 * np.pi / 3, 4 * np.pi / 3)):
+        x, y = 12.0 * np.cos(angle), 12.0 * np.sin(angle)
+        m.add_joint("base", "stage", flexmb.LeafSpring(length=30.0, elements=5, section=wire), name=f"wire{k}",
+                    origin=(x, y, 0.0), rotation=(0.0, -np.pi / 2, 0.0))
+    m.add_joint("base", "stage", flexmb.LeafSpring(length=30.0, elements=5, section=rectangle(10.0, 0.5, E=200000.0,
+                                                                                              nu=0.3)),
+                name="leaf", origin=(0.0, 0.0, 0.0), rotation=(0.0, -np.pi / 2, 0.0))
+    m.apply_force("stage", (3.0, 1.0, 20.0))  # N
+    m.apply_moment("stage", (0.0, 0.0, 40.0))  # N mm
+    return m
+
+
+@pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
+def test_one_pass_stresses_equal_the_per_group_search_on_a_wire_stage_in_mm():
+    """`Solution.stresses`'s one compiled pass (`stress_jit.element_peaks`) gives the per-group
+    compiled search's numbers to the last bit and the numpy path's to the assembly's 1e-12 (its
+    generalised stresses: tests/test_kernels.py), on a mechanism no paper has: a stage on three
+    round wires and a flat leaf in mm, N, MPa, with the torsion, shear and axial force nonzero."""
+    sol = flexmb.solve(_wire_stage(), raise_on_failure=True)
+    fast = sol.stresses(concentration={"leaf": 1.4})
+    model = sol.compiled.problem.model
+    assert fs._plan(fs.section_table(model.elements), len(model.elements.L0)) is not None  # the one pass ran
+    assert len(fs.section_table(model.elements).stress_groups) == 2
+    res = section_resultants(model, sol.state)
+    assert np.all(np.abs(res[:, :, 3]) > 1e-3) and np.all(np.abs(res[:, :, 0]) > 1e-2)  # torsion [N mm], axial [N]
+    plans = fs._plan
+    try:
+        fs._plan = lambda tab, n: None  # the per-group path
+        grouped = sol.stresses(concentration={"leaf": 1.4})
+    finally:
+        fs._plan = plans
+    previous = flexmb.jit.use("numpy")
+    try:
+        slow = sol.stresses(concentration={"leaf": 1.4})
+    finally:
+        flexmb.jit.use("numba" if previous else "numpy")
+    for k in ("normal", "shear", "von_mises"):
+        np.testing.assert_array_equal(getattr(fast, k), getattr(grouped, k))
+        np.testing.assert_allclose(getattr(fast, k), getattr(slow, k), rtol=1e-12)
+    assert 10.0 < fast.von_mises.max() < 2000.0  # MPa: stressed, below steel's yield
+    assert fast.joint("leaf")["normal"] > 0 and fast.shear.min() > 0
+    again = sol.stresses(concentration={"leaf": 1.4})
+    assert again.von_mises is not fast.von_mises and not np.shares_memory(again.von_mises, fast.von_mises)
+    np.testing.assert_array_equal(again.von_mises, fast.von_mises)
+
+
+@pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
+def test_the_compiled_coarse_argmax_is_numpys():
+    """`stress_jit._first_max` (eight running maxima, then the first index reaching the largest)
+    is ``np.argmax`` (the first of equal largest values) on random and tied arrays of every length
+    up to 40 and the perimeter search's 128 and 129."""
+    from flexmb.fe import stress_jit
+
+    rng = np.random.default_rng(3)
+    for n in [*range(1, 41), 128, 129]:
+        for _ in range(50):
+            a = rng.integers(0, 4, n).astype(float) if rng.random() < 0.5 else rng.standard_normal(n)
+            assert stress_jit._first_max(a, n) == np.argmax(a)

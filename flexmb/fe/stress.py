@@ -271,14 +271,16 @@ def _units(key, Iy, Iz, points: int, step: int) -> tuple[np.ndarray, np.ndarray]
     """`_points`'s per-point fields as the compiled search reads them (8, P): ``z/Iy``, ``y/Iz``
     (as `_fields` divides them), then ``tau_T``, ``tau_Vy``, ``tau_Vz`` (two components each),
     padded by ``step`` points on each side with those one period away (8, P + 2 step: each fine
-    window contiguous); and their coarse points (every ``step``-th), contiguous. ``points``, ``step``: the
+    window contiguous); their coarse points (every ``step``-th), contiguous; and each field's
+    largest magnitude (8,). ``points``, ``step``: the
     `PERIMETER_POINTS` and `COARSE_STEP` they are for (part of the cache key)."""
     yz, tT, tVy, tVz = _points(*key)
     units = np.ascontiguousarray(np.stack([yz[:, 1] / Iy, yz[:, 0] / Iz, *tT.T, *tVy.T, *tVz.T]))
     padded = np.ascontiguousarray(np.concatenate([units[:, -step:], units, units[:, :step]], axis=1))
-    for a in (padded, units):
+    umax = np.abs(units).max(axis=1)
+    for a in (padded, units, umax):
         a.flags.writeable = False
-    return padded, np.ascontiguousarray(units[:, ::step])
+    return padded, np.ascontiguousarray(units[:, ::step]), umax
 
 
 def _fields(pts, r, idx=None):
@@ -422,11 +424,12 @@ def _stress_key(section):
 class _Plan:
     """What `stress_jit.element_peaks` reads of a batch's sections, per `SectionTable` and
     (`PERIMETER_POINTS`, `COARSE_STEP`): each element's group (E,), the groups' padded and coarse
-    unit fields (G, 8, P + 2 step), (G, 8, P / step) and areas (G,)."""
+    unit fields (G, 8, P + 2 step), (G, 8, P / step), their largest magnitudes (G, 8) and areas (G,)."""
 
     group: np.ndarray
     units: np.ndarray
     coarse: np.ndarray
+    umax: np.ndarray
     A: np.ndarray
     sizes: tuple  # (PERIMETER_POINTS, COARSE_STEP) it is for
 
@@ -442,15 +445,16 @@ def _plan(tab: SectionTable, n_elements: int):
     if plan is not None and plan.sizes == sizes:
         return plan
     group = np.full(n_elements, -1, dtype=np.int64)
-    units, coarse, A = [], [], []
+    units, coarse, umax, A = [], [], [], []
     try:
         for g, (s, idx) in enumerate(tab.stress_groups):
             if s.shape is None:
                 return None
             key = (s.shape, *(float(x) for x in (s.ymax, s.zmax, s.A, s.It)))
-            u, c = _units(key, float(s.Iy), float(s.Iz), *sizes)
+            u, c, um = _units(key, float(s.Iy), float(s.Iz), *sizes)
             units.append(u)
             coarse.append(c)
+            umax.append(um)
             A.append(float(s.A))
             group[idx] = g
     except (AttributeError, TypeError, ValueError):
@@ -458,8 +462,8 @@ def _plan(tab: SectionTable, n_elements: int):
     if (group < 0).any() or not units:
         return None
     plan = _Plan(group, np.ascontiguousarray(np.stack(units)), np.ascontiguousarray(np.stack(coarse)),
-                 np.array(A), sizes)
-    for a in (plan.group, plan.units, plan.coarse, plan.A):
+                 np.ascontiguousarray(np.stack(umax)), np.array(A), sizes)
+    for a in (plan.group, plan.units, plan.coarse, plan.umax, plan.A):
         a.flags.writeable = False
     _PLANS[tab] = plan
     return plan
@@ -485,7 +489,7 @@ def _peaks(model, state, tab, kt, axial):
         sig[axial[0], 0] = axial[1]
     normal, shear, vm = np.empty(nE), np.empty(nE), np.empty(nE)
     stress_jit.element_peaks(np.ascontiguousarray(e, dtype=float), np.ascontiguousarray(sig, dtype=float),
-                             el.L0, model.dim, plan.group, plan.units, plan.coarse, plan.A, plan.sizes[1], kt,
+                             el.L0, model.dim, plan.group, plan.units, plan.coarse, plan.umax, plan.A, plan.sizes[1], kt,
                              np.empty((2, 6)), normal, shear, vm)
     return normal, shear, vm
 

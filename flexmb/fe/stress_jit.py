@@ -135,18 +135,24 @@ def _window_max(v, nw):
 
 
 @_inlined
-def _search_row(units, u, N, Vy, Vz, T, My, Mz, A, step, coarse, fine, best, reuse, out, i):
-    """One row's three peaks into ``out[i]`` (`perimeter_search`); ``reuse``: the previous row
-    ``out[i - 1]`` has the same ``Vy, Vz, T`` (its ``|tau|^2`` peak is this row's)."""
+def _search_row(units, u, umax, N, Vy, Vz, T, My, Mz, A, step, coarse, fine, best, reuse, out, i):
+    """One row's three peaks into ``out[i]`` (`perimeter_search`); ``umax`` (8,): the largest
+    ``|units|`` per field; ``reuse``: the previous row ``out[i - 1]`` has the same ``Vy, Vz, T``
+    (its ``|tau|^2`` peak is this row's)."""
     nc = u.shape[1]
     nw = 2 * step + 1
     nA = N / A
     _coarse(u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], nA, Vy, Vz, T, My, Mz,
             coarse[0], coarse[1], coarse[2])
+    # a bound on every |sigma_x| and |tau| component: below 1e100 no value overflows, so none is NaN
+    # (False for a NaN or an infinite section force: the values are searched for NaN)
+    bound = max(abs(nA) + abs(My) * umax[0] + abs(Mz) * umax[1],
+                abs(T) * max(umax[2], umax[3]) + abs(Vy) * max(umax[4], umax[5]) + abs(Vz) * max(umax[6], umax[7]))
     nan = False
-    for k in range(3):
-        for c in range(nc):
-            nan |= coarse[k, c] != coarse[k, c]
+    if not bound < 1e100:
+        for k in range(3):
+            for c in range(nc):
+                nan |= coarse[k, c] != coarse[k, c]
     if nan:
         _argmax3(coarse, nc, best)
     else:
@@ -187,7 +193,7 @@ def _search_row(units, u, N, Vy, Vz, T, My, Mz, A, step, coarse, fine, best, reu
 
 
 @njit
-def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
+def perimeter_search(units, coarse_units, umax, rows, A, Iy, Iz, step, out):
     """Per row of ``rows`` (R, 6) ``[N, Vy, Vz, T, My, Mz]`` the peak ``|sigma_x|``, ``|tau|^2``
     and von Mises stress squared over the perimeter points into ``out[:, :3]`` (R, 6; the last
     three columns: the row's ``Vy, Vz, T``): each searched on every ``step``-th point
@@ -195,8 +201,9 @@ def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
     one step of the best coarse one. ``units`` (8, P + 2 step): per point ``z/Iy``, ``y/Iz`` and
     the shear per unit torque, Vy, Vz (``tau_xy``, ``tau_xz`` each), padded by one step on each
     side with the points one period away (`flexmb.fe.stress._units`), so each fine window is
-    contiguous. The coarse maxima found after a vectorised NaN check (`_argmax3` only with a
-    NaN: numpy's first NaN), each fine window evaluated in one loop LLVM vectorises and then
+    contiguous; ``umax`` (8,) the largest ``|units|`` per field. The coarse maxima found after a
+    NaN check (skipped where the section forces bound every value below overflow; `_argmax3` only
+    with a NaN: numpy's first NaN), each fine window evaluated in one loop LLVM vectorises and then
     reduced (`_window_max`; a NaN anywhere gives NaN, as numpy); a row whose ``Vy, Vz, T`` equal
     the previous row's (an element's other end) reuses its ``|tau|^2`` peak, the same arithmetic
     on the same numbers. The manipulator's 162 element ends: 118 -> ~85 us, the same numbers to
@@ -205,17 +212,17 @@ def perimeter_search(units, coarse_units, rows, A, Iy, Iz, step, out):
     fine = np.empty(2 * step + 1)
     best = np.empty(3, dtype=np.int64)
     for i in range(rows.shape[0]):
-        _search_row(units, coarse_units, rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4], rows[i, 5],
+        _search_row(units, coarse_units, umax, rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4], rows[i, 5],
                     A, step, coarse, fine, best, i > 0, out, i)
 
 
 @njit
-def element_peaks(e, sig, L0, dim, group, units, coarse_units, A, step, kt, out, normal, shear, vm):
+def element_peaks(e, sig, L0, dim, group, units, coarse_units, umax, A, step, kt, out, normal, shear, vm):
     """`flexmb.fe.stress.element_stresses`'s peaks in one pass: per element its two ends' section
     forces from its deformations ``e`` and generalised stresses ``sig`` (E, modes) as
     `flexmb.fe.stress.section_resultants` forms them (the same operations; 2D: ``[N, Vy, 0, 0, 0,
     Mz]``), each end's `perimeter_search` with its group's ``units`` (G, 8, P + 2 step),
-    ``coarse_units`` (G, 8, P / step) and area ``A`` (G,) (``group`` (E,)), the two ends reduced
+    ``coarse_units`` (G, 8, P / step), ``umax`` (G, 8) and area ``A`` (G,) (``group`` (E,)), the two ends reduced
     as `peaks_per_element` and times ``kt`` (E,) into ``normal``, ``shear``, ``vm`` (E,).
     ``out`` (2, 6): scratch."""
     coarse = np.empty((3, coarse_units.shape[2]))
@@ -223,20 +230,20 @@ def element_peaks(e, sig, L0, dim, group, units, coarse_units, A, step, kt, out,
     best = np.empty(3, dtype=np.int64)
     for j in range(len(L0)):
         g = group[j]
-        U, C, a = units[g], coarse_units[g], A[g]
+        U, C, M, a = units[g], coarse_units[g], umax[g], A[g]
         l = L0[j] + e[j, 0]
         N = sig[j, 0]
         if dim == 2:
             Vy = L0[j] * (sig[j, 1] - sig[j, 2]) / l
-            _search_row(U, C, N, Vy, 0.0, 0.0, 0.0, L0[j] * sig[j, 1], a, step, coarse, fine, best, False, out, 0)
-            _search_row(U, C, N, Vy, 0.0, 0.0, 0.0, L0[j] * sig[j, 2], a, step, coarse, fine, best, True, out, 1)
+            _search_row(U, C, M, N, Vy, 0.0, 0.0, 0.0, L0[j] * sig[j, 1], a, step, coarse, fine, best, False, out, 0)
+            _search_row(U, C, M, N, Vy, 0.0, 0.0, 0.0, L0[j] * sig[j, 2], a, step, coarse, fine, best, True, out, 1)
         else:
             Vy = L0[j] * (sig[j, 4] - sig[j, 5]) / l
             Vz = L0[j] * (sig[j, 3] - sig[j, 2]) / l
             T = L0[j] * sig[j, 1]
-            _search_row(U, C, N, Vy, Vz, T, L0[j] * sig[j, 2], L0[j] * sig[j, 4], a, step, coarse, fine, best,
+            _search_row(U, C, M, N, Vy, Vz, T, L0[j] * sig[j, 2], L0[j] * sig[j, 4], a, step, coarse, fine, best,
                         False, out, 0)
-            _search_row(U, C, N, Vy, Vz, T, L0[j] * sig[j, 3], L0[j] * sig[j, 5], a, step, coarse, fine, best,
+            _search_row(U, C, M, N, Vy, Vz, T, L0[j] * sig[j, 3], L0[j] * sig[j, 5], a, step, coarse, fine, best,
                         True, out, 1)
         for k in range(3):
             m = out[0, k]

@@ -484,9 +484,8 @@ def _peaks(model, state, tab, kt, axial):
         for s, idx in tab.stress_groups:
             normal[idx], shear[idx], vm[idx] = perimeter_peaks(s, res[idx])
         return kt * normal, kt * shear, kt * vm
-    e, sig = model.stresses(state)  # fresh arrays: the EOBs' axial forces written in place
-    if axial is not None:
-        sig[axial[0], 0] = axial[1]
+    e, sig = model.stresses(state)
+    sig = _with_axial(sig, axial)  # a copy: the model's arrays untouched
     normal, shear, vm = np.empty(nE), np.empty(nE), np.empty(nE)
     stress_jit.element_peaks(np.ascontiguousarray(e, dtype=float), np.ascontiguousarray(sig, dtype=float),
                              el.L0, model.dim, plan.group, plan.units, plan.coarse, plan.umax, plan.A, plan.sizes[1], kt,

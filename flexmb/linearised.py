@@ -49,6 +49,22 @@ def _solve_dense(K: np.ndarray, rhs: np.ndarray, ill_conditioned: str = "warn") 
     return x
 
 
+#: The largest relative residual ``|K x - e| / |e|`` of a sparse compliance solve. The sparse
+#: solvers' backward-error test (`flexmb.linear`) cannot see a singular ``K``: the manipulator
+#: (Sec. 4.4, 20 deg) with nothing held (``held="floating"``, a free rigid-body motion) passed it
+#: at 1e-16 with a relative residual of 23 (its "compliance" 2.8e7 or 2.4e9 m/N by the kernels);
+#: its ill-conditioned but regular ``held="none"`` (eigenvalues down to 2e-11 of the largest)
+#: leaves 5e-8, ``"prescribed"`` 3e-12.
+RESIDUAL_MAX = 1e-4
+
+
+def _consistent(K, X, rhs) -> None:
+    """Raise ``numpy.linalg.LinAlgError`` unless ``X`` solves ``K X = rhs`` to `RESIDUAL_MAX`
+    relative to ``rhs`` (a singular ``K``: no solution)."""
+    if not np.linalg.norm(K @ X - rhs) <= RESIDUAL_MAX * np.linalg.norm(rhs):
+        raise np.linalg.LinAlgError("the sparse solve leaves a residual: the matrix is singular")
+
+
 def material_tangent(solution):
     """The material part ``K_m`` (N ndof, N ndof) of the tangent at the solution: the beams'
     ``T^T D^T S D T`` without their stresses' geometric part, the rigid offsets' ``d(d x f)/dphi``
@@ -225,6 +241,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
                 with warnings.catch_warnings():
                     warnings.simplefilter("error", sla.LinAlgWarning)
                     X = problem.solve_linear(K, rhs)
+                _consistent(K, X, rhs)
         except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError, ArithmeticError) as exc:
             raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
                              "leaves a rigid-body motion free, or the equilibrium is critical)") from exc

@@ -2,6 +2,7 @@
 solution: after the mechanism is changed and solved again, after pickling, whatever was solved
 before on the same mechanism. Reference: the same numbers from a never-solved deep copy."""
 
+import os
 import pickle
 
 import numpy as np
@@ -43,3 +44,30 @@ def test_compliance_with_a_free_rigid_body_motion_is_refused_on_the_sparse_path_
         with pytest.raises(flexmb.ModelError, match="singular"):
             flexmb.compliance(sol, "link3", held="floating")
         assert np.isfinite(flexmb.compliance(sol, "link3", held="none")).all()
+
+
+def test_a_replaced_os_environ_names_the_user_folder_the_next_solve_reads(tmp_path):
+    """``unittest.mock.patch("os.environ", {...})`` replaces the environment mapping (it does
+    not edit the old one) with ``FLEXMB_DATABASE`` naming a folder holding the joint's file (a
+    copy of the shipped one, bit for bit: the same fits, another file). The kept KSD set-up of a
+    mechanism solved before must notice it, as `flexmb.database.store.locate` does, and read
+    the file there: the set-up check read the variables from the old mapping's storage, kept the
+    shipped file and its set-up. 2D Table 1 cross-flexure pivot (2 el./leaf) at 12 deg."""
+    import shutil
+    from unittest import mock
+
+    from flexmb.database import store
+    from flexmb.models import cross_flexure_pivot
+
+    m = cross_flexure_pivot(2, dim=2, rotation=np.radians(12))
+    first = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
+    source = store.locate(next(iter(m.joints.values())), 2)
+    shutil.copy(source, tmp_path / source.name)
+    with mock.patch("os.environ", dict(os.environ, FLEXMB_DATABASE=str(tmp_path))):
+        assert store.locate(next(iter(m.joints.values())), 2) == tmp_path / source.name
+        sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
+        red = sol.stages["eob"]["near"][0]
+        assert red._templates[0][2][1] == os.path.join(str(tmp_path), source.name)
+        np.testing.assert_array_equal(sol.node_positions(), first.node_positions())  # the same fits
+    again = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)  # the environment back
+    assert again.stages["eob"]["near"][0]._templates[0][2][1] == os.fspath(source)

@@ -16,7 +16,7 @@ import scipy.sparse.linalg as spla
 from . import _validate as v
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
 from .ksd.properties import reduced_tangent
-from .modal import DENSE_BELOW, _converged, constrained, full_tangent, held_dofs, solvable_problem
+from .modal import DENSE_BELOW, _converged, constrained, full_tangent, held_dofs, solvable_problem, start_vector
 
 __all__ = ["buckling", "compliance", "material_tangent"]
 
@@ -162,11 +162,11 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
         k = min(nf - 2, 2 * n + 8)
         if symmetric:
             mu = spla.eigsh((0.5 * (Ks + Ks.T)).tocsc(), k=k, M=(0.5 * (Km + Km.T)).tocsc(), which="SA",
-                            return_eigenvectors=False, tol=1e-10)
+                            return_eigenvectors=False, tol=1e-10, v0=start_vector(nf))
         else:  # nu = 1/lam of K_m^-1 (-K_s): the largest real parts are the critical multipliers
             lu = spla.splu(Km.tocsc())
             op = spla.LinearOperator(Km.shape, matvec=lambda x: lu.solve(-(Ks @ x)), dtype=float)
-            mu = -spla.eigs(op, k=k, which="LR", return_eigenvectors=False, tol=1e-10)
+            mu = -spla.eigs(op, k=k, which="LR", return_eigenvectors=False, tol=1e-10, v0=start_vector(nf))
     mu = np.asarray(mu)
     mu = mu[np.isfinite(mu)]
     real = mu[np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()].real if np.iscomplexobj(mu) else mu

@@ -121,6 +121,11 @@ class TangentSolver:
         self._ldu = None  # the compiled L D U's arrays (`_ldu_analyse`), or False: not usable
         self.stats = {"dense": 0, "ldl": 0, "ldu": 0, "superlu": 0, "refinements": 0, "fallbacks": 0}
 
+    def __getstate__(self) -> dict:
+        """Pickled without its analysis (qdldl's factorisation does not pickle; a copy analyses
+        its first matrix again): a `Solution`, and the `flexmb.Modes` that hold one, pickle."""
+        return {**vars(self), "_pattern": None, "_seen": None, "_upper": None, "_ldl": None, "_ldu": None}
+
     def solve(self, K: sp.csr_array | sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         """``x`` with ``K x = b`` (``K`` CSR with sorted indices, as `flexmb.fe.assembly` builds it)."""
         n = K.shape[0]

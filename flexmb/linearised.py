@@ -16,7 +16,7 @@ import scipy.sparse.linalg as spla
 from . import _validate as v
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
 from .ksd.properties import reduced_tangent
-from .modal import DENSE_BELOW, _converged, constrained, full_tangent, held_dofs, solvable_problem
+from .modal import DENSE_BELOW, _converged, constrained, full_tangent, held_dofs, solvable_problem, start_vector
 
 __all__ = ["buckling", "compliance", "material_tangent"]
 
@@ -47,6 +47,22 @@ def _solve_dense(K: np.ndarray, rhs: np.ndarray, ill_conditioned: str = "warn") 
             raise sla.LinAlgWarning(message)
         warnings.warn(message, sla.LinAlgWarning, stacklevel=2)
     return x
+
+
+#: The largest relative residual ``|K x - e| / |e|`` of a sparse compliance solve. The sparse
+#: solvers' backward-error test (`flexmb.linear`) cannot see a singular ``K``: the manipulator
+#: (Sec. 4.4, 20 deg) with nothing held (``held="floating"``, a free rigid-body motion) passed it
+#: at 1e-16 with a relative residual of 23 (its "compliance" 2.8e7 or 2.4e9 m/N by the kernels);
+#: its ill-conditioned but regular ``held="none"`` (eigenvalues down to 2e-11 of the largest)
+#: leaves 5e-8, ``"prescribed"`` 3e-12.
+RESIDUAL_MAX = 1e-4
+
+
+def _consistent(K, X, rhs) -> None:
+    """Raise ``numpy.linalg.LinAlgError`` unless ``X`` solves ``K X = rhs`` to `RESIDUAL_MAX`
+    relative to ``rhs`` (a singular ``K``: no solution)."""
+    if not np.linalg.norm(K @ X - rhs) <= RESIDUAL_MAX * np.linalg.norm(rhs):
+        raise np.linalg.LinAlgError("the sparse solve leaves a residual: the matrix is singular")
 
 
 def material_tangent(solution):
@@ -146,11 +162,11 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
         k = min(nf - 2, 2 * n + 8)
         if symmetric:
             mu = spla.eigsh((0.5 * (Ks + Ks.T)).tocsc(), k=k, M=(0.5 * (Km + Km.T)).tocsc(), which="SA",
-                            return_eigenvectors=False, tol=1e-10)
+                            return_eigenvectors=False, tol=1e-10, v0=start_vector(nf))
         else:  # nu = 1/lam of K_m^-1 (-K_s): the largest real parts are the critical multipliers
             lu = spla.splu(Km.tocsc())
             op = spla.LinearOperator(Km.shape, matvec=lambda x: lu.solve(-(Ks @ x)), dtype=float)
-            mu = -spla.eigs(op, k=k, which="LR", return_eigenvectors=False, tol=1e-10)
+            mu = -spla.eigs(op, k=k, which="LR", return_eigenvectors=False, tol=1e-10, v0=start_vector(nf))
     mu = np.asarray(mu)
     mu = mu[np.isfinite(mu)]
     real = mu[np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()].real if np.iscomplexobj(mu) else mu
@@ -225,6 +241,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
                 with warnings.catch_warnings():
                     warnings.simplefilter("error", sla.LinAlgWarning)
                     X = problem.solve_linear(K, rhs)
+                _consistent(K, X, rhs)
         except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError, ArithmeticError) as exc:
             raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
                              "leaves a rigid-body motion free, or the equilibrium is critical)") from exc

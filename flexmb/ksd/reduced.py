@@ -93,6 +93,7 @@ def _candidates(folder, environment: tuple, name: str) -> tuple:
     return tuple(os.path.join(f, name) for f in _folders(folder, environment))
 
 
+_ENVIRON_OWNER = os.environ  # the mapping whose storage `_ENVIRON` is (a replaced os.environ is read through)
 _ENVIRON = getattr(os.environ, "_data", None)  # CPython's os.environ storage (bytes keys on POSIX)
 _ENVIRON_KEYS = tuple(os.environ.encodekey(k) for k in _SEARCH_INPUTS) if _ENVIRON is not None and hasattr(
     os.environ, "encodekey") else None
@@ -104,8 +105,10 @@ _ACCESS = os.access in os.supports_follow_symlinks  # a link's own existence wit
 def _environment() -> tuple:
     """The values of `_SEARCH_INPUTS` (what `search_path` depends on besides its argument): read
     from os.environ's own dict where CPython keeps one (os.environ.get costs four Python calls a
-    key, 5 keys per set-up check), else through os.environ."""
-    if _ENVIRON_KEYS is not None:
+    key, 5 keys per set-up check), else through os.environ: also where os.environ was replaced
+    (``unittest.mock.patch("os.environ", {...})``: its storage read, the new mapping's variables
+    were not seen)."""
+    if _ENVIRON_KEYS is not None and os.environ is _ENVIRON_OWNER:
         get = _ENVIRON.get
         return tuple([get(k) for k in _ENVIRON_KEYS])
     return tuple(os.environ.get(k) for k in _SEARCH_INPUTS)

@@ -431,3 +431,24 @@ def test_the_compiled_coarse_argmax_is_numpys():
         for _ in range(50):
             a = rng.integers(0, 4, n).astype(float) if rng.random() < 0.5 else rng.standard_normal(n)
             assert stress_jit._first_max(a, n) == np.argmax(a)
+
+
+@pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
+def test_compiled_search_equals_numpy_where_the_stresses_overflow():
+    """Section forces so large that the stresses overflow (inf, and inf - inf = NaN at some points):
+    the compiled search, which skips its NaN scan only below such bounds, gives numpy's infinities
+    and NaNs (rectangle and circle, 3D)."""
+    rng = np.random.default_rng(11)
+    res = rng.standard_normal((40, 2, 6)) * 10.0 ** rng.uniform(150, 300, (40, 2, 6))
+    res[5] = 1e300  # every component: inf - inf in sigma_x
+    for sec in (rectangle(0.02, 1e-3, **STEEL), circle(1e-3, **STEEL)):
+        previous = flexmb.jit.use("numpy")
+        try:
+            want = perimeter_peaks(sec, res)
+            flexmb.jit.use("numba")
+            got = perimeter_peaks(sec, res)
+        finally:
+            flexmb.jit.use("numba" if previous else "numpy")
+        assert not np.all(np.isfinite(want[2]))
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)

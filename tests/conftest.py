@@ -1,5 +1,6 @@
 import os
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 # "ci": few, reproducible examples so the suite stays fast; "thorough": on demand,
@@ -16,3 +17,14 @@ def pytest_report_header(config):
     from flexmb import jit
 
     return f"flexmb kernels: {'compiled (numba)' if jit.enabled() else 'numpy'} (FLEXMB_KERNELS to choose)"
+
+
+@pytest.fixture
+def kernels():
+    """`flexmb.jit.use`, to switch between the compiled and numpy kernels in a test; the choice
+    the run started with is restored after it."""
+    from flexmb import jit
+
+    previous = jit.enabled()
+    yield jit.use
+    jit.use("auto" if previous else "numpy")

@@ -93,13 +93,6 @@ def test_2d_kernel_equals_numpy(seed, override):
         assert _rel(a, b) < 1e-12
 
 
-@pytest.fixture
-def kernels():
-    previous = jit.enabled()
-    yield jit.use
-    jit.use("auto" if previous else "numpy")
-
-
 def _deformed(problem, seed):
     """A state of ``problem`` away from equilibrium: every node moved and turned at random."""
     model = problem.model

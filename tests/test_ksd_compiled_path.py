@@ -17,13 +17,6 @@ from flexmb.ksd.reduced import ReducedMechanism
 pytestmark = pytest.mark.skipif(not jit._AVAILABLE, reason="numba not installed (the numpy path is the only one)")
 
 
-@pytest.fixture
-def kernels():
-    previous = jit.enabled()
-    yield jit.use
-    jit.use("auto" if previous else "numpy")
-
-
 def test_step_1_reports_every_iteration_however_many(kernels):
     # KSD step 1 (Dwarshuis et al. 2020 Sec. 2.2) of the 2D cross-flexure pivot turned 300 rad
     # (beyond any trained range: step 1 alone, which follows the rotation in quarter turns) with

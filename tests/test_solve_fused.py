@@ -19,13 +19,6 @@ from flexmb import jit
 pytestmark = pytest.mark.skipif(not jit._AVAILABLE, reason="numba not installed (the numpy path is the only one)")
 
 
-@pytest.fixture
-def kernels():
-    previous = jit.enabled()
-    yield jit.use
-    jit.use("auto" if previous else "numpy")
-
-
 def _two_kinds(dim):
     """The four-bar with thicker upper flexures: two joint values, two constraint groups."""
     m = flexmb.models.fourbar(2, displacement=0.1, dim=dim)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
+from .reduced_jit import deboor_basis
 
 __all__ = ["interface_maps", "joint_maps", "assemble_mass", "bspline_rows", "eob_axial", "interface_b"]
 
@@ -100,30 +101,14 @@ def assemble_mass(G, pos, idx, Mb, C, at, M):
 @njit
 def bspline_rows(t, c, k, x, out):
     """``out[i] = sum_a c[l - k + a] B_a(x[i])`` (``out`` (S, m)): scipy's `BSpline` of degree
-    ``k`` with knots ``t`` and coefficients ``c`` (n, m) at ``x`` (S,), the basis by the same
-    de Boor recursion (`scipy.interpolate._bspl`), outside the base interval the end pieces; the
-    coefficient rows summed outermost, so each row is one contiguous pass (scipy sums per
+    ``k`` with knots ``t`` and coefficients ``c`` (n, m) at ``x`` (S,), the basis by the same de
+    Boor recursion (`flexmb.ksd.reduced_jit.deboor_basis`, as `scipy.interpolate._bspl`), outside
+    the base interval the end pieces; the coefficient rows summed outermost, so each row is one contiguous pass (scipy sums per
     column: 0.1 of the manipulator's 0.13 ms table call)."""
     n = c.shape[0]
     h, hh = np.empty(k + 1), np.empty(k + 1)
     for i in range(len(x)):
-        xi = x[i]
-        ell = k
-        while ell < n - 1 and xi >= t[ell + 1]:
-            ell += 1
-        h[0] = 1.0
-        for j in range(1, k + 1):
-            for q in range(j):
-                hh[q] = h[q]
-            h[0] = 0.0
-            for q in range(1, j + 1):
-                xb, xa = t[ell + q], t[ell + q - j]
-                if xb == xa:
-                    h[q] = 0.0
-                    continue
-                w = hh[q - 1] / (xb - xa)
-                h[q - 1] += w * (xb - xi)
-                h[q] = w * (xi - xa)
+        ell = deboor_basis(t, k, n, x[i], h, hh)
         row = out[i]
         row[:] = 0.0
         for a in range(k + 1):

@@ -522,30 +522,39 @@ def reduced_newton_near(x, R, angle, a, b, s_a, s_b, P, K, Fh, p_hat, cos, sin, 
 # -- step 2: the tabulated condensation ------------------------------------------------------------
 
 @njit
+def deboor_basis(t, k, n, xi, h, hh):
+    """The ``k + 1`` non-zero B-spline basis values of degree ``k`` on knots ``t`` at ``xi`` into
+    ``h`` (``hh``: scratch of the same size), by de Boor's recursion (scipy's ``_deBoor_D``);
+    returns the interval ``l`` with ``t[l] <= xi < t[l + 1]`` among the ``n`` coefficients' (the
+    last one closed, outside the base interval the end pieces): ``h[i]`` multiplies coefficient
+    ``l - k + i``. Shared by `bspline` and `flexmb.ksd.properties_jit.bspline_rows`."""
+    l = k
+    while l < n - 1 and xi >= t[l + 1]:
+        l += 1
+    h[0] = 1.0
+    for d in range(1, k + 1):
+        for i in range(d):
+            hh[i] = h[i]
+        h[0] = 0.0
+        for i in range(1, d + 1):
+            xb, xa = t[l + i], t[l + i - d]
+            if xb == xa:
+                h[i] = 0.0
+                continue
+            w = hh[i - 1] / (xb - xa)
+            h[i - 1] += w * (xb - xi)
+            h[i] = w * (xi - xa)
+    return l
+
+
+@njit
 def bspline(t, c, k, x, out):
     """``out[j] = sum_i B_i(x[j]) c[i]``: a B-spline of degree ``k`` on knots ``t`` with coefficients
-    ``c`` (n, m) at ``x`` (J,) (de Boor's recursion, scipy's ``_deBoor_D``; the interval of x with
-    ``t[l] <= x < t[l + 1]``, the last one closed)."""
+    ``c`` (n, m) at ``x`` (J,) (`deboor_basis`)."""
     n = len(t) - k - 1
     h, hh = np.empty(k + 1), np.empty(k + 1)
     for j in range(len(x)):
-        xj = x[j]
-        l = k
-        while l < n - 1 and xj >= t[l + 1]:
-            l += 1
-        h[0] = 1.0
-        for d in range(1, k + 1):
-            for i in range(d):
-                hh[i] = h[i]
-            h[0] = 0.0
-            for i in range(1, d + 1):
-                xb, xa = t[l + i], t[l + i - d]
-                if xb == xa:
-                    h[i] = 0.0
-                    continue
-                w = hh[i - 1] / (xb - xa)
-                h[i - 1] += w * (xb - xj)
-                h[i] = w * (xj - xa)
+        l = deboor_basis(t, k, n, x[j], h, hh)
         for q in range(c.shape[1]):
             out[j, q] = 0.0
         for i in range(k + 1):

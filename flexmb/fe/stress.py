@@ -262,8 +262,12 @@ def stress_points(section):
     if section.shape is None:
         raise ModelError("shear and von Mises stresses need the section's shape: build it with "
                          "flexmb.sections.rectangle or flexmb.sections.circle (Section.shape)")
-    return tuple(a.copy() for a in _points(section.shape, float(section.ymax), float(section.zmax),
-                                           float(section.A), float(section.It)))
+    return tuple(a.copy() for a in _points(*_points_key(section)))
+
+
+def _points_key(section) -> tuple:
+    """`_points`'s arguments (its cache key) for a section with a known shape."""
+    return (section.shape, *(float(x) for x in (section.ymax, section.zmax, section.A, section.It)))
 
 
 @functools.lru_cache(maxsize=256)
@@ -303,8 +307,7 @@ def perimeter_peaks(section, resultants):
 
     Each peak is searched on every `COARSE_STEP`-th of the `PERIMETER_POINTS` points, then on all
     points within one coarse step of the best coarse point."""
-    key = (section.shape, *(float(x) for x in (section.ymax, section.zmax, section.A, section.It))) \
-        if section.shape is not None else None
+    key = _points_key(section) if section.shape is not None else None
     pts = _points(*key) if key is not None else stress_points(section)
     r = np.asarray(resultants, dtype=float)
     n = len(r)
@@ -450,8 +453,7 @@ def _plan(tab: SectionTable, n_elements: int):
         for g, (s, idx) in enumerate(tab.stress_groups):
             if s.shape is None:
                 return None
-            key = (s.shape, *(float(x) for x in (s.ymax, s.zmax, s.A, s.It)))
-            u, c, um = _units(key, float(s.Iy), float(s.Iz), *sizes)
+            u, c, um = _units(_points_key(s), float(s.Iy), float(s.Iz), *sizes)
             units.append(u)
             coarse.append(c)
             umax.append(um)

@@ -195,6 +195,26 @@ def _search_row(units, u, umax, N, Vy, Vz, T, My, Mz, A, step, coarse, fine, bes
     out[i, 3], out[i, 4], out[i, 5] = Vy, Vz, T
 
 
+@_inlined
+def _reduce_rows(out, r0, per, kt, normal, shear, vm, j):
+    """``out[r0:r0 + per, :3]`` (`perimeter_search`'s rows of one element) reduced per column as
+    numpy's ``max`` (a NaN gives NaN) into ``normal[j]``, ``shear[j]``, ``vm[j]``: the peak
+    ``|sigma_x|`` and the square roots of the peak ``|tau|^2`` and von Mises squared, times ``kt``
+    (1.0 leaves them bit for bit)."""
+    for k in range(3):
+        m = out[r0, k]
+        for r in range(r0 + 1, r0 + per):
+            v = out[r, k]
+            if m == m and (v != v or v > m):
+                m = v
+        if k == 0:
+            normal[j] = kt * m
+        elif k == 1:
+            shear[j] = kt * np.sqrt(m)
+        else:
+            vm[j] = kt * np.sqrt(m)
+
+
 @njit
 def perimeter_search(units, coarse_units, umax, rows, A, Iy, Iz, step, out):
     """Per row of ``rows`` (R, 6) ``[N, Vy, Vz, T, My, Mz]`` the peak ``|sigma_x|``, ``|tau|^2``
@@ -248,17 +268,7 @@ def element_peaks(e, sig, L0, dim, group, units, coarse_units, umax, A, step, kt
                         False, out, 0)
             _search_row(U, C, M, N, Vy, Vz, T, L0[j] * sig[j, 3], L0[j] * sig[j, 5], a, step, coarse, fine, best,
                         True, out, 1)
-        for k in range(3):
-            m = out[0, k]
-            v = out[1, k]
-            if m == m and (v != v or v > m):
-                m = v
-            if k == 0:
-                normal[j] = kt[j] * m
-            elif k == 1:
-                shear[j] = kt[j] * np.sqrt(m)
-            else:
-                vm[j] = kt[j] * np.sqrt(m)
+        _reduce_rows(out, 0, 2, kt[j], normal, shear, vm, j)
 
 
 @njit
@@ -290,17 +300,4 @@ def peaks_per_element(out, per, normal, shear, vm):
     square roots of the peak ``|tau|^2`` and von Mises squared into ``shear`` and ``vm`` (R / per,)
     (numpy's reshape, max and two sqrt: ~7 of ~50 us per section group)."""
     for e in range(len(normal)):
-        for k in range(3):
-            m = out[e * per, k]
-            for r in range(1, per):
-                v = out[e * per + r, k]
-                if m != m:
-                    break
-                if v != v or v > m:
-                    m = v
-            if k == 0:
-                normal[e] = m
-            elif k == 1:
-                shear[e] = np.sqrt(m)
-            else:
-                vm[e] = np.sqrt(m)
+        _reduce_rows(out, e * per, per, 1.0, normal, shear, vm, e)

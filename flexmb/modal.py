@@ -410,8 +410,7 @@ def _dense_eigenvalues(K, M, n):
     """`_dense`'s eigenvalues alone for a symmetric problem (LAPACK without the vectors: 51 against
     71 us for the KSD-reduced manipulator's 27 DOFs; the same to ~1e-15), the same mass check;
     None where it would fall back to the direct form (an unstable equilibrium)."""
-    if _lapack.dpotrf(M, lower=1, clean=0)[1] != 0:
-        _dense(K, M, n, True)  # its ModelError
+    _definite_mass(M)
     sigma = _shift(K, M)
     Ks = K - sigma * M
     try:
@@ -421,10 +420,16 @@ def _dense_eigenvalues(K, M, n):
     return sigma + 1.0 / mu[::-1]
 
 
-def _dense(K, M, n, symmetric):
-    if _lapack.dpotrf(M, lower=1, clean=0)[1] != 0:  # not positive definite (np.linalg.cholesky's test, 10 us less)
+def _definite_mass(M) -> None:
+    """Raise `ModelError` unless the dense ``M`` is positive definite (LAPACK ``dpotrf``: np.linalg.cholesky's
+    test, 10 us less)."""
+    if _lapack.dpotrf(M, lower=1, clean=0)[1] != 0:
         raise ModelError("modes: the mass matrix on the free DOFs is singular (a combination of free directions "
                          "carries no mass); hold it or give the parts mass")
+
+
+def _dense(K, M, n, symmetric):
+    _definite_mass(M)
     # Inverted (shift-invert) form M x = mu (K - sigma M) x, lambda = sigma + 1/mu: the lowest
     # modes come out with *relative* accuracy. On K x = lambda M x directly LAPACK's error is
     # eps * lambda_max, and a leaf's axial/bending stiffness ratio (12 L^2/t^2 per element) makes

@@ -500,7 +500,7 @@ def test_compiled_spline_evaluation_is_scipys():
 
 @pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
 @pytest.mark.parametrize("case", ["manipulator", "four-bar", "planar pivot"])
-def test_compiled_eob_axial_forces_equal_the_numpy_ones(case):
+def test_compiled_eob_axial_forces_equal_the_numpy_ones(case, kernels):
     """`flexmb.ksd.properties_jit.eob_axial` (node displacements and tabulated axial forces in one
     pass per joint) against the numpy path (`node_displacements`, `eob_forces.axial_forces`): the
     axial forces equal to 1e-14 of their terms' size ``sum |A q| + |c0|`` (the forces are a
@@ -513,11 +513,9 @@ def test_compiled_eob_axial_forces_equal_the_numpy_ones(case):
          "planar pivot": _loaded_pivot_2d}[case]()
     sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
     at, got = properties.eob_axial_forces(sol)
-    previous = flexmb.jit.use("numpy")
-    try:
-        at0, want = properties.eob_axial_forces(sol)
-    finally:
-        flexmb.jit.use("numba" if previous else "numpy")
+    previous = kernels("numpy")  # the fixture restores the run's kernels should this fail
+    at0, want = properties.eob_axial_forces(sol)
+    kernels("numba" if previous else "numpy")
     red, (_, _, _, p_hat, _, theta) = near(sol)
     scale = 0.0
     for (tpl, _, idx), q in zip(red.groups, properties.node_displacements(sol)):

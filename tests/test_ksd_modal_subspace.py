@@ -185,7 +185,7 @@ def test_the_interior_recovery_is_read_only_when_the_shapes_are():
 
 
 @pytest.mark.parametrize("deg", [-33.0, 12.5])
-def test_a_heavy_stage_pivot_through_the_fast_paths_equals_the_reference_paths(deg, monkeypatch):
+def test_a_heavy_stage_pivot_through_the_fast_paths_equals_the_reference_paths(deg, monkeypatch, kernels):
     """The 3D cross-flexure pivot carrying a 2 kg stage (not in the paper), turned between the
     tables' grid points, loaded by a dead force on the stage: KSD-reduced ``modes`` from the
     tabulated span (interior recovery deferred) equal the Ritz eigenproblems per configuration
@@ -204,11 +204,8 @@ def test_a_heavy_stage_pivot_through_the_fast_paths_equals_the_reference_paths(d
     monkeypatch.setattr(linearised, "_solve_dense", lambda K, rhs, **_: sla.solve(K, rhs))
     np.testing.assert_array_equal(C, flexmb.compliance(sol, "B"))
     at, N = properties.eob_axial_forces(sol)
-    previous = flexmb.jit.use("numpy")
-    try:
-        at0, N0 = properties.eob_axial_forces(sol)
-    finally:
-        flexmb.jit.use("numba" if previous else "numpy")
+    kernels("numpy")
+    at0, N0 = properties.eob_axial_forces(sol)
     model, joints = sol.compiled.problem.model, sol.compiled.joint_elements
     vm, vm0 = (element_stresses(model, sol.state, joints, axial=(a, n)).von_mises for a, n in ((at, N), (at0, N0)))
     np.testing.assert_allclose(vm, vm0, rtol=1e-12)

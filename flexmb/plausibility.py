@@ -120,15 +120,22 @@ def peak_stress(model, state) -> np.ndarray:
         return peak_normal_stress(model, state)
     from .fe import stress_jit
 
-    try:
-        factors = _FACTORS[tab]
-    except KeyError:  # the sections' factors, as the numpy function divides them (kept per table)
-        factors = _FACTORS[tab] = (np.ascontiguousarray(model.elements.L0, dtype=float), tab.A, tab.ymax, tab.Iz,
-                                   tab.zmax / tab.Iy, tab.ymax / tab.Iz, tab.circle)
+    factors = _factors(model, tab)
     sigma = np.empty(len(factors[0]))
     stress_jit.peak_normal_stress(np.ascontiguousarray(model.stresses(state)[1], dtype=float), *factors, model.dim,
                                   sigma)
     return sigma
+
+
+def _factors(model, tab) -> tuple:
+    """`flexmb.fe.stress_jit.peak_normal_stress`'s section arguments ``L0, A, ymax, Iz, zmax/Iy,
+    ymax/Iz, circle``, divided as the numpy function divides them; kept per section table."""
+    try:
+        return _FACTORS[tab]
+    except KeyError:
+        factors = _FACTORS[tab] = (np.ascontiguousarray(model.elements.L0, dtype=float), tab.A, tab.ymax, tab.Iz,
+                                   tab.zmax / tab.Iy, tab.ymax / tab.Iz, tab.circle)
+        return factors
 
 
 _FACTORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -192,8 +199,8 @@ def _build_plan(model, tab):
     from . import plausibility_jit
 
     c = np.ascontiguousarray
-    args = (*model._ends, *model._element_data, c(model.element_dofs, dtype=np.int64), int(model.n_dofs), tab.A,
-            tab.ymax, tab.Iz, tab.zmax / tab.Iy, tab.ymax / tab.Iz, tab.circle, tab.E, tab.yield_stress)
+    args = (*model._ends, *model._element_data, c(model.element_dofs, dtype=np.int64), int(model.n_dofs),
+            *_factors(model, tab)[1:], tab.E, tab.yield_stress)
     return (plausibility_jit.strains3d if model.dim == 3 else plausibility_jit.strains2d), args, tab, _suspect(tab)
 
 

@@ -141,23 +141,18 @@ class Lookup:
         (J, 6) in 3D form (`ACTIVE`; new zero arrays when None); returns ``K``, ``F_hat``,
         ``recover`` (Jg, n_i nd, nd + 1), the internal nodes' near positions (Jg, n_i, dim) and
         orientations (3D: matrices (Jg, n_i, 3, 3); 2D: angles (Jg, n_i))."""
-        from .reduced_jit import eob_lookup
+        from .reduced_jit import eob_lookup_new
 
         tpl = self.tpl
-        dim, nd, ni = tpl.dim, tpl.nd, tpl.n_nodes - 2
-        args = self.kernel_args()
-        t, coef, k, root, powers, ocoef, emb = args
+        dim, ni = tpl.dim, tpl.n_nodes - 2
+        t, coef, k, root, powers, ocoef, emb = self.kernel_args()
         theta = np.ascontiguousarray(theta, dtype=float)
         J = len(theta)
         at = np.arange(J) if at is None else at
         K = np.zeros((J, 6, 6)) if K is None else K
         F_hat = np.zeros((J, 6)) if F_hat is None else F_hat
-        Jg = len(at)
-        recover, x_int = np.empty((Jg, ni * nd, nd + 1)), np.empty((Jg, ni, dim))
-        R_int = np.empty((Jg, ni, 3, 3) if dim == 3 else (0, 0, 3, 3))
-        a_int = np.empty((Jg, ni) if dim == 2 else (0, 0))
-        eob_lookup(t, coef, k, theta, np.ascontiguousarray(b_position, dtype=float), at, root, powers, ocoef, emb, K,
-                   F_hat, recover, x_int, R_int, a_int)
+        recover, x_int, R_int, a_int = eob_lookup_new(t, coef, k, theta, np.ascontiguousarray(b_position, dtype=float),
+                                                      at, root, powers, ocoef, emb, K, F_hat, ni, dim)
         return K, F_hat, recover, x_int, (R_int if dim == 3 else a_int)
 
     def kernel_args(self) -> tuple:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
-from .reduced_jit import deboor_basis
+from .reduced_jit import deboor_basis, near_offset
 
 __all__ = ["interface_maps", "joint_maps", "assemble_mass", "bspline_rows", "eob_axial", "interface_b"]
 
@@ -160,12 +160,6 @@ def interface_b(p, Rrel, p_hat, R_hat, emb, out):
     v = np.empty(6)
     W = np.empty((3, 3))
     for j in range(p.shape[0]):
-        for i in range(3):
-            v[i] = p[j, i] - p_hat[j, i]
-            for k in range(3):
-                W[i, k] = Rrel[j, i, 0] * R_hat[j, k, 0] + Rrel[j, i, 1] * R_hat[j, k, 1] + Rrel[j, i, 2] * R_hat[j, k, 2]
-        v[3] = 0.5 * (W[2, 1] - W[1, 2])
-        v[4] = 0.5 * (W[0, 2] - W[2, 0])
-        v[5] = 0.5 * (W[1, 0] - W[0, 1])
+        near_offset(p, Rrel, p_hat, R_hat, j, W, v)
         for c in range(len(emb)):
             out[j, c] = v[emb[c]]

@@ -459,8 +459,6 @@ class ReducedMechanism:
     def _equilibrium_compiled(self, poses: LinkPoses, K, F_hat, p_hat, R_hat, tangent):
         """`equilibrium` through `flexmb.ksd.reduced_jit.equilibrium` (manipulator: ~50 us of numpy per
         evaluation and ~30 us per tangent, issue 21)."""
-        from . import reduced_jit
-
         n = 6 * self.n_links
         fr = self.frames
         offset, d, loads = self._loads(poses)
@@ -468,10 +466,10 @@ class ReducedMechanism:
         T = np.zeros((n, n) if tangent else (1, 1))
         p, Rrel, geo = fr.relative(poses)
         f = np.ascontiguousarray
-        reduced_jit.equilibrium(f(p, dtype=float), f(Rrel, dtype=float), f(geo["F"], dtype=float), f(geo["Ft"], dtype=float),
-                                f(geo["rb"], dtype=float), f(geo["ra"], dtype=float), f(K, dtype=float),
-                                f(F_hat, dtype=float), f(p_hat, dtype=float), f(R_hat, dtype=float), self._cols,
-                                self._r_at[12 * len(fr.a):], f(loads.ravel(), dtype=float), bool(tangent), r, T)
+        kernels().equilibrium(f(p, dtype=float), f(Rrel, dtype=float), f(geo["F"], dtype=float), f(geo["Ft"], dtype=float),
+                              f(geo["rb"], dtype=float), f(geo["ra"], dtype=float), f(K, dtype=float),
+                              f(F_hat, dtype=float), f(p_hat, dtype=float), f(R_hat, dtype=float), self._cols,
+                              self._r_at[12 * len(fr.a):], f(loads.ravel(), dtype=float), bool(tangent), r, T)
         if not tangent:
             return r, None
         if offset:  # d(d x f)/dphi of loads at offset points

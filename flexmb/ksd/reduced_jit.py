@@ -30,6 +30,17 @@ def _skew(v, out):
 
 
 @njit
+def near_offset(p, Rrel, p_hat, R_hat, j, Q, xi):
+    """Joint ``j``'s node B from its near pose in the joint frame: ``Q = R_rel R_hat^T`` (3, 3) and
+    ``xi`` (6,) = (``p - p_hat``, the axial vector of ``Q``: `flexmb.rotations.unskew`)."""
+    for i in range(3):
+        xi[i] = p[j, i] - p_hat[j, i]
+        for k in range(3):
+            Q[i, k] = Rrel[j, i, 0] * R_hat[j, k, 0] + Rrel[j, i, 1] * R_hat[j, k, 1] + Rrel[j, i, 2] * R_hat[j, k, 2]
+    xi[3], xi[4], xi[5] = 0.5 * (Q[2, 1] - Q[1, 2]), 0.5 * (Q[0, 2] - Q[2, 0]), 0.5 * (Q[1, 0] - Q[0, 1])
+
+
+@njit
 def equilibrium(p, Rrel, F_all, Ft_all, rb_all, ra_all, K, Fh, p_hat, R_hat, cols, load_at, loads, tangent, r, T):
     """Adds the joints' wrenches on their links and minus the loads to ``r`` (6 n_links,), and with
     ``tangent`` the joints' 12 x 12 blocks to ``T`` (6 n_links, 6 n_links). The joints' relative
@@ -55,13 +66,9 @@ def equilibrium(p, Rrel, F_all, Ft_all, rb_all, ra_all, K, Fh, p_hat, R_hat, col
     for j in range(len(cols)):
         for i in range(3):
             rb[i], ra[i] = rb_all[j, i], ra_all[j, i]
-            xi[i] = p[j, i] - p_hat[j, i]
             for k in range(3):
                 F[i, k] = F_all[j, i, k]
-        for i in range(3):  # Q = R_rel R_hat^T
-            for k in range(3):
-                Q[i, k] = Rrel[j, i, 0] * R_hat[j, k, 0] + Rrel[j, i, 1] * R_hat[j, k, 1] + Rrel[j, i, 2] * R_hat[j, k, 2]
-        xi[3], xi[4], xi[5] = 0.5 * (Q[2, 1] - Q[1, 2]), 0.5 * (Q[0, 2] - Q[2, 0]), 0.5 * (Q[1, 0] - Q[0, 1])
+        near_offset(p, Rrel, p_hat, R_hat, j, Q, xi)  # Q = R_rel R_hat^T
         for i in range(6):
             acc = 0.0
             for k in range(6):
@@ -658,11 +665,7 @@ def internal(x, R, angle, a, b, s_a, s_b, P, p_hat, R_hat, joints, nodes, recove
     spin, Rl = np.empty((ni, 3)), np.empty((ni, 3, 3))
     for g in range(len(joints)):
         j = joints[g]
-        for i in range(3):
-            for k in range(3):
-                Q[i, k] = Rrel[j, i, 0] * R_hat[j, k, 0] + Rrel[j, i, 1] * R_hat[j, k, 1] + Rrel[j, i, 2] * R_hat[j, k, 2]
-            xi6[i] = p[j, i] - p_hat[j, i]
-        xi6[3], xi6[4], xi6[5] = 0.5 * (Q[2, 1] - Q[1, 2]), 0.5 * (Q[0, 2] - Q[2, 0]), 0.5 * (Q[1, 0] - Q[0, 1])
+        near_offset(p, Rrel, p_hat, R_hat, j, Q, xi6)
         for i in range(nd):
             xiB[i] = xi6[emb[i]]
         ia = a[j]

@@ -413,7 +413,7 @@ def _loaded_pivot_2d():
 
 @pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
 @pytest.mark.parametrize("case", ["manipulator", "four-bar", "planar pivot"])
-def test_compiled_modal_assembly_equals_the_numpy_one(case):
+def test_compiled_modal_assembly_equals_the_numpy_one(case, kernels):
     """`reduced_modal_model` assembled by `flexmb.ksd.properties_jit` (joint by joint) and by the
     numpy path ((J, 2 nd, 6 n_links) arrays) on the same solution: stiffness, mass and the
     recovered shapes of random reduced vectors equal to 1e-12 of their largest entries (the same
@@ -425,23 +425,19 @@ def test_compiled_modal_assembly_equals_the_numpy_one(case):
          "planar pivot": _loaded_pivot_2d}[case]()
     sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
     got = {}
-    previous = flexmb.jit.use("numpy")
-    try:
-        for mode in ("numpy", "numba"):
-            flexmb.jit.use(mode)
-            properties._NEAR.pop(sol, None)
-            K, M, to_full = properties.reduced_modal_model(sol, 6)
-            v = np.random.default_rng(3).standard_normal((len(K), 4))
-            got[mode] = (K, M, to_full(v), flexmb.modes(sol, n=6).frequencies)
-    finally:
-        flexmb.jit.use("numba" if previous else "numpy")
+    for mode in ("numpy", "numba"):
+        kernels(mode)
+        properties._NEAR.pop(sol, None)
+        K, M, to_full = properties.reduced_modal_model(sol, 6)
+        v = np.random.default_rng(3).standard_normal((len(K), 4))
+        got[mode] = (K, M, to_full(v), flexmb.modes(sol, n=6).frequencies)
     for a, b in zip(got["numpy"], got["numba"]):
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-12 * np.abs(a).max())
     np.testing.assert_allclose(got["numba"][3], got["numpy"][3], rtol=1e-12)
 
 
 @pytest.mark.parametrize("case", ["manipulator", "planar pivot"])
-def test_properties_reuse_the_solves_step_2(case):
+def test_properties_reuse_the_solves_step_2(case, kernels):
     """`near` takes the solve's EOBs, stiffness and preload (``stages["eob"]["near"]``) instead of
     building them again: the arrays `near_configuration` builds from step 1 (to 1e-12 of their
     largest entries: the compiled solve looks the table up by its own kernel, equal to scipy's to
@@ -451,31 +447,28 @@ def test_properties_reuse_the_solves_step_2(case):
 
     m = manipulator("joint", np.radians(-25)) if case == "manipulator" else _loaded_pivot_2d()
     for mode in ("numpy", "auto"):
-        previous = flexmb.jit.use(mode)
-        try:
-            sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
-            red, kept = near(sol)
-            assert kept[1] is sol.stages["eob"]["near"][2]  # taken, not rebuilt
-            step1 = (sol.stages["kinematics"]["theta"], sol.stages["kinematics"]["p_hat"])
-            built = properties.near_configuration(red, step1=step1)
-            # the preload F_hat = K (gaps) is a difference of terms of size |K| |p_hat| (measured
-            # 7e-12 N apart at 0.15 N: 1e-16 of those terms)
-            scale = [1.0, np.abs(built[1]).max() * np.abs(built[3]).max(), 1.0, 1.0, 1.0]
-            for a, b, c in zip(kept[1:], built[1:], scale):
-                np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * max(c, np.abs(b).max()))
-            for a, b in zip(kept[0], built[0]):
-                np.testing.assert_allclose(a.recover, b.recover, rtol=0, atol=1e-12 * np.abs(b.recover).max())
-            f, vm = flexmb.modes(sol, n=4).frequencies, sol.stresses().von_mises
-            properties._NEAR.pop(sol)
-            del sol.stages["eob"]["near"]
-            np.testing.assert_allclose(flexmb.modes(sol, n=4).frequencies, f, rtol=1e-10)
-            np.testing.assert_allclose(sol.stresses().von_mises, vm, rtol=0, atol=1e-10 * vm.max())
-        finally:
-            flexmb.jit.use("numba" if previous else "numpy")
+        kernels(mode)
+        sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
+        red, kept = near(sol)
+        assert kept[1] is sol.stages["eob"]["near"][2]  # taken, not rebuilt
+        step1 = (sol.stages["kinematics"]["theta"], sol.stages["kinematics"]["p_hat"])
+        built = properties.near_configuration(red, step1=step1)
+        # the preload F_hat = K (gaps) is a difference of terms of size |K| |p_hat| (measured
+        # 7e-12 N apart at 0.15 N: 1e-16 of those terms)
+        scale = [1.0, np.abs(built[1]).max() * np.abs(built[3]).max(), 1.0, 1.0, 1.0]
+        for a, b, c in zip(kept[1:], built[1:], scale):
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * max(c, np.abs(b).max()))
+        for a, b in zip(kept[0], built[0]):
+            np.testing.assert_allclose(a.recover, b.recover, rtol=0, atol=1e-12 * np.abs(b.recover).max())
+        f, vm = flexmb.modes(sol, n=4).frequencies, sol.stresses().von_mises
+        properties._NEAR.pop(sol)
+        del sol.stages["eob"]["near"]
+        np.testing.assert_allclose(flexmb.modes(sol, n=4).frequencies, f, rtol=1e-10)
+        np.testing.assert_allclose(sol.stresses().von_mises, vm, rtol=0, atol=1e-10 * vm.max())
 
 
 @pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
-def test_compiled_spline_evaluation_is_scipys():
+def test_compiled_spline_evaluation_is_scipys(kernels):
     """`flexmb.ksd.splined.SplinedTable` evaluated by the compiled kernel (the same de Boor basis,
     the coefficient rows summed outermost) equals scipy's `BSpline` to 1e-15 of each column's
     largest value, inside the range and at its ends, for the condensed mass of the 3D
@@ -487,13 +480,10 @@ def test_compiled_spline_evaluation_is_scipys():
         tpl, joint = _template(m)
         table = joint_mass(tpl, joint).table(6) or joint_mass(tpl, joint).ritz_table(6)
         theta = np.r_[np.random.default_rng(5).uniform(*table.range, 40), table.range]
-        previous = flexmb.jit.use("numpy")
-        try:
-            want = table(theta)
-            flexmb.jit.use("numba")
-            got = table(theta)
-        finally:
-            flexmb.jit.use("numba" if previous else "numpy")
+        kernels("numpy")
+        want = table(theta)
+        kernels("numba")
+        got = table(theta)
         for name, w in want.items():
             np.testing.assert_allclose(got[name], w, rtol=0, atol=1e-15 * np.abs(w).max())
 
@@ -513,9 +503,8 @@ def test_compiled_eob_axial_forces_equal_the_numpy_ones(case, kernels):
          "planar pivot": _loaded_pivot_2d}[case]()
     sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
     at, got = properties.eob_axial_forces(sol)
-    previous = kernels("numpy")  # the fixture restores the run's kernels should this fail
+    kernels("numpy")
     at0, want = properties.eob_axial_forces(sol)
-    kernels("numba" if previous else "numpy")
     red, (_, _, _, p_hat, _, theta) = near(sol)
     scale = 0.0
     for (tpl, _, idx), q in zip(red.groups, properties.node_displacements(sol)):

@@ -248,7 +248,9 @@ def test_dense_solve_is_scipys_bit_for_bit_with_its_singular_and_ill_conditioned
     """`flexmb.linearised._solve_dense` (LAPACK dgetrf/dgecon/dgetrs directly) returns exactly
     `scipy.linalg.solve`'s answer for a non-symmetric matrix, raises `LinAlgError` where scipy
     does (an exactly singular one) and warns `LinAlgWarning` where scipy does (rcond below eps,
-    here a 5 x 5 of singular values 1-4 and 1e-16)."""
+    here an upper-triangular 5 x 5 with pivots 1-4 and 1e-17: LU leaves it as it is, so its last
+    pivot is 1e-17 and never rounds to an exact zero, as a rotated diag(1, 2, 3, 4, 1e-16) did
+    with numpy 2.4 / scipy 1.17, where both then raised `LinAlgError` instead)."""
     import warnings
 
     import scipy.linalg as sla
@@ -263,8 +265,7 @@ def test_dense_solve_is_scipys_bit_for_bit_with_its_singular_and_ill_conditioned
     for solver in (sla.solve, _solve_dense):
         with pytest.raises(np.linalg.LinAlgError):
             solver(S, b)
-    Q, P = np.linalg.qr(rng.normal(size=(5, 5)))[0], np.linalg.qr(rng.normal(size=(5, 5)))[0]
-    ill = Q @ np.diag([1.0, 2.0, 3.0, 4.0, 1e-16]) @ P
+    ill = np.diag([1.0, 2.0, 3.0, 4.0, 1e-17]) + np.triu(rng.normal(size=(5, 5)), 1)
     for solver in (sla.solve, _solve_dense):
         with warnings.catch_warnings():
             warnings.simplefilter("error", sla.LinAlgWarning)

@@ -32,6 +32,7 @@ from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, Para
 from .. import jit
 from ..ksd.geometry import ACTIVE, LinkPoses, compose, rz
 from ..ksd.eob_table import SLACK
+from ..ksd.linearisation import ReducedSolution
 from ..ksd.kinematics import _correction, _gesv, _norm, kinematics_in_range, solve_kinematics
 from ..ksd.reduced import ReducedMechanism, kernels, reduced_mechanism, setup_key
 from ..linear import single_threaded
@@ -177,6 +178,7 @@ class _KSD:
 
     name: ClassVar[str] = ""
     full: ClassVar[bool] = False
+    solution_type: ClassVar[type] = Solution
     capability: ClassVar[str] = "fe_model"
     #: joint capabilities every joint must offer, and the mechanism dimensions handled
     needs: ClassVar[tuple[str, ...]] = ("fe_model", "database")
@@ -237,7 +239,7 @@ class _KSD:
         except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy
             lap("kinematics", t)
             times["total"] = time.perf_counter() - t0
-            sol = Solution.failed(self.name, compiled, f"{self.name}: {exc}", times)
+            sol = self.solution_type.failed(self.name, compiled, f"{self.name}: {exc}", times)
             if self.raise_on_failure:
                 raise ConvergenceError(sol.message, sol) from None
             return sol
@@ -312,7 +314,7 @@ class _KSD:
             stages.setdefault(key, {})["time"] = times[key]
         stages["setup"]["database"] = red.folder
         times["total"] = time.perf_counter() - t0
-        sol = Solution(method=self.name, converged=ok3, iterations=info["iterations"] + it, residual_history=history,
+        sol = ReducedSolution(method=self.name, converged=ok3, iterations=info["iterations"] + it, residual_history=history,
                        load_factor=1.0, steps=1, rejected_steps=0, wall_time=times, message=self._message(ok3, hist3),
                        state=State(pos, ang if red.dim == 2 else rot), residual=reaction, compiled=compiled,
                        tolerance=self.tol, stable=None, stages=stages)
@@ -353,7 +355,7 @@ class _KSD:
 
         if not self.full:
             times["total"] = time.perf_counter() - t0
-            sol = Solution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
+            sol = ReducedSolution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
                            residual_history=np.array(hist3), load_factor=1.0, steps=1, rejected_steps=0,
                            wall_time=times, message=self._message(ok3, hist3), state=state,
                            residual=red.reaction_vector(r3),
@@ -523,6 +525,8 @@ class KSDReduced(_KSD):
     __doc__ = "KSD steps 1-4 [``ksd-reduced``]: the reduced mechanism with EOB joints.\n" + _KSD.__doc__
     name: ClassVar[str] = "ksd-reduced"
     full: ClassVar[bool] = False
+    #: the solution kind: linearised on the reduced mechanism (`flexmb.ksd.linearisation`)
+    solution_type: ClassVar[type] = ReducedSolution
 
 
 @attrs.frozen(kw_only=True)

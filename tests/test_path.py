@@ -462,24 +462,6 @@ def test_the_sparse_inertia_equals_the_dense_one():
     np.testing.assert_allclose(near, np.sort(ev[np.argsort(np.abs(ev))[:4]]), rtol=1e-8)
 
 
-def test_the_example_traces_its_cases_and_draws_them(tmp_path):
-    """examples/path_following.py (the two quick cases): the table names the critical points and
-    the figure is written."""
-    import importlib.util
-    from pathlib import Path as FilePath
-
-    pytest.importorskip("matplotlib")
-    spec = importlib.util.spec_from_file_location(
-        "ex_path_following", FilePath(__file__).resolve().parents[1] / "examples" / "path_following.py")
-    ex = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ex)
-    res = ex.run(names=("qiu", "truss"))
-    text = ex.table(res)
-    assert "| truss |" in text and "limit: 4001.4" in text and "| qiu |" in text
-    out = ex.plot(res, tmp_path / "paths.png")
-    assert FilePath(out).stat().st_size > 10_000
-
-
 @pytest.mark.parametrize("build", [_lever_2d, _chain_3d])
 def test_the_path_reaches_the_mechanism_as_given_at_load_factor_one(build):
     """lam = 1 is the mechanism as given: the path's last point at max_load_factor=1 is the

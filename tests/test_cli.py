@@ -12,6 +12,7 @@ from flexmb import cli
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow
 def test_demo_prints_the_table_and_exits_zero(tmp_path, capsys):
     assert cli.main(["demo", "--quick", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
@@ -178,6 +179,7 @@ def test_run_executes_a_script_with_its_arguments(tmp_path, capsys):
     assert "no script" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_bench_lists_and_regenerates_benchmarks_md_in_a_checkout(tmp_path, capsys):
     import shutil
 
@@ -251,6 +253,7 @@ def test_train_writes_the_elements_asked_for(tmp_path, capsys):
     assert [p.name for p in tmp_path.iterdir()] == ["cross_flexure-2d-angle0.785398-elements_per_leaf2.json"]
 
 
+@pytest.mark.slow
 def test_a_closed_pipe_ends_quietly(tmp_path):
     """``flexmb solve cantilever --json | head -c1``: the reader is gone before flexmb writes; main
     printed a BrokenPipeError traceback, now nothing is printed and the exit code is 141 (SIGPIPE)."""

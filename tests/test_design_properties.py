@@ -37,6 +37,7 @@ def swept():
     return res, kw
 
 
+@pytest.mark.slow
 def test_columns_are_the_per_configuration_properties(swept):
     """Every property column equals the function it comes from, at every configuration."""
     res, kw = swept
@@ -141,6 +142,7 @@ def test_joint_range_refuses_rotations_that_are_not_finite_numbers(rotations):
         joint_range("cross_flexure", rotations, which=("modes",), n_modes=1, elements_per_leaf=2)
 
 
+@pytest.mark.slow
 def test_joint_range_runs_in_a_process_pool_and_on_dask(serial_study):
     pooled = parameter_study(DESIGN, DESIGNS, max_workers=2)
     for name in serial_study:
@@ -171,6 +173,7 @@ def test_properties_of_a_traced_path():
     np.testing.assert_allclose(t["buckling"][before] * t["load_factor"][before], critical, rtol=1e-3)
 
 
+@pytest.mark.slow
 def test_default_properties_of_a_ksd_reduced_solution_keep_all_it_has():
     """KSD-reduced has no buckling (`flexmb.buckling` refuses it): the default ``which`` still
     returns the modes and stresses, the buckling column is NaN with the reason in
@@ -187,6 +190,7 @@ def test_default_properties_of_a_ksd_reduced_solution_keep_all_it_has():
         flexmb.buckling(sol)
 
 
+@pytest.mark.slow
 def test_a_ksd_reduced_sweep_with_properties_keeps_its_rows():
     """``sweep(..., properties=)`` on KSD-reduced (the Table 1 pivot turned 0..30 deg, buckling
     asked for explicitly): every row has its frequencies, buckling NaN with the reason."""

@@ -516,6 +516,7 @@ def test_held_rotation_components_are_global_spins():
     assert np.abs(c.link_shapes["B"][:, 3:5]).max() > 1.0
 
 
+@pytest.mark.slow
 def test_sparse_shift_invert_equals_dense(monkeypatch):
     """Above `DENSE_BELOW` (`DENSE_BELOW_NONSYMMETRIC`) free DOFs `modes` uses eigsh (symmetric)
     or eigs (a dead moment on a free rotation): the same frequencies as the dense solver, shapes

@@ -202,6 +202,7 @@ def test_lee_frame_limit_loads_and_snap_back():
     _check_stability(path)
 
 
+@pytest.mark.slow
 def test_deep_arch_limit_load():
     """DaDeppo & Schmidt (1975): the 215 deg clamped-hinged arch under an apex load buckles at
     P R^2 / EI = 9.0 (inextensible); here 40 chords, R / r = 1e4: 9.011. Traced on through the

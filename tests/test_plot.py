@@ -300,6 +300,7 @@ def test_every_plot_function_names_the_plot_extra_without_matplotlib(monkeypatch
         assert isinstance(info.value, ImportError)
 
 
+@pytest.mark.slow
 def test_plots_need_no_display_and_no_pyplot(tmp_path):
     """In a fresh interpreter without a display: importing flexmb.plot imports no matplotlib,
     drawing and saving work and never load pyplot (no backend switch, no global figures)."""

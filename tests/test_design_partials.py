@@ -9,8 +9,9 @@ import pytest
 
 import flexmb
 from flexmb.design import DesignPoint
-from flexmb.design.partials import H, residual_rates, tangent_rates
+from flexmb.design.partials import H, mass_forms, residual_rates, tangent_forms
 from flexmb.fe import beam2d, beam3d
+from flexmb.fe.mass import mass_matrix
 from flexmb.problem import StaticProblem
 
 from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
@@ -59,7 +60,9 @@ def test_residual_and_tangent_rates_equal_differences_of_rebuilt_models(case):
     rng = np.random.default_rng(0)
     scale = np.array([q.step / 1e-5 for q in point.design.parameters])  # the parameters' sizes
     du = rng.normal(size=(problem.model.n_dofs, len(point.names))) * 1e-3 / scale  # 1e-3 per relative change
-    dK = tangent_rates(problem, state, rates, du)
+    eye = np.eye(problem.model.n_dofs)
+    dK = tangent_forms(problem, state, rates, du, eye, eye)
+    dM = mass_forms(problem, state, rates, du, eye, eye)
     for k, q in enumerate(point.design.parameters):
         h = 10 * q.step
         r = [_problem_at(point.design, {**point.design.values, q.name: q.value + s * h}).residual(state, 1.0)
@@ -75,6 +78,11 @@ def test_residual_and_tangent_rates_equal_differences_of_rebuilt_models(case):
             Ks.append(_full_tangent(prob, st))
         fdK = (Ks[0] - Ks[1]) / (2 * h)
         assert np.abs(dK[k] - fdK).max() <= 1e-5 * np.abs(fdK).max(), q.name
+        Ms = [mass_matrix(prob.model, prob.model.apply_increment(state, s * h * du[:, k]), prob.model.rigid_masses)
+              .toarray() for s, prob in ((s, _problem_at(point.design, {**point.design.values, q.name: q.value + s * h}))
+                                         for s in (1.0, -1.0))]
+        fdM = (Ms[0] - Ms[1]) / (2 * h)
+        assert np.abs(dM[k] - fdM).max() <= 1e-5 * max(np.abs(fdM).max(), 1e-12 * np.abs(Ms[0]).max()), q.name
 
 
 def _full_tangent(problem, state):

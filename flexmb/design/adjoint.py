@@ -24,7 +24,7 @@ import scipy.sparse.linalg as spla
 from ..errors import ConvergenceError, ModelError, UnsupportedStrategyError
 from ..modal import full_tangent
 from ..rotations import skew
-from .partials import residual_rates, tangent_rates
+from .partials import mass_forms, residual_rates, tangent_forms
 
 __all__ = ["Sensitivity", "left_jacobian", "DENSE_BELOW", "STRATEGIES"]
 
@@ -133,11 +133,16 @@ class Sensitivity:
         du[self.prescribed] = self.prescribed_rates
         return du
 
-    @functools.cached_property
-    def tangent_rates(self) -> list:
-        """``dK/dp_k`` (dense (n_dofs, n_dofs) each): the tangent's change along the model numbers'
-        rates and the state's (`state_rates`), the directional derivative ``dK/dN N' + dK/du u'``."""
-        return tangent_rates(self.problem, self.state, self.rates, self.state_rates, lam=self.lam)
+    def tangent_forms(self, V: np.ndarray, W: np.ndarray | None = None, material: bool = False) -> np.ndarray:
+        """``V^T (dK/dp_k) W`` (K, a, b): the tangent's total change with each parameter, along the
+        model numbers' rates and the state's (`state_rates`), ``dK/dN N' + dK/du u'``
+        (`flexmb.design.partials.tangent_forms`; ``material``: the material tangent's)."""
+        return tangent_forms(self.problem, self.state, self.rates, self.state_rates, V, V if W is None else W,
+                             lam=self.lam, material=material)
+
+    def mass_forms(self, V: np.ndarray, W: np.ndarray | None = None) -> np.ndarray:
+        """``V^T (dM/dp_k) W`` (K, a, b): the consistent mass's total change with each parameter."""
+        return mass_forms(self.problem, self.state, self.rates, self.state_rates, V, V if W is None else W)
 
     def gradient(self, dJ_du: np.ndarray, dJ_dN: np.ndarray, method: str = "auto") -> np.ndarray:
         """``dJ/dp`` (K,) of a response with partials ``dJ/du`` (n_dofs,; rotations per spin) and

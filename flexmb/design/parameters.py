@@ -269,6 +269,13 @@ class ModelRates:
             self._cache[field] = out
         return self._cache[field]
 
+    def compiled_numbers(self, field: str) -> np.ndarray:
+        """The field's value in the compiled model the rates are taken about (`model_numbers`)."""
+        key = ("value", field)
+        if key not in self._cache:
+            self._cache[key] = model_numbers(self.compiled, field)
+        return self._cache[key]
+
     def touched(self, k: int) -> bool:
         """Whether parameter ``k`` changes any model number at all."""
         return any(np.any(self.rate(f)[k] != 0.0) for f in MODEL_FIELDS)

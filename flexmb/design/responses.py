@@ -16,20 +16,12 @@ import attrs
 import numpy as np
 
 from ..errors import ModelError, ParameterError
+from ._components import component_index
 from .adjoint import left_jacobian
+from .eigen import buckling, compliance, frequency
 
-__all__ = ["reaction", "displacement", "position", "rotation", "mass", "Response", "component_index"]
-
-_COMPONENTS = {2: {"x": 0, "y": 1, "rotation": 2}, 3: {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}}
-
-
-def component_index(dim: int, component: str, owner: str) -> int:
-    """The DOF offset of ``component`` in a node's DOFs (`ParameterError` naming the valid ones)."""
-    comps = _COMPONENTS[dim]
-    if component not in comps:
-        raise ParameterError(f"{owner}: component={component!r}; valid in {dim}D: {', '.join(comps)}")
-    return comps[component]
-
+__all__ = ["reaction", "displacement", "position", "rotation", "mass", "frequency", "buckling", "compliance", "Response",
+           "component_index"]
 
 def _node(solution, link: str, owner: str) -> int:
     nodes = solution.compiled.link_node

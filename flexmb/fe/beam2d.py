@@ -18,7 +18,7 @@ import numpy as np
 from .. import jit
 from ..sections import properties
 
-__all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "internal_force_and_tangent"]
+__all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "internal_force_and_tangent", "hypot_atan2"]
 
 
 def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
@@ -40,7 +40,7 @@ def _wrap(a):
     return np.arctan2(np.sin(a), np.cos(a))
 
 
-def _hypot_atan2(L):
+def hypot_atan2(L):
     """``|L|`` and the angle of ``L`` (E, 2): ``np.hypot`` and ``np.arctan2`` for floats; for a complex
     step (`flexmb.design`) their analytic continuations, exact in the imaginary part to first order."""
     if not np.iscomplexobj(L):
@@ -72,7 +72,7 @@ def numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent
     step, `flexmb.design`) give complex results; float ones the float path unchanged.
     """
     L = xq - xp
-    l, beta = _hypot_atan2(L)
+    l, beta = hypot_atan2(L)
     n = L / l[:, None]
     m = np.stack([-n[:, 1], n[:, 0]], axis=-1)  # n rotated by +90 degrees
     psi_p = _wrap(beta - alpha0 - thp)

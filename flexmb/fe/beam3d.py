@@ -22,7 +22,7 @@ from ..rotations import cross, skew
 from ..sections import properties
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent",
-           "numpy_internal_force_and_tangent"]
+           "numpy_internal_force_and_tangent", "length"]
 
 _RP, _PP, _RQ, _PQ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 _EYE = np.eye(3)
@@ -46,7 +46,7 @@ def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     return S
 
 
-def _length(L):
+def length(L):
     """``|L|`` of vectors (E, 3); for a complex step (`flexmb.design`) the analytic continuation
     ``sqrt(L . L)`` (``np.linalg.norm`` would take the modulus)."""
     return np.sqrt(np.einsum("ei,ei->e", L, L)) if np.iscomplexobj(L) else np.linalg.norm(L, axis=-1)
@@ -54,7 +54,7 @@ def _length(L):
 
 def _vectors(xp, xq, Rp, Rq, ny0, nz0):
     L = xq - xp
-    l = _length(L)
+    l = length(L)
     nl = L / l[:, None]
     return (
         l,

@@ -83,21 +83,24 @@ def _lever(d: np.ndarray, ndof: int) -> np.ndarray:
     return T
 
 
-def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool = False):
+def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool = False, du_end=None,
+              stresses: bool = False):
     """Complex element forces (and tangents) in master DOFs of elements ``rows`` under directions
-    ``cols`` (one pair per batch row)."""
+    ``cols`` (one pair per batch row) of the model numbers' ``rates`` (None: the numbers held) and
+    of the state ``du`` (n_dofs, K), or ``du_end`` ((B, ndof) per end) given per row. ``stresses``:
+    the complex deformations and generalised stresses ``(e, sigma)`` instead."""
     el, dim, nd = model.elements, model.dim, model.ndof
     masters = model.point_master[el.ends[rows]]  # (B, 2)
-    du_end = [None, None]
-    if du is not None:
-        nodal = du[: model.n_node_dofs].reshape(model.n_nodes, nd, -1)
-        du_end = [nodal[masters[:, i], :, cols] for i in range(2)]
+    if du_end is None:
+        du_end = [None, None]
+        if du is not None:
+            nodal = du[: model.n_node_dofs].reshape(model.n_nodes, nd, -1)
+            du_end = [nodal[masters[:, i], :, cols] for i in range(2)]
     ends = []
-    off_rate = rates.rate("point_offset")
     for i in range(2):
         pts = el.ends[rows, i]
         x, R = _node_state(model, state, masters[:, i], du_end[i])
-        s = _complex(model.point_offset[pts], off_rate[cols, pts])
+        s = _complex(model.point_offset[pts], None if rates is None else rates.rate("point_offset")[cols, pts])
         d = np.einsum("bij,bj->bi", R, s)
         ends.append((x + d, R, d))
     geometric = np.zeros_like if material else None
@@ -105,18 +108,20 @@ def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool
     for field in ("L0", "S", "ny0", "nz0", "alpha0"):
         value = getattr(el, field)
         if value is not None:
-            data[field] = _complex(np.asarray(value, dtype=float)[rows], rates.rate(field)[cols, rows]
-                                   if rates.rate(field).size else None)
+            moved = rates is not None and rates.rate(field).size
+            data[field] = _complex(np.asarray(value, dtype=float)[rows], rates.rate(field)[cols, rows] if moved else None)
     if dim == 2:
         # the nodes' angles themselves (their rotation matrices would lose the turn count)
-        th = [_complex(state.rotations[masters[:, i]], None if du is None else du_end[i][:, 2]) for i in range(2)]
-        F, K, _, _ = beam2d.numpy_internal_force_and_tangent(ends[0][0], ends[1][0], th[0], th[1], data["alpha0"],
-                                                             data["L0"], data["S"], tangent=tangent,
-                                                             geometric_stress=geometric)
+        th = [_complex(state.rotations[masters[:, i]], None if du_end[i] is None else du_end[i][:, 2]) for i in range(2)]
+        F, K, e, sig = beam2d.numpy_internal_force_and_tangent(ends[0][0], ends[1][0], th[0], th[1], data["alpha0"],
+                                                               data["L0"], data["S"], tangent=tangent,
+                                                               geometric_stress=geometric)
     else:
-        F, K, _, _ = beam3d.numpy_internal_force_and_tangent(ends[0][0], ends[1][0], ends[0][1], ends[1][1],
-                                                             data["ny0"], data["nz0"], data["L0"], data["S"],
-                                                             tangent=tangent, geometric_stress=geometric)
+        F, K, e, sig = beam3d.numpy_internal_force_and_tangent(ends[0][0], ends[1][0], ends[0][1], ends[1][1],
+                                                               data["ny0"], data["nz0"], data["L0"], data["S"],
+                                                               tangent=tangent, geometric_stress=geometric)
+    if stresses:
+        return e, sig, data["L0"]
     d = np.stack([ends[0][2], ends[1][2]], axis=1).reshape(-1, dim)
     Fm, G = model.transfer(F.reshape(-1, nd), d)
     Fm = Fm.reshape(len(rows), 2 * nd)

@@ -20,8 +20,8 @@ from ._components import component_index
 from .adjoint import left_jacobian
 from .eigen import buckling, compliance, frequency
 
-__all__ = ["reaction", "displacement", "position", "rotation", "mass", "frequency", "buckling", "compliance", "Response",
-           "component_index"]
+__all__ = ["reaction", "displacement", "position", "rotation", "mass", "frequency", "buckling", "compliance", "stress",
+           "Response", "component_index"]
 
 def _node(solution, link: str, owner: str) -> int:
     nodes = solution.compiled.link_node
@@ -223,3 +223,12 @@ def mass() -> Response:
     """The mechanism's mass [kg]: the beams' ``density A L0`` and the links' rigid masses (connector
     blocks inside joints are rigid and massless in the model)."""
     return _Mass()
+
+
+def stress(scale=None, rho=None, joint=None, points=64):
+    """The peak von Mises stress [Pa] as a KS aggregate (`flexmb.design.stress.stress`: ``rho``
+    dimensionless with the fixed stress ``scale`` [Pa], default the sections' yield stress; the
+    exact peak beside it in ``report``)."""
+    from .stress import DEFAULT_RHO, stress as _stress
+
+    return _stress(scale, DEFAULT_RHO if rho is None else rho, joint, points)

@@ -26,7 +26,7 @@ import scipy.sparse.linalg as spla
 from ..errors import ModelError, ParameterError
 from ..linearised import buckling as _buckling, compliance as _compliance, material_tangent
 from ..modal import held_dofs, modes
-from ._components import component_index
+from .base import component_index
 
 __all__ = ["frequency", "buckling", "compliance", "CLUSTER"]
 

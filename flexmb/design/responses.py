@@ -16,9 +16,10 @@ import attrs
 import numpy as np
 
 from ..errors import ModelError, ParameterError
-from ._components import component_index
+from .base import Response, component_index
 from .adjoint import left_jacobian
 from .eigen import buckling, compliance, frequency
+from .stress import stress
 
 __all__ = ["reaction", "displacement", "position", "rotation", "mass", "frequency", "buckling", "compliance", "stress",
            "Response", "component_index"]
@@ -41,24 +42,6 @@ def _point_index(solution, link: str, point, owner: str):
         raise ModelError(f"{owner}: point {point!r} belongs to link {solution.compiled.points[point][0]!r}, "
                          f"not {link!r}")
     return names.index(point)
-
-
-class Response:
-    """Base of the responses that are functions ``J(u, N)`` of the state and the model numbers:
-    subclasses give ``value`` and ``partials(sensitivity) -> (dJ/du (n_dofs,), dJ/dN N' (K,))``."""
-
-    name = "response"
-
-    def value(self, solution) -> float:  # pragma: no cover - every subclass defines it
-        raise ModelError(f"{type(self).__name__} defines no value")
-
-    def partials(self, sens):  # pragma: no cover - every subclass defines it
-        raise ModelError(f"{type(self).__name__} defines no partials")
-
-    def gradient(self, sens, method: str = "auto") -> np.ndarray:
-        """``dJ/dp`` (K,) through the adjoint or the direct method (`Sensitivity.gradient`)."""
-        dJ_du, dJ_dN = self.partials(sens)
-        return sens.gradient(dJ_du, dJ_dN, method)
 
 
 @attrs.frozen
@@ -223,12 +206,3 @@ def mass() -> Response:
     """The mechanism's mass [kg]: the beams' ``density A L0`` and the links' rigid masses (connector
     blocks inside joints are rigid and massless in the model)."""
     return _Mass()
-
-
-def stress(scale=None, rho=None, joint=None, points=64):
-    """The peak von Mises stress [Pa] as a KS aggregate (`flexmb.design.stress.stress`: ``rho``
-    dimensionless with the fixed stress ``scale`` [Pa], default the sections' yield stress; the
-    exact peak beside it in ``report``)."""
-    from .stress import DEFAULT_RHO, stress as _stress
-
-    return _stress(scale, DEFAULT_RHO if rho is None else rho, joint, points)

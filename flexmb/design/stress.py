@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import ModelError, ParameterError
 from ..fe.stress import PERIMETER_POINTS, stress_points
 from .partials import H, _complex, _element_hits, _elements
-from .responses import Response
+from .base import Response
 
 __all__ = ["stress", "stress_units", "DEFAULT_RHO"]
 

@@ -15,12 +15,9 @@ from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
 TIGHT = dict(rtol=1e-12)
 
 
-@pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("response", ["frequency", "buckling", "compliance", "compliance_link"])
-def test_pivot_linearisation_gradients(dim, response):
-    resp = {"frequency": R.frequency(1), "buckling": R.buckling(1), "compliance": R.compliance("B", "x", "x"),
-            "compliance_link": R.compliance("B", "y", "x", point=(0.01, 0.08, 0.0)[:dim], axes="link")}[response]
-    c = check_gradient(lambda q: pivot(q, dim), PIVOT, resp, bounds=PIVOT_BOUNDS, **TIGHT)
+def test_compliance_at_a_point_in_link_axes():
+    resp = R.compliance("B", "y", "x", point=(0.01, 0.08), axes="link")
+    c = check_gradient(lambda q: pivot(q, 2), PIVOT, resp, bounds=PIVOT_BOUNDS, **TIGHT)
     assert c.ok, str(c)
 
 

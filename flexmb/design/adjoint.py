@@ -55,10 +55,12 @@ class Sensitivity:
 
     def __init__(self, solution, rates):
         method = getattr(solution, "method", None)
-        if method not in STRATEGIES:
+        if method not in STRATEGIES or not hasattr(solution.compiled.problem.model, "elements"):
+            kinds = ", ".join(f"{name!r} ({rates.kind(k)})" for k, name in enumerate(rates.names))
             raise UnsupportedStrategyError(
-                f"design gradients with method {method!r}: available for {', '.join(STRATEGIES)} (the full "
-                f"finite-element equilibrium); parameters {list(rates.names)}")
+                f"design gradients with method {method!r} are not available for the parameters {kinds}: the "
+                f"gradients differentiate the full finite-element equilibrium (methods {', '.join(STRATEGIES)}; "
+                "'ksd-full' converges to it from the KSD start and shares its gradient)")
         if not solution.converged:
             raise ConvergenceError(f"design gradient of an unconverged solution ({solution.message})", solution)
         self.solution, self.rates = solution, rates

@@ -15,8 +15,8 @@ import attrs
 import numpy as np
 
 from ..boundary import boundary
-from ..errors import ConvergenceError, ParameterError
-from .adjoint import Sensitivity
+from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
+from .adjoint import STRATEGIES, Sensitivity
 from .parameters import ModelRates, as_design, model_numbers, model_rates
 
 __all__ = ["Evaluation", "DesignPoint", "evaluate", "value_and_grad"]
@@ -147,6 +147,11 @@ class DesignPoint:
         if not solution.converged:
             raise ConvergenceError(f"the design at {self.design.values} did not converge ({solution.message}); "
                                    "no responses or gradients of an unconverged state", solution)
+        if solution.method not in STRATEGIES:  # refused naming the method (and, with gradients, each parameter's kind)
+            if gradient:
+                Sensitivity(solution, self.rates(None))
+            raise UnsupportedStrategyError(f"design responses with method {solution.method!r}: available for "
+                                           f"{', '.join(STRATEGIES)} (the full finite-element equilibrium)")
         values = np.array([r.value(solution) for r in items], dtype=float)
         times = {"solve": t1 - t0}
         if not gradient:

@@ -276,6 +276,19 @@ class ModelRates:
             self._cache[key] = model_numbers(self.compiled, field)
         return self._cache[key]
 
+    def kind(self, k: int) -> str:
+        """What parameter ``k`` changes, for messages: "joint dimension or material" (beam elements'
+        stiffness, lengths or mass), "placement" (reference positions and frames only), "mass"
+        (the links' rigid masses), "load", "prescribed motion"; joined by "and" where it changes several."""
+        groups = (("joint dimension or material", ("S", "L0", "rho_A")),
+                  ("placement", ("point_offset", "x0", "ny0", "nz0", "alpha0", "points")),
+                  ("mass", ("rigid_mass", "rigid_inertia", "rigid_offset")),
+                  ("load", ("load_offset", "load_force", "load_moment")), ("prescribed motion", ("values",)))
+        kinds = [name for name, fields in groups if any(np.any(self.rate(f)[k] != 0.0) for f in fields)]
+        if kinds and kinds[0] == "joint dimension or material":
+            kinds = [k for k in kinds if k != "placement"]  # a joint's length moves its nodes too
+        return " and ".join(kinds) or "nothing"
+
     def touched(self, k: int) -> bool:
         """Whether parameter ``k`` changes any model number at all."""
         return any(np.any(self.rate(f)[k] != 0.0) for f in MODEL_FIELDS)

@@ -26,9 +26,12 @@ class Response:
     name = "response"
 
     def value(self, solution) -> float:  # pragma: no cover - every subclass defines it
+        """The response's value at the converged ``solution``."""
         raise ModelError(f"{type(self).__name__} defines no value")
 
     def partials(self, sens):  # pragma: no cover - every subclass defines it
+        """``(dJ/du (n_dofs,), dJ/dN . dN/dp (K,))`` at the state of ``sens`` (a
+        `flexmb.design.adjoint.Sensitivity`): the explicit partial derivatives the adjoint combines."""
         raise ModelError(f"{type(self).__name__} defines no partials")
 
     def gradient(self, sens, method: str = "auto") -> np.ndarray:

@@ -273,6 +273,7 @@ class PaperControl:
         return self.state, False
 
     def accept_rtol(self, rtol: float, target: float) -> float:
+        """The relative tolerance a step to ``target`` is accepted at: ``rtol`` for every step."""
         return rtol
 
     def geometric_stress(self, it: int, moving: bool, physical: bool):
@@ -287,6 +288,7 @@ class PaperControl:
         return None
 
     def accept(self, step) -> None:
+        """``step`` converged: its state and load factor are the run's."""
         self.state, self.lam = step.trial, step.target
 
     def growth(self, step) -> float:
@@ -326,6 +328,7 @@ class AdaptiveControl(PaperControl):
         return model.apply_increment(self.state, du_pred), True
 
     def accept_rtol(self, rtol: float, target: float) -> float:
+        """``rtol`` for the last step, `INTERMEDIATE_RTOL` (when looser) before it."""
         return rtol if target >= 1.0 - 1e-14 else max(rtol, INTERMEDIATE_RTOL)
 
     def geometric_stress(self, it: int, moving: bool, physical: bool):
@@ -352,6 +355,7 @@ class AdaptiveControl(PaperControl):
         return None
 
     def accept(self, step) -> None:
+        """As `PaperControl.accept`; its stresses become the reference, its state joins the path."""
         super().accept(step)
         self.reference, self.last_deviation = step.sigma, None
         self.path = (self.path + [(self.lam, self.state)])[-PATH_POINTS:]
@@ -403,6 +407,7 @@ class Corrector:
         self.length = problem.model_length
 
     def run(self, control: PaperControl, dlam: float) -> Step:
+        """One load step of size ``dlam`` from the control's converged state, predicted by it."""
         problem = self.problem
         target = control.lam + dlam
         du_p = problem.prescribed_increment(dlam, control.lam)
@@ -532,11 +537,13 @@ class Report:
         return out
 
     def stalled(self, state: State, lam: float, res: float) -> dict:
+        """Not converged: the residual ``res`` stopped falling above the absolute ``tol``."""
         return self._fields(False, f"not converged: the residual stalls at {res:.3g}, the roundoff floor of this "
                                    f"model, above tol={self.tol:.3g}; raise tol or leave it None (relative; load "
                                    f"factor reached {lam:.6g})", state, lam)
 
     def failed(self, state: State, lam: float, min_step: float) -> dict:
+        """Not converged: the step was halved below ``min_step``."""
         return self._fields(False, f"not converged: step halved below min_step={min_step:g} at load factor "
                                    f"{lam:.6g} (the last converged step); the residual history shows the failed "
                                    "iterations", state, lam)

@@ -17,6 +17,7 @@ from .errors import (
 )
 from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
+from .materials import Material, material
 from .linearised import buckling, compliance
 from .design_properties import properties
 from .discretisation import DiscretisationEstimate, discretisation_error
@@ -51,6 +52,8 @@ __all__ = [
     "ThreeXInfinity",
     "Link",
     "Mechanism",
+    "Material",
+    "material",
     "Modes",
     "MissingExtraError",
     "ModelError",

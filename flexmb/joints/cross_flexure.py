@@ -12,13 +12,13 @@ from .. import _validate as v
 from ..errors import ParameterError
 from ..sections import rectangle
 from ._leaves import check_leaves
-from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
+from ._base import INTERNAL, SIDE_A, SIDE_B, JointMesh, MaterialJoint
 
 __all__ = ["CrossFlexure"]
 
 
 @attrs.frozen(kw_only=True, cache_hash=True)
-class CrossFlexure(Joint):
+class CrossFlexure(MaterialJoint):
     """Cross-flexure pivot [``cross_flexure``].
 
     Leaf springs of length ``length`` crossing at their midpoints, clamped in two rigid connector
@@ -42,14 +42,13 @@ class CrossFlexure(Joint):
         Leaf thickness t [m], less than ``length / 10`` (1e-3).
     width_inner, width_outer
         Leaf widths w1, w2 [m] (0.04, 0.02).
-    E, G
-        Young's and shear modulus [Pa] (200e9, 76.9e9); Poisson's ratio ``E/(2G) - 1`` in (-1, 0.5).
-    nu
-        Poisson's ratio in (-1, 0.5) instead of ``G``: ``G = E / (2 (1 + nu))`` is stored (``nu``
-        then reads None).
-    yield_stress
-        Yield stress of the material [Pa], optional: a solve whose peak normal stress exceeds it
-        warns (`flexmb.PlausibilityWarning`).
+    material
+        A `flexmb.Material` or a named one (default: the steel of Table 1, E = 200e9, G = 76.9e9,
+        density 7800, SI); its ``yield_stress``, when given, makes a solve whose peak normal
+        stress exceeds it warn (`flexmb.PlausibilityWarning`).
+    E, G, nu, density, yield_stress
+        The material's values one by one (see `flexmb.joints.MaterialJoint`): they complete the
+        default material, or replace those of ``material``.
     elements_per_leaf
         Beam elements per leaf, 1 or more (10). Measured evidence for the default (the pivot
         turned 20 deg, converged-mesh reference by Richardson from 16/32/64 el./leaf,
@@ -61,8 +60,6 @@ class CrossFlexure(Joint):
         1-5 and 10. `flexmb.discretisation_error` estimates the error of any mesh.
     gap
         Clearance between inner and outer leaves along z [m] (0).
-    density
-        Mass density of the leaves [kg/m^3] (7800, steel), >= 0 (0: massless leaves).
     """
 
     kind: ClassVar[str] = "cross_flexure"
@@ -75,21 +72,13 @@ class CrossFlexure(Joint):
     thickness: float = 1e-3
     width_inner: float = 0.04
     width_outer: float = 0.02
-    E: float = 200e9
-    G: float = 76.9e9
     elements_per_leaf: int = 10
     gap: float = 0.0
-    density: float = 7800.0
-    nu: float | None = None
-    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         owner = "cross_flexure"
-        if self.nu is not None:  # Poisson's ratio instead of G: stored as G
-            object.__setattr__(self, "G", v.shear_modulus(owner, self.E, self.G, self.nu, 76.9e9))
-            object.__setattr__(self, "nu", None)
-        check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
-        v.nonnegative(owner, "density", self.density)
+        super().__attrs_post_init__()
+        check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer"))
         if v.finite(owner, "gap", self.gap) < 0:
             raise ParameterError(f"{owner}: gap={self.gap!r} m must be >= 0")
         with np.errstate(over="ignore", invalid="ignore"):

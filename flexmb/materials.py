@@ -1,0 +1,163 @@
+"""`Material`: the elastic constants, density and strength every joint takes, checked once; and the
+named engineering materials, each with its source, resolved in a declared unit system."""
+
+from __future__ import annotations
+
+import attrs
+
+from . import _validate as v
+from .errors import ParameterError
+from .units import SYSTEMS, system
+
+__all__ = ["Material", "CATALOGUE", "material", "resolve", "STEEL"]
+
+
+@attrs.frozen(init=False, kw_only=True)
+class Material:
+    """A linear-elastic isotropic material, in the numbers of one consistent unit system.
+
+    ``Material(E, G=None, *, nu=None, density=0.0, yield_stress=None, name=None, units=None)``:
+    Young's modulus ``E`` > 0; the shear modulus ``G`` > 0 or Poisson's ratio ``nu`` in (-1, 0.5)
+    (``G = E / (2 (1 + nu))`` is stored), and ``E / (2 G) - 1`` must lie in (-1, 0.5); mass
+    ``density`` >= 0 (0: massless, statics only); ``yield_stress`` > 0 or None (then not checked).
+    Units: stress for ``E``, ``G``, ``yield_stress``, mass per length cubed for ``density`` (see
+    ``docs/units.md``). ``name``: the catalogue name when it comes from `material`; ``units``: the
+    unit system its numbers are in when known (a named material's), else None. Neither takes part
+    in equality: two materials with the same numbers are the same material.
+    """
+
+    E: float
+    G: float
+    density: float = 0.0
+    yield_stress: float | None = None
+    name: str | None = attrs.field(default=None, eq=False)
+    units: str | None = attrs.field(default=None, eq=False)
+
+    def __init__(self, E, G=None, *, nu=None, density=0.0, yield_stress=None, name=None, units=None,
+                 owner: str = "Material"):
+        E = v.positive(owner, "E", E)
+        G = v.shear_modulus(owner, E, G, nu)
+        G = v.positive(owner, "G", G)
+        implied = E / (2.0 * G) - 1.0
+        if not -1.0 < implied < 0.5:
+            raise ParameterError(f"{owner}: E={E:g} and G={G:g} imply Poisson's ratio {implied:.3g}, outside (-1, 0.5); "
+                                 "check the units of the moduli")
+        density = v.nonnegative(owner, "density", density)
+        if yield_stress is not None:
+            yield_stress = v.positive(owner, "yield_stress", yield_stress)
+        if units is not None:
+            units = system(units).name
+        self.__attrs_init__(E=E, G=G, density=density, yield_stress=yield_stress, name=name, units=units)
+
+    @property
+    def nu(self) -> float:
+        """Poisson's ratio ``E / (2 G) - 1``."""
+        return self.E / (2.0 * self.G) - 1.0
+
+    def to(self, units) -> Material:
+        """The same material in another declared unit system (its own must be known)."""
+        if self.units is None:
+            raise ParameterError(f"material {self.name or ''}: its unit system is not known; give the numbers in the "
+                                 "mechanism's units")
+        a, b = system(self.units), system(units)
+        s = a.scale("stress") / b.scale("stress")
+        d = a.scale("density") / b.scale("density")
+        return Material(self.E * s, self.G * s, density=self.density * d,
+                        yield_stress=None if self.yield_stress is None else self.yield_stress * s,
+                        name=self.name, units=b.name)
+
+    def as_dict(self) -> dict:
+        """The numbers (and name, units where known) as a plain dict."""
+        out = {"E": self.E, "G": self.G, "density": self.density, "yield_stress": self.yield_stress}
+        if self.name is not None:
+            out["name"] = self.name
+        if self.units is not None:
+            out["units"] = self.units
+        return out
+
+
+#: Named materials in SI (E, G or nu, density [kg/m^3], yield stress [Pa]) and their sources.
+CATALOGUE = {
+    "structural_steel": dict(
+        E=210e9, G=81e9, density=7850.0, yield_stress=355e6,
+        source="EN 1993-1-1:2005 Sec. 3.2.6 (E = 210 000 N/mm^2, G = 81 000 N/mm^2); density EN 1991-1-1 Table A.4 "
+               "(77-78.5 kN/m^3); yield: grade S355, EN 10025-2 (nominal thickness <= 16 mm)"),
+    "spring_steel": dict(
+        E=196.5e9, G=77.2e9, density=7850.0, yield_stress=1200e6,
+        source="chrome-vanadium spring steel (50CrV4 / SAE 6150), hardened and tempered: E = 28.5e6 psi, "
+               "G = 11.2e6 psi (Machinery's Handbook, 'Modulus of elasticity of spring materials'); yield 1200 MPa "
+               "(EN 10089, 51CrV4 quenched and tempered); density as structural steel"),
+    "aluminium_7075": dict(
+        E=71.7e9, nu=0.33, density=2810.0, yield_stress=503e6,
+        source="aluminium 7075-T6: ASM Aerospace Specification Metals data sheet / MIL-HDBK-5J (E 71.7 GPa, "
+               "Poisson 0.33, density 2.81 g/cm^3, tensile yield 503 MPa)"),
+    "ti6al4v": dict(
+        E=113.8e9, nu=0.342, density=4430.0, yield_stress=880e6,
+        source="titanium Ti-6Al-4V (grade 5), annealed: ASM Aerospace Specification Metals data sheet (E 113.8 GPa, "
+               "Poisson 0.342, density 4.43 g/cm^3, tensile yield 880 MPa)"),
+    "silicon": dict(
+        E=169e9, nu=0.064, density=2329.0, yield_stress=7e9,
+        source="single-crystal silicon, a beam along [110] in a (100) wafer: E = 169 GPa, nu_xy = 0.064 (Hopcroft, Nix "
+               "& Kenny, J. MEMS 19(2), 2010, Table); density 2329 kg/m^3; strength 7 GPa (Petersen, Proc. IEEE "
+               "70(5), 1982, Table I: brittle, a fracture strength, not a yield)"),
+    "peek": dict(
+        E=3.7e9, nu=0.4, density=1300.0, yield_stress=98e6,
+        source="PEEK, unfilled (Victrex 450G data sheet, ISO 527, 23 C: tensile modulus 3.7 GPa, tensile yield "
+               "98 MPa, density 1.30 g/cm^3, Poisson 0.4)"),
+}
+_ALIASES = {"steel": "structural_steel", "aluminum_7075": "aluminium_7075", "al7075": "aluminium_7075",
+            "ti-6al-4v": "ti6al4v", "titanium": "ti6al4v", "single_crystal_silicon": "silicon"}
+
+#: The shipped joints' default material (SI): the steel of Dwarshuis et al. (2020), Table 1.
+STEEL = Material(200e9, 76.9e9, density=7800.0, units="SI")
+
+
+def material(name: str, units="SI") -> Material:
+    """The named material of `CATALOGUE` (or an alias such as ``"steel"``) in ``units`` (a name of
+    `flexmb.units.SYSTEMS`; default SI)."""
+    key = _ALIASES.get(name.lower(), name.lower()) if isinstance(name, str) else None
+    if key not in CATALOGUE:
+        raise ParameterError(f"material {name!r} is not known; named materials: {', '.join(CATALOGUE)}")
+    data = {k: x for k, x in CATALOGUE[key].items() if k != "source"}
+    return Material(**data, name=key, units="SI").to(units or "SI")
+
+
+#: Material keyword arguments a joint accepts beside ``material``.
+KEYWORDS = ("E", "G", "nu", "density", "yield_stress")
+
+
+def resolve(owner: str, given, keywords: dict, default: Material | None, default_G=None) -> Material:
+    """The material of a joint from its ``material=`` (``given``: a `Material`, a catalogue name
+    or None) and its material keywords (``E``, ``G``, ``nu``, ``density``, ``yield_stress``; None:
+    not given), checked once; errors name ``owner``.
+
+    Keywords given beside a material replace its values (``attrs.evolve(joint, E=...)`` works);
+    keywords alone complete ``default`` (the joint's default material; None: ``E`` is required,
+    ``G`` defaults to ``default_G(E)``), as the joints' separate fields did.
+    """
+    if isinstance(given, str):
+        given = material(given)
+    elif given is not None and not isinstance(given, Material):
+        raise ParameterError(f"{owner}: material={given!r} must be a flexmb.Material or a material name "
+                             f"({', '.join(CATALOGUE)})")
+    kw = {k: x for k, x in keywords.items() if not (x is None and k in ("G", "nu"))}  # G=None, nu=None: not given
+    base = given if given is not None else default
+    if base is None and "E" not in kw:
+        raise ParameterError(f"{owner}: give Young's modulus E or a material")
+    if not kw:
+        return base
+    E = kw.get("E", None if base is None else base.E)
+    G, nu = kw.get("G"), kw.get("nu")
+    if G is None and nu is None:  # the shear modulus kept (the material's, the default's) or defaulted
+        G = base.G if base is not None else None if default_G is None else default_G(v.positive(owner, "E", E))
+    density = kw.get("density", 0.0 if base is None else base.density)
+    ys = kw.get("yield_stress", None if base is None else base.yield_stress)
+    return Material(E, G, nu=nu, density=density, yield_stress=ys, owner=owner)
+
+
+def sources() -> dict:
+    """Each named material's source, for the documentation."""
+    return {k: d["source"] for k, d in CATALOGUE.items()}
+
+
+_ = SYSTEMS  # the systems a material resolves in (documentation cross-reference)

@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import attrs
 
-from . import _validate as v
-from .errors import ParameterError
-from .units import SYSTEMS, system
+import numpy as np
 
-__all__ = ["Material", "CATALOGUE", "material", "resolve", "STEEL"]
+from . import _validate as v
+from .errors import ModelError, ParameterError
+from .units import SYSTEMS, check_size, system
+
+__all__ = ["Material", "CATALOGUE", "material", "resolve", "STEEL", "params_in_units", "check_joint", "KEYWORDS"]
 
 
 @attrs.frozen(init=False, kw_only=True)
@@ -153,6 +155,36 @@ def resolve(owner: str, given, keywords: dict, default: Material | None, default
     density = kw.get("density", 0.0 if base is None else base.density)
     ys = kw.get("yield_stress", None if base is None else base.yield_stress)
     return Material(E, G, nu=nu, density=density, yield_stress=ys, owner=owner)
+
+
+def params_in_units(params: dict, units) -> dict:
+    """Joint parameters with a named ``material`` resolved in the mechanism's ``units`` (None: SI)."""
+    name = params.get("material")
+    if isinstance(name, str):
+        return {**params, "material": material(name, units or "SI")}
+    return params
+
+
+def check_joint(joint, units, where: str, dim: int) -> None:
+    """A joint placed in a mechanism of declared ``units``: its `Material`, when its unit system is
+    known (a named material's, the shipped joints' default steel: SI), must be in them
+    (`ModelError` naming the joint otherwise: its numbers would be off by powers of ten), and its
+    modulus, size and density plausible in them (`flexmb.units.check_size`)."""
+    mat = getattr(joint, "material", None)
+    if units is None or not isinstance(mat, Material):
+        return
+    if mat.units is not None and mat.units != units.name:
+        label = f"{mat.name!r}" if mat.name else "its material" if mat != STEEL else "the default steel"
+        raise ModelError(f"{where}: {label} is in {mat.units} numbers (E={mat.E:g}), the mechanism in {units.name}: "
+                         f"give material={mat.name or 'structural_steel'!r} to add_joint (it resolves in the "
+                         f"mechanism's units), or flexmb.material(name, {units.name!r}), or E, G, density in "
+                         f"{units.label('stress')} and {units.label('density')}")
+    size = next((float(getattr(joint, n)) for n in ("length", "radius") if isinstance(getattr(joint, n, None), float)),
+                None)
+    if size is None:
+        size = float(np.linalg.norm(joint.interface_b(dim)))
+    if size > 0:
+        check_size(where, mat.E, size, units, mat.density, stacklevel=4)
 
 
 def sources() -> dict:

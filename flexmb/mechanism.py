@@ -8,6 +8,8 @@ import networkx as nx
 import numpy as np
 
 from . import _validate as v
+from . import units as _units
+from .materials import check_joint, params_in_units
 from .closed_form import build as closed_form_build
 from .compiled import Compiled
 from .errors import ModelError, ParameterError, TopologyError, UnsupportedStrategyError
@@ -77,10 +79,13 @@ class Mechanism:
     >>> m.prescribe("B", rotation=0.1)
     """
 
-    def __init__(self, dim: int = 3):
+    def __init__(self, dim: int = 3, units: str | None = None):
         if isinstance(dim, bool) or dim not in (2, 3) or not isinstance(dim, (int, np.integer)):
             raise ParameterError(f"Mechanism: dim={dim!r} must be 2 (planar) or 3 (spatial)")
         self.dim = dim
+        #: The declared `flexmb.units.UnitSystem` (``units``: a name of `flexmb.units.SYSTEMS`), or
+        #: None: undeclared, SI assumed for labels and named materials (``docs/units.md``).
+        self.units = _units.system(units)
         self.graph = nx.MultiGraph()
         self._loads: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = []
         self._prescribed: dict[str, dict[str, float | np.ndarray]] = {}
@@ -145,7 +150,7 @@ class Mechanism:
         if a == b:
             raise TopologyError(f"joint between link {a!r} and itself: a joint must connect two different links")
         if isinstance(joint, str):
-            joint = make_joint(joint, **params)
+            joint = make_joint(joint, **params_in_units(params, self.units))
         elif params:
             raise ModelError("joint parameters are given with a joint name, not with a Joint instance")
         if not isinstance(joint, Joint):
@@ -163,6 +168,7 @@ class Mechanism:
         if name in self.joints:
             raise ModelError(f"a joint named {name!r} exists already")
         where = f"joint {name!r}"
+        check_joint(joint, self.units, where, self.dim)  # its material in the declared units, plausible sizes
         org = self.link(a).position if origin is None else v.vector(where, "origin", origin, self.dim)
         self.graph.add_edge(a, b, key=name, joint=joint, placement=Placement(org, self._rotation(where, rotation)),
                             sides=(a, b))
@@ -171,6 +177,7 @@ class Mechanism:
     def _rotation(self, where: str, rotation) -> np.ndarray:
         if rotation is None:
             return np.eye(self.dim)
+        _units.check_angle(where, "rotation", rotation, stacklevel=4)
         if self.dim == 2:
             return rot2(v.finite(where, "rotation", rotation))
         try:
@@ -204,6 +211,8 @@ class Mechanism:
         for key, val in motion.items():
             if key not in allowed:
                 raise ModelError(f"{where}: cannot prescribe {key!r}; valid components: {', '.join(allowed)}")
+            if key == "rotation" and val is not None:
+                _units.check_angle(where, "rotation", val)
             if val is None:
                 current.pop(key, None)
             elif key == "rotation" and self.dim == 3:

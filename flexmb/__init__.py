@@ -18,6 +18,7 @@ from .errors import (
 from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
 from .materials import Material, material
+from .files import MechanismFileError, load, save
 from .linearised import buckling, compliance
 from .design_properties import properties
 from .discretisation import DiscretisationEstimate, discretisation_error
@@ -54,6 +55,9 @@ __all__ = [
     "Mechanism",
     "Material",
     "material",
+    "MechanismFileError",
+    "load",
+    "save",
     "Modes",
     "MissingExtraError",
     "ModelError",

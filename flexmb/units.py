@@ -17,7 +17,7 @@ import attrs
 
 from .errors import ParameterError, PlausibilityWarning
 
-__all__ = ["UnitSystem", "SYSTEMS", "system", "label", "QUANTITIES", "check_angle", "check_size",
+__all__ = ["UnitSystem", "SYSTEMS", "system", "label", "column_unit", "QUANTITIES", "check_angle", "check_size",
            "LENGTH_RANGE", "MODULUS_RANGE", "DENSITY_RANGE"]
 
 
@@ -169,3 +169,37 @@ def _magnitudes(value) -> list:
     if a.ndim == 2 and a.shape[1] == 3:
         return [float(x) for x in np.linalg.norm(a, axis=1)]
     return [float(x) for x in a.ravel()]
+
+
+_TRANSLATIONS, _ROTATIONS = ("x", "y", "z"), ("rx", "ry", "rz", "rotation")
+
+
+def column_unit(name: str, units=None) -> str:
+    """The unit label of a result column of `flexmb.sweep`, `flexmb.trace` or
+    `flexmb.properties` tables in ``units`` (None: SI): ``"<link>.x"`` a length, ``".rotation"``
+    an angle, ``".Fx"`` a force, ``".Mz"`` a moment, ``"f1"`` Hz, ``"C.<link>.<row>.<col>"`` the
+    compliance entry's, stresses ``"normal"``, ``"shear"``, ``"von_mises"`` (also per joint),
+    ``"time"`` s; ``"-"`` for counts, flags, multipliers and safety factors."""
+    u = system(units) or SYSTEMS["SI"]
+    last = name.rsplit(".", 1)[-1].split("#")[0]
+    if name.startswith("C.") and name.count(".") >= 3:
+        row, col = name.split(".")[-2:]
+        r_rot, c_rot = row in _ROTATIONS, col in _ROTATIONS
+        num = u.label("angle") if r_rot else u.label("length")
+        den = f"{u.label('force')} {u.label('length')}" if c_rot else u.label("force")
+        return f"{num}/({den})" if " " in den else f"{num}/{den}"
+    if last in _TRANSLATIONS or last.startswith("rotation") and last != "rotation" and "_" not in last:
+        return u.label("length") if last in _TRANSLATIONS else u.label("angle")
+    if last.startswith("rotation"):
+        return u.label("angle")
+    if last in ("Fx", "Fy", "Fz") or name in ("force",) or name.startswith("force_"):
+        return u.label("force")
+    if last in ("Mx", "My", "Mz"):
+        return u.label("moment")
+    if last in ("normal", "shear", "von_mises"):
+        return u.label("stress")
+    if name == "time":
+        return "s"
+    if name[:1] == "f" and name[1:].isdigit():
+        return "Hz"
+    return "-"

@@ -19,6 +19,7 @@ from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSprin
 from .mechanism import Link, Mechanism
 from .materials import Material, material
 from .files import MechanismFileError, load, save
+from .statespace import StateSpace, state_space
 from .linearised import buckling, compliance
 from .design_properties import properties
 from .discretisation import DiscretisationEstimate, discretisation_error
@@ -56,6 +57,8 @@ __all__ = [
     "Material",
     "material",
     "MechanismFileError",
+    "StateSpace",
+    "state_space",
     "load",
     "save",
     "Modes",

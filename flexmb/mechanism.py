@@ -335,7 +335,8 @@ class Mechanism:
         except (KeyError, TypeError):
             raise UnsupportedStrategyError(
                 f"no model builder for capability {capability!r}; builders: {', '.join(BUILDERS)}") from None
-        return builder(self)
+        compiled = builder(self)
+        return compiled if self.units is None else attrs.evolve(compiled, units=self.units)
 
     def __repr__(self) -> str:
         return (f"Mechanism(dim={self.dim}, links={list(self.graph.nodes)}, "

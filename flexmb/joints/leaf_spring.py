@@ -81,27 +81,32 @@ class LeafSpring(MaterialJoint):
             raise ParameterError(f"{owner}: thickness={thickness!r} m{'' if self.section is None else ' (section)'} "
                                  f"must be < length={self.length!r} m")
         if self.section is not None:  # the section's material and shape apply: different ones given here are lost
-            default = {f.name: f.default for f in attrs.fields(type(self))}
-            clash = [f"{n}={getattr(self, n)!r} (section: {getattr(self.section, n)!r})"
-                     for n in ("E", "G", "density", "yield_stress")
-                     if n in given and getattr(self, n) != getattr(self.section, n)]
-            if clash:
-                raise ParameterError(f"{owner}: {', '.join(clash)}: the section's material applies; give it in the "
-                                     "section (e.g. flexmb.rectangle(..., density=)) or leave it out here")
-            s = self.section  # a rectangle's half-sizes: ymax = thickness / 2, zmax = width / 2
-            sizes = {"width": 2 * s.zmax, "thickness": 2 * s.ymax} if s.shape == "rectangle" else {}
-            clash = [f"{n}={getattr(self, n)!r} (section: {sizes[n]!r})" if n in sizes else
-                     f"{n}={getattr(self, n)!r} (section: a {s.shape or 'general'} section, A={s.A!r})"
-                     for n in ("width", "thickness") if getattr(self, n) != default[n]
-                     and not (n in sizes and np.isclose(getattr(self, n), sizes[n], rtol=1e-12, atol=0.0))]
-            if clash:
-                raise ParameterError(f"{owner}: {', '.join(clash)}: the section's shape applies; give the sizes in "
-                                     "the section (flexmb.rectangle(width, thickness, ...)) or leave them out here")
+            self._check_section(owner, given)
         try:
             self.cross_section()  # overflow/underflow or inconsistent moduli raise here
         except ParameterError as exc:
             raise ParameterError(f"{owner}: width={self.width!r} m, thickness={self.thickness!r} m, E={self.E!r} Pa, "
                                  f"G={self.G!r} Pa: {exc}") from None
+
+    def _check_section(self, owner: str, given: set) -> None:
+        """Refuse material values (``given``: those passed) and sizes beside ``section`` that differ
+        from the section's: they would be ignored."""
+        default = {f.name: f.default for f in attrs.fields(type(self))}
+        clash = [f"{n}={getattr(self, n)!r} (section: {getattr(self.section, n)!r})"
+                 for n in ("E", "G", "density", "yield_stress")
+                 if n in given and getattr(self, n) != getattr(self.section, n)]
+        if clash:
+            raise ParameterError(f"{owner}: {', '.join(clash)}: the section's material applies; give it in the "
+                                 "section (e.g. flexmb.rectangle(..., density=)) or leave it out here")
+        s = self.section  # a rectangle's half-sizes: ymax = thickness / 2, zmax = width / 2
+        sizes = {"width": 2 * s.zmax, "thickness": 2 * s.ymax} if s.shape == "rectangle" else {}
+        clash = [f"{n}={getattr(self, n)!r} (section: {sizes[n]!r})" if n in sizes else
+                 f"{n}={getattr(self, n)!r} (section: a {s.shape or 'general'} section, A={s.A!r})"
+                 for n in ("width", "thickness") if getattr(self, n) != default[n]
+                 and not (n in sizes and np.isclose(getattr(self, n), sizes[n], rtol=1e-12, atol=0.0))]
+        if clash:
+            raise ParameterError(f"{owner}: {', '.join(clash)}: the section's shape applies; give the sizes in "
+                                 "the section (flexmb.rectangle(width, thickness, ...)) or leave them out here")
 
     def interface_b(self, dim: int) -> np.ndarray:
         b = np.zeros(dim)

@@ -155,9 +155,11 @@ def _joints(args) -> int:
         doc = (inspect.getdoc(cls) or "").splitlines()[0] if inspect.getdoc(cls) else ""
         print(f"{name}: {doc}")
         if attrs.has(cls):
-            for a in attrs.fields(cls):
-                default = "" if a.default is attrs.NOTHING else f" = {a.default!r}"
-                print(f"    {a.name}{default}")
+            from .joints._base import UNSET
+
+            for a in attrs.fields(cls):  # by keyword; a material keyword has no default of its own
+                default = "" if a.default is attrs.NOTHING or a.default is UNSET else f" = {a.default!r}"
+                print(f"    {a.alias}{default}")
     return 0
 
 

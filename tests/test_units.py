@@ -124,3 +124,16 @@ def test_unit_systems_are_consistent_and_labelled():
     assert flexmb.models.gripper().units.name == "mm-uN-Pa"
     with pytest.raises(ParameterError, match="units='inch'"):
         flexmb.Mechanism(units="inch")
+
+
+def test_figure_axes_carry_the_declared_length_unit():
+    pytest.importorskip("matplotlib")
+    from flexmb import plot
+
+    ax = plot.plot_mechanism(flexmb.models.gripper())  # mm-uN-Pa
+    assert ax.get_xlabel() == "x [mm]"
+    m = guided_stage("um-uN-MPa")
+    assert plot.plot_mechanism(flexmb.solve(m)).get_ylabel() == "y [um]"
+    assert plot.plot_mechanism(flexmb.models.cantilever()).get_xlabel() == "x [m]"  # undeclared: SI
+    assert units.column_unit("block.Fx", "mm-N-MPa") == "N" and units.column_unit("block.Mz", "mm-N-MPa") == "N mm"
+    assert units.column_unit("C.B.x.rotation", None) == "m/(N m)" and units.column_unit("f2") == "Hz"

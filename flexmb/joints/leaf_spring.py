@@ -89,12 +89,12 @@ class LeafSpring(MaterialJoint):
                                  f"G={self.G!r} Pa: {exc}") from None
 
     def _check_section(self, owner: str, given: set) -> None:
-        """Refuse material values (``given``: those passed) and sizes beside ``section`` that differ
-        from the section's: they would be ignored."""
+        """Refuse material values (``given``: those passed, other than the default steel's) and sizes
+        beside ``section`` that differ from the section's: they would be ignored."""
         default = {f.name: f.default for f in attrs.fields(type(self))}
         clash = [f"{n}={getattr(self, n)!r} (section: {getattr(self.section, n)!r})"
                  for n in ("E", "G", "density", "yield_stress")
-                 if n in given and getattr(self, n) != getattr(self.section, n)]
+                 if n in given and getattr(self, n) not in (getattr(STEEL, n), getattr(self.section, n))]
         if clash:
             raise ParameterError(f"{owner}: {', '.join(clash)}: the section's material applies; give it in the "
                                  "section (e.g. flexmb.rectangle(..., density=)) or leave it out here")

@@ -182,6 +182,7 @@ def mechanisms(draw):
     return m
 
 
+@pytest.mark.slow  # ~13 s: 40 mechanisms, each compiled and solved twice
 @settings(max_examples=40, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 @given(m=mechanisms())
 def test_hypothesis_mechanisms_round_trip_exactly(m):

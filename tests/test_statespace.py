@@ -97,6 +97,7 @@ def test_motion_inputs_and_reaction_outputs_match_finite_differences():
     assert ss.labels[("reaction", "B", "rotation")] == "N m" and ss.labels[("motion", "B", "rotation")] == "rad"
 
 
+@pytest.mark.slow  # importing python-control takes ~3 s
 def test_python_control_statespace(solved):
     control = pytest.importorskip("control")
     ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x"), ("displacement", "B", "y")],

@@ -23,7 +23,7 @@ class JointMesh:
     Attributes
     ----------
     points
-        Point coordinates [m], shape (n, dim), in the joint frame.
+        Point coordinates [length], shape (n, dim), in the joint frame.
     side
         (n,) ints: `INTERNAL` (a free FE node), `SIDE_A` / `SIDE_B` (rigidly attached to the
         link on the joint's A / B side: connector blocks are exact rigid constraints).
@@ -57,7 +57,7 @@ class ClosedForm:
     """A planar flexure as a constant end stiffness (Cammarata et al. 2022, Secs. 2-3).
 
     The flexure is clamped at node A (joint frame origin, the *first* section S_if) and its
-    end section S_fj sits at ``end`` [m] in the joint frame, rotated by ``end_angle`` [rad]
+    end section S_fj sits at ``end`` [length] in the joint frame, rotated by ``end_angle`` [rad]
     (A_f of Eq. 16). ``stiffness`` K_f (3, 3) maps the end's displacement and rotation
     psi_f = [x', phi] to the end wrench [F_x, F_y, M], both in the undeformed end frame (Eq. 1).
     ``model`` is one of `FLEXURE_MODELS`.
@@ -117,7 +117,7 @@ class Joint(abc.ABC):
 
     @abc.abstractmethod
     def interface_b(self, dim: int) -> np.ndarray:
-        """Position of interface node B in the joint frame [m], shape (dim,); node A is the origin."""
+        """Position of interface node B in the joint frame [length], shape (dim,); node A is the origin."""
 
     def mesh(self, dim: int) -> JointMesh:
         """The joint's finite-element model in its own frame (see `JointMesh`)."""

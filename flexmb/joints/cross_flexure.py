@@ -28,20 +28,20 @@ class CrossFlexure(MaterialJoint):
     * ``dim=3``: the three-leaf cross flexure of Fig. 6 / Table 1: an inner leaf of width
       ``width_inner`` along ``(cos a, sin a, 0)`` at z = 0 and two outer leaves of width
       ``width_outer`` along ``(-cos a, sin a, 0)`` at ``z = +-(width_inner/2 + gap + width_outer/2)``
-      (Fig. 6 does not give this spacing; ``gap`` [m] is the clearance between the leaves).
+      (Fig. 6 does not give this spacing; ``gap`` [length] is the clearance between the leaves).
     * ``dim=2``: the planar cross flexure of Fig. 3: the inner leaf and one leaf of width
       ``2 width_outer`` standing for the outer pair, so the in-plane model matches the 3D one.
 
     Parameters (defaults: Table 1)
     ------------------------------
     length
-        Leaf length L [m] (0.1).
+        Leaf length L [length] (0.1).
     angle
         Leaf angle alpha to the joint's x axis [rad], in (0, pi/2) (pi/4).
     thickness
-        Leaf thickness t [m], less than ``length / 10`` (1e-3).
+        Leaf thickness t [length], less than ``length / 10`` (1e-3).
     width_inner, width_outer
-        Leaf widths w1, w2 [m] (0.04, 0.02).
+        Leaf widths w1, w2 [length] (0.04, 0.02).
     material
         A `flexmb.Material` or a named one (default: the steel of Table 1, E = 200e9, G = 76.9e9,
         density 7800, SI); its ``yield_stress``, when given, makes a solve whose peak normal
@@ -59,7 +59,7 @@ class CrossFlexure(MaterialJoint):
         four-bar of the paper use 1-5 (`flexmb.models` states them); the shipped database holds
         1-5 and 10. `flexmb.discretisation_error` estimates the error of any mesh.
     gap
-        Clearance between inner and outer leaves along z [m] (0).
+        Clearance between inner and outer leaves along z [length] (0).
     """
 
     kind: ClassVar[str] = "cross_flexure"
@@ -150,5 +150,5 @@ class CrossFlexure(MaterialJoint):
 
     @property
     def second_moment(self) -> float:
-        """I = (w1 + 2 w2) t^3 / 12 [m^4], Eq. (4.4)."""
+        """I = (w1 + 2 w2) t^3 / 12 [length^4], Eq. (4.4)."""
         return (self.width_inner + 2 * self.width_outer) * self.thickness**3 / 12.0

@@ -27,9 +27,9 @@ class LeafSpring(MaterialJoint):
     Parameters
     ----------
     length
-        Length [m] (0.1).
+        Length [length] (0.1).
     width, thickness
-        Cross-section [m] (0.02, 1e-3); ``thickness < length``.
+        Cross-section [length] (0.02, 1e-3); ``thickness < length``.
     material
         A `flexmb.Material` or a named one (default: steel, E = 200e9, G = 76.9e9, density 7800,
         SI); its ``yield_stress``, when given, makes a solve whose peak normal stress exceeds it
@@ -114,7 +114,7 @@ class LeafSpring(MaterialJoint):
         return b
 
     def cross_section(self) -> Section:
-        """The leaf's `Section`: ``section`` if given, else the ``width`` x ``thickness`` rectangle [m]."""
+        """The leaf's `Section`: ``section`` if given, else the ``width`` x ``thickness`` rectangle [length]."""
         return self.section or rectangle(self.width, self.thickness, self.E, self.G, self.density,
                                          yield_stress=self.yield_stress)
 

@@ -49,17 +49,17 @@ class ThreeXInfinity(MaterialJoint):
     Parameters (defaults: the flexmb design of the README, steel as in Sec. 4.4)
     --------------------------------------------------------------------------
     length
-        Leaf length [m] (0.03).
+        Leaf length [length] (0.03).
     angle
         Leaf angle to the joint's x axis [rad], in (0, pi/2) (pi/4).
     thickness
-        Leaf thickness [m] (0.45e-3, Sec. 4.4), less than ``length / 10``.
+        Leaf thickness [length] (0.45e-3, Sec. 4.4), less than ``length / 10``.
     width_inner, width_outer
-        Leaf widths [m] (0.010, 0.005).
+        Leaf widths [length] (0.010, 0.005).
     gap
-        Clearance between the inner and outer leaves along z [m] (1e-3).
+        Clearance between the inner and outer leaves along z [length] (1e-3).
     stage_gap
-        Clearance between successive stages along z [m] (2e-3).
+        Clearance between successive stages along z [length] (2e-3).
     stages
         Number of stages in series, 2 to 100 (3).
     material
@@ -114,7 +114,7 @@ class ThreeXInfinity(MaterialJoint):
 
     @property
     def pitch(self) -> float:
-        """Distance between successive stages along z [m]."""
+        """Distance between successive stages along z [length]."""
         return self.width_inner + 2 * (self.width_outer + self.gap) + self.stage_gap
 
     @property

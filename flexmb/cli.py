@@ -287,11 +287,35 @@ def _cases() -> dict:
 def _build(case: str, params: dict):
     build, default = _cases()[case]
     names = [n for n, p in inspect.signature(build).parameters.items() if p.kind is not p.VAR_KEYWORD]
+    _check_model_params(case, names, params)
     try:
         return build(**params), default
     except TypeError as exc:
         raise ParameterError(f"solve {case}: {exc}; its parameters: {', '.join(names)} (and the joint's shape "
                              f"parameters where the model takes them)") from None
+
+
+#: The joint whose shape parameters a ready-made model passes on (``**joint_params``).
+_MODEL_JOINTS = {"cross_flexure": "cross_flexure", "fourbar": "cross_flexure", "cantilever": "leaf_spring",
+                 "manipulator": "three_x_infinity"}
+
+
+def _check_model_params(case: str, names: list, params: dict) -> None:
+    """A ``--param`` that is neither the model's nor its joint's: refused naming the model, with the
+    closest name (``displacment`` -> ``displacement``), before the joint blames itself."""
+    import difflib
+
+    from .registry import available_joints
+
+    cls = available_joints().get(_MODEL_JOINTS.get(case, ""))
+    joint = [a.alias for a in attrs.fields(cls) if a.init] if cls is not None and attrs.has(cls) else []
+    for key in params:
+        if key not in names and key not in joint:
+            close = difflib.get_close_matches(key, names + joint, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ParameterError(f"solve {case}: unknown parameter {key!r}{hint} The model's parameters: "
+                                 f"{', '.join(names)}" + (f"; its joint's ({_MODEL_JOINTS[case]}): {', '.join(joint)}"
+                                                          if joint else ""))
 
 
 def _solve(args) -> int:

@@ -90,3 +90,10 @@ def test_run_puts_the_scripts_folder_on_the_import_path(tmp_path, capsys):
         sys.modules.pop("helper_for_flexmb_run", None)
     assert "value 42" in capsys.readouterr().out
     assert sys.path == before  # restored
+
+
+def test_a_misspelt_model_parameter_is_named_with_the_model_and_the_closest_name(capsys):
+    assert cli.main(["solve", "fourbar", "--param", "displacment=0.2"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "solve fourbar: unknown parameter 'displacment'; did you mean 'displacement'?" in err

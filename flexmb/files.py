@@ -170,7 +170,7 @@ def dumps(mechanism: Mechanism) -> str:
 
 
 def _pretty(x, pad: str) -> str:
-    if isinstance(x, dict) and x:
+    if isinstance(x, dict) and x and not (len(x) == 1 and not isinstance(next(iter(x.values())), (dict, list))):
         inner = pad + "  "
         items = [f"{inner}{json.dumps(k)}: {_pretty(y, inner)}" for k, y in x.items()]
         return "{\n" + ",\n".join(items) + f"\n{pad}}}"

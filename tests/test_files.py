@@ -336,3 +336,28 @@ def test_what_cannot_be_written_is_refused_naming_it(tmp_path):
                                                  "'leaf_spring'"):
         flexmb.save(m, tmp_path / "x.json")
     assert not (tmp_path / "x.json").exists()
+
+
+def test_a_hand_written_file_with_the_defaults_left_out(tmp_path):
+    text = """{"format": "flexmb-mechanism", "version": 1, "dim": 2,
+               "links": [{"name": "ground", "position": [0, 0], "fixed": true},
+                         {"name": "tip", "position": [0.1, 0]}],
+               "joints": [{"kind": "leaf_spring", "a": "ground", "b": "tip", "rotation": 0.0,
+                           "parameters": {"material": "spring_steel", "thickness": 0.0005}}],
+               "loads": [{"link": "tip", "force": [0, -1]}]}"""
+    m = flexmb.files.loads(text)
+    ref = models.cantilever(elements=12, thickness=5e-4, material="spring_steel")
+    ref.apply_force("tip", (0.0, -1.0))
+    same_solution(flexmb.solve(ref), flexmb.solve(m))
+
+
+def test_a_section_without_shear_deformation_round_trips(tmp_path):
+    import attrs
+
+    s = attrs.evolve(flexmb.rectangle(0.02, 1e-3, 200e9, 76.9e9), ky=np.inf, kz=np.inf)
+    m = models.cantilever(elements=4, section=s)
+    m.apply_force("tip", (0.0, -2.0))
+    assert '{"float": "inf"}' in files.dumps(m)
+    loaded = round_trip(m, tmp_path)
+    assert loaded.joints["leaf"].section == s
+    same_solution(flexmb.solve(m), flexmb.solve(loaded))

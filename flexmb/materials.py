@@ -3,6 +3,9 @@ named engineering materials, each with its source, resolved in a declared unit s
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import attrs
 
 import numpy as np
@@ -78,35 +81,9 @@ class Material:
         return out
 
 
-#: Named materials in SI (E, G or nu, density [kg/m^3], yield stress [Pa]) and their sources.
-CATALOGUE = {
-    "structural_steel": dict(
-        E=210e9, G=81e9, density=7850.0, yield_stress=355e6,
-        source="EN 1993-1-1:2005 Sec. 3.2.6 (E = 210 000 N/mm^2, G = 81 000 N/mm^2); density EN 1991-1-1 Table A.4 "
-               "(77-78.5 kN/m^3); yield: grade S355, EN 10025-2 (nominal thickness <= 16 mm)"),
-    "spring_steel": dict(
-        E=196.5e9, G=77.2e9, density=7850.0, yield_stress=1200e6,
-        source="chrome-vanadium spring steel (50CrV4 / SAE 6150), hardened and tempered: E = 28.5e6 psi, "
-               "G = 11.2e6 psi (Machinery's Handbook, 'Modulus of elasticity of spring materials'); yield 1200 MPa "
-               "(EN 10089, 51CrV4 quenched and tempered); density as structural steel"),
-    "aluminium_7075": dict(
-        E=71.7e9, nu=0.33, density=2810.0, yield_stress=503e6,
-        source="aluminium 7075-T6: ASM Aerospace Specification Metals data sheet / MIL-HDBK-5J (E 71.7 GPa, "
-               "Poisson 0.33, density 2.81 g/cm^3, tensile yield 503 MPa)"),
-    "ti6al4v": dict(
-        E=113.8e9, nu=0.342, density=4430.0, yield_stress=880e6,
-        source="titanium Ti-6Al-4V (grade 5), annealed: ASM Aerospace Specification Metals data sheet (E 113.8 GPa, "
-               "Poisson 0.342, density 4.43 g/cm^3, tensile yield 880 MPa)"),
-    "silicon": dict(
-        E=169e9, nu=0.064, density=2329.0, yield_stress=7e9,
-        source="single-crystal silicon, a beam along [110] in a (100) wafer: E = 169 GPa, nu_xy = 0.064 (Hopcroft, Nix "
-               "& Kenny, J. MEMS 19(2), 2010, Table); density 2329 kg/m^3; strength 7 GPa (Petersen, Proc. IEEE "
-               "70(5), 1982, Table I: brittle, a fracture strength, not a yield)"),
-    "peek": dict(
-        E=3.7e9, nu=0.4, density=1300.0, yield_stress=98e6,
-        source="PEEK, unfilled (Victrex 450G data sheet, ISO 527, 23 C: tensile modulus 3.7 GPa, tensile yield "
-               "98 MPa, density 1.30 g/cm^3, Poisson 0.4)"),
-}
+#: Named materials in SI (E, G or nu, density [kg/m^3], yield stress [Pa]) and their sources, from
+#: the data file ``materials.json`` beside this module (docs/units.md prints it).
+CATALOGUE = json.loads((Path(__file__).with_name("materials.json")).read_text(encoding="utf-8"))["materials"]
 _ALIASES = {"steel": "structural_steel", "aluminum_7075": "aluminium_7075", "al7075": "aluminium_7075",
             "ti-6al-4v": "ti6al4v", "titanium": "ti6al4v", "single_crystal_silicon": "silicon"}
 

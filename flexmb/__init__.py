@@ -22,6 +22,8 @@ from .files import MechanismFileError, load, save
 from .statespace import StateSpace, state_space
 from .linearised import buckling, compliance
 from .design_properties import properties
+from . import design
+from .design import responses, value_and_grad
 from .discretisation import DiscretisationEstimate, discretisation_error
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
@@ -36,6 +38,9 @@ from ._version import __version__  # noqa: F401 (flexmb.__version__)
 
 
 __all__ = [
+    "design",
+    "responses",
+    "value_and_grad",
     "ConvergenceError",
     "ConvergenceWarning",
     "ExtrapolationWarning",

@@ -131,8 +131,8 @@ def _name(spec) -> str:
 def state_space(solution, inputs, outputs, *, n: int = 6, damping=0.0, held="prescribed",
                 static_correction: bool = True) -> StateSpace:
     """The state-space model of ``solution`` (a converged FE equilibrium) with ``n`` modes (see the
-    module notes). ``inputs``: ``("force", link, component[, point])`` on free DOFs or ``("motion",
-    link, component)`` of held ones; ``outputs``: ``("displacement", link, component[, point])`` or
+    module notes). ``inputs``: ``("force", link, component[, point])`` (its share on held DOFs
+    goes straight to their reactions) or ``("motion", link, component)`` of held DOFs; ``outputs``: ``("displacement", link, component[, point])`` or
     ``("reaction", link, component)`` of held DOFs; components of `COMPONENTS`; ``point`` a named
     point of the link or its undeformed global position. ``damping``: the modal damping ratio, a
     number in [0, 1) or one per mode. ``held`` as in `flexmb.modes` (default: the prescribed DOFs).
@@ -164,14 +164,14 @@ def state_space(solution, inputs, outputs, *, n: int = 6, damping=0.0, held="pre
                                        "displacements (motions and reactions of held DOFs: not available)")
     K, M = K.tocsr(), M.tocsr()
     solve = _free_solver(K, fn, Z, nnd)
-    X, Gamma, modal = _input_columns(ins, solution, model, K, M, Phi, lam, solve, held_idx, static_correction)
-    W = _output_rows(outs, solution, model, K, held_idx, nnd)
+    X, Gamma, modal, loads = _input_columns(ins, solution, model, K, M, Phi, lam, solve, held_idx, static_correction)
+    W, reacting = _output_rows(outs, solution, model, K, held_idx, nnd)
     omega = np.sqrt(lam)
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(lam), -np.diag(2 * zeta * omega)]])
     B = np.vstack([(2 * zeta * omega)[:, None] * Gamma,
                    ((1 - 4 * zeta**2) * lam)[:, None] * Gamma + modal])
     C = np.hstack([W @ Phi.T, np.zeros((len(outs), n))])
-    D = W @ X
+    D = W @ X - reacting @ loads  # a reaction (residual: internal minus external) takes the load on its DOF
     units = getattr(solution.compiled.units, "name", None)
     labels = {s: _unit(s, units) for s in ins + outs}
     return StateSpace(A, B, C, D, tuple(ins), tuple(outs), labels, md.frequencies, zeta, units)
@@ -259,15 +259,15 @@ def _free_solver(K, fn: np.ndarray, Z, nnd: int):
 
 def _input_columns(ins, solution, model, K, M, Phi, lam, solve, held_idx, static_correction):
     """Per input: the node displacements ``x = Phi^T xi + X u`` it adds directly (X column), its
-    coupling ``Gamma`` to the modes' acceleration (motions) and its modal force (forces)."""
+    coupling ``Gamma`` to the modes' acceleration (motions), its modal force and its node loads (forces)."""
     nnd, n = Phi.shape[1], len(lam)
     Knn, Mnn = K[:nnd][:, :nnd], M[:nnd][:, :nnd]
-    X, Gamma, modal = (np.zeros((nnd, len(ins))), np.zeros((n, len(ins))), np.zeros((n, len(ins))))
+    X, loads = np.zeros((nnd, len(ins))), np.zeros((nnd, len(ins)))
+    Gamma, modal = np.zeros((n, len(ins))), np.zeros((n, len(ins)))
     for j, spec in enumerate(ins):
         if spec[0] == "force":
             b = _lever_row(solution, spec, nnd)  # node loads of a unit point load: T^T e
-            if np.any(b[np.intersect1d(np.flatnonzero(b), held_idx)]):
-                raise ModelError(f"state_space: input {spec!r} loads a held DOF (its reaction takes it); use a free one")
+            loads[:, j] = b  # its share on held DOFs moves nothing: their reactions take it
             modal[:, j] = Phi @ b
             if static_correction:
                 X[:, j] = solve(b[:, None])[:, 0] - Phi.T @ (modal[:, j] / lam)
@@ -281,12 +281,13 @@ def _input_columns(ins, solution, model, K, M, Phi, lam, solve, held_idx, static
             s = -solve((Knn @ e)[:, None])[:, 0]  # the quasi-static field of a unit motion
             Gamma[:, j] = Phi @ (Mnn @ (s + e))
             X[:, j] = e + s - Phi.T @ Gamma[:, j]
-    return X, Gamma, modal
+    return X, Gamma, modal, loads
 
 
 def _output_rows(outs, solution, model, K, held_idx, nnd: int) -> np.ndarray:
-    """Per output a row on the node DOFs: a lever row (displacements) or the held DOF's tangent row (reactions)."""
-    W = np.zeros((len(outs), nnd))
+    """Per output a row on the node DOFs (a lever row for displacements, the held DOF's tangent row
+    for reactions) and the row picking a reaction's own DOF (to subtract the load on it)."""
+    W, reacting = np.zeros((len(outs), nnd)), np.zeros((len(outs), nnd))
     held = set(held_idx.tolist())
     for i, spec in enumerate(outs):
         if spec[0] == "displacement":
@@ -296,7 +297,8 @@ def _output_rows(outs, solution, model, K, held_idx, nnd: int) -> np.ndarray:
             if h not in held:
                 raise ModelError(f"state_space: output {spec!r}: the DOF is free, it has no reaction")
             W[i] = K[[h]][:, :nnd].toarray()[0]
-    return W
+            reacting[i, h] = 1.0
+    return W, reacting
 
 
 def _unit(spec, units) -> str:

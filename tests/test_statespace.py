@@ -97,6 +97,35 @@ def test_motion_inputs_and_reaction_outputs_match_finite_differences():
     assert ss.labels[("reaction", "B", "rotation")] == "N m" and ss.labels[("motion", "B", "rotation")] == "rad"
 
 
+def test_a_point_force_on_a_link_with_a_held_rotation_and_its_reaction():
+    """The pivot with B's turn prescribed: a force along y at B's point 30 mm off (its moment lands
+    on the held rotation) and a moment on the held rotation itself. The gains to B's rotation
+    reaction are d(reaction)/d(load) of the nonlinear solves (central differences, h = 1e-3 N:
+    the reaction is linear in a dead load up to the tangent's change, ~1e-9 relative here, and the
+    residual floor ~1e-8 N m / h = 1e-5 N m of ~0.03 N m per N)."""
+    def pivot(force=0.0, moment=0.0):
+        m = flexmb.models.cross_flexure_pivot(elements_per_leaf=5, dim=2, rotation=0.3)
+        m.add_point("B", "side", m.link("B").position + (0.03, 0.0))
+        if force:
+            m.apply_force("B", (0.0, force), point=m.link("B").position + (0.03, 0.0))
+        if moment:
+            m.apply_moment("B", moment)
+        return m
+
+    sol = flexmb.solve(pivot())
+    ss = flexmb.state_space(sol, [("force", "B", "y", "side"), ("force", "B", "rotation")],
+                            [("reaction", "B", "rotation"), ("displacement", "B", "y")], n=3)
+    G = ss.static_gain()
+    h = 1e-3
+    for j, (kw, key) in enumerate(((dict(force=h), dict(force=-h)), (dict(moment=h), dict(moment=-h)))):
+        plus, minus = flexmb.solve(pivot(**kw), rtol=1e-13), flexmb.solve(pivot(**key), rtol=1e-13)
+        dM = (plus.reaction("B")[2] - minus.reaction("B")[2]) / (2 * h)
+        dy = (plus.pose("B")[0][1] - minus.pose("B")[0][1]) / (2 * h)
+        assert G[0, j] == pytest.approx(dM, rel=1e-4, abs=1e-9), j
+        assert G[1, j] == pytest.approx(dy, rel=1e-4, abs=1e-12), j
+    assert G[0, 1] == pytest.approx(-1.0, abs=1e-12)  # a moment on the held turn: all of it to the support
+
+
 @pytest.mark.slow  # importing python-control takes ~3 s
 def test_python_control_statespace(solved):
     control = pytest.importorskip("control")

@@ -160,3 +160,31 @@ def test_bad_specifications_are_refused(solved):
         flexmb.state_space(solved, good_in, good_out, damping=1.5)
     with pytest.raises(ParameterError, match="must be"):
         flexmb.state_space(solved, [("torque", "B", "x")], good_out)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_with_hinges_forces_in_displacements_out(dim):
+    """A four-bar on a motor, two spring hinges and a leaf (test_files' hinged mechanism, the coupler
+    and rocker given mass): on the motions the hinges allow, static gain = compliance and poles =
+    modes, to 1e-9; motions and reactions are refused by name."""
+    import warnings
+
+    import attrs
+    from test_files import hinged_fourbar
+
+    m = hinged_fourbar(dim)
+    for name in ("coupler", "rocker"):
+        m.graph.nodes[name]["link"] = attrs.evolve(m.link(name), mass=0.05,
+                                                   inertia=2e-5 if dim == 2 else 2e-5 * np.eye(3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", flexmb.PlausibilityWarning)  # the leaf bends past its elastic strain
+        sol = flexmb.solve(m)
+    cs = comps(dim)
+    ss = flexmb.state_space(sol, [("force", "coupler", c) for c in cs], [("displacement", "coupler", c) for c in cs],
+                            n=2)
+    C = flexmb.compliance(sol, "coupler")
+    np.testing.assert_allclose(ss.static_gain(), C, rtol=1e-9, atol=1e-9 * np.abs(C).max())
+    f = flexmb.modes(sol, n=2).frequencies
+    np.testing.assert_allclose(np.sort(ss.poles().imag), np.sort(np.r_[-2 * np.pi * f, 2 * np.pi * f]), rtol=1e-9)
+    with pytest.raises(flexmb.UnsupportedStrategyError, match="with hinges the inputs are forces"):
+        flexmb.state_space(sol, [("force", "coupler", "x")], [("reaction", "ground", "x")], n=2)

@@ -344,9 +344,12 @@ def _solve(args) -> int:
     else:
         print(f"{args.case} ({method}): {sol.message}; {sol.iterations} iterations, "
               f"{sol.wall_time.get('total', float('nan')) * 1e3:.1f} ms")
+        from .units import label
+
+        lab = {q: label(mechanism.units, q) for q in ("length", "force", "moment")}  # the model's declared units
         for link, d in report["links"].items():
-            print(f"  {link}: position {np.array(d['position'])} m, rotation {np.array(d['rotation'])} rad, "
-                  f"reaction {np.array(d['reaction'])}")
+            print(f"  {link}: position {np.array(d['position'])} {lab['length']}, rotation "
+                  f"{np.array(d['rotation'])} rad, reaction {np.array(d['reaction'])} [{lab['force']}, {lab['moment']}]")
     if not sol.converged:
         print(f"flexmb: error: {args.case} did not converge: {sol.message}", file=sys.stderr)
         return 1

@@ -143,14 +143,15 @@ def params_in_units(params: dict, units) -> dict:
 
 
 def check_joint(joint, units, where: str, dim: int) -> None:
-    """A joint placed in a mechanism of declared ``units``: its `Material`, when its unit system is
-    known (a named material's, the shipped joints' default steel: SI), must be in them
-    (`ModelError` naming the joint otherwise: its numbers would be off by powers of ten), and its
-    modulus, size and density plausible in them (`flexmb.units.check_size`)."""
+    """A joint placed in a mechanism of ``units`` (declared, or None): its `Material`, when its unit
+    system is known (a named material's, the shipped joints' default steel: SI), must be in the
+    declared ones (`ModelError` naming the joint otherwise: its numbers would be off by powers of
+    ten), and its modulus, size and density plausible in them (`flexmb.units.check_size`;
+    undeclared: no SI modulus with millimetre lengths)."""
     mat = getattr(joint, "material", None)
-    if units is None or not isinstance(mat, Material):
+    if not isinstance(mat, Material):
         return
-    if mat.units is not None and mat.units != units.name:
+    if units is not None and mat.units is not None and mat.units != units.name:
         label = f"{mat.name!r}" if mat.name else "its material" if mat != STEEL else "the default steel"
         raise ModelError(f"{where}: {label} is in {mat.units} numbers (E={mat.E:g}), the mechanism in {units.name}: "
                          f"give material={mat.name or 'structural_steel'!r} to add_joint (it resolves in the "
@@ -160,8 +161,11 @@ def check_joint(joint, units, where: str, dim: int) -> None:
                 None)
     if size is None:
         size = float(np.linalg.norm(joint.interface_b(dim)))
+    section = getattr(joint, "section", None)  # a leaf spring's own section carries its modulus
+    E = getattr(section, "E", None) or mat.E
     if size > 0:
-        check_size(where, mat.E, size, units, mat.density, stacklevel=4)
+        check_size(where, E, size, units, mat.density if section is None else section.density, stacklevel=4,
+                   rules=("mm",))
 
 
 def sources() -> dict:

@@ -108,24 +108,26 @@ DENSITY_RANGE = (0.5, 3e4)
 
 
 def check_size(owner: str, E: float, length: float, units=None, density: float = 0.0, what: str = "length",
-               stacklevel: int = 3) -> None:
+               stacklevel: int = 3, rules: tuple = ("mm", "GPa")) -> None:
     """Warn (`PlausibilityWarning`) when a joint's modulus ``E``, characteristic ``length`` and
     ``density`` cannot all be in ``units``.
 
     Declared units: each value converted to SI must lie in `MODULUS_RANGE`, `LENGTH_RANGE`,
-    `DENSITY_RANGE` (density 0: massless, not checked). Undeclared (None): only the two
-    combinations no consistent system has: an SI modulus (``E > 1e8``) with lengths of millimetre
-    numbers (``length > 2``: a flexure over 2 m), and a GPa modulus (``E < 1e3``) with lengths in
-    metres (``length < 1``). The forces of the first are 1e6 too large (mm with Pa).
+    `DENSITY_RANGE` (density 0: massless, not checked). Undeclared (None), the ``rules`` asked
+    for: ``"mm"``, an SI modulus (``E > 1e8``) with lengths of millimetre numbers (``length > 2``:
+    a flexure over 2 m; its forces come out 1e6 too large), and ``"GPa"``, a GPa modulus (``E <
+    1e3``) with lengths in metres (``length < 1``). A joint's constructor, which cannot know the
+    units yet, asks for ``"GPa"`` alone; `flexmb.Mechanism.add_joint` for ``"mm"`` where the
+    mechanism is undeclared (a mm-uN-Pa gripper arc, E = 1e11 with a 5 mm radius, is plausible).
     """
     u = system(units)
     msg = None
     if u is None:
-        if E > 1e8 and length > 2.0:
+        if "mm" in rules and E > 1e8 and length > 2.0:
             msg = (f"E={E:g} with {what} {length:g} looks like an SI modulus (Pa) with lengths in mm: forces come out "
                    f"1e6 too large. Declare the mechanism's units (Mechanism(units='mm-N-MPa')) and give E in MPa "
                    f"(steel 2.1e5) or a named material (material='structural_steel'); in SI the {what} is in m")
-        elif E < 1e3 and length < 1.0:
+        elif "GPa" in rules and E < 1e3 and length < 1.0:
             msg = (f"E={E:g} with {what} {length:g} looks like a modulus in GPa with lengths in m; in SI, E is in Pa "
                    f"(steel 2e11). Declare the units if yours are consistent (e.g. Mechanism(units='mm-N-MPa'))")
     else:

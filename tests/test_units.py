@@ -137,3 +137,21 @@ def test_figure_axes_carry_the_declared_length_unit():
     assert plot.plot_mechanism(flexmb.models.cantilever()).get_xlabel() == "x [m]"  # undeclared: SI
     assert units.column_unit("block.Fx", "mm-N-MPa") == "N" and units.column_unit("block.Mz", "mm-N-MPa") == "N mm"
     assert units.column_unit("C.B.x.rotation", None) == "m/(N m)" and units.column_unit("f2") == "Hz"
+
+
+def test_the_mm_check_knows_the_units_and_every_shipped_flexure():
+    """Undeclared: a cross flexure and a curved beam in mm with SI moduli warn when placed; a
+    mm-uN-Pa arc (the gripper's system: E = 1e11 is the pascal there) of 5 mm radius does not."""
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=(0.0, 70.0))
+    with pytest.warns(PlausibilityWarning, match="SI modulus"):
+        m.add_joint("A", "B", "cross_flexure", length=100.0, thickness=1.0, width_inner=40.0, width_outer=20.0)
+    with pytest.warns(PlausibilityWarning, match="SI modulus"):
+        m.add_joint("A", "B", "curved_beam", radius=30.0, angle=1.0, width=5.0, height=0.5, E=2e11)
+    g = flexmb.Mechanism(dim=2, units="mm-uN-Pa")
+    g.add_link("A", fixed=True)
+    g.add_link("B", position=(5.0, 0.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        g.add_joint("A", "B", "curved_beam", radius=5.0, angle=1.0, width=0.5, height=0.05, E=1e11, density=2.3e-3)

@@ -96,7 +96,7 @@ class CurvedBeam(MaterialJoint):
         for name in ("radius", "width", "height"):
             v.positive(owner, name, getattr(self, name))
         v.in_open_range(owner, "angle", self.angle, 0.0, 2 * math.pi, " rad")
-        check_size(owner, self.E, self.radius, what="radius", stacklevel=4)
+        check_size(owner, self.E, self.radius, what="radius", stacklevel=4, rules=("GPa",))
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
         if not self.height < self.radius:

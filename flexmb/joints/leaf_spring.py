@@ -74,7 +74,8 @@ class LeafSpring(MaterialJoint):
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
         if self.section is not None and not isinstance(self.section, Section):
             raise ParameterError(f"{owner}: section must be a flexmb.Section, got {type(self.section).__name__}")
-        check_size(owner, self.E if self.section is None else self.section.E, self.length, stacklevel=4)
+        check_size(owner, self.E if self.section is None else self.section.E, self.length, stacklevel=4,
+                   rules=("GPa",))  # "mm" at add_joint, where the units are known
         thickness = self.thickness if self.section is None else \
             None if self.section.ymax is None else 2 * self.section.ymax  # the section's, where it has one
         if thickness is not None and thickness >= self.length:

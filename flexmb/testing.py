@@ -24,17 +24,18 @@ def scaled_error(K: np.ndarray, Kfd: np.ndarray, diag_rows: np.ndarray, diag_col
     return float(np.max(np.abs(K - Kfd) / scale))
 
 
-def finite_difference_tangent(problem: StaticProblem, state: State, lam: float = 1.0, step: float | None = None):
+def finite_difference_tangent(problem: StaticProblem, state: State, lam: float = 1.0, step: float | None = None,
+                              size: float | None = None):
     """Analytic ``[K_ff | K_fp]`` and its central finite-difference counterpart at ``state``.
 
     Columns are ``(r(u + h e_j) - r(u - h e_j)) / 2h`` with the increment applied exactly as the
     solver does (positions add, rotations compose by the exponential map), so the comparison
-    checks the tangent Newton actually uses. ``step`` defaults to ``1e-6`` times the model size
-    for positions and ``1e-6`` rad for rotations. Returns ``(K_analytic, K_fd)`` as dense arrays of
+    checks the tangent Newton actually uses. ``step`` defaults to ``1e-6`` times ``size`` (default:
+    the model's extent along its longest axis) for positions and ``1e-6`` rad for rotations. Returns ``(K_analytic, K_fd)`` as dense arrays of
     shape (n_free, n_free + n_prescribed): the free DOFs' columns first, then the prescribed ones.
     """
     model = problem.model
-    size = float(np.ptp(model.x0, axis=0).max()) or 1.0
+    size = size or float(np.ptp(model.x0, axis=0).max()) or 1.0
     _, Kff, Kfp, _ = problem.evaluate(state, lam)
     K = np.hstack([Kff.toarray(), Kfp.toarray()])
     Kfd = np.empty_like(K)
@@ -46,6 +47,65 @@ def finite_difference_tangent(problem: StaticProblem, state: State, lam: float =
         rm = problem.residual(model.apply_increment(state, -du), lam)[problem.free]
         Kfd[:, col] = (rp - rm) / (2.0 * h)
     return K, Kfd
+
+
+class CheckSkipped(Exception):
+    """A check with nothing to check for this joint (no mass, no database, one compliant
+    direction ...): its message says why. Never a pass: `JointConformance` reports it as a skipped
+    test with the reason, and `conformance_report` lists it."""
+
+
+def _finite(joint, dim: int, compiled, state, values, what: str) -> None:
+    """AssertionError naming the elements when ``values`` (a residual on all DOFs or the free ones,
+    or a tangent: free rows, then free and prescribed columns) hold NaN or inf: the elements whose
+    own generalised stresses are not finite, else those at the first bad entry's nodes."""
+    a = np.asarray(values)
+    bad = ~np.isfinite(a)
+    if not bad.any():
+        return
+    problem = compiled.problem
+    model = problem.model
+    spaces = [np.arange(model.n_dofs) if a.shape[0] == model.n_dofs else problem.free,
+              np.concatenate([problem.free, problem.prescribed])]
+    entries = [[int(spaces[k][i]) for k, i in enumerate(e)] for e in np.argwhere(bad)]
+    # a tangent entry between two nodes belongs to the elements joining them: take one if any
+    coupling = [e for e in entries if len(e) == 2 and e[0] // model.ndof != e[1] // model.ndof]
+    dofs = (coupling or entries)[0]
+    raise AssertionError(f"{joint.kind} {dim}D: the {what} holds {int(bad.sum())} NaN/inf entries (the first at "
+                         f"{', column '.join(_dof_name(model, d) for d in dofs)}): {_culprits(compiled, state, dofs)}")
+
+
+def _dof_name(model, dof: int) -> str:
+    if dof >= model.n_node_dofs:
+        return f"hinge multiplier {dof - model.n_node_dofs}"
+    names = ("x", "y", "rotation") if model.dim == 2 else ("x", "y", "z", "rx", "ry", "rz")
+    return f"node {dof // model.ndof} {names[dof % model.ndof]}"
+
+
+def _culprits(compiled, state, dofs) -> str:
+    """The elements that make a residual or tangent non-finite, named by joint and mesh index."""
+    model = compiled.problem.model
+    try:
+        with np.errstate(all="ignore"):
+            sig = model.stresses(state)[1]
+        own = np.flatnonzero(~np.all(np.isfinite(sig), axis=1))
+    except Exception:  # an element that cannot even be evaluated: fall back on the nodes
+        own = np.zeros(0, dtype=np.int64)
+    if len(own):
+        how = "elements whose own forces are not finite"
+    else:
+        nodes = {d // model.ndof for d in dofs if d < model.n_node_dofs}
+        ends = model.point_master[model.elements.ends]
+        if nodes:  # the elements that touch every node of the entry
+            own = np.flatnonzero(np.all([(ends == n).any(axis=1) for n in nodes], axis=0))
+        how = "elements joining those nodes" if len(nodes) > 1 else "elements at that node"
+    names = []
+    for e in own[:6]:
+        where = [f"joint {k!r} element {int(np.flatnonzero(idx == e)[0])}"
+                 for k, idx in compiled.joint_elements.items() if e in idx]
+        names.append(where[0] if where else f"element {int(e)}")
+    more = f" and {len(own) - 6} more" if len(own) > 6 else ""
+    return f"{how}: {', '.join(names) or 'none'}{more}"
 
 
 def perturbed_state(problem: StaticProblem, state: State, rng: np.random.Generator, *, displacement: float,
@@ -144,8 +204,25 @@ def _solve(mechanism, joint, dim: int, origin=None, **options):
             if sol.converged or factor * floor > 0.5 * SOLVE_TOLERANCE * _scales(joint, dim)[0]:
                 break
             sol = solve(mechanism, **{**options, "tol": factor * floor})
-    assert sol.converged, f"conformance: the joint mechanism did not converge: {sol.message}"
+    if not sol.converged:
+        _diagnose(sol, joint, dim)
+    assert sol.converged, f"{joint.kind} {dim}D: the joint mechanism did not converge: {sol.message}"
     return sol
+
+
+def _diagnose(sol, joint, dim: int) -> None:
+    """A solve that failed: a NaN or inf in the residual or tangent at rest or where it stopped
+    (a broken element), named with its element, is the likelier cause."""
+    compiled = sol.compiled
+    problem = compiled.problem
+    states = [problem.model.initial_state()]
+    if sol.state is not None and np.all(np.isfinite(sol.state.positions)):
+        states.append(sol.state)
+    for state in states:
+        with np.errstate(all="ignore"):
+            r, Kff, Kfp, _ = problem.evaluate(state, 0.0)
+        _finite(joint, dim, compiled, state, r, "residual (internal force)")
+        _finite(joint, dim, compiled, state, np.hstack([Kff.toarray(), Kfp.toarray()]), "analytic tangent")
 
 
 def _relative(method: str) -> bool:
@@ -176,8 +253,10 @@ def _at_rest(joint, dim: int) -> _Rest:
     problem = compiled.problem
     model = problem.model
     r, K, _, _ = problem.evaluate(model.initial_state(), 0.0)
+    _finite(joint, dim, compiled, model.initial_state(), r, "residual at rest")
     K = K.toarray()
-    size = float(np.ptp(model.x0)) or 1.0
+    _finite(joint, dim, compiled, model.initial_state(), K, "tangent at rest")
+    size = joint_size(joint, dim)
     t = (problem.free % model.ndof) < model.dim  # translation rows/columns, the rest rotations
 
     def most(rows, cols):
@@ -250,10 +329,15 @@ def check_tangent(joint, dim: int, origin=None, rotation=None, *, motion: float 
     ``options`` go to the solve (default: see `_solve`)."""
     sol = _solve(joint_mechanism(joint, dim, origin, rotation, motion=motion), joint, dim, origin, **options)
     problem = sol.compiled.problem
-    size = float(np.ptp(problem.model.x0)) or 1.0
+    # perturbations and steps relative to the joint's own size, wherever it is placed (the spread
+    # of its global coordinates grows with the placement: 100 sizes away it broke the elements)
+    size = joint_size(joint, dim)
     state = perturbed_state(problem, sol.state, np.random.default_rng(seed), displacement=1e-3 * size,
                             rotation=0.05)
-    K, Kfd = finite_difference_tangent(problem, state)
+    _finite(joint, dim, sol.compiled, state, problem.residual(state, 1.0), "residual (internal force)")
+    K, Kfd = finite_difference_tangent(problem, state, size=size)
+    _finite(joint, dim, sol.compiled, state, K, "analytic tangent")
+    _finite(joint, dim, sol.compiled, state, Kfd, "central differences of the residual")
     nf = problem.n_free
     d = np.abs(np.diag(K[:, :nf]))
     d = np.where(d > 0, d, np.abs(K[:, :nf]).max(axis=1))  # an ideal joint's multiplier rows: zero diagonal
@@ -276,6 +360,7 @@ def check_rigid_motion(joint, dim: int, translation, rotation) -> None:
     else:
         rot = np.broadcast_to(Q, (model.n_nodes, 3, 3)).copy()
     f = model.internal_force(State(x, rot))
+    _finite(joint, dim, rest.compiled, State(x, rot), f, "internal force after a rigid motion")
     # roundoff of rotated and moved coordinates: ~1e-15 x their magnitude, times the stiffness
     scale = 1e-12 * rest.internal * (1.0 + float(np.linalg.norm(translation)) / rest.size)
     assert np.abs(f).max() <= scale, (f"{joint.kind} {dim}D: a rigid motion gives internal forces "

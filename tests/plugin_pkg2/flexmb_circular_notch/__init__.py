@@ -54,7 +54,7 @@ class CircularNotch(flexmb.Joint):
     mesh_parameter: ClassVar[str] = "elements"
     parameter_ranges: ClassVar[dict] = {"radius": (2e-3, 1e-2), "thickness": (2e-4, 1e-3)}
     motion_range: ClassVar[float] = 0.1
-    training: ClassVar[dict] = {"range_deg": (-10.0, 10.0), "step_deg": 1.0}
+    training: ClassVar[dict] = {"range_deg": (-6.0, 6.0), "step_deg": 0.5}
 
     radius: float = 5e-3
     thickness: float = 5e-4

@@ -76,11 +76,11 @@ def joint_properties(kind: str, rotation: float = 0.0, **params) -> dict:
     still shows them (a study records them in its own ``warnings`` column)."""
     import warnings
 
+    from . import _warnings
     from .registry import joint
 
     j = joint(kind, **params)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with _warnings.recording() as caught:  # per thread: two designs in one dask worker keep their own
         try:
             out = support_ratios(j, rotation)
             out["converged"] = True
@@ -89,8 +89,6 @@ def joint_properties(kind: str, rotation: float = 0.0, **params) -> dict:
                    "stress": float("nan"), "converged": False}
             warnings.warn(f"{kind}: the finite-element model did not converge at {np.degrees(rotation):.1f} deg",
                           ConvergenceWarning, stacklevel=2)
-    for w in caught:
-        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    out["warnings"] = " | ".join(dict.fromkeys(f"{w.category.__name__}: {' '.join(str(w.message).split())}"
-                                              for w in caught))
+    _warnings.raise_again(caught)
+    out["warnings"] = _warnings.as_text(caught)
     return out

@@ -8,26 +8,25 @@ the other designs, the workers or the user's Ctrl-C do.
 from __future__ import annotations
 
 import concurrent.futures as cf
-import contextlib
 import itertools
 import os
 import pickle
 import signal
 import threading
 import time
-import warnings
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
+from . import _warnings
 from ._validate import positive
 from .errors import FlexmbError, ParameterError
 from .table import Table, column
 
 __all__ = ["grid", "parameter_study", "StudyError", "StudyInterrupted", "ON_ERROR", "ERROR_COLUMN", "joint_range",
-           "CONVERGED_COLUMN", "WARNINGS_COLUMN", "recording_warnings"]
+           "CONVERGED_COLUMN", "WARNINGS_COLUMN"]
 
 ON_ERROR = ("record", "raise")
 #: The column holding each design's error record, ``""`` when the design finished
@@ -39,7 +38,7 @@ CONVERGED_COLUMN = "converged"
 #: ``" | "`` (``""``: none); recorded there, not printed
 WARNINGS_COLUMN = "warnings"
 #: Joins a design's warnings in `WARNINGS_COLUMN`
-WARNING_SEPARATOR = " | "
+WARNING_SEPARATOR = _warnings.SEPARATOR
 
 
 class StudyError(FlexmbError):
@@ -190,12 +189,12 @@ class _Timeout(BaseException):
 
 def _call(function, design: dict, timeout: float | None):
     """``("ok", outputs, warnings)`` or ``("error", "Type: message", warnings)``: plain data that
-    always pickles; ``warnings`` the design's warnings as text (`recording_warnings`).
+    always pickles; ``warnings`` the design's warnings as text (`flexmb._warnings.recording`).
 
     ``timeout`` stops the design with SIGALRM where this runs in a main thread (this process,
     a process-pool worker); elsewhere (a dask worker thread) the design runs in a thread that is
     abandoned when it overruns."""
-    with recording_warnings() as caught:
+    with _warnings.recording() as caught:
         try:
             if timeout is None:
                 out = function(**design)
@@ -208,48 +207,7 @@ def _call(function, design: dict, timeout: float | None):
             outcome = "error", f"TimeoutError: the design ran longer than its timeout of {timeout:g} s and was stopped"
         except (Exception, SystemExit) as exc:
             outcome = "error", _record(exc)
-    return (*outcome, WARNING_SEPARATOR.join(dict.fromkeys(caught)))
-
-
-_LOCAL = threading.local()  # the list a thread's warnings go to while it runs a design
-_LOCK = threading.Lock()
-_STATE = {"active": 0, "context": None, "show": None}
-
-
-def _show(message, category, filename, lineno, file=None, line=None) -> None:
-    records = getattr(_LOCAL, "records", None)
-    if records is not None:
-        records.append(f"{category.__name__}: {' '.join(str(message).split())}")
-    else:  # a thread outside a design: as before the recording began
-        _STATE["show"](message, category, filename, lineno, file, line)
-
-
-@contextlib.contextmanager
-def recording_warnings():
-    """Record the warnings this thread raises into the list yielded (``"Category: message"``)
-    instead of printing them, every one of them (filter ``"always"``): what a study's worker does
-    for each design. Threads of one process (a dask worker's) each keep their own list; the
-    process's warning state is changed while any thread records and restored after the last."""
-    with _LOCK:
-        if _STATE["active"] == 0:
-            ctx = warnings.catch_warnings()
-            ctx.__enter__()
-            _STATE["show"] = warnings.showwarning
-            warnings.simplefilter("always")
-            warnings.showwarning = _show
-            _STATE["context"] = ctx
-        _STATE["active"] += 1
-    previous = getattr(_LOCAL, "records", None)
-    _LOCAL.records = records = []
-    try:
-        yield records
-    finally:
-        _LOCAL.records = previous
-        with _LOCK:
-            _STATE["active"] -= 1
-            if _STATE["active"] == 0:
-                _STATE["context"].__exit__(None, None, None)
-                _STATE["context"] = None
+    return (*outcome, _warnings.as_text(caught))
 
 
 def _record(exc: BaseException) -> str:
@@ -271,10 +229,10 @@ def _with_alarm(function, design, timeout):
 
 def _with_thread(function, design, timeout):
     box = {}
-    records = getattr(_LOCAL, "records", None)  # the design's warnings, raised in its own thread
+    records = _warnings.current()  # the design's warnings, raised in its own thread
 
     def target():
-        _LOCAL.records = records
+        _warnings.adopt(records)
         try:
             box["out"] = function(**design)
         except BaseException as exc:  # handed to the calling thread

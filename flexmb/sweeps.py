@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
 import time
-import warnings
 from collections.abc import Mapping, Sequence
 
 import attrs
@@ -11,6 +11,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from . import _validate as v
+from . import _warnings
 from . import jit
 from .closed_form.problem import TERMS, LinkageProblem
 from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
@@ -144,19 +145,15 @@ def _checked(solutions, record=None):
     it as text (``"Category: message"`` joined by ``" | "``) and raised again."""
     it = iter(solutions)
     while True:
-        with warnings.catch_warnings(record=record is not None) as caught:
-            if record is not None:
-                warnings.simplefilter("always")
+        with _warnings.recording() if record is not None else contextlib.nullcontext([]) as caught:
             try:
                 sol = next(it)
             except StopIteration:
                 return
             check(sol, stacklevel=4)
         if record is not None:
-            for w in caught:
-                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            record.append(" | ".join(dict.fromkeys(f"{w.category.__name__}: {' '.join(str(w.message).split())}"
-                                                   for w in caught)))
+            _warnings.raise_again(caught)
+            record.append(_warnings.as_text(caught))
         yield sol
 
 

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1] / "flexmb"
 # The allowed order, bottom up (written down once, here). A module may import modules of its own
 # layer or of a layer below. Package facades (``__init__``) sit with their highest member.
 LAYERS = [
-    ("foundation", ["flexmb._version", "flexmb.jit", "flexmb.errors", "flexmb.rotations", "flexmb._validate",
+    ("foundation", ["flexmb._version", "flexmb._warnings", "flexmb.jit", "flexmb.errors", "flexmb.rotations", "flexmb._validate",
                     "flexmb.sections"]),
     ("elements and joints", ["flexmb.fe", "flexmb.fe.beam2d", "flexmb.fe.beam3d", "flexmb.fe.beam2d_jit",
                              "flexmb.fe.beam3d_jit", "flexmb.fe.assembly", "flexmb.fe.model_jit", "flexmb.fe.model", "flexmb.fe.stress_jit", "flexmb.fe.stress",

@@ -336,7 +336,7 @@ class SweepResult(Sequence):
         ``"<link>.rotation"`` (2D) or rotation vector ``"<link>.rotation_x"`` ... [rad], and for
         links with a fixed or prescribed DOF the reaction ``"<link>.Fx"`` ... [N],
         ``"<link>.Mz"`` ... [N m]; for every named point in ``points`` its position [m]. Write it
-        with ``.to_csv(path)``; ``pandas.DataFrame(result.table())`` makes a data frame.
+        with ``.to_csv(path)``; ``result.table().to_pandas()`` makes a data frame.
 
         Nothing is overwritten: a column keeps the first name it takes, in the order above, and
         a later column whose name is taken gets the first free ``"<name>#2"``, ``"<name>#3"`` ...

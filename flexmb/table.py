@@ -1,5 +1,5 @@
 """`Table`: named columns of equal length (1-D numpy arrays), the result format of sweeps and
-parameter studies; drops into numpy (``table["force"]``) and pandas (``pandas.DataFrame(table)``)
+parameter studies; drops into numpy (``table["force"]``) and pandas (``table.to_pandas()``)
 and round-trips through CSV."""
 
 from __future__ import annotations

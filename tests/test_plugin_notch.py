@@ -113,27 +113,27 @@ def test_train_refuses_unknown_training_settings_and_a_joint_without_a_mesh_para
         kind = "fixed_notch"
         mesh_parameter = None
 
-    class TooFewSamples(notch):
-        kind = "coarse_notch"
-        training = {"range_deg": (-5.0, 5.0), "step_deg": 5.0}
+    class BadPowers(notch):
+        kind = "bad_powers_notch"
+        training = {"element_powers": (0, 1, 2)}
 
     with pytest.raises(flexmb.ParameterError, match=r"misspelt_notch training: unknown setting 'stepdeg'; valid: "
                                                     r"range_deg, step_deg"):
         database.training_settings(Misspelt())
-    with pytest.raises(flexmb.ParameterError, match="3 samples cannot fit the 5 coefficients of element_powers"):
-        database.training_settings(TooFewSamples())
-    for cls in (Misspelt, NoMeshParameter, TooFewSamples):
+    with pytest.raises(flexmb.ParameterError, match=r"element_powers=\(0, 1, 2\) must be powers .* in \[1, 30\]"):
+        database.training_settings(BadPowers())
+    for cls in (Misspelt, NoMeshParameter, BadPowers):
         registry.register_joint(cls.kind, cls, clobber=True)
     try:
         for kind, argv, message in (("misspelt_notch", [], "unknown setting 'stepdeg'"),
                                     ("fixed_notch", ["--elements", "8"], "names none"),
-                                    ("coarse_notch", ["--elements", "8"], "3 samples cannot fit")):
+                                    ("bad_powers_notch", ["--elements", "8"], "element_powers=(0, 1, 2)")):
             assert cli.main(["train", kind, *argv, "--dim", "2", "--out", str(tmp_path)]) == 2
             err = capsys.readouterr().err
             assert message in err and err.count("\n") == 1
         assert not list(tmp_path.glob("*.json"))  # refused before training anything
     finally:
-        for cls in (Misspelt, NoMeshParameter, TooFewSamples):
+        for cls in (Misspelt, NoMeshParameter, BadPowers):
             registry._session.pop(cls.kind, None)
 
 
@@ -381,3 +381,62 @@ def test_a_study_on_a_dask_local_cluster_returns_converged_and_warnings(notch):
         client.run(lambda path: sys.path.insert(0, path) or registry.refresh(), sys.path[0])  # the plugin there too
         table = parameter_study(functools.partial(joint_properties, KIND), _designs(), executor=client.get_executor())
     _check_study(table)
+
+
+# -- the guide is this package -----------------------------------------------------------------
+
+def test_the_guide_shows_this_plugin_and_the_training_schema():
+    """docs/plugins.md holds the plugin's source and pyproject.toml verbatim, and its table of
+    training settings is `flexmb.database.TRAINING_SCHEMA`'s."""
+    from flexmb import database
+
+    guide = (Path(__file__).parents[1] / "docs" / "plugins.md").read_text()
+    source = (PACKAGE / "flexmb_circular_notch" / "__init__.py").read_text()
+    assert f"```python\n{source}```" in guide
+    assert f"```toml\n{(PACKAGE / 'pyproject.toml').read_text()}```" in guide
+    for key, text in database.TRAINING_SCHEMA.items():
+        assert f"| `{key}` | {text} |" in guide
+
+
+def test_the_kit_reports_skips_with_their_reasons_and_never_as_passes():
+    """A massless third-party joint without a database (tests/dummy_plugins.Good): its vibration
+    and KSD checks are listed as skipped, each with why; the others pass."""
+    from dummy_plugins import Good
+
+    class Suite(testing.JointConformance):
+        joint_class = Good
+        parameter_ranges = {"length": (2.0, 8.0), "width": (0.5, 2.0), "thickness": (0.02, 0.1)}
+        joint_parameters = {"E": 200e3, "G": 76.9e3}
+
+    report = testing.conformance_report(Suite)
+    status = {check: (s, detail) for check, s, detail in report.outcomes}
+    assert report.passed and len(status) == len(CHECKS)
+    for check in ("test_mass_symmetric_positive_definite", "test_rayleigh_quotients_are_the_eigenvalues"):
+        assert status[check] == ("skipped", "skipped in 2D: dummy: its sections carry no mass (density 0): no vibration "
+                                            "to check; skipped in 3D: dummy: its sections carry no mass (density 0): "
+                                            "no vibration to check")
+    for check in ("test_ksd_database_matches_the_joint", "test_ksd_matches_the_conventional_method"):
+        assert status[check][0] == "skipped" and "dummy offers no database" in status[check][1]
+    assert status["test_rest"] == ("passed", "") and status["test_tangent_matches_finite_differences"][0] == "passed"
+
+
+def test_a_sweep_table_carries_each_values_warnings(notch):
+    """A motion sweep of the notch into the plastic range: each value's warnings in its row of
+    the table (and still raised, as `flexmb.solve` raises them)."""
+    m = testing.joint_mechanism(notch(), 2, motion=0.01)
+    with pytest.warns(flexmb.PlausibilityWarning, match="peak strain"):
+        result = flexmb.sweep(m, [0.02, 0.05, 0.3, 0.4], motion=("B", "rotation"))
+    table = result.table()
+    assert table["converged"].all()
+    assert list(table["warnings"][:2]) == ["", ""]
+    assert all(w.startswith("PlausibilityWarning: conventional: peak strain") for w in table["warnings"][2:])
+    assert table.to_pandas()["warnings"].tolist() == list(table["warnings"])
+
+
+def test_to_pandas_without_pandas_names_the_extra(monkeypatch):
+    from flexmb.errors import MissingExtraError
+    from flexmb.table import Table
+
+    monkeypatch.setitem(sys.modules, "pandas", None)  # as if not installed
+    with pytest.raises(MissingExtraError, match=r"Table.to_pandas needs pandas: .*flexmb\[pandas\]"):
+        Table({"a": [1.0]}).to_pandas()

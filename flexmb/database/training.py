@@ -143,8 +143,7 @@ def training_settings(joint, *, range_deg=None, step_deg=None) -> dict:
     """The training settings of ``joint``: `TRAINING` updated by the joint class's ``training``
     (checked against `TRAINING_SCHEMA`: an unknown key or a value outside its range is refused
     with a `ParameterError` naming the joint, the key and the valid keys or range), then by
-    ``range_deg`` and ``step_deg`` when given (`flexmb train --range/--step`). Also refused:
-    fewer samples than a fit has coefficients (its least squares would be underdetermined)."""
+    ``range_deg`` and ``step_deg`` when given (`flexmb train --range/--step`)."""
     owner = f"{getattr(joint, 'kind', type(joint).__name__)} training"
     own = getattr(joint, "training", {})
     if not isinstance(own, dict):
@@ -168,9 +167,8 @@ def training_settings(joint, *, range_deg=None, step_deg=None) -> dict:
             or not 0.0 < float(step) <= hi - lo:
         raise ParameterError(f"{owner}: step_deg={step!r} must be a number in (0, {hi - lo:g}] deg (the range's width)")
     out = {"range_deg": (lo, hi), "step_deg": float(step)}
-    samples = len(np.arange(lo, hi + 0.5 * float(step), float(step)))
     for name, least in (("element_powers", 1), ("constraint_powers", 0), ("length_powers", 1)):
-        out[name] = _powers(owner, name, opt[name], least, samples)
+        out[name] = _powers(owner, name, opt[name], least)
     return out
 
 
@@ -189,14 +187,11 @@ def checked_key(joint) -> dict:
     return {k: (x.item() if isinstance(x, np.generic) else x) for k, x in key.items()}
 
 
-def _powers(owner: str, name: str, value, least: int, samples: int) -> tuple:
+def _powers(owner: str, name: str, value, least: int) -> tuple:
     ok = isinstance(value, (tuple, list)) and len(value) > 0 and all(
         isinstance(p, (int, np.integer)) and not isinstance(p, bool) and least <= p <= MAX_POWER for p in value)
     if not ok or len(set(value)) != len(value):
         raise ParameterError(f"{owner}: {name}={value!r} must be {TRAINING_SCHEMA[name]}")
-    if samples < len(value):
-        raise ParameterError(f"{owner}: {samples} samples cannot fit the {len(value)} coefficients of {name}="
-                             f"{tuple(value)!r}; sample more finely (step_deg) or use fewer powers")
     return tuple(int(p) for p in value)
 
 

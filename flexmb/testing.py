@@ -339,15 +339,23 @@ def check_tangent(joint, dim: int, origin=None, rotation=None, *, motion: float 
     state = perturbed_state(problem, sol.state, np.random.default_rng(seed), displacement=1e-3 * size,
                             rotation=0.05)
     _finite(joint, dim, sol.compiled, state, problem.residual(state, 1.0), "residual (internal force)")
-    K, Kfd = finite_difference_tangent(problem, state, size=size)
-    _finite(joint, dim, sol.compiled, state, K, "analytic tangent")
-    _finite(joint, dim, sol.compiled, state, Kfd, "central differences of the residual")
-    nf = problem.n_free
-    d = np.abs(np.diag(K[:, :nf]))
-    d = np.where(d > 0, d, np.abs(K[:, :nf]).max(axis=1))  # an ideal joint's multiplier rows: zero diagonal
-    cols = np.concatenate([d, np.abs(K[:, nf:]).max(axis=0)]) if K.shape[1] > nf else d
-    cols = np.where(cols > 0, cols, np.abs(K).max())  # a column without stiffness (a hinge's ground DOF)
-    err = scaled_error(K, Kfd, d, cols)
+    # two steps, 1e-6 of the joint's size and of the geometric mean of its size and shortest element,
+    # the smaller error counting: the first's roundoff (~1e-16 |x| / h) is small 100 sizes away, the
+    # second's truncation (~(h / l)^2 times an element's axial over bending stiffness) on a thin
+    # leaf's short elements (8 mm, L/t = 150: 1.0e-6 with the first, 8e-8 with the second; the notch
+    # 100 sizes away: 2e-8 with the first, 5e-7 with the second); a wrong entry fails both
+    L0 = problem.model.elements.L0
+    err = math.inf
+    for length in dict.fromkeys((size, math.sqrt(size * L0.min()) if len(L0) else size)):
+        K, Kfd = finite_difference_tangent(problem, state, size=length)
+        _finite(joint, dim, sol.compiled, state, K, "analytic tangent")
+        _finite(joint, dim, sol.compiled, state, Kfd, "central differences of the residual")
+        nf = problem.n_free
+        d = np.abs(np.diag(K[:, :nf]))
+        d = np.where(d > 0, d, np.abs(K[:, :nf]).max(axis=1))  # an ideal joint's multiplier rows: zero diagonal
+        cols = np.concatenate([d, np.abs(K[:, nf:]).max(axis=0)]) if K.shape[1] > nf else d
+        cols = np.where(cols > 0, cols, np.abs(K).max())  # a column without stiffness (a hinge's ground DOF)
+        err = min(err, scaled_error(K, Kfd, d, cols))
     assert err <= FD_TOLERANCE, f"{joint.kind} {dim}D: tangent differs from central differences by {err:.3g} (scaled)"
     return err
 

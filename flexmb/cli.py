@@ -165,7 +165,6 @@ def _joints(args) -> int:
 
 def _train(args) -> int:
     from . import database
-    from .registry import joint as make_joint
 
     out = _out_folder(args.out if args.out is not None else database.user_path())
     shipped = database.data_path()
@@ -174,10 +173,14 @@ def _train(args) -> int:
                           f"your own (default: {database.user_path()}, or set {database.store.ENVIRONMENT})")
     params = dict(_parse_params(args.param))
     range_deg = None if args.range is None else (-args.range, args.range)
-    dims = args.dim or [d for d in (2, 3) if d in make_joint(args.kind, **params).dims]  # a spatial joint: 3D
+    first = _trainable(args.kind, params)
+    dims = args.dim or [d for d in (2, 3) if d in first.dims]  # a spatial joint: 3D
     for dim in dims:
-        for n in args.elements or _shipped_meshes(args.kind, params, dim):
-            j = make_joint(args.kind, elements_per_leaf=n, **params)
+        for j in _training_joints(args.kind, params, args.elements, dim):
+            try:  # the joint's own settings, checked before any solve (a plugin's mistake: exit 2)
+                database.training_settings(j, range_deg=range_deg, step_deg=args.step)
+            except ParameterError as exc:
+                raise _UsageError(str(exc)) from None
             data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
             name = database.file_name(j.kind, dim, data.key)
             path = database.save(data, out / name)
@@ -190,20 +193,60 @@ def _train(args) -> int:
     return 0
 
 
+def _trainable(kind: str, params: dict, **mesh):
+    """The registered joint ``kind`` built from ``--param`` (and ``mesh``: its mesh parameter),
+    refused as a usage error (exit 2, one line) when the kind is unknown, a parameter is unknown or
+    out of range, or the joint has no database to train (no finite-element model or no
+    `flexmb.Joint.database_key`)."""
+    from .registry import joint as make_joint
+
+    try:
+        j = make_joint(kind, **params, **mesh)
+    except FlexmbError as exc:
+        raise _UsageError(f"train: {exc}") from None
+    missing = {"fe_model", "database"} - j.capabilities
+    if missing:
+        raise _UsageError(f"train {kind}: the joint has no {' and no '.join(sorted(missing))} (it offers "
+                          f"{sorted(j.capabilities)}): nothing to train")
+    return j
+
+
+def _training_joints(kind: str, params: dict, elements, dim: int) -> list:
+    """The joints `flexmb train` trains in ``dim``: one per ``--elements`` value, set through the
+    joint class's `flexmb.Joint.mesh_parameter`; without ``--elements`` the meshes shipped for
+    these parameters and the joint's own default (`_shipped_meshes`)."""
+    from .registry import available_joints
+
+    cls = available_joints()[kind]
+    mesh = getattr(cls, "mesh_parameter", None)
+    if elements and mesh is None:
+        raise _UsageError(f"train {kind}: --elements sets a joint's mesh through its mesh_parameter, and {kind} "
+                          "names none; give its mesh with --param NAME=VALUE")
+    if mesh is not None and mesh in params:
+        if elements:
+            raise _UsageError(f"train {kind}: give the mesh once, --elements or --param {mesh}=, not both")
+        elements = [params.pop(mesh)]
+    if mesh is None:
+        return [_trainable(kind, params)]
+    return [_trainable(kind, params, **{mesh: n}) for n in (elements or _shipped_meshes(kind, params, dim))]
+
+
 def _shipped_meshes(kind: str, params: dict, dim: int) -> list[int]:
     """`flexmb train`'s default ``--elements``: the meshes shipped for this joint (these
     parameters, ``dim``) and the joint's own default mesh, so that training reproduces what
-    ships (cross flexure: 1-5 and 10 el./leaf, 10 its default since the finer mesh)."""
+    ships (cross flexure: 1-5 and 10 el./leaf, 10 its default since the finer mesh). Meshes are
+    read through the joint class's `flexmb.Joint.mesh_parameter`."""
     from . import database
-    from .registry import joint as make_joint
 
-    j = make_joint(kind, **params)
-    key = j.database_key()
-    meshes = {int(key["elements_per_leaf"])}
-    for path in database.data_path().glob(f"{kind}-{dim}d-*.json"):
-        found = re.search(r"-elements_per_leaf(\d+)", path.name)
-        if found and path.name == database.file_name(kind, dim, {**key, "elements_per_leaf": int(found[1])}):
-            meshes.add(int(found[1]))
+    j = _trainable(kind, params)
+    mesh = type(j).mesh_parameter
+    meshes = {int(getattr(j, mesh))}
+    key = database.training.checked_key(j)
+    if mesh in key:
+        for path in database.data_path().glob(f"{kind}-{dim}d-*.json"):
+            found = re.search(rf"-{re.escape(mesh)}(\d+)", path.name)
+            if found and path.name == database.file_name(kind, dim, {**key, mesh: int(found[1])}):
+                meshes.add(int(found[1]))
     return sorted(meshes)
 
 
@@ -621,8 +664,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--dim", type=int, nargs="+", default=None, choices=(2, 3),
                    help="2, 3 or both (default: those the joint supports; three_x_infinity: 3)")
     p.add_argument("--elements", type=_positive_int, nargs="+", default=None,
-                   help="elements per leaf, at least 1 (default: the meshes shipped for this joint and "
-                        "parameters, and the joint's own default mesh: 1 2 3 4 5 10 for cross_flexure)")
+                   help="the joint's mesh (its mesh_parameter: elements per leaf of cross_flexure, elements of a "
+                        "plugin's notch ...), at least 1 (default: the meshes shipped for this joint and parameters, "
+                        "and the joint's own default mesh: 1 2 3 4 5 10 for cross_flexure)")
     p.add_argument("--range", type=_angle(180.0), default=None,
                    help="intended rotation range +- [deg], in (0, 180] (default: the joint's own, 75 for "
                         "cross_flexure)")

@@ -37,6 +37,11 @@ class JointMesh:
         (n,) ints or ``None``: `INTERNAL` points with the same ``body >= 0`` form one rigid
         intermediate body (exact rigid constraints, one FE node at the body's first point);
         ``-1`` marks a point that is a node of its own. ``None``: every internal point is a node.
+    stress_sections
+        One `flexmb.sections.Section` per element, or ``None`` (default: the element's own
+        section): the section where the element's stresses are recovered (`flexmb.fe.stress`,
+        the plausibility checks), e.g. its thinnest in a variable section, whose stiffness
+        ``sections`` averages over the element (see docs/plugins.md).
     """
 
     points: np.ndarray
@@ -45,6 +50,7 @@ class JointMesh:
     sections: tuple
     ny0: np.ndarray | None = None
     body: np.ndarray | None = None
+    stress_sections: tuple | None = None
 
 
 #: Wrench models of a constant-stiffness flexure (Cammarata et al. 2022): balance of the flexure in the

@@ -104,3 +104,23 @@ def test_structurally_non_symmetric_matrix_is_not_analysed():
     x = solver.solve(K, np.ones(80))
     assert solver._upper is None
     assert np.allclose(K @ x, np.ones(80), rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("build", [lambda: models.fourbar(3, displacement=0.3), lambda: _leaf_chain(3),
+                                   lambda: _leaf_chain(2)], ids=["fourbar3d", "leaves3d", "leaves2d"])
+def test_compiled_passes_of_large_models_equal_numpys(build, monkeypatch, kernels):
+    """The compiled row expansion and analysis maps (used from 200 000 entries on) give numpy's
+    arrays: both thresholds lowered to 0 on small models."""
+    from flexmb.fe import assembly
+
+    kernels("numba")
+    problem = build().compile().problem
+    _, K, _, _ = problem.evaluate(problem.model.initial_state(), 0.0)
+    numpy_maps = linear.TangentSolver._maps(K)
+    monkeypatch.setattr(assembly, "COMPILED_FROM", 0)
+    monkeypatch.setattr(linear, "COMPILED_ANALYSIS_FROM", 0)
+    _same(type(problem)._pattern.func(problem), _general(problem))
+    for a, b in zip(linear.TangentSolver._maps_compiled(K), numpy_maps):
+        assert np.array_equal(a, b)
+    broken = sp.csr_matrix(np.triu(np.ones((6, 6))))
+    assert linear.TangentSolver._maps_compiled(broken) is None and linear.TangentSolver._maps(broken) is None

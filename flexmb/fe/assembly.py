@@ -5,8 +5,13 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .. import jit
+
 __all__ = ["SparsePattern", "PartitionedPattern", "node_pattern", "scatter_add"]
 
+#: Patterns with at least this many entries expand their rows by a compiled pass
+#: (`flexmb.fe.assembly_jit.repeat_rows`; smaller ones by numpy: no compilation for them)
+COMPILED_FROM = 200_000
 #: Elements per pass of `node_pattern`'s slot computation: its temporaries stay at ~40 MB (3D)
 #: whatever the model's size (1e5 elements: ~1.2 GB in one pass)
 _CHUNK = 8192
@@ -137,10 +142,18 @@ def _block_template(G: sp.csr_array, count: np.ndarray, start: np.ndarray, row_c
     first_slot = np.cumsum(row_count * row_len) - row_count * row_len
     # one node's row: the columns of its neighbours in order, the same for each of its free rows
     seg = _ragged(start[G.indices], width)  # every node's row pattern, concatenated
-    per_row = np.repeat(np.arange(n_nodes), row_count)
-    indices = seg[_ragged(seg_start[per_row], row_len[per_row])] if len(seg) else np.zeros(0, dtype=np.int64)
-    indptr = np.concatenate([[0], np.cumsum(row_len[per_row])]).astype(np.int64)
     n_rows, n_cols = int(row_count.sum()), int(count.sum())
+    nnz = int(np.dot(row_len, row_count))
+    if jit.enabled() and nnz >= COMPILED_FROM:  # one compiled pass instead of four over every entry
+        from . import assembly_jit
+
+        indices, indptr = np.empty(nnz, dtype=np.int64), np.empty(n_rows + 1, dtype=np.int64)
+        i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)  # noqa: E731 - one specialisation
+        assembly_jit.repeat_rows(i64(seg), i64(seg_start), i64(row_len), i64(row_count), indices, indptr)
+    else:
+        per_row = np.repeat(np.arange(n_nodes), row_count)
+        indices = seg[_ragged(seg_start[per_row], row_len[per_row])] if len(seg) else np.zeros(0, dtype=np.int64)
+        indptr = np.concatenate([[0], np.cumsum(row_len[per_row])]).astype(np.int64)
     M = sp.csr_array((np.zeros(len(indices)), indices, indptr), shape=(n_rows, n_cols))
     M.has_sorted_indices = True
     return M, within, row_len, first_slot

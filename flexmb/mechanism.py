@@ -161,14 +161,16 @@ class Mechanism:
         if self.dim not in type(joint).dims:
             raise UnsupportedStrategyError(
                 f"joint kind {joint.kind!r} supports dim in {type(joint).dims}, not a dim={self.dim} mechanism")
+        names = [k for _, _, k in self.graph.edges(keys=True)]  # the joints' names (not a dict of their objects)
+        taken = set(names)
         if name is None:  # the first free "<kind>_<k>", k from the joint count: never a user's name
-            k = self.graph.number_of_edges()
-            while f"{joint.kind}_{k}" in self.joints:
+            k = len(names)
+            while f"{joint.kind}_{k}" in taken:
                 k += 1
             name = f"{joint.kind}_{k}"
         elif not isinstance(name, str) or not name:
             raise ModelError(f"joint name must be a non-empty string (or None for an automatic one), got {name!r}")
-        if name in self.joints:
+        if name in taken:
             raise ModelError(f"a joint named {name!r} exists already")
         where = f"joint {name!r}"
         check_joint(joint, self.units, where, self.dim)  # its material in the declared units, plausible sizes

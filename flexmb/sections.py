@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 
@@ -125,6 +126,23 @@ def rectangle(width: float, thickness: float, E: float, G: float | None = None, 
     ``G = E / (2 (1 + nu))``). ``density`` [density] >= 0 (`STEEL_DENSITY`; 0: massless; see `Section`);
     ``yield_stress`` [stress] optional (see `Section`).
     """
+    args = (width, thickness, E, G, density, nu, yield_stress)
+    if all(type(a) in _PLAIN for a in args):  # a frozen value of plain numbers: built once (joint meshing)
+        return _rectangle_cached(*args)
+    return _rectangle(width, thickness, E, G, density, nu=nu, yield_stress=yield_stress)
+
+
+_PLAIN = (float, int, type(None))
+
+
+@functools.lru_cache(maxsize=1024, typed=True)
+def _rectangle_cached(width, thickness, E, G, density, nu, yield_stress) -> Section:
+    return _rectangle(width, thickness, E, G, density, nu=nu, yield_stress=yield_stress)
+
+
+def _rectangle(width: float, thickness: float, E: float, G: float | None = None, density: float = STEEL_DENSITY, *,
+               nu: float | None = None, yield_stress: float | None = None) -> Section:
+    """`rectangle` itself."""
     width = v.positive("rectangle", "width", width)
     thickness = v.positive("rectangle", "thickness", thickness)
     E = v.positive("rectangle", "E", E)

@@ -14,6 +14,7 @@ from . import _validate as v
 from . import _warnings
 from . import jit
 from .closed_form.problem import TERMS, LinkageProblem
+from .units import check_angle
 from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
 from .plausibility import check
 from .problem import PointLoads
@@ -203,6 +204,8 @@ def _motions(values, motion, width: int) -> np.ndarray:
     if a is None or a.ndim != 2 or a.shape[1] != width or len(a) == 0 or not np.all(np.isfinite(a)):
         raise ParameterError(f"sweep: values of motion {motion!r} must be finite numbers of shape {shape}, got "
                              f"{values!r}")
+    if motion[1] == "rotation":  # radians meant: a value above 2 pi is likely degrees
+        check_angle(f"sweep of link {motion[0]!r}", "rotation", a if width == 3 else a[:, 0], stacklevel=5)
     return a
 
 

@@ -18,9 +18,12 @@ the cluster's mean, `frequency(..., cluster="mean")`, for a differentiable respo
 
 from __future__ import annotations
 
+import weakref
+
 import attrs
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import ModelError, ParameterError
@@ -34,6 +37,8 @@ __all__ = ["frequency", "buckling", "compliance", "CLUSTER"]
 #: eigensolvers' relative accuracy at the lowest modes (~1e-10, `flexmb.modal`), far below the
 #: splitting of modes that are merely close.
 CLUSTER = 1e-7
+
+_MODES = weakref.WeakKeyDictionary()  # solution -> {(k, held): (Modes, cluster)}
 
 
 def _cluster(values: np.ndarray, k: int) -> np.ndarray:
@@ -104,7 +109,15 @@ class _Frequency:
         return float(np.sign(lam) * np.sqrt(abs(lam)) / (2 * np.pi))
 
     def _modes(self, solution):
-        """`flexmb.modes` with enough modes to hold the k-th's whole cluster, and the free DOFs."""
+        """`flexmb.modes` with enough modes to hold the k-th's whole cluster, and the cluster's indices
+        (kept per solution: `value` and `gradient` read the same)."""
+        key = (self.k, repr(self.held))
+        per = _MODES.setdefault(solution, {})
+        if key not in per:
+            per[key] = self._solve_modes(solution)
+        return per[key]
+
+    def _solve_modes(self, solution):
         nf = solution.compiled.problem.model.n_dofs - len(held_dofs(solution, self.held, "frequency"))
         n = min(self.k + 2, nf)
         while True:
@@ -134,7 +147,7 @@ class _Frequency:
         from ..fe.mass import mass_matrix
 
         free = np.setdiff1d(np.arange(sens.model.n_dofs), m.held)
-        K = sens.K[free][:, free]
+        K = _restricted(sens, free)
         M = mass_matrix(sens.model, sens.state, sens.model.rigid_masses)[free][:, free]
         Psi = np.zeros_like(Phi)
         Psi[free] = _left_vectors(K, M, Phi[free], lam)
@@ -150,7 +163,9 @@ def frequency(k: int, held="prescribed", cluster: str = "rank"):
 
 
 def _restricted(A, free):
-    return A[free][:, free].tocsc()
+    """``A[free][:, free]`` as CSC (``A``: a sparse matrix or a `Sensitivity`'s tangent block reader)."""
+    block = A.block(free, free) if hasattr(A, "block") else A[free][:, free]
+    return sp.csc_array(block)
 
 
 def _inverse_iteration(A, B, shift: float, c: int, seed: int = 0, transpose: bool = False) -> np.ndarray:
@@ -192,7 +207,7 @@ class _Buckling:
             raise ModelError(f"buckling({self.k}): no {self.k}-th positive multiplier (inf): no derivative")
         idx = _cluster(mu, self.k)
         lam = float(np.mean(mu[idx]))
-        Kt, Km = _restricted(sens.K, free), _restricted(material_tangent(sol), free)
+        Kt, Km = _restricted(sens, free), _restricted(material_tangent(sol), free)
         Ks = (Kt - Km).tocsc()
         shift = lam * (1.0 + 1e-8)
         Phi = np.zeros((sens.model.n_dofs, len(idx)))
@@ -263,7 +278,7 @@ class _Compliance:
         if held is sens.prescribed:
             X[free], Y[free] = sens.solve(E[free]), sens.solve(E[free], transpose=True)
         else:
-            lu = spla.splu(_restricted(sens.K, free))
+            lu = spla.splu(_restricted(sens, free))
             X[free], Y[free] = lu.solve(E[free]), lu.solve(E[free], trans="T")
         for Z in (X, Y):
             Z[:, np.isin(dofs, held)] = 0.0  # held components of the node: zero rows and columns

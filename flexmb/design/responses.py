@@ -67,7 +67,7 @@ class _Reaction(Response):
 
     def partials(self, sens):
         dof = self._dof(sens.solution)
-        return sens.K[[dof]].toarray()[0], sens.residual_rates[dof]
+        return sens.row(dof), sens.residual_rates[dof]
 
 
 def reaction(link: str, component: str) -> Response:

@@ -22,7 +22,7 @@ from ..rotations import cross, skew
 from ..sections import properties
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent",
-           "numpy_internal_force_and_tangent", "length"]
+           "numpy_internal_force_and_tangent", "numpy_deformation_gradient", "length"]
 
 _RP, _PP, _RQ, _PQ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 _EYE = np.eye(3)
@@ -134,7 +134,16 @@ def numpy_internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent
         return _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress)
 
 
-def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress=None):
+def numpy_deformation_gradient(xp, xq, Rp, Rq, ny0, nz0, L0):
+    """Deformations ``e`` (E, 6) of Eq. (A.4) and their gradient ``D = de/dq`` (E, 6, 12) with respect
+    to the nodal displacements and spins (Eq. A.6; the ``D`` of `numpy_internal_force_and_tangent`,
+    ``F = D^T sigma``); rows of invalid elements NaN in ``e``."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, np.zeros((len(L0), 6, 6)), False,
+                                           gradient=True)
+
+
+def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress=None, gradient=False):
     nE = len(L0)
     l, nl, pyv, pzv, qyv, qzv = _vectors(xp, xq, Rp, Rq, ny0, nz0)
     dt = np.result_type(l, pyv, qyv, L0, S)  # float64, or complex for a complex step (`flexmb.design`)
@@ -214,6 +223,8 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geomet
         & ((_dot(pyv, qyv) + _dot(pzv, qzv)).real > 0.0)
     )
     e[~valid] = np.nan
+    if gradient:
+        return e, Dm
     sigma = np.einsum("eij,ej->ei", S, e)
     F = np.einsum("eij,ei->ej", Dm, sigma)
     if not tangent:

@@ -176,13 +176,15 @@ def test_unknown_non_finite_and_ignored_parameters_are_refused():
         evaluate(_pivot(2), {**PIVOT, "unused": 1.0}, R.mass())
 
 
-def test_ksd_reduced_is_refused_naming_it_and_each_parameter_s_kind():
+def test_ksd_reduced_refuses_all_but_loads_naming_each_parameter_s_kind():
+    # KSD-reduced's gradients follow the loads only (tests/test_design_reduced.py)
     with pytest.raises(UnsupportedStrategyError, match="ksd-reduced") as info:
         evaluate(_pivot(2), PIVOT, R.reaction("B", "rotation"), bounds=PIVOT_BOUNDS, method="ksd-reduced")
     text = str(info.value)
     for name, kind in (("t", "joint dimension or material"), ("E", "joint dimension or material"),
-                       ("x", "placement"), ("m", "mass"), ("F", "load")):
+                       ("x", "placement"), ("m", "mass")):
         assert f"'{name}' ({kind})" in text, text
+    assert "'F'" not in text
 
 
 def test_the_closed_form_strategy_is_refused_naming_it():

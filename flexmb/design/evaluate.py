@@ -157,7 +157,7 @@ class DesignPoint:
         if not solution.converged:
             raise ConvergenceError(f"the design at {self.design.values} did not converge ({solution.message}); "
                                    "no responses or gradients of an unconverged state", solution)
-        if solution.method not in STRATEGIES:  # refused naming the method (and, with gradients, each parameter's kind)
+        if solution.method not in STRATEGIES + ("ksd-reduced",):  # refused naming the method and each parameter's kind
             if gradient:
                 Sensitivity(solution, self.rates(None))
             raise UnsupportedStrategyError(f"design responses with method {solution.method!r}: available for "
@@ -175,12 +175,25 @@ class DesignPoint:
         if configure is not None:
             rates = _Configured(rates, configure, solution.compiled)
         t3 = time.perf_counter()
-        sens = Sensitivity(solution, rates)
+        sens = _sensitivity(solution, rates, items)
         if mode == "auto":
             mode = "direct" if len(items) > len(self.names) else "auto"
         jac = np.array([r.gradient(sens, mode) for r in items], dtype=float).reshape(len(items), len(self.names))
         times.update(rates=t3 - t2, gradient=time.perf_counter() - t3)
         return Evaluation(self.names, tuple(r.name for r in items), values, jac, solution, times)
+
+
+def _sensitivity(solution, rates, items):
+    """The linearisation of ``solution`` for the responses ``items``: `Sensitivity` of the full
+    model; a KSD-reduced solution's `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
+    if solution.method != "ksd-reduced":
+        return Sensitivity(solution, rates)
+    from .reduced import ReducedSensitivity
+
+    sens = ReducedSensitivity(solution, rates)
+    for r in items:
+        sens.check_response(r)
+    return sens
 
 
 def evaluate(build, p, responses, *, bounds=None, **options) -> Evaluation:

@@ -195,3 +195,37 @@ def test_the_closed_form_strategy_is_refused_naming_it():
 def test_reaction_at_a_free_dof_is_refused():
     with pytest.raises(FlexmbError, match="free DOF"):
         evaluate(_pivot(2), PIVOT, R.reaction("B", "x"))
+
+
+def test_a_configuration_shares_the_design_rates_and_gives_the_same_gradient():
+    # one DesignPoint, configurations changed by configure(mechanism) (a stroke): the same values and
+    # gradients as designs built in that configuration, the builds' rates computed once
+    point = DesignPoint(_pivot(2), PIVOT, PIVOT_BOUNDS)
+    resp = [R.reaction("B", "rotation"), R.displacement("B", "x"), R.frequency(1)]
+    for turn in (0.1, 0.3):
+        ev = point.evaluate(resp, configure=lambda m, turn=turn: m.prescribe("B", rotation=turn), **TIGHT)
+
+        def turned(p, turn=turn):
+            m = pivot(p, 2)
+            m.prescribe("B", rotation=turn)
+            return m
+
+        ref = evaluate(turned, PIVOT, resp, bounds=PIVOT_BOUNDS, **TIGHT)
+        np.testing.assert_allclose(ev.values, ref.values, rtol=1e-12)
+        np.testing.assert_allclose(ev.jacobian, ref.jacobian, rtol=1e-8, atol=1e-12 * np.abs(ref.jacobian).max())
+    assert ev.times["rates"] < 0.5 * point.rates_time  # the second configuration did not rebuild
+
+
+def test_ideal_hinges_are_refused_by_name():
+    def build(p):
+        m = flexmb.Mechanism(dim=2)
+        m.add_link("A", fixed=True)
+        m.add_link("B", position=(0.1, 0.0))
+        m.add_link("C", position=(0.2, 0.0))
+        m.add_joint("A", "B", "leaf_spring", length=p["L"], elements=4)
+        m.add_joint("B", "C", flexmb.Hinge(k=1.0), name="pin", origin=(0.1, 0.0))
+        m.apply_force("C", (0.0, 1.0))
+        return m
+
+    with pytest.raises(UnsupportedStrategyError, match="'?pin'?"):
+        evaluate(build, {"L": 0.1}, R.displacement("C", "y"))

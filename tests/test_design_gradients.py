@@ -229,3 +229,21 @@ def test_ideal_hinges_are_refused_by_name():
 
     with pytest.raises(UnsupportedStrategyError, match="'?pin'?"):
         evaluate(build, {"L": 0.1}, R.displacement("C", "y"))
+
+
+def test_warm_started_sweep_solutions_give_the_fresh_gradient():
+    # a stroke solved warm-started (flexmb.sweep: the problem holds increments of the prescribed
+    # values) gives the same gradients as fresh solves, with configure= and for the design's own
+    # configuration (whose prescribed rotation vector depends on the parameter 'ry')
+    point = DesignPoint(spatial, SPATIAL)
+    resp = [R.reaction("C", "rz"), R.displacement("B", "z"), R.frequency(1)]
+    turns = [(0.1, SPATIAL["ry"], 0.2), (0.1, SPATIAL["ry"], 0.4)]
+    sw = flexmb.sweep(point.mechanism(), np.array(turns), motion=("C", "rotation"), **TIGHT)
+    for w, sol in zip(turns, sw):
+        cfg = lambda m, w=w: m.prescribe("C", rotation=w)  # noqa: E731
+        warm, fresh = point.evaluate(resp, configure=cfg, solution=sol), point.evaluate(resp, configure=cfg, **TIGHT)
+        np.testing.assert_allclose(warm.jacobian, fresh.jacobian, rtol=1e-8, atol=1e-9 * np.abs(fresh.jacobian).max())
+    own = point.evaluate(resp, solution=sw[-1])  # turns[-1] is the design's own configuration
+    fresh = point.evaluate(resp, **TIGHT)
+    assert abs(fresh.gradient(0)["ry"]) > 1e-3 * np.abs(fresh.jacobian[0]).max()
+    np.testing.assert_allclose(own.jacobian, fresh.jacobian, rtol=1e-8, atol=1e-9 * np.abs(fresh.jacobian).max())

@@ -171,9 +171,11 @@ class DesignPoint:
         if not gradient:
             return Evaluation(self.names, tuple(r.name for r in items), values, None, solution, times)
         t2 = time.perf_counter()
-        rates = self.rates(None if configure is not None else solution.compiled)
+        # the rates are taken about fresh compiles (totals from the undeformed state: a warm-started
+        # solution's problem holds increments of its prescribed values)
+        rates = self.rates(None)
         if configure is not None:
-            rates = _Configured(rates, configure, solution.compiled)
+            rates = _Configured(rates, configure, self.mechanism(configure).compile("fe_model"))
         t3 = time.perf_counter()
         sens = _sensitivity(solution, rates, items)
         if mode == "auto":

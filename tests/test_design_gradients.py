@@ -7,13 +7,13 @@ from __future__ import annotations
 import attrs
 import numpy as np
 import pytest
+from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
 
 import flexmb
-from flexmb.design import DesignPoint, evaluate, responses as R
+from flexmb.design import DesignPoint, evaluate
+from flexmb.design import responses as R
 from flexmb.design.check import check_gradient, taylor_test
 from flexmb.errors import FlexmbError, ParameterError, TopologyError, UnsupportedStrategyError
-
-from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
 
 TIGHT = dict(rtol=1e-12)  # solves converged far below the Taylor remainders
 
@@ -240,7 +240,7 @@ def test_warm_started_sweep_solutions_give_the_fresh_gradient():
     turns = [(0.1, SPATIAL["ry"], 0.2), (0.1, SPATIAL["ry"], 0.4)]
     sw = flexmb.sweep(point.mechanism(), np.array(turns), motion=("C", "rotation"), **TIGHT)
     for w, sol in zip(turns, sw):
-        cfg = lambda m, w=w: m.prescribe("C", rotation=w)  # noqa: E731
+        cfg = lambda m, w=w: m.prescribe("C", rotation=w)
         warm, fresh = point.evaluate(resp, configure=cfg, solution=sol), point.evaluate(resp, configure=cfg, **TIGHT)
         np.testing.assert_allclose(warm.jacobian, fresh.jacobian, rtol=1e-8, atol=1e-9 * np.abs(fresh.jacobian).max())
     own = point.evaluate(resp, solution=sw[-1])  # turns[-1] is the design's own configuration

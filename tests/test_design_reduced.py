@@ -6,7 +6,8 @@ from __future__ import annotations
 import pytest
 
 import flexmb
-from flexmb.design import evaluate, responses as R
+from flexmb.design import evaluate
+from flexmb.design import responses as R
 from flexmb.design.check import check_gradient
 from flexmb.errors import UnsupportedStrategyError
 

@@ -15,8 +15,8 @@ import attrs
 import numpy as np
 
 from ..boundary import boundary
-from ..linear import single_threaded
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
+from ..linear import single_threaded
 from .adjoint import STRATEGIES, Sensitivity
 from .parameters import ModelRates, as_design, model_numbers, model_rates
 

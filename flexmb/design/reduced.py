@@ -64,6 +64,7 @@ class ReducedSensitivity:
                 "method='ksd-full'; with 'ksd-reduced' reactions, displacements, positions, rotations and the mass")
 
     def row(self, dof: int) -> np.ndarray:
+        """Row ``dof`` of the reduced tangent on the full model's DOFs (zero outside the links')."""
         out = np.zeros(self.model.n_dofs)
         if dof < len(self.links):
             out[self.links] = self._K_links[dof]
@@ -78,6 +79,7 @@ class ReducedSensitivity:
 
     @functools.cached_property
     def prescribed_rates(self) -> np.ndarray:
+        """``g'``: zero (a load moves no prescribed DOF)."""
         return np.zeros((len(self.prescribed), len(self.names)))
 
     @functools.cached_property
@@ -89,15 +91,19 @@ class ReducedSensitivity:
         return lu
 
     def solve(self, rhs: np.ndarray, transpose: bool = False) -> np.ndarray:
+        """``K_red,ff^-1 rhs`` (or its transpose's) on the free link DOFs, one LU kept."""
         return sla.lu_solve(self._lu, rhs, trans=1 if transpose else 0)
 
     @functools.cached_property
     def state_rates(self) -> np.ndarray:
+        """``du/dp`` (n_dofs, K): the links' free DOFs' motion per load parameter (direct method)."""
         du = np.zeros((self.model.n_dofs, len(self.names)))
         du[self.free] = -self.solve(self.residual_rates[self.free])
         return du
 
     def gradient(self, dJ_du: np.ndarray, dJ_dN: np.ndarray, method: str = "auto") -> np.ndarray:
+        """``dJ/dp`` (K,) from a response's partials, adjoint or direct (`Sensitivity.gradient`);
+        a response reading the joints' internal nodes is refused."""
         dJ_du = np.asarray(dJ_du, dtype=float)
         if np.any(dJ_du[len(self.links):] != 0.0):
             raise UnsupportedStrategyError("this response reads the joints' internal nodes, which KSD-reduced recovers "

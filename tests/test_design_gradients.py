@@ -200,10 +200,18 @@ def test_reaction_at_a_free_dof_is_refused():
 def test_a_configuration_shares_the_design_rates_and_gives_the_same_gradient():
     # one DesignPoint, configurations changed by configure(mechanism) (a stroke): the same values and
     # gradients as designs built in that configuration, the builds' rates computed once
-    point = DesignPoint(_pivot(2), PIVOT, PIVOT_BOUNDS)
+    calls = []
+
+    def counted(p):
+        calls.append(1)
+        return pivot(p, 2)
+
+    point = DesignPoint(counted, PIVOT, PIVOT_BOUNDS)
     resp = [R.reaction("B", "rotation"), R.displacement("B", "x"), R.frequency(1)]
     for turn in (0.1, 0.3):
+        before = len(calls)
         ev = point.evaluate(resp, configure=lambda m, turn=turn: m.prescribe("B", rotation=turn), **TIGHT)
+        builds = len(calls) - before
 
         def turned(p, turn=turn):
             m = pivot(p, 2)
@@ -213,7 +221,7 @@ def test_a_configuration_shares_the_design_rates_and_gives_the_same_gradient():
         ref = evaluate(turned, PIVOT, resp, bounds=PIVOT_BOUNDS, **TIGHT)
         np.testing.assert_allclose(ev.values, ref.values, rtol=1e-12)
         np.testing.assert_allclose(ev.jacobian, ref.jacobian, rtol=1e-8, atol=1e-12 * np.abs(ref.jacobian).max())
-    assert ev.times["rates"] < 0.5 * point.rates_time  # the second configuration did not rebuild
+    assert builds == 2  # the second configuration: its solve and its fresh compile, not 2 per parameter again
 
 
 def test_ideal_hinges_are_refused_by_name():
@@ -247,3 +255,18 @@ def test_warm_started_sweep_solutions_give_the_fresh_gradient():
     fresh = point.evaluate(resp, **TIGHT)
     assert abs(fresh.gradient(0)["ry"]) > 1e-3 * np.abs(fresh.jacobian[0]).max()
     np.testing.assert_allclose(own.jacobian, fresh.jacobian, rtol=1e-8, atol=1e-9 * np.abs(fresh.jacobian).max())
+
+
+def test_a_solution_of_another_design_is_refused():
+    other = flexmb.solve(pivot({**PIVOT, "t": 1.1e-3}, 2))
+    with pytest.raises(ParameterError, match="not one of the design"):
+        DesignPoint(_pivot(2), PIVOT, PIVOT_BOUNDS).evaluate(R.reaction("B", "rotation"), solution=other)
+
+
+def test_a_user_gradient_is_checked_and_a_wrong_one_fails():
+    # flexmb.testing.check_gradient on a gradient given by its user (a plugin author's own)
+    right = evaluate(spatial, SPATIAL, R.displacement("B", "z"), **TIGHT).gradient(0)
+    assert check_gradient(spatial, SPATIAL, R.displacement("B", "z"), gradient=right, **TIGHT).ok
+    wrong = {**right, "t": 1.01 * right["t"]}  # one component 1 % off
+    c = check_gradient(spatial, SPATIAL, R.displacement("B", "z"), gradient=lambda p: wrong, **TIGHT)
+    assert not c.ok and c.errors["t"] > 1e-4 and max(v for k, v in c.errors.items() if k != "t") < 1e-6

@@ -177,12 +177,29 @@ class DesignPoint:
         if configure is not None:
             rates = _Configured(rates, configure, self.mechanism(configure).compile("fe_model"))
         t3 = time.perf_counter()
+        _same_model(rates.compiled, solution, self.design.values)
         sens = _sensitivity(solution, rates, items)
         if mode == "auto":
             mode = "direct" if len(items) > len(self.names) else "auto"
         jac = np.array([r.gradient(sens, mode) for r in items], dtype=float).reshape(len(items), len(self.names))
         times.update(rates=t3 - t2, gradient=time.perf_counter() - t3)
         return Evaluation(self.names, tuple(r.name for r in items), values, jac, solution, times)
+
+
+def _same_model(compiled, solution, values) -> None:
+    """Refuse a ``solution`` that is not of the design's (configured) mechanism: another structure or
+    other reference numbers (another design, or the same one at other parameters)."""
+    from .parameters import structure
+
+    mine, theirs = compiled.problem.model, solution.compiled.problem.model
+    a, b = structure(compiled), structure(solution.compiled)
+    same = all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray) else a[k] == b[k]
+               for k in a if k != "prescribed DOFs")
+    same = same and mine.x0.shape == theirs.x0.shape and np.array_equal(mine.x0, theirs.x0) and \
+        np.array_equal(mine.elements.L0, theirs.elements.L0) and np.array_equal(mine.elements.S, theirs.elements.S)
+    if not same:
+        raise ParameterError(f"the solution given is not one of the design at {values} (its model's structure or "
+                             "reference numbers differ): pass a solve of DesignPoint.mechanism(configure)")
 
 
 def _sensitivity(solution, rates, items):

@@ -270,3 +270,12 @@ def test_a_user_gradient_is_checked_and_a_wrong_one_fails():
     wrong = {**right, "t": 1.01 * right["t"]}  # one component 1 % off
     c = check_gradient(spatial, SPATIAL, R.displacement("B", "z"), gradient=lambda p: wrong, **TIGHT)
     assert not c.ok and c.errors["t"] > 1e-4 and max(v for k, v in c.errors.items() if k != "t") < 1e-6
+
+
+def test_configurations_that_add_loads_do_not_accumulate():
+    # configure may add a load (not only replace values): each configuration starts from the builds
+    point = DesignPoint(_pivot(2), PIVOT, PIVOT_BOUNDS)
+    jac = [point.evaluate(R.displacement("B", "x"), configure=lambda m, f=force: m.apply_force("B", (f, 0.0)),
+                          **TIGHT).jacobian for force in (1.0, 2.0, 1.0)]
+    np.testing.assert_allclose(jac[2], jac[0], rtol=1e-10)
+    assert np.abs(jac[1] - jac[0]).max() > 1e-6 * np.abs(jac[0]).max()

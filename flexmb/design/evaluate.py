@@ -9,6 +9,7 @@ gradient is read from it.
 
 from __future__ import annotations
 
+import copy
 import time
 
 import attrs
@@ -104,7 +105,8 @@ class _Configured(ModelRates):
         out = {f: np.zeros((len(self.names),) + np.shape(base[f])) for f in self.BOUNDARY}
         for k, (_, h) in enumerate(self._builds):
             for w, mech in self._base._mechanisms[k]:
-                if mech is not None:
+                if mech is not None:  # a copy: configure may add loads, and the builds serve every configuration
+                    mech = copy.deepcopy(mech)  # ~0.3 ms, a build ~1.6 ms (the 3D hinge of bench_gradients)
                     self._configure(mech)
                 nums = base if mech is None else numbers(mech)
                 for f in self.BOUNDARY:

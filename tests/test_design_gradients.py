@@ -279,3 +279,20 @@ def test_configurations_that_add_loads_do_not_accumulate():
                           **TIGHT).jacobian for force in (1.0, 2.0, 1.0)]
     np.testing.assert_allclose(jac[2], jac[0], rtol=1e-10)
     assert np.abs(jac[1] - jac[0]).max() > 1e-6 * np.abs(jac[0]).max()
+
+
+def _chained(p):
+    """A leaf turned by a chain of two rotations (a manipulator's prescribed joint angles)."""
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=(0.1, 0.0, 0.0))
+    m.add_joint("A", "B", "leaf_spring", length=0.1, thickness=p["t"], elements=6)
+    m.prescribe("B", rotation=[(0.0, 0.0, p["a"]), (0.1, 0.0, 0.0)])
+    return m
+
+
+def test_a_prescribed_chain_of_rotations_serves_other_parameters_and_refuses_its_own():
+    c = check_gradient(lambda q: _chained({**q, "a": 0.35}), {"t": 1e-3}, R.reaction("B", "rz"), **TIGHT)
+    assert c.ok, str(c)
+    with pytest.raises(UnsupportedStrategyError, match=r"\['a'\].*chain"):
+        evaluate(_chained, {"t": 1e-3, "a": 0.35}, R.reaction("B", "rz"))

@@ -128,10 +128,12 @@ class Sensitivity:
         out = lam * dvalues.T.copy()
         tr = comp < m.dim
         out[tr] += dx0[:, node[tr], comp[tr]].T
-        if m.dim == 3 and self.problem.rotation_paths and np.any(dvalues):
+        chained = [np.searchsorted(self.prescribed, d) for d, _ in self.problem.rotation_paths]
+        moving = [self.names[k] for k in range(len(self.names)) if any(np.any(dvalues[k, c] != 0.0) for c in chained)]
+        if moving:
             raise UnsupportedStrategyError(
-                "design gradients of a prescribed chain of rotations (Mechanism.prescribe(rotation=[...])) that depends "
-                f"on the parameters {list(self.names)} are not available; prescribe the rotation vector instead")
+                f"design gradients with respect to {moving}: they change a prescribed chain of rotations "
+                "(Mechanism.prescribe(rotation=[...])), whose derivative is not built; prescribe the rotation vector")
         if m.dim == 3:  # the prescribed rotation vectors' totals from the undeformed state (the rates' own
             values = self.rates.compiled_numbers("values")  # compile: a warm-started problem holds increments)
             for i in np.flatnonzero(comp == 3):

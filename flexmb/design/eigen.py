@@ -31,6 +31,7 @@ from ..linearised import buckling as _buckling
 from ..linearised import compliance as _compliance
 from ..linearised import material_tangent
 from ..modal import held_dofs, modes
+from ..rotations import skew
 from .base import component_index
 
 __all__ = ["frequency", "buckling", "compliance", "CLUSTER"]
@@ -291,7 +292,7 @@ class _Compliance:
         d = R @ s
         w = sens.state_rates[dofs[dim:]].T  # (K, nrot): the node's spin (2D: angle) per parameter
         dd = (np.cross(w, d) if dim == 3 else w * np.array([-d[1], d[0]])) + ds @ R.T
-        T, dT = _lever(d, dim), np.array([_lever(x, dim) - np.eye(nd) for x in dd])
+        T, dT = model._lever(d[None])[0], model._lever(dd) - np.eye(nd)  # the lever is affine in the offset
         C = T @ C_node @ T.T
         dC = dT @ C_node @ T.T + T @ dC_node @ T.T + T @ C_node @ np.swapaxes(dT, 1, 2)
         if self.axes == "link":
@@ -301,7 +302,7 @@ class _Compliance:
                 B[3:, 3:] = R
             dB = np.zeros((len(w), nd, nd))
             for k, wk in enumerate(w):
-                dR = (np.array([[0.0, -1.0], [1.0, 0.0]]) * wk[0]) @ R if dim == 2 else _skew(wk) @ R
+                dR = (np.array([[0.0, -1.0], [1.0, 0.0]]) * wk[0]) @ R if dim == 2 else skew(wk) @ R
                 dB[k, :dim, :dim] = dR
                 if dim == 3:
                     dB[k, 3:, 3:] = dR
@@ -309,21 +310,6 @@ class _Compliance:
         elif self.axes != "global":
             raise ParameterError(f"compliance: axes={self.axes!r}; valid: 'global', 'link'")
         return dC[:, i, j]
-
-
-def _skew(w):
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
-def _lever(d: np.ndarray, dim: int) -> np.ndarray:
-    """``T`` with ``point motion = T node motion`` for the rigid offset ``d`` (`FEModel._lever`)."""
-    nd = 3 if dim == 2 else 6
-    T = np.eye(nd)
-    if dim == 2:
-        T[0, 2], T[1, 2] = -d[1], d[0]
-    else:
-        T[:3, 3:] = -_skew(d)
-    return T
 
 
 def compliance(link: str, row: str, column: str, point=None, axes: str = "global", held="prescribed"):

@@ -218,3 +218,21 @@ def test_solve_configuration_returns_the_clean_problem_of_the_configuration():
     second = solve_configuration(point, Stroke([3.0], motion=("stage", "x")).configure_at(0), strategy, first)
     assert second.converged and np.max(second.compiled.problem.values) == 3.0
     assert np.abs(second.residual[second.compiled.problem.free]).max() < 1e-6
+
+
+def test_several_responses_in_one_aggregate_and_the_configurations_it_needs():
+    """The smallest of two support stiffnesses over the stroke (one KS over 2 x N values), with a
+    fixed scale: the gradient from the configurations whose KS weight counts (here one) equals the
+    one from every configuration's gradient, and passes the Taylor test and central differences."""
+    stroke = Stroke([-5.0, -2.0, 2.0, 5.0], motion=("stage", "x"))
+    agg = ks_min([support_stiffness("stage", "y", point="tool"), support_stiffness("stage", "rotation")], scale=1e3)
+    rates, errors, sp = _taylor_and_central(stage, dict(STAGE), [agg, at(R.reaction("stage", "x"), 1)], stroke)
+    assert np.all(np.abs(rates - 2.0) <= RATE), rates
+    assert np.all(errors <= AGREEMENT), errors
+    sparse = StrokePoint(stage, dict(STAGE), [agg, at(R.reaction("stage", "x"), 1)], stroke)
+    J = sparse.jacobian()
+    assert len(sparse._rows) < 4 * 2  # not every (configuration, response) was differentiated
+    full = StrokePoint(stage, dict(STAGE), [agg, at(R.reaction("stage", "x"), 1)], stroke)
+    full.configuration_jacobians()
+    np.testing.assert_allclose(J, full.jacobian(), rtol=1e-7, atol=0)  # adjoint vs direct solves: round-off
+    assert agg.name.startswith("ks_min([1/compliance(stage, y, y), 1/compliance(stage, rotation, rotation)]")

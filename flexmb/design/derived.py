@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import hashlib
+import weakref
+
 import attrs
 import numpy as np
 
@@ -33,7 +36,45 @@ class _Reciprocal:
         x = float(self.response.value(sens.solution))
         if x == 0.0:
             raise ModelError(f"reciprocal: {self.response.name} is zero (no derivative of its reciprocal)")
-        return -np.asarray(self.response.gradient(sens, method), dtype=float) / (x * x)
+        return -np.asarray(self.response.gradient(_shared(sens), method), dtype=float) / (x * x)
+
+
+class _SharedForms:
+    """A `Sensitivity` whose `tangent_forms` are kept per contraction: the support stiffnesses of
+    one point along several components contract the tangent's rate with the same ``K^-1 E``
+    (``-Y^T dK X`` gives the whole compliance's rate), so one configuration's three support
+    stiffnesses cost one complex-step pass over the elements, not three."""
+
+    def __init__(self, sens):
+        self._sens, self._forms = sens, {}
+
+    def __getattr__(self, name):
+        return getattr(self._sens, name)
+
+    def tangent_forms(self, V, W=None, material: bool = False):
+        key = (_digest(V), None if W is None else _digest(W), material)
+        if key not in self._forms:
+            self._forms[key] = self._sens.tangent_forms(V, W, material=material)
+        return self._forms[key]
+
+
+_SHARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _shared(sens):
+    """The `_SharedForms` of ``sens`` (one per sensitivity, released with it)."""
+    try:
+        out = _SHARED.get(sens)
+    except TypeError:  # not weakly referable: no sharing
+        return sens
+    if out is None:
+        out = _SHARED[sens] = _SharedForms(sens)
+    return out
+
+
+def _digest(a) -> bytes:
+    a = np.ascontiguousarray(a)
+    return hashlib.blake2b(a.tobytes(), digest_size=16).digest() + str(a.shape).encode()
 
 
 def reciprocal(response):

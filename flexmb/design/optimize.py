@@ -142,6 +142,7 @@ class _Problem:
         self.last_good = None
         self.best = None
         self.labels = None
+        self.warm_start, self.seed = False, None
 
     # -- parameters
     def params(self, x) -> dict:
@@ -149,19 +150,37 @@ class _Problem:
         return {k: float(lo + xi * (hi - lo)) for k, lo, hi, xi in zip(self.names, self.lower, self.upper, x)}
 
     def point(self, p: dict) -> StrokePoint:
-        return StrokePoint(self.design.build, p, self.aggregates, self.stroke, bounds=self._bounds(), **self.options)
+        seed = self.seed if self.warm_start else None
+        return StrokePoint(self.design.build, p, self.aggregates, self.stroke, bounds=self._bounds(), seed=seed,
+                           **self.options)
 
     def _bounds(self) -> dict:
-        return {k: (lo, hi) for k, lo, hi in zip(self.names, self.lower, self.upper)}
+        """The parameters' bounds for the build's difference step, 1 % of the box wider than the box:
+        a central difference at a design on a bound (a one-sided one adds round-off, ~1e-11, to the
+        rates of numbers that do not change, which a prescribed rotation chain refuses)."""
+        pad = 0.01 * (self.upper - self.lower)
+        return {k: (lo - d, hi + d) for k, lo, hi, d in zip(self.names, self.lower, self.upper, pad)}
 
     # -- evaluation
-    def entry(self, x) -> _Entry:
+    def freeze_scales(self, x0) -> StrokePoint:
+        """The start's point, solved, with the KS aggregates' default scales fixed at the start's
+        mean |value| (a fixed scale keeps KS smooth and decouples the configurations: those far
+        from the extreme need no gradient). Errors at the start are raised."""
+        sp = self.point(self.params(x0))
+        x = sp.configuration_values()
+        frozen = tuple(attrs.evolve(a, scale=float(np.mean(np.abs(x[:, js]))) or 1.0)
+                       if a.kind in ("ks_max", "ks_min") and a.scale is None else a
+                       for a, js in zip(self.aggregates, sp._where))
+        self.aggregates = sp.aggregates = frozen
+        return sp
+
+    def entry(self, x, point: StrokePoint | None = None) -> _Entry:
         p = self.params(x)
         key = tuple(p.values())
         if key in self.cache:
             self.cache.move_to_end(key)
             return self.cache[key]
-        e = _Entry(self.point(p), dict(p))
+        e = _Entry(point or self.point(p), dict(p))
         self.cache[key] = e
         self.rows.append(e.row)
         try:
@@ -179,6 +198,8 @@ class _Problem:
             self._fail(e, exc)
         else:
             self._scale(e, values, exact)
+            if e.point.solutions is not None:
+                self.seed = tuple(e.point.solutions)
         self._count(e)
         self._forget()
         return e
@@ -451,7 +472,8 @@ def _constraint_list(constraints, n_configurations: int):
 def optimize(build, p0, bounds=None, *, objective, maximize: bool = False, constraints=(), stroke=None,
              optimizer: str = "slsqp", gradient: str | None = None, max_iter: int = 100, tol: float = 1e-6,
              method: str = "conventional", mode: str = "auto", executor=None, chunks: int | None = None,
-             progress: bool | None = None, optimizer_options: dict | None = None, **solve_options) -> OptimizationResult:
+             progress: bool | None = None, warm_start: bool = False, optimizer_options: dict | None = None,
+             **solve_options) -> OptimizationResult:
     """Optimise the design ``build`` (a function ``p -> Mechanism`` or a `flexmb.design.Design`)
     from ``p0`` (a dict name -> float) within ``bounds`` ({name: (lower, upper)}, finite, for every
     parameter not bounded by its `Design`).
@@ -465,8 +487,11 @@ def optimize(build, p0, bounds=None, *, objective, maximize: bool = False, const
     ``max_iter``: the optimiser's iterations (COBYLA, Nelder-Mead, MMA: evaluations); ``tol``
     the optimiser's tolerance on the scaled problem; ``optimizer_options`` go to it.
     ``method``, ``mode``, ``executor``, ``chunks`` and the solver's options as in
-    `flexmb.design.stroke.evaluate_stroke`. ``progress``: a progress bar of the iterations on
-    stderr (tqdm; None = only on a terminal).
+    `flexmb.design.stroke.evaluate_stroke`. ``warm_start``: solve each design from the last
+    design's converged states (`flexmb.design.stroke.solve_from_design`: a continuation in the
+    design space, falling back to the plain solve where it fails); False: every design solved as
+    `flexmb.solve` would (plain solves, as a derivative-free baseline's). ``progress``: a progress
+    bar of the iterations on stderr (tqdm; None = only on a terminal).
 
     Returns an `OptimizationResult` (the best design, its solutions and the history). Example::
 
@@ -490,6 +515,7 @@ def optimize(build, p0, bounds=None, *, objective, maximize: bool = False, const
                disable=None if progress is None else not progress)
     prob = _Problem(design, lower, upper, (obj,) + aggregates, -1.0 if maximize else 1.0, sides, stroke, gradient,
                     options, bar)
+    prob.warm_start = bool(warm_start)
     x0 = (np.array([design.values[k] for k in design.names]) - lower) / (upper - lower)
     try:
         return _run(prob, x0, optimizer, max_iter, tol, dict(optimizer_options or {}))
@@ -500,9 +526,8 @@ def optimize(build, p0, bounds=None, *, objective, maximize: bool = False, const
 def _run(prob: _Problem, x0, optimizer, max_iter, tol, options) -> OptimizationResult:
     """Evaluate the start (its errors are raised: nothing to optimise), run the optimiser, and
     gather the result (also after Ctrl-C)."""
-    if prob.gradient == "none":
-        prob.entry(x0)
-    else:
+    prob.entry(x0, prob.freeze_scales(x0))
+    if prob.gradient != "none":
         prob.gradients(x0)
     raw, interrupted = None, False
     try:

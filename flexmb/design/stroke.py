@@ -53,6 +53,10 @@ DEFAULT_RHO = 100.0
 
 KINDS = ("ks_max", "ks_min", "mean", "total", "at")
 
+#: A configuration whose weight in an aggregate is below this times the aggregate's largest weight
+#: adds less than round-off to its gradient (exp(-30) ~ 1e-13): its gradient is not computed.
+NEGLIGIBLE = 1e-13
+
 
 def _configure_motion(link: str, component: str, mechanism, value) -> None:
     mechanism.prescribe(link, **{component: value})
@@ -142,14 +146,19 @@ class Aggregate:
     ``"ks_min"`` (KS with ``rho`` and ``scale``, module notes), ``"mean"``, ``"total"`` (sum),
     ``"at"`` (the value at configuration ``index``). Built by `ks_max`, `ks_min`, `mean`, `total`, `at`."""
 
-    response: object
+    response: object = attrs.field(converter=lambda r: tuple(r) if isinstance(r, list) else r)
     kind: str
     rho: float = DEFAULT_RHO
     scale: float | None = None
     index: int = 0
+    plain: bool = False  # a plain response of a one-configuration design: named as the response
 
     def __attrs_post_init__(self):
-        _responses(self.response)
+        for r in self.responses:
+            if not (hasattr(r, "value") and hasattr(r, "gradient")):
+                raise ParameterError(f"{self.kind}: {r!r} is not a response (flexmb.responses.*)")
+        if self.kind == "at" and len(self.responses) != 1:
+            raise ParameterError("at: one response, not several")
         if self.kind not in KINDS:
             raise ParameterError(f"aggregate kind={self.kind!r}; valid: {', '.join(KINDS)}")
         if not (isinstance(self.rho, (int, float)) and math.isfinite(self.rho) and self.rho > 0):
@@ -160,8 +169,16 @@ class Aggregate:
             raise ParameterError(f"at: index={self.index!r} must be an integer")
 
     @property
+    def responses(self) -> tuple:
+        """The response(s) aggregated: one, or several aggregated together over the stroke."""
+        return tuple(self.response) if isinstance(self.response, (tuple, list)) else (self.response,)
+
+    @property
     def name(self) -> str:
-        inner = self.response.name
+        inner = ", ".join(r.name for r in self.responses)
+        inner = inner if len(self.responses) == 1 else f"[{inner}]"
+        if self.plain:
+            return inner
         if self.kind == "at":
             return f"at({inner}, {self.index})"
         if self.kind in ("mean", "total"):
@@ -169,9 +186,14 @@ class Aggregate:
         return f"{self.kind}({inner}, rho={self.rho:g})"
 
     def combine(self, x: np.ndarray) -> tuple[float, np.ndarray, float]:
-        """``(aggregate, d aggregate / d x (N,), exact)`` of the values ``x`` (N,) over the stroke;
-        ``exact`` is the max / min the KS stands in for (the aggregate itself for the others)."""
+        """``(aggregate, d aggregate / d x, exact)`` of the values ``x`` over the stroke, (N,) or
+        (N, m) for m responses aggregated together (the derivative has x's shape); ``exact`` is the
+        max / min the KS stands in for (the aggregate itself for the others)."""
         x = np.asarray(x, dtype=float)
+        if x.ndim == 2:
+            value, w, exact = self.combine(x.ravel()) if x.shape[1] > 1 or self.kind != "at" else \
+                self.combine(x[:, 0])
+            return value, w.reshape(x.shape), exact
         n = len(x)
         if self.kind == "ks_max":
             value, w = _ks(x, self.rho, self.scale)
@@ -192,7 +214,9 @@ class Aggregate:
 
 def ks_max(response, rho: float = DEFAULT_RHO, scale: float | None = None) -> Aggregate:
     """The largest value of ``response`` over the stroke as the KS aggregate (module notes): at or
-    above the exact maximum by at most ``scale ln(N) / rho`` (``scale`` default: mean |value|)."""
+    above the exact maximum by at most ``scale ln(N) / rho`` (``scale`` default: mean |value|).
+    ``response`` may be a sequence of responses of one unit: the largest of all over the stroke
+    (e.g. the three support stiffnesses of a link, N = 3 x configurations)."""
     return Aggregate(response, "ks_max", rho, scale)
 
 
@@ -225,7 +249,7 @@ def as_aggregates(items, n: int) -> tuple:
         if isinstance(r, Aggregate):
             out.append(r)
         elif n == 1:
-            out.append(at(_responses(r)[0], 0))
+            out.append(Aggregate(_responses(r)[0], "at", plain=True))
         else:
             raise ParameterError(f"response {getattr(r, 'name', r)!r} over a stroke of {n} configurations: say how to "
                                  "aggregate it (flexmb.design.stroke.ks_max, ks_min, mean, total or at)")
@@ -241,14 +265,18 @@ def _strategy(method, options):
     return make_strategy(method, dict(options))
 
 
+def _same_motion(a, b) -> bool:
+    """Whether two problems of one model prescribe the same values and rotation chains."""
+    return np.array_equal(a.values, b.values) and len(a.rotation_paths) == len(b.rotation_paths) and all(
+        np.array_equal(x[0], y[0]) and np.array_equal(x[1], y[1]) for x, y in zip(a.rotation_paths, b.rotation_paths))
+
+
 def _warm_problem(problem, previous):
     """``problem`` (a configuration's clean problem) started from the ``previous`` configuration's
     equilibrium: its prescribed values and loads carried by the load factor from the previous ones
     (None when both changed: that configuration starts from the undeformed state)."""
     prev_problem = previous.compiled.problem
-    same_values = np.array_equal(problem.values, prev_problem.values) and \
-        len(problem.rotation_paths) == len(prev_problem.rotation_paths) and all(
-            np.array_equal(a[1], b[1]) for a, b in zip(problem.rotation_paths, prev_problem.rotation_paths))
+    same_values = _same_motion(problem, prev_problem)
     same_loads = all(np.array_equal(getattr(problem.loads, f), getattr(prev_problem.loads, f))
                      for f in ("offset", "force", "moment"))
     if same_values and same_loads:
@@ -264,16 +292,39 @@ def solve_configuration(point: DesignPoint, configure, strategy, previous=None):
     """The equilibrium of ``point``'s build changed by ``configure``, from ``previous`` (a converged
     `Solution` of a neighbouring configuration of the same design) when the strategy takes a start.
     The returned `Solution` belongs to the configuration's own compiled model (its clean problem)."""
-    from ..sweeps import _warm_starts
-
-    mech = point.mechanism(configure)
-    compiled = mech.compile(getattr(strategy, "capability", "fe_model"))
+    compiled = point.mechanism(configure).compile(getattr(strategy, "capability", "fe_model"))
     problem = None
-    if previous is not None and previous.converged and _warm_starts(strategy):
+    if _takes_start(strategy, compiled, previous):
         problem = _warm_problem(compiled.problem, previous)
     if problem is None:
         return strategy.solve(compiled)
     sol = strategy.solve(attrs.evolve(compiled, problem=problem), state=previous.state)
+    return attrs.evolve(sol, compiled=compiled)
+
+
+def _takes_start(strategy, compiled, previous) -> bool:
+    from ..sweeps import _warm_starts
+
+    return previous is not None and previous.converged and _warm_starts(strategy) and \
+        hasattr(compiled.problem, "rotation_paths")  # the finite-element problem
+
+
+def solve_from_design(point: DesignPoint, configure, strategy, seed):
+    """The equilibrium of ``point``'s configuration from ``seed``, the converged `Solution` of the
+    same configuration of a neighbouring design (a continuation in the design space): the seed's
+    nodal displacements and rotations carried onto this design's reference positions, then the
+    load factor runs from that state's residual to equilibrium (`StaticProblem.continued_from`).
+    None when it does not apply (another strategy, other prescribed values or mesh)."""
+    compiled = point.mechanism(configure).compile(getattr(strategy, "capability", "fe_model"))
+    if not _takes_start(strategy, compiled, seed):
+        return None
+    problem, before = compiled.problem, seed.compiled.problem
+    model, old = problem.model, before.model
+    if model.x0.shape != old.x0.shape or model.hinges is not None or not _same_motion(problem, before):
+        return None
+    state = attrs.evolve(seed.state, positions=model.x0 + (seed.state.positions - old.x0),
+                         rotations=seed.state.rotations.copy())
+    sol = strategy.solve(attrs.evolve(compiled, problem=problem.continued_from(state)), state=state)
     return attrs.evolve(sol, compiled=compiled)
 
 
@@ -307,17 +358,18 @@ class StrokeEvaluation:
 
 
 def _base_responses(aggregates) -> tuple[tuple, list]:
-    """The distinct responses under ``aggregates`` (by identity of their definition) and, per
-    aggregate, the index of its response among them."""
+    """The distinct responses under ``aggregates`` (equal definitions shared) and, per aggregate,
+    the indices of its responses among them."""
     base, where = [], []
     for a in aggregates:
-        for j, r in enumerate(base):
-            if r is a.response or (type(r) is type(a.response) and r == a.response):
-                where.append(j)
-                break
-        else:
-            where.append(len(base))
-            base.append(a.response)
+        idx = []
+        for r in a.responses:
+            j = next((j for j, b in enumerate(base) if b is r or (type(b) is type(r) and b == r)), None)
+            if j is None:
+                j = len(base)
+                base.append(r)
+            idx.append(j)
+        where.append(idx)
     return tuple(base), where
 
 
@@ -326,10 +378,13 @@ class StrokePoint:
     continuation), gradients on the first `jacobian` call from the kept solutions (no new solve).
     The unit that `flexmb.design.optimize` caches per design. On an executor the solutions stay
     in the workers: ``eager=True`` computes the gradients with the values (one pass), otherwise
-    a later `jacobian` call solves the stroke again."""
+    a later `jacobian` call solves the stroke again. ``seed``: the converged solutions of a
+    neighbouring design over the same stroke; each configuration is first solved from its seed
+    (`solve_from_design`), and from the previous configuration where that fails."""
 
     def __init__(self, build, p, aggregates, stroke=None, *, bounds=None, method: str = "conventional",
-                 mode: str = "auto", executor=None, chunks: int | None = None, eager: bool = False, **options):
+                 mode: str = "auto", executor=None, chunks: int | None = None, eager: bool = False, seed=None,
+                 **options):
         self.point = DesignPoint(build, p, bounds)
         self.names = self.point.names
         self.stroke = as_stroke(stroke)
@@ -337,11 +392,12 @@ class StrokePoint:
         self.aggregates = as_aggregates(aggregates, n)
         self.base, self._where = _base_responses(self.aggregates)
         self.method, self.mode, self.options = method, mode, dict(options)
-        self.executor, self.chunks, self.eager = executor, chunks, eager
+        self.executor, self.chunks, self.eager, self.seed = executor, chunks, eager, seed
         self.solutions = None
         self.solves = self.iterations = 0
         self.times = {"solve": 0.0, "responses": 0.0, "gradient": 0.0}
         self._values = self._jacobians = None
+        self._rows: dict = {}  # (configuration, distinct response) -> gradient (K,)
 
     def _configure(self, i: int):
         return None if self.stroke is None else self.stroke.configure_at(i)
@@ -350,12 +406,13 @@ class StrokePoint:
         strategy = _strategy(self.method, self.options)
         sols, previous = [], None
         n = 1 if self.stroke is None else len(self.stroke)
+        seed = self.seed if self.seed is not None and len(self.seed) == n else [None] * n
         for i in range(n):
             t0 = time.perf_counter()
-            sol = solve_configuration(self.point, self._configure(i), strategy, previous)
+            sol = self._attempt(solve_from_design, strategy, i, seed[i]) if seed[i] is not None else None
+            if sol is None or not sol.converged:
+                sol = self._attempt(solve_configuration, strategy, i, previous)
             self.times["solve"] += time.perf_counter() - t0
-            self.solves += 1
-            self.iterations += int(sol.iterations)
             if not sol.converged:
                 where = "" if self.stroke is None else f" at stroke value {self.stroke.values[i].tolist()} (configuration {i})"
                 raise ConvergenceError(f"the design at {self.point.design.values}{where} did not converge "
@@ -363,6 +420,14 @@ class StrokePoint:
             sols.append(sol)
             previous = sol
         return sols
+
+    def _attempt(self, how, strategy, i: int, start):
+        """One solve of configuration ``i`` by ``how`` from ``start`` (counted), or None."""
+        sol = how(self.point, self._configure(i), strategy, start)
+        if sol is not None:
+            self.solves += 1
+            self.iterations += int(sol.iterations)
+        return sol
 
     def _evaluate(self, i: int, gradient: bool):
         return self.point.evaluate(self.base, configure=self._configure(i), solution=self.solutions[i],
@@ -386,11 +451,22 @@ class StrokePoint:
             if self.executor is not None and self.executor != "serial":
                 self._parallel(gradient=True)
             else:
-                self.configuration_values()
-                t0 = time.perf_counter()
-                self._jacobians = np.array([self._evaluate(i, True).jacobian for i in range(len(self.solutions))])
-                self.times["gradient"] += time.perf_counter() - t0
+                n, m = self.configuration_values().shape
+                self._gradient_rows({i: range(m) for i in range(n)})
+                self._jacobians = np.array([[self._rows[i, j] for j in range(m)] for i in range(n)])
         return self._jacobians
+
+    def _gradient_rows(self, needed: dict) -> None:
+        """The gradients of the distinct responses ``needed[i]`` at each configuration ``i`` (kept)."""
+        t0 = time.perf_counter()
+        for i, js in needed.items():
+            missing = [j for j in js if (i, j) not in self._rows]
+            if missing:
+                ev = self.point.evaluate([self.base[j] for j in missing], configure=self._configure(i),
+                                         solution=self.solutions[i], method=self.method, gradient=True,
+                                         mode=self.mode)
+                self._rows.update({(i, j): row for j, row in zip(missing, ev.jacobian)})
+        self.times["gradient"] += time.perf_counter() - t0
 
     def _parallel(self, gradient: bool) -> None:
         n = len(self.stroke) if self.stroke is not None else 1
@@ -406,13 +482,26 @@ class StrokePoint:
     def values(self) -> tuple[np.ndarray, np.ndarray]:
         """The aggregates' values (R,) and their exact extremes (R,)."""
         x = self.configuration_values()
-        out = [a.combine(x[:, j]) for a, j in zip(self.aggregates, self._where)]
+        out = [a.combine(x[:, js]) for a, js in zip(self.aggregates, self._where)]
         return np.array([o[0] for o in out]), np.array([o[2] for o in out])
 
     def jacobian(self) -> np.ndarray:
-        """(R, K) the aggregates' gradients."""
-        x, J = self.configuration_values(), self.configuration_jacobians()
-        return np.array([a.combine(x[:, j])[1] @ J[:, j, :] for a, j in zip(self.aggregates, self._where)])
+        """(R, K) the aggregates' gradients ``sum_i w_i dx_i/dp``, from the configurations whose
+        weight ``w_i`` in some aggregate exceeds `NEGLIGIBLE` times that aggregate's largest
+        (the others add below round-off: a KS aggregate far from its extreme, an ``at``)."""
+        x = self.configuration_values()
+        weights = [a.combine(x[:, js])[1] for a, js in zip(self.aggregates, self._where)]  # (N, m) each
+        if self._jacobians is not None or self.solutions is None:  # all known, or solved on an executor
+            J = self.configuration_jacobians()
+            return np.array([np.einsum("nm,nmk->k", w, J[:, js, :]) for w, js in zip(weights, self._where)])
+        needed: dict = {}
+        for w, js in zip(weights, self._where):
+            for i, c in zip(*np.nonzero(np.abs(w) > NEGLIGIBLE * np.max(np.abs(w)))):
+                needed.setdefault(int(i), set()).add(js[c])
+        self._gradient_rows({i: sorted(j) for i, j in sorted(needed.items())})
+        K = len(self.names)
+        return np.array([sum((w[i, c] * self._rows[i, j] for i in range(len(w)) for c, j in enumerate(js)
+                              if (i, j) in self._rows), np.zeros(K)) for w, js in zip(weights, self._where)])
 
     def evaluation(self, gradient: bool = True) -> StrokeEvaluation:
         if gradient:  # on an executor: values and gradients in one pass of the workers
@@ -431,7 +520,7 @@ class StrokePoint:
 def _chunk_job(design, stroke, indices, base, method, mode, gradient, options):
     """A worker's part: one continuation over ``indices`` of the stroke; numbers only."""
     sub = attrs.evolve(stroke, values=stroke.values[list(indices)])
-    sp = StrokePoint(design, None, [mean(r) for r in base], sub, method=method, mode=mode, **options)
+    sp = StrokePoint(design, None, [mean(tuple(base))], sub, method=method, mode=mode, **options)
     vals = sp.configuration_values()
     jacs = sp.configuration_jacobians() if gradient else None
     return vals, jacs, sp.solves, sp.iterations, dict(sp.times, rates=sp.point.rates_time)

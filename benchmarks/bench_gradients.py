@@ -22,13 +22,14 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _report import machine, run  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
+from _report import machine, run
 
-import flexmb  # noqa: E402
-from flexmb.design import DesignPoint, responses as R  # noqa: E402
-from flexmb.design.adjoint import Sensitivity  # noqa: E402
-from flexmb.linear import single_threaded  # noqa: E402
+import flexmb
+from flexmb.design import DesignPoint
+from flexmb.design import responses as R
+from flexmb.design.adjoint import Sensitivity
+from flexmb.linear import single_threaded
 
 
 def hinge(p: dict, turn: float = 0.5) -> flexmb.Mechanism:

@@ -132,11 +132,10 @@ class Sensitivity:
             raise UnsupportedStrategyError(
                 "design gradients of a prescribed chain of rotations (Mechanism.prescribe(rotation=[...])) that depends "
                 f"on the parameters {list(self.names)} are not available; prescribe the rotation vector instead")
-        if m.dim == 3:
-            first = np.flatnonzero(comp == 3)
-            for i in first:
-                J = left_jacobian(lam * self.problem.values[i:i + 3])
-                out[i:i + 3] = J @ out[i:i + 3]
+        if m.dim == 3:  # the prescribed rotation vectors' totals from the undeformed state (the rates' own
+            values = self.rates.compiled_numbers("values")  # compile: a warm-started problem holds increments)
+            for i in np.flatnonzero(comp == 3):
+                out[i:i + 3] = left_jacobian(lam * values[i:i + 3]) @ out[i:i + 3]
         return out
 
     @functools.cached_property

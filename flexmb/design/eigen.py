@@ -27,7 +27,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import ModelError, ParameterError
-from ..linearised import buckling as _buckling, compliance as _compliance, material_tangent
+from ..linearised import buckling as _buckling
+from ..linearised import compliance as _compliance
+from ..linearised import material_tangent
 from ..modal import held_dofs, modes
 from .base import component_index
 
@@ -60,10 +62,10 @@ def _left_vectors(A, B, Phi: np.ndarray, lam: float) -> np.ndarray:
     Ash = (A - s * B).tocsc() if hasattr(A, "tocsc") else A - s * B
     if hasattr(Ash, "tocsc"):
         lu = spla.splu(Ash)
-        solve = lambda r: lu.solve(r, trans="T")  # noqa: E731
+        solve = lambda r: lu.solve(r, trans="T")
     else:
         lu = sla.lu_factor(Ash)
-        solve = lambda r: sla.lu_solve(lu, r, trans=1)  # noqa: E731
+        solve = lambda r: sla.lu_solve(lu, r, trans=1)
     Psi = B.T @ Phi
     for _ in range(2):
         Psi = solve(Psi)

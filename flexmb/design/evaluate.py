@@ -15,8 +15,8 @@ import attrs
 import numpy as np
 
 from ..boundary import boundary
-from ..linear import single_threaded
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
+from ..linear import single_threaded
 from .adjoint import STRATEGIES, Sensitivity
 from .parameters import ModelRates, as_design, model_numbers, model_rates
 
@@ -157,7 +157,7 @@ class DesignPoint:
         if not solution.converged:
             raise ConvergenceError(f"the design at {self.design.values} did not converge ({solution.message}); "
                                    "no responses or gradients of an unconverged state", solution)
-        if solution.method not in STRATEGIES:  # refused naming the method (and, with gradients, each parameter's kind)
+        if solution.method not in STRATEGIES + ("ksd-reduced",):  # refused naming the method and each parameter's kind
             if gradient:
                 Sensitivity(solution, self.rates(None))
             raise UnsupportedStrategyError(f"design responses with method {solution.method!r}: available for "
@@ -171,16 +171,48 @@ class DesignPoint:
         if not gradient:
             return Evaluation(self.names, tuple(r.name for r in items), values, None, solution, times)
         t2 = time.perf_counter()
-        rates = self.rates(None if configure is not None else solution.compiled)
+        # the rates are taken about fresh compiles (totals from the undeformed state: a warm-started
+        # solution's problem holds increments of its prescribed values)
+        rates = self.rates(None)
         if configure is not None:
-            rates = _Configured(rates, configure, solution.compiled)
+            rates = _Configured(rates, configure, self.mechanism(configure).compile("fe_model"))
         t3 = time.perf_counter()
-        sens = Sensitivity(solution, rates)
+        _same_model(rates.compiled, solution, self.design.values)
+        sens = _sensitivity(solution, rates, items)
         if mode == "auto":
             mode = "direct" if len(items) > len(self.names) else "auto"
         jac = np.array([r.gradient(sens, mode) for r in items], dtype=float).reshape(len(items), len(self.names))
         times.update(rates=t3 - t2, gradient=time.perf_counter() - t3)
         return Evaluation(self.names, tuple(r.name for r in items), values, jac, solution, times)
+
+
+def _same_model(compiled, solution, values) -> None:
+    """Refuse a ``solution`` that is not of the design's (configured) mechanism: another structure or
+    other reference numbers (another design, or the same one at other parameters)."""
+    from .parameters import structure
+
+    mine, theirs = compiled.problem.model, solution.compiled.problem.model
+    a, b = structure(compiled), structure(solution.compiled)
+    same = all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray) else a[k] == b[k]
+               for k in a if k != "prescribed DOFs")
+    same = same and mine.x0.shape == theirs.x0.shape and np.array_equal(mine.x0, theirs.x0) and \
+        np.array_equal(mine.elements.L0, theirs.elements.L0) and np.array_equal(mine.elements.S, theirs.elements.S)
+    if not same:
+        raise ParameterError(f"the solution given is not one of the design at {values} (its model's structure or "
+                             "reference numbers differ): pass a solve of DesignPoint.mechanism(configure)")
+
+
+def _sensitivity(solution, rates, items):
+    """The linearisation of ``solution`` for the responses ``items``: `Sensitivity` of the full
+    model; a KSD-reduced solution's `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
+    if solution.method != "ksd-reduced":
+        return Sensitivity(solution, rates)
+    from .reduced import ReducedSensitivity
+
+    sens = ReducedSensitivity(solution, rates)
+    for r in items:
+        sens.check_response(r)
+    return sens
 
 
 def evaluate(build, p, responses, *, bounds=None, **options) -> Evaluation:

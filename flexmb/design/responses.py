@@ -16,8 +16,8 @@ import attrs
 import numpy as np
 
 from ..errors import ModelError, ParameterError
-from .base import Response, component_index
 from .adjoint import left_jacobian
+from .base import Response, component_index
 from .eigen import buckling, compliance, frequency
 from .stress import stress
 
@@ -159,7 +159,7 @@ class _Rotation(Response):
         return model, _node(solution, self.link, "rotation"), c
 
     def value(self, solution) -> float:
-        model, n, c = self._where(solution)
+        model, _, c = self._where(solution)
         return float(solution.rotation_vector(self.link)[c - model.dim])
 
     def partials(self, sens):

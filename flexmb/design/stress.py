@@ -18,8 +18,8 @@ import numpy as np
 
 from ..errors import ModelError, ParameterError
 from ..fe.stress import PERIMETER_POINTS, stress_points
-from .partials import H, _complex, _element_hits, _elements
 from .base import Response
+from .partials import H, _complex, _element_hits, _elements
 
 __all__ = ["stress", "stress_units", "DEFAULT_RHO"]
 
@@ -56,7 +56,7 @@ def _von_mises(e, sig, L0, units, inv_A, dim):
         N, Vy, Vz, T = sig[:, 0], L0 * (sig[:, 4] - sig[:, 5]) / l, L0 * (sig[:, 3] - sig[:, 2]) / l, L0 * sig[:, 1]
         My, Mz = L0[:, None] * sig[:, 2:4], L0[:, None] * sig[:, 4:6]
     u = units[:, None]  # (B, 1, P, 8)
-    c = lambda a: np.asarray(a)[:, None, None] if np.ndim(a) else a  # noqa: E731
+    c = lambda a: np.asarray(a)[:, None, None] if np.ndim(a) else a
     sx = c(N * inv_A) + My[:, :, None] * u[..., 0] - Mz[:, :, None] * u[..., 1]
     t0 = c(T) * u[..., 2] + c(Vy) * u[..., 4] + c(Vz) * u[..., 6]
     t1 = c(T) * u[..., 3] + c(Vy) * u[..., 5] + c(Vz) * u[..., 7]

@@ -57,7 +57,7 @@ def test_one_design_evaluated_for_objective_constraints_and_gradients_is_solved_
     aggs = as_aggregates([ks_min(support_stiffness("stage", "y", point="tool")), ks_max(R.reaction("stage", "x"))],
                          len(STROKE))
     lower, upper = np.array([0.2, 30.0, 20.0]), np.array([1.0, 100.0, 60.0])
-    prob = _Problem(design, lower, upper, aggs, -1.0, [(1, "<=", 5.0)], STROKE, "adjoint", {}, None)
+    prob = _Problem(design, lower, upper, aggs, -1.0, [(1, "<=", 5.0, "force")], STROKE, "adjoint", {}, None)
     x = np.array([0.4, 0.5, 0.5])
     prob.f(x), prob.c(x), prob.df(x), prob.dc(x), prob.f(x.copy()), prob.dc(x)
     assert prob.solves == len(STROKE) and len(prob.rows) == 1

@@ -9,6 +9,7 @@ import attrs
 import numpy as np
 
 from ..errors import ModelError, ParameterError
+from .base import component_index
 
 __all__ = ["reciprocal", "support_stiffness"]
 
@@ -26,17 +27,42 @@ class _Reciprocal:
         return f"1/{self.response.name}"
 
     def value(self, solution) -> float:
-        x = float(self.response.value(solution))
+        x = _inner_value(self.response, solution)
         if x == 0.0:
             raise ModelError(f"reciprocal: {self.response.name} is zero (no finite reciprocal)")
         return 1.0 / x
 
     def gradient(self, sens, method: str = "auto") -> np.ndarray:
         """``d(1/J)/dp = -J' / J^2``."""
-        x = float(self.response.value(sens.solution))
+        x = _inner_value(self.response, sens.solution)
         if x == 0.0:
             raise ModelError(f"reciprocal: {self.response.name} is zero (no derivative of its reciprocal)")
         return -np.asarray(self.response.gradient(_shared(sens), method), dtype=float) / (x * x)
+
+
+_MATRICES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _inner_value(response, solution) -> float:
+    """The response's value; a compliance entry from its point's whole compliance matrix, kept per
+    solution (`flexmb.linearised.compliance` once for a point's several entries)."""
+    from .eigen import _Compliance
+
+    if type(response) is not _Compliance or response.axes not in ("global", "link"):
+        return float(response.value(solution))
+    try:
+        kept = _MATRICES.setdefault(solution, {})
+    except TypeError:  # not weakly referable
+        return float(response.value(solution))
+    key = (response.link, response.point if response.point is None or isinstance(response.point, str)
+           else tuple(np.ravel(response.point)), response.axes, repr(response.held))
+    if key not in kept:
+        from ..linearised import compliance
+
+        kept[key] = compliance(solution, response.link, response.point, response.axes, response.held)
+    dim = solution.compiled.problem.model.dim
+    i, j = (component_index(dim, c, "compliance") for c in (response.row, response.column))
+    return float(kept[key][i, j])
 
 
 class _SharedForms:

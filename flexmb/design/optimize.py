@@ -130,7 +130,7 @@ class _Problem:
     def __init__(self, design, lower, upper, aggregates, sign, constraints, stroke, gradient, point_options, bar):
         self.design, self.lower, self.upper = design, lower, upper
         self.names = design.names
-        # aggregates: the objective's first; constraints: (index among the aggregates, side, limit)
+        # aggregates: the objective's first; constraints: (index among the aggregates, side, limit, label)
         self.aggregates, self.sign, self.constraints = aggregates, sign, constraints
         self.stroke, self.gradient, self.options, self.bar = stroke, gradient, point_options, bar
         self.cache: OrderedDict = OrderedDict()
@@ -212,22 +212,18 @@ class _Problem:
     def _scale(self, e: _Entry, values, exact) -> None:
         if self.f0 is None:
             self.f0 = abs(values[0]) if values[0] != 0 else 1.0
-            self.labels = [self._label(j, side, limit) for j, side, limit in self.constraints]
+            self.labels = [label for *_, label in self.constraints]
         e.f = self.sign * values[0] / self.f0
-        e.c = np.array([self._margin(values[j], side, limit) for j, side, limit in self.constraints])
+        e.c = np.array([self._margin(values[j], side, limit) for j, side, limit, _ in self.constraints])
         self.worst = max(self.worst, e.f)
         e.row.update(objective=values[0], objective_exact=exact[0])
-        for (j, _, _), label, m in zip(self.constraints, self.labels, e.c):
+        for (j, *_), label, m in zip(self.constraints, self.labels, e.c):
             e.row[f"{label}"] = values[j]
             e.row[f"margin {label}"] = m
         feasible = bool(np.all(e.c >= -FEASIBLE))
         e.row.update(feasible=feasible, error="")
         if self.best is None or _better(e, self.best):
             self.best = e
-
-    def _label(self, j, side, limit) -> str:
-        name = self.aggregates[j].name
-        return f"{name} {side} {limit:g}"
 
     @staticmethod
     def _margin(value, side, limit) -> float:
@@ -263,7 +259,7 @@ class _Problem:
         span = self.upper - self.lower
         e.df = self.sign * J[0] * span / self.f0
         e.dc = np.array([(-1.0 if side == "<=" else 1.0) * J[j] * span / (abs(limit) if limit != 0 else 1.0)
-                         for j, side, limit in self.constraints]).reshape(len(self.constraints), len(self.names))
+                         for j, side, limit, _ in self.constraints]).reshape(len(self.constraints), len(self.names))
         e.row["gradient_norm"] = float(np.linalg.norm(e.df))
         self.last_good = e
         self._tick()
@@ -457,15 +453,18 @@ def _checked_choice(optimizer: str, gradient: str | None) -> str:
 
 
 def _constraint_list(constraints, n_configurations: int):
-    """Aggregates of the constraints and ``(index among the aggregates, side, limit)`` per side."""
+    """Aggregates of the constraints and ``(index among the aggregates, side, limit, label)`` per side."""
     items, sides = [], []
     for k, c in enumerate(constraints):
         if not isinstance(c, Constraint):
             raise ParameterError(f"optimize: constraint {k} is {c!r}; give flexmb.design.optimize.Constraint("
                                  "response, upper=..., lower=...)")
         items.append(as_aggregates(c.response, n_configurations)[0])
+        both = len(c.sides()) > 1
         for side, limit in c.sides():
-            sides.append((k + 1, side, limit))
+            label = f"{items[-1].name} {side} {limit:g}" if c.name is None else \
+                (f"{c.name} ({side} {limit:g})" if both else c.name)
+            sides.append((k + 1, side, limit, label))
     return tuple(items), sides
 
 

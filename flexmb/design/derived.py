@@ -24,9 +24,11 @@ class _Reciprocal:
 
     @property
     def name(self) -> str:
+        """``1/<the response's name>``."""
         return f"1/{self.response.name}"
 
     def value(self, solution) -> float:
+        """``1 / J`` at the converged ``solution``."""
         x = _inner_value(self.response, solution)
         if x == 0.0:
             raise ModelError(f"reciprocal: {self.response.name} is zero (no finite reciprocal)")

@@ -73,8 +73,6 @@ class Constraint:
         """``[("<=", upper), (">=", lower)]`` for the sides given."""
         return [(s, float(v)) for s, v in (("<=", self.upper), (">=", self.lower)) if v is not None]
 
-    def label(self, response_name: str) -> str:
-        return self.name or response_name
 
 
 @attrs.frozen(eq=False)

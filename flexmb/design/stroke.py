@@ -175,6 +175,7 @@ class Aggregate:
 
     @property
     def name(self) -> str:
+        """The aggregate's name for tables, e.g. ``ks_min(1/compliance(B, y, y), rho=100)``."""
         inner = ", ".join(r.name for r in self.responses)
         inner = inner if len(self.responses) == 1 else f"[{inner}]"
         if self.plain:
@@ -504,6 +505,7 @@ class StrokePoint:
                               if (i, j) in self._rows), np.zeros(K)) for w, js in zip(weights, self._where)])
 
     def evaluation(self, gradient: bool = True) -> StrokeEvaluation:
+        """The `StrokeEvaluation` of this design (its gradients too unless ``gradient=False``)."""
         if gradient:  # on an executor: values and gradients in one pass of the workers
             self.configuration_jacobians()
         values, exact = self.values()

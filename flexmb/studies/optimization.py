@@ -27,7 +27,7 @@ import time
 import attrs
 import numpy as np
 
-from .. import responses as R
+from ..design import responses as R
 from ..design.derived import support_stiffness
 from ..design.optimize import Constraint, optimize
 from ..design.stroke import Stroke, at, ks_max, ks_min

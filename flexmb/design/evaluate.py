@@ -17,6 +17,7 @@ import numpy as np
 
 from ..boundary import boundary
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
+from ..ksd.linearisation import ReducedSolution
 from ..linear import single_threaded
 from .adjoint import STRATEGIES, Sensitivity
 from .parameters import ModelRates, as_design, model_numbers, model_rates
@@ -175,7 +176,7 @@ class DesignPoint:
         if not solution.converged:
             raise ConvergenceError(f"the design at {self.design.values} did not converge ({solution.message}); "
                                    "no responses or gradients of an unconverged state", solution)
-        if solution.method not in STRATEGIES + ("ksd-reduced",):  # refused naming the method and each parameter's kind
+        if not isinstance(solution, ReducedSolution) and solution.method not in STRATEGIES:  # refused naming the method
             if gradient:
                 Sensitivity(solution, self.rates(None))
             raise UnsupportedStrategyError(f"design responses with method {solution.method!r}: available for "
@@ -222,8 +223,9 @@ def _same_model(compiled, solution, values) -> None:
 
 def _sensitivity(solution, rates, items):
     """The linearisation of ``solution`` for the responses ``items``: `Sensitivity` of the full
-    model; a KSD-reduced solution's `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
-    if solution.method != "ksd-reduced":
+    model; a KSD-reduced solution's (its kind, `ReducedSolution`)
+    `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
+    if not isinstance(solution, ReducedSolution):
         return Sensitivity(solution, rates)
     from .reduced import ReducedSensitivity
 

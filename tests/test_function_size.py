@@ -29,10 +29,7 @@ MAX_BRANCHES = 25
 #: "module:qualified.name" -> (owner, reason). Each one is a debt with a name on it.
 EXCEPTIONS = {
     "flexmb/path.py:trace": ("snap", "being split into small functions on branch snap (issue 29); temporary"),
-    "flexmb/study.py:parameter_study": ("plugin", "study.py is plugin's this session (issue 33); not split here"),
     "flexmb/fe/build.py:build": ("speed", "fe/build.py is speed's this session (issue 31); not split here"),
-    "flexmb/fe/beam3d.py:_internal_force_and_tangent": (
-        "grad", "Appendix A's element in the paper's order, being made complex-safe on branch grad (issue 28)"),
     "flexmb/fe/beam3d_jit.py:_kernel": (
         "unassigned", "the numba twin of beam3d's element, one compiled pass per element (its loop body the "
                       "paper's order); splitting it into njit calls is a speed question nobody has measured"),

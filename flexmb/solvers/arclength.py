@@ -326,7 +326,10 @@ class ArcLength:
         is_tr = problem.model.force_dofs
         # forces and moments measure each other through the size: a mechanism loaded by moments
         # alone (a sprung hinge turned) has forces of round-off size, no scale of their own
-        F0 = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
+        # the element end forces meeting at a node (and the hinges' constraint forces) set its
+        # round-off floor: a mechanism that moves on hinges carries little net force but its
+        # residual sums large end forces (a motor four-bar: 5e-9 N of 0.3 N, none applied)
+        F0 = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]), getattr(problem, "force_scale", 0.0))
         M0 = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]))
         F, M = max(F0, M0 / metric.size), max(M0, F0 * metric.size)
         if F == 0.0 and M == 0.0:

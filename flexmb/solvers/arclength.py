@@ -39,7 +39,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import ParameterError
 from ..fe.model import State
-from .branching import branch_points, choose, critical_modes, is_bifurcation, multiplicity, switch_arc
+from .branching import DENSE_EIGEN_BELOW, branch_points, choose, critical_modes, is_bifurcation, multiplicity, switch_arc
 from .conventional import is_stable, positive_float, positive_int, relative_tolerance, unit_interval
 
 __all__ = ["ArcLength", "PathPoint", "load_tangent", "inertia", "DENSE_EIGEN_BELOW"]
@@ -47,8 +47,7 @@ __all__ = ["ArcLength", "PathPoint", "load_tangent", "inertia", "DENSE_EIGEN_BEL
 #: Below this many free DOFs the eigenvalues of the symmetric tangent come from LAPACK's dense
 #: ``eigvalsh`` (all of them; measured 0.4 ms at 60, 34 ms at 300, 2.2 s at 1500 DOFs, one BLAS
 #: thread, loaded host); above, the negative count from a sparse symmetric LDL^T and the
-#: eigenvalues nearest zero from ARPACK (shift-invert at 0).
-DENSE_EIGEN_BELOW = 400
+#: eigenvalues nearest zero from ARPACK (shift-invert at 0). (`flexmb.solvers.branching`'s.)
 
 #: Eigenvalue crossings located within this fraction of a step's arc length of each other are
 #: one critical point of that multiplicity: each is located to ``locate_tol`` (1e-6) of it, so a
@@ -316,6 +315,11 @@ class ArcLength:
         except (np.linalg.LinAlgError, RuntimeError, ValueError):
             return None
 
+    def rate(self, problem, state: State, lam: float):
+        """The path's rate per unit load factor on all DOFs at ``(state, lam)`` (`_rate`), or None."""
+        _, Kff, Kfp, _ = problem.evaluate(state, lam)
+        return _rate(problem, state, lam, Kff, Kfp)
+
     def _point(self, problem, metric, a, state, lam, r, Kff, Kfp, iterations, history, seconds) -> PathPoint:
         t, tl = _unit_tangent(problem, metric, state, lam, Kff, Kfp)
         chord_u, chord_l = metric.difference(state, a.state), lam - a.lam
@@ -445,7 +449,8 @@ class ArcLength:
             if kind == "limit":  # a pitchfork met along its bifurcated branch turns the load factor too
                 m = multiplicity(p)
                 modes = critical_modes(problem, metric, p, m)
-                kind = "bifurcation" if is_bifurcation(problem, metric, p, modes) else kind
+                g = load_tangent(problem, p.state, p.lam)[0]
+                kind = "bifurcation" if is_bifurcation(problem, metric, modes, g) else kind
             else:
                 modes = critical_modes(problem, metric, p, m)
             out.append((kind, p, m, modes))

@@ -56,6 +56,11 @@ NEAR_ZERO = 1e-4
 SWITCH_MOTION = 0.01
 
 
+#: Below this many free DOFs eigenvectors come from LAPACK's dense ``eigh``, above from
+#: shift-invert ARPACK at 0 (as `flexmb.solvers.arclength.inertia`'s eigenvalues).
+DENSE_EIGEN_BELOW = 400
+
+
 def critical_modes(problem, metric, p, m: int) -> np.ndarray:
     """The ``m`` critical modes at ``p`` (a `PathPoint` at a critical point): eigenvectors of
     the symmetric free tangent (with hinges, on the motions they allow) for the ``m``
@@ -92,14 +97,12 @@ def multiplicity(p) -> int:
     return max(1, int(np.sum(a <= NEAR_ZERO * a.max()))) if len(a) else 1
 
 
-def is_bifurcation(problem, metric, p, modes: np.ndarray) -> bool:
-    """Whether the load factor's extremum at ``p`` is a bifurcation point (a pitchfork met along
-    its bifurcated branch): every critical mode orthogonal to the load pattern ``d r / d lam``
-    (`ORTHOGONAL`), measured on the nodes' DOFs in the metric and its dual (unit-free)."""
-    from .arclength import load_tangent
-
+def is_bifurcation(problem, metric, modes: np.ndarray, g_free: np.ndarray) -> bool:
+    """Whether a load factor's extremum is a bifurcation point (a pitchfork met along its
+    bifurcated branch): every critical mode orthogonal to the load pattern ``g_free = d r_f / d lam``
+    there (`ORTHOGONAL`), measured on the nodes' DOFs in the metric and its dual (unit-free)."""
     g = np.zeros(problem.model.n_dofs)
-    g[problem.free] = load_tangent(problem, p.state, p.lam)[0]
+    g[problem.free] = g_free
     w = metric.weights()
     on = w > 0  # the nodes' DOFs (the hinges' multipliers weigh nothing)
     gw = g[on] / w[on]
@@ -110,19 +113,13 @@ def is_bifurcation(problem, metric, p, modes: np.ndarray) -> bool:
                for phi in modes)
 
 
-def load_directions(problem, metric, p, modes: np.ndarray) -> list:
+def load_directions(strategy, problem, metric, p, modes: np.ndarray) -> list:
     """Unit path tangents ``(t, t_lam)`` at the bifurcation point ``p`` of the branch through it
     along which the load factor changes: ``K t = -d r / d lam`` solved on the complement of the
     critical ``modes`` (the load pattern does not work on them there), both ways."""
-    from .arclength import _prescribed_rate, load_tangent
-
-    _, Kff, Kfp, _ = problem.evaluate(p.state, p.lam)
-    g, vp = load_tangent(problem, p.state, p.lam, Kfp)
-    try:
-        tf = problem.solve_linear(Kff, -g)
-    except (np.linalg.LinAlgError, RuntimeError, ValueError):
+    t = strategy.rate(problem, p.state, p.lam)
+    if t is None:
         return []
-    t = problem.full_increment(tf, vp if vp is not None else _prescribed_rate(problem, p.lam))
     for phi in modes:  # the singular solve's null-space part: removed in the metric
         t = t - metric.dot(phi, t) / metric.dot(phi, phi) * phi
     if not np.all(np.isfinite(t)):
@@ -141,8 +138,6 @@ def switch_arc(metric, modes: np.ndarray) -> float:
 def _null_vectors(K, m: int) -> np.ndarray:
     """Eigenvectors (n, m) of the symmetric part of ``K`` for its ``m`` eigenvalues nearest zero."""
     n = K.shape[0]
-    from .arclength import DENSE_EIGEN_BELOW
-
     if n < DENSE_EIGEN_BELOW:
         A = K.toarray() if hasattr(K, "toarray") else np.asarray(K)
         ev, V = sla.eigh(0.5 * (A + A.T))
@@ -181,7 +176,7 @@ def branch_points(strategy, problem, metric, p, came_from, modes: np.ndarray, ds
                                                       direction=1.0, dlam_ds=-incoming[1] / n), ds)
     if own is not None:
         found.append(own)
-    predictors = [(d, 0.0) for d in directions(modes)] + load_directions(problem, metric, p, modes)
+    predictors = [(d, 0.0) for d in directions(modes)] + load_directions(strategy, problem, metric, p, modes)
     for d, dl in predictors:
         start = attrs.evolve(p, tangent=d, tangent_lam=dl, direction=1.0, dlam_ds=dl)
         q = strategy.step(problem, metric, start, ds)

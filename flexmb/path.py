@@ -17,6 +17,7 @@ import numpy as np
 
 from . import _validate as v
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
+from .linear import single_threaded
 from .plausibility import check
 from .results import Solution
 from .solvers.arclength import ArcLength
@@ -72,12 +73,13 @@ class Path(SweepResult):
     `flexmb.export.write_series` and their arrays to `flexmb.plot.plot_force_curve` as they are.
     """
 
-    def __init__(self, solutions, points, critical, message: str, stopped_by: str):
+    def __init__(self, solutions, points, critical, message: str, stopped_by: str, tracer=None):
         super().__init__(solutions, np.array([p.lam for p in points]), "load_factor")
         self._negative = np.array([p.negative for p in points], dtype=np.int64)
         self._arc = np.array([p.arc for p in points])
         self.critical = list(critical)
         self.message, self.stopped_by = message, stopped_by
+        self._tracer = tracer  # what `crossings` steps with (None: a path that cannot locate)
 
     @property
     def load_factor(self) -> np.ndarray:
@@ -113,6 +115,28 @@ class Path(SweepResult):
             if len(before) and len(after) and self._negative[before[-1]] == 0 and self._negative[after[0]] > 0:
                 return c
         return None
+
+    def crossings(self, response, value: float = 0.0) -> list:
+        """The points of the path where ``response(solution)`` (a float: a reaction component, a
+        displacement) equals ``value``, located between the traced points where it changes sign
+        (regula falsi on the arc length, each trial a converged equilibrium, to ``locate_tol``),
+        in path order: a list of `Solution` s (e.g. the zero crossings of a force-stroke curve,
+        the second stable position of a bistable device)."""
+        if not callable(response):
+            raise ParameterError(f"Path.crossings: response={response!r} must be a callable response(solution) -> float")
+        value = v.finite("Path.crossings", "value", value)
+        g = np.array([float(response(s)) for s in self.solutions]) - value
+        g[np.abs(g) <= 1e-9 * np.max(np.abs(g), initial=0.0)] = 0.0  # round-off (a reaction at rest)
+        out = []
+        for k in np.flatnonzero(np.sign(g[:-1]) * np.sign(g[1:]) <= 0):
+            if g[k] == 0.0:
+                out.append(self.solutions[k])
+            elif g[k + 1] != 0.0 and self._tracer is not None:
+                with single_threaded():
+                    out.append(self._tracer.crossing(k + 1, response, value, g[k], g[k + 1]))
+        if len(g) and g[-1] == 0.0:
+            out.append(self.solutions[-1])
+        return out
 
     def __repr__(self) -> str:
         kinds = ", ".join(f"{c.kind}{'' if c.multiplicity == 1 else f' (x{c.multiplicity})'} at "
@@ -159,10 +183,11 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         Stop where the path reaches this load factor (the point at exactly this value is
         computed and is the last point). None: no limit.
     stop
-        A predicate ``stop(solution) -> bool`` called with the start and every new point; True
-        ends the path (that point included). It is tried on the start first: raising there or
-        returning anything but a bool is refused (`ParameterError`); later, the path ends there
-        (``stopped_by="failure"``, the reason in `Path.message`, a UserWarning), its points kept.
+        A predicate ``stop(solution) -> bool`` called with every new point; True ends the path
+        (that point included). It is tried on the start first, whose answer does not count:
+        raising there or returning anything but a bool is refused (`ParameterError`); later, the
+        path ends there (``stopped_by="failure"``, the reason in `Path.message`, a UserWarning),
+        its points kept.
     method
         ``"conventional"``: the full finite-element model (the only one with a tangent in every
         direction; KSD and the closed forms cannot follow a path).
@@ -194,21 +219,30 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         v.positive(owner, "arc_length", arc_length)
     compiled, state = _compiled(owner, mechanism, strategy, start)
     t0 = time.perf_counter()
+    with single_threaded():  # small dense eigenproblems per point: one BLAS thread (flexmb.linear)
+        tracer = _follow(strategy, compiled, state, stop, max_load_factor, arc_length, steps, branch, progress,
+                         start is None)
+    _warn_implausible(tracer.sols)
+    path = Path(tracer.sols, tracer.points, tracer.critical, tracer.message, tracer.stopped_by, tracer)
+    path.wall_time = time.perf_counter() - t0
+    return path
+
+
+def _follow(strategy, compiled, state, stop, max_load_factor, arc_length, steps, branch, progress,
+            undeformed: bool) -> _Tracer:
+    """Set the path up at ``state`` (None: undeformed) and follow it (`_Tracer`)."""
     problem = compiled.problem
     metric, t_0, Kff0 = strategy.setup(problem, state)
-    ds0 = _first_step(owner, metric, t_0, arc_length, max_load_factor)
+    ds0 = _first_step("trace", metric, t_0, arc_length, max_load_factor)
     first = strategy.start(problem, metric, t_0, Kff0, state)
     if max_load_factor is not None and max_load_factor < 0:  # trace towards negative load factors
         first = attrs.evolve(first, direction=-1.0, dlam_ds=-first.dlam_ds)
     tracer = _Tracer(strategy, compiled, problem, metric, stop, max_load_factor)
-    tracer.begin(first, "path start: undeformed, load factor 0" if start is None else
+    tracer.begin(first, "path start: undeformed, load factor 0" if undeformed else
                  "path start: the given solution, load factor 0")
     if not tracer.done:
         tracer.run(ds0, steps, branch, progress, arc_length)
-    _warn_implausible(tracer.sols)
-    path = Path(tracer.sols, tracer.points, tracer.critical, tracer.message, tracer.stopped_by)
-    path.wall_time = time.perf_counter() - t0
-    return path
+    return tracer
 
 
 def _strategy(owner: str, method: str, options: dict) -> ArcLength:
@@ -328,6 +362,8 @@ class _Tracer:
         self.stop, self.max_load_factor = stop, max_load_factor
         self.points, self.sols, self.critical = [], [], []
         self.message, self.stopped_by, self.done = "", "steps", False
+        self.starts = [None]  # where the step to each point started (a critical point after a switch)
+        self._switched = None
 
     def solution(self, p, message: str) -> Solution:
         return Solution(method="conventional", converged=True, iterations=p.iterations,
@@ -339,7 +375,8 @@ class _Tracer:
                                          "eigenvalues_near_zero": p.near.copy(), "direction": p.direction}})
 
     def begin(self, first, message: str) -> None:
-        """The start point; the ``stop`` predicate is tried on it (refused unless it answers a bool)."""
+        """The start point; the ``stop`` predicate is tried on it (refused unless it answers a bool;
+        its answer there does not end the path: a path of its start alone is no path)."""
         self.points.append(first)
         self.sols.append(self.solution(first, message))
         if self.stop is None:
@@ -353,8 +390,6 @@ class _Tracer:
             raise ParameterError(f"trace: stop returned {type(answer).__name__} {answer!r} on the path's start; "
                                  "stop(solution) must return True or False (e.g. a comparison of scalars: "
                                  "solution.displacement('S')[1] < -0.01, not a whole array)")
-        if answer:
-            self.message, self.stopped_by, self.done = "stop() at the start", "stop", True
 
     def run(self, ds0: float, steps: int, branch: str, progress, arc_length) -> None:
         """Follow the path for up to ``steps`` points; Ctrl-C ends it with the points reached."""
@@ -395,17 +430,39 @@ class _Tracer:
                                                                    f" (multiplicity {multiplicity})")
             self.critical.append(Critical(kind, float(p.lam), self.solution(p, text), p.arc, multiplicity,
                                           switched, modes=modes))
+            self._switched = p if switched else None
             return False
         _, p, ds = event
-        if self.max_load_factor is not None and self._reaches(p, ds):
+        start, self._switched = self._switched or self.points[-1], None
+        if start is not self.points[-1]:  # the step left a critical point for another branch: along its chord
+            du, dl = self.metric.difference(p.state, start.state), p.lam - start.lam
+            n = self.metric.length(du, dl)
+            start = attrs.evolve(start, tangent=du / n, tangent_lam=dl / n, direction=1.0, dlam_ds=dl / n)
+        if self.max_load_factor is not None and self._reaches(start, p, ds):
             return True
         self.points.append(p)
+        self.starts.append(start)
         self.sols.append(self.solution(p, f"equilibrium on the path at load factor {p.lam:.10g}"))
         return self._stops(p)
 
-    def _reaches(self, p, ds: float) -> bool:
-        """Whether the step to ``p`` crosses ``max_load_factor``: then the point there ends the path."""
-        a, target = self.points[-1], self.max_load_factor
+    def crossing(self, k: int, response, value: float, g_a: float, g_b: float) -> Solution:
+        """The point between points ``k - 1`` and ``k`` where ``response`` equals ``value``
+        (`Path.crossings`; ``g_a``, ``g_b`` its excess at the ends of the step)."""
+        a, b = self.starts[k], self.points[k]
+        ds = self.metric.length(self.metric.difference(b.state, a.state), b.lam - a.lam)
+
+        def g(x):
+            return float(response(self.solution(x, ""))) - value
+
+        p = self.strategy.locate(self.problem, self.metric, a, ds, g_a, g_b, g)
+        if p is None:
+            return self.sols[k]
+        return self.solution(p, f"{value:g} of the response at load factor {p.lam:.10g}")
+
+    def _reaches(self, a, p, ds: float) -> bool:
+        """Whether the step from ``a`` to ``p`` crosses ``max_load_factor``: then the point there
+        ends the path."""
+        target = self.max_load_factor
         if not ((p.lam - target) * (a.lam - target) <= 0.0 and p.lam != a.lam):
             return False
         s, problem, metric = self.strategy, self.problem, self.metric
@@ -414,6 +471,7 @@ class _Tracer:
             return False
         hit = s.step(problem, metric, hit, 0.0, fix_lam=target) or hit
         self.points.append(hit)
+        self.starts.append(a)
         self.sols.append(self.solution(hit, f"equilibrium on the path at load factor {hit.lam:.10g}"))
         self.message, self.stopped_by = f"reached max_load_factor={target:g}", "max_load_factor"
         return True

@@ -1,0 +1,287 @@
+"""Snap-through design (issue 29): branch switching, `Path.snap`, multiplicities, imperfections.
+
+Every case is checked against a reference written here: the extensible elastica by shooting
+(`InclinedLeaf`), the shallow-arch closed form of Timoshenko & Gere (1961, Theory of Elastic
+Stability, Sec. 7.8: the half-sine arch with hinged ends under a half-sine load; Fung & Kaplan
+1952, NACA TN 2840), Qiu, Lang & Slocum's (2004) modal model, and Koiter's (1945) 2/3 law.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq, minimize_scalar
+
+import flexmb
+from flexmb.studies.paths import beam_section, polyline
+
+
+# -- the reference: an inclined clamped-guided leaf by shooting ------------------------------------------------
+
+class InclinedLeaf:
+    """The extensible Euler-Bernoulli elastica of one leaf clamped at the origin at angle
+    ``alpha``, its other end guided (x and rotation held) and pushed down by ``d``: shooting on
+    the end force ``(Fx, Fy)`` (over EI / L^2) and the clamp moment (over EI / L), Newton with
+    the Jacobian from the variational equations, continuation in ``d``. The primary branch is
+    the point-symmetric one (solved on half the leaf: no moment at mid-length, on the chord's
+    midpoint); its bifurcations are where the whole leaf's shooting Jacobian is singular."""
+
+    def __init__(self, L, t, w, E, alpha):
+        self.L, self.alpha = L, alpha
+        self.EI, EA = E * w * t**3 / 12, E * w * t
+        self.FS = self.EI / L**2
+        self.kap = self.FS / EA
+
+    def _rhs(self, s, Y, fx, fy):
+        th, m = Y[2], Y[3]
+        S = Y[4:].reshape(4, 3)
+        c, sn, k = math.cos(th), math.sin(th), self.kap
+        e = 1 + k * (fx * c + fy * sn)  # axial stretch
+        e_th = k * (-fx * sn + fy * c)
+        g = c * fy - sn * fx
+        A = np.array([[0, 0, e_th * c - e * sn, 0], [0, 0, e_th * sn + e * c, 0], [0, 0, 0, 1],
+                      [0, 0, -(e_th * g - e * (sn * fy + c * fx)), 0]])
+        B = np.array([[k * c * c, k * sn * c, 0], [k * c * sn, k * sn * sn, 0], [0, 0, 0],
+                      [-(k * c * g - e * sn), -(k * sn * g + e * c), 0]])
+        return np.concatenate([[e * c, e * sn, m, -e * g], (A @ S + B).ravel()])
+
+    def _end(self, q, length):
+        Y0 = np.zeros(16)
+        Y0[2], Y0[3], Y0[15] = self.alpha, q[2], 1.0
+        r = solve_ivp(self._rhs, (0, length), Y0, args=(q[0], q[1]), rtol=1e-11, atol=1e-13, method="DOP853")
+        return r.y[:4, -1], r.y[4:, -1].reshape(4, 3)
+
+    def full(self, q, d):
+        y, S = self._end(q, 1.0)
+        a = self.alpha
+        return y[:3] - [math.cos(a), math.sin(a) - d / self.L, a], S[:3]
+
+    def half(self, q, d):
+        y, S = self._end(q, 0.5)
+        a = self.alpha
+        return y[[0, 1, 3]] - [math.cos(a) / 2, (math.sin(a) - d / self.L) / 2, 0.0], S[[0, 1, 3]]
+
+    @staticmethod
+    def newton(f, d, q0):
+        q = np.array(q0, dtype=float)
+        for _ in range(20):
+            r, J = f(q, d)
+            if np.max(np.abs(r)) < 1e-12:
+                return q
+            q = q - np.linalg.solve(J, r)
+        raise RuntimeError(f"no equilibrium at d={d}")
+
+    def follow(self, f, ds, q0):
+        qs = [self.newton(f, ds[0], q0)]
+        for k in range(1, len(ds)):
+            guess = qs[-1] + (qs[-1] - qs[-2]) * (ds[k] - ds[k - 1]) / (ds[k - 1] - ds[k - 2]) if k > 1 else qs[-1]
+            qs.append(self.newton(f, ds[k], guess))
+        return np.array(qs)
+
+    def push(self, q):
+        """The force [N] that pushes the guided end down (one leaf's share)."""
+        return -q[1] * self.FS
+
+    def curve(self) -> dict:
+        """The force-stroke curve a displacement-controlled device follows: up the primary branch
+        to its first bifurcation (the snap force), down the bifurcated branch (its force falls
+        monotonically to the second bifurcation: the minimum), through zero on it, and up the
+        primary again to its zero crossing (the second stable position)."""
+        scale = self.L / 50.0
+        ds = np.concatenate([np.arange(0.0, 0.3, 0.01), np.arange(0.3, 15.0, 0.2)]) * scale
+        prim = self.follow(self.half, ds, np.zeros(3))
+        det = np.array([np.linalg.det(self.full(q, d)[1]) for q, d in zip(prim, ds)])
+        bif = []
+        for k in np.flatnonzero(np.diff(np.sign(det))):
+            d = brentq(lambda x: np.linalg.det(self.full(self.newton(self.half, x, prim[k]), x)[1]), ds[k], ds[k + 1],
+                       xtol=1e-12)
+            bif.append((d, self.newton(self.half, d, prim[k])))
+        (d1, q1), (d2, q2) = bif
+        null = np.linalg.svd(self.full(q1, d1)[1])[2][-1]
+        dsec = np.linspace(d1 + 1e-4 * self.L, d2 - 1e-4 * self.L, 40)
+        sec = self.follow(self.full, dsec, q1 + 0.3 * null)
+        F = np.array([self.push(q) for q in sec])
+        assert np.all(np.diff(F) < 0)  # the minimum is the branch's end, the second bifurcation
+        k = int(np.flatnonzero(np.diff(np.sign(F)))[0])
+        zero = brentq(lambda x: self.push(self.newton(self.full, x, sec[k])), dsec[k], dsec[k + 1], xtol=1e-12)
+        Fp = np.array([self.push(q) for q in prim])
+        j = int(np.flatnonzero((ds > d2) & (Fp > 0))[0])
+        second = brentq(lambda x: self.push(self.newton(self.half, x, prim[j])), ds[j - 1], ds[j], xtol=1e-12)
+        i = int(np.argmax(Fp))  # the primary branch's limit point (under load control, past the snap)
+        top = -minimize_scalar(lambda x: -self.push(self.newton(self.half, x, prim[i])), bounds=(ds[i - 1], ds[i + 1]),
+                               method="bounded", options={"xatol": 1e-10}).fun
+        return dict(snap=self.push(q1), d_snap=d1, minimum=self.push(q2), d_minimum=d2, zero=zero,
+                    second_zero=second, limit=top)
+
+
+#: The device: two steel leaves 50 x 10 x 0.5 mm inclined at 10 deg (mm, N, MPa), rise 8.68 mm
+LEAF = dict(L=50.0, t=0.5, w=10.0, E=200000.0, alpha=math.radians(10.0))
+
+
+@pytest.fixture(scope="module")
+def elastica():
+    r = InclinedLeaf(**LEAF).curve()
+    return {k: (2 * v if k in ("snap", "minimum", "limit") else v) for k, v in r.items()}  # two leaves
+
+
+def bistable_pair(elements: int = 12, control: str = "motion") -> flexmb.Mechanism:
+    """Two leaves from the ground (G1, G2) to the shuttle S at the apex, mirror images, clamped
+    at both ends (Euler-Bernoulli sections: the shooting reference has no shear; the default
+    Timoshenko leaf differs by 0.1 %); S guided (x and rotation held) and pushed down: by a
+    prescribed travel of twice the rise at load factor 1 (``"motion"``) or by 100 N (``"load"``)."""
+    L, t, w, E, a = LEAF["L"], LEAF["t"], LEAF["w"], LEAF["E"], LEAF["alpha"]
+    sec = beam_section(E, w * t, w * t**3 / 12)
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("G1", (-L * math.cos(a), 0.0), fixed=True)
+    m.add_link("G2", (L * math.cos(a), 0.0), fixed=True)
+    m.add_link("S", (0.0, L * math.sin(a)))
+    m.add_joint("G1", "S", "leaf_spring", length=L, section=sec, elements=elements, origin=(-L * math.cos(a), 0.0),
+                rotation=a)
+    m.add_joint("G2", "S", "leaf_spring", length=L, section=sec, elements=elements, origin=(L * math.cos(a), 0.0),
+                rotation=math.pi - a)
+    if control == "load":
+        m.prescribe("S", x=0.0, rotation=0.0)
+        m.apply_force("S", (0.0, -100.0))
+    else:
+        m.prescribe("S", x=0.0, y=-2 * L * math.sin(a), rotation=0.0)
+    return m
+
+
+def _push(solution):
+    return -solution.reaction("S")[1]
+
+
+@pytest.mark.parametrize("elements", [12, pytest.param(48, marks=pytest.mark.slow)])
+def test_bistable_pair_force_stroke_follows_the_elastica(elastica, elements):
+    """Pushed by a prescribed travel, the device follows the stable branch: up the symmetric
+    branch to the first bifurcation (the snap force), down the branch on which both leaves
+    buckle asymmetrically (the force falls through zero to its minimum at the second
+    bifurcation) and up the symmetric branch again through the second stable position. Against
+    the shooting elastica: at 48 elements (converged) each within 0.5 % (measured +0.14 %,
+    +0.33 %, 4e-4 %); at the default 12 they converge at order 2 (+2.3 %, +5.3 %, +0.64 %: 16 x
+    the 48-element errors). The path stays stable (no snap under displacement control) and
+    lists each bifurcation once, with multiplicity 2 (one eigenvalue per leaf)."""
+    path = flexmb.trace(bistable_pair(elements), max_load_factor=1.0, steps=200, progress=False)
+    assert path.stopped_by == "max_load_factor" and path.stable.all() and path.snap is None
+    assert [(c.kind, c.multiplicity, c.switched) for c in path.critical] == [("bifurcation", 2, True)] * 2
+    snap, minimum = (_push(c.solution) for c in path.critical)
+    forces = [_push(s) for s in path]
+    assert max(forces) < path.load_factor[-1] * 1e4 and snap == pytest.approx(max(forces[:10]), rel=1e-3)
+    assert minimum <= min(forces) + 1e-9
+    zeros = [-s.displacement("S")[1] for s in path.crossings(lambda s: s.reaction("S")[1])]
+    assert len(zeros) == 3 and zeros[0] == 0.0  # the start, the unstable middle, the second stable position
+    err = np.array([snap / elastica["snap"], minimum / elastica["minimum"], zeros[2] / elastica["second_zero"]]) - 1
+    assert zeros[1] == pytest.approx(elastica["zero"], rel=1e-9)  # the rise: point symmetry, any mesh
+    if elements == 48:
+        assert np.all(np.abs(err) < 5e-3), err
+    else:
+        assert np.all(err > 0) and err[0] == pytest.approx(0.0232, abs=2e-3) and err[1] == pytest.approx(0.053, abs=3e-3)
+
+
+def test_bistable_pair_under_load_control_snaps_at_the_first_bifurcation(elastica):
+    """Pushed by a force, the device snaps where the symmetric branch first bifurcates (both
+    leaves, multiplicity 2), below the symmetric branch's limit point (211 N at 12 elements): the
+    force `Path.snap` reports, at the elastica's snap force (to the 12-element mesh's +2.3 %);
+    the path leaves there onto the branch with the fewest negative eigenvalues (one leaf
+    buckled: one), along which the force falls. With ``branch="primary"`` the path stays on the
+    symmetric branch and meets its limit point, 1.8 x the snap force, as the trace of issue 29
+    did (28.85 vs 23.9 N there; the double eigenvalue was listed twice)."""
+    path = flexmb.trace(bistable_pair(12, "load"), steps=12, progress=False)
+    snap = path.snap
+    assert snap is path.critical[0] and (snap.kind, snap.multiplicity, snap.switched) == ("bifurcation", 2, True)
+    assert snap.load_factor * 100 == pytest.approx(elastica["snap"], rel=0.03)
+    assert snap.modes.shape == (2, snap.solution.state.positions.size // 2 * 3)
+    after = np.flatnonzero(path.arc_length > snap.arc_length)
+    assert path.negative_eigenvalues[after[0]] == 1 and np.all(np.diff(path.load_factor[after]) < 0)
+    primary = flexmb.trace(bistable_pair(12, "load"), steps=40, progress=False, branch="primary",
+                           stop=lambda s: -s.displacement("S")[1] > 1.0)
+    kinds = [(c.kind, c.multiplicity) for c in primary.critical]
+    assert kinds[:2] == [("bifurcation", 2), ("limit", 1)]
+    # the symmetric branch's limit point: the elastica's 203.25 N + 4.1 % (the 12-element mesh
+    # resolves the S-shaped mode it approaches less well than the C-shaped one of the snap)
+    assert primary.critical[1].load_factor * 100 / elastica["limit"] - 1 == pytest.approx(0.041, abs=0.005)
+    assert primary.snap is primary.critical[0]  # the first instability all the same
+
+
+# -- the shallow arch: closed form -----------------------------------------------------------------------------
+
+def sine_arch(elements: int = 40, e: float = 6.0, rise: float = 0.01, imperfection: float = 0.0):
+    """A half-sine arch ``y = rise sin(pi x / L)`` (L = 1, hinged ends P0, P1) of radius of
+    gyration ``r = rise / e``, EI = 1, under the half-sine load ``q0 sin(pi x / L)``, ``q0 = EI
+    (pi / L)^4 r`` per unit load factor (so the load factor is Timoshenko & Gere's load
+    parameter), lumped at the nodes; ``imperfection``: an antisymmetric part ``imperfection r
+    sin(2 pi x / L)`` of the shape."""
+    L, r = 1.0, rise / e
+    x = np.linspace(0, L, elements + 1)
+    y = rise * np.sin(np.pi * x / L) + imperfection * r * np.sin(2 * np.pi * x / L)
+    names = ["P0"] + [f"a{i}" for i in range(1, elements)] + ["P1"]
+    m = flexmb.Mechanism(dim=2)
+    E = 2e11  # steel, with I = 1 / E: EI = 1
+    polyline(m, np.c_[x, y], beam_section(E, 1.0 / (E * r**2), 1.0 / E), names)
+    m.prescribe("P0", x=0.0, y=0.0)
+    m.prescribe("P1", x=0.0, y=0.0)
+    q0 = (np.pi / L) ** 4 * r
+    for k in range(1, elements):
+        m.apply_force(names[k], (0.0, -q0 * math.sin(np.pi * x[k] / L) * L / elements))
+    return m
+
+
+def arch_closed_form(e: float) -> tuple[float, float]:
+    """``(bifurcation, limit)`` load parameters of the hinged half-sine arch (Timoshenko & Gere
+    1961, Sec. 7.8), re-derived: with the current rise ``z`` (over r) and the axial compression
+    ``p`` (over pi^2 EI / L^2), shallow-arch equilibrium in the first mode gives
+    ``Q = (e - z) + p z`` with ``p = (e^2 - z^2) / 4``; the antisymmetric second mode branches
+    off where ``p = 4``: ``z^2 = e^2 - 16``, ``Q = e + 3 z``; the symmetric limit point is at
+    ``z^2 = (e^2 - 4) / 3``. The bifurcation comes first when ``e^2 > 22``."""
+    zb, zl = math.sqrt(e * e - 16), math.sqrt((e * e - 4) / 3)
+    return e + 3 * zb, (e - zl) + zl * (e * e - zl * zl) / 4
+
+
+@pytest.mark.parametrize("elements", [40, 80])
+def test_shallow_arch_bifurcates_below_its_limit_point(elements):
+    """e = rise / r = 6 > sqrt(22): the antisymmetric bifurcation (Q = 19.416) lies below the
+    symmetric limit point (23.419). The first critical point is the bifurcation (measured +0.009
+    / -0.044 % at 40 / 80 elements; rise / L = 0.01, so the shallow-arch theory's own error is
+    ~1e-4), the device snaps there (`Path.snap`) onto the antisymmetric branch; held on the
+    symmetric branch the path meets the limit point (-0.15 / -0.085 %)."""
+    Qb, Ql = arch_closed_form(6.0)
+    path = flexmb.trace(sine_arch(elements), steps=30, max_load_factor=30.0, progress=False)
+    first = path.critical[0]
+    assert (first.kind, first.multiplicity, first.switched) == ("bifurcation", 1, True) and path.snap is first
+    assert first.load_factor == pytest.approx(Qb, rel=1e-3)
+    mode = first.modes[0].reshape(-1, 3)[: elements + 1]  # the links (the arch's nodes) first, in order
+    assert np.allclose(mode[:, 1], -mode[::-1, 1], atol=1e-6 * np.abs(mode[:, 1]).max())  # antisymmetric
+    primary = flexmb.trace(sine_arch(elements), steps=40, max_load_factor=30.0, progress=False, branch="primary")
+    limits = [c for c in primary.critical if c.kind == "limit"]
+    assert primary.critical[0].kind == "bifurcation" and limits[0].load_factor == pytest.approx(Ql, rel=2e-3)
+    assert limits[0].load_factor > first.load_factor
+
+
+def test_arch_imperfection_sensitivity_follows_koiter_two_thirds_law():
+    """An antisymmetric imperfection of amplitude eta r turns the bifurcation into a limit point:
+    the two-mode model (exact for the sine arch in shallow theory) gives its load as the maximum
+    over p in (0, 4) of ``Q = (e - z) + p z``, ``z^2 = e^2 + 4 eta^2 - 4 p - 64 eta^2 / (4 - p)^2``;
+    the traced limit loads agree within 0.05 % (measured 1.1e-4 ... 2.7e-4) and their drop below
+    the perfect arch's bifurcation goes as eta^(2/3) (Koiter 1945: a symmetric unstable
+    bifurcation): slope 0.664 on log-log over eta = 0.003 ... 0.1 (the model's: 0.662)."""
+    e = 6.0
+
+    def model(eta):
+        def minus_q(p):
+            z = math.sqrt(e**2 + 4 * eta**2 - 4 * p - 64 * eta**2 / (4 - p) ** 2)
+            return -((e - z) + p * z)
+
+        return -minimize_scalar(minus_q, bounds=(0, 4 - 1e-9), method="bounded", options={"xatol": 1e-13}).fun
+
+    perfect = flexmb.trace(sine_arch(40), steps=20, max_load_factor=30.0, progress=False).critical[0].load_factor
+    etas = np.array([0.003, 0.01, 0.03, 0.1])
+    loads = []
+    for eta in etas:
+        path = flexmb.trace(sine_arch(40, imperfection=eta), steps=40, progress=False, stop=lambda s: s.load_factor < 0)
+        kinds = [c.kind for c in path.critical]
+        assert kinds[0] == "limit" and path.snap is path.critical[0]
+        loads.append(path.critical[0].load_factor)
+    np.testing.assert_allclose(loads, [model(eta) for eta in etas], rtol=5e-4)
+    slope = np.polyfit(np.log(etas), np.log(1 - np.array(loads) / perfect), 1)[0]
+    assert slope == pytest.approx(2 / 3, abs=0.01)

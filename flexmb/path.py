@@ -224,6 +224,7 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
                          start is None)
     _warn_implausible(tracer.sols)
     path = Path(tracer.sols, tracer.points, tracer.critical, tracer.message, tracer.stopped_by, tracer)
+    path.interrupted = tracer.stopped_by == "interrupted"
     path.wall_time = time.perf_counter() - t0
     return path
 
@@ -233,6 +234,7 @@ def _follow(strategy, compiled, state, stop, max_load_factor, arc_length, steps,
     """Set the path up at ``state`` (None: undeformed) and follow it (`_Tracer`)."""
     problem = compiled.problem
     metric, t_0, Kff0 = strategy.setup(problem, state)
+    _finite_response("trace", strategy, problem, state, Kff0)
     ds0 = _first_step("trace", metric, t_0, arc_length, max_load_factor)
     first = strategy.start(problem, metric, t_0, Kff0, state)
     if max_load_factor is not None and max_load_factor < 0:  # trace towards negative load factors
@@ -327,6 +329,23 @@ def _finite_reference(owner: str, compiled, motors: np.ndarray) -> None:
                              "and moments (apply_force, apply_moment)")
     if not np.all(np.isfinite(problem.values)) or not np.all(np.isfinite(motors)):
         raise ParameterError(f"{owner}: a prescribed motion or hinge motor angle is not finite")
+
+
+def _finite_response(owner: str, strategy, problem, state, Kff) -> None:
+    """Refuse (`ParameterError`) reference loads whose linear response at the start overflows
+    (the path's tangent would be a null vector of the tangent stiffness instead, and no step
+    converge: "cannot continue from load factor 0")."""
+    from .solvers.arclength import load_tangent
+
+    state = problem.model.initial_state() if state is None else state
+    g, _ = load_tangent(problem, state, 0.0)
+    try:
+        rate = problem.solve_linear(Kff, -g) if len(g) else g
+    except (np.linalg.LinAlgError, RuntimeError, ValueError):
+        return  # a singular start: the path starts along the null vector
+    if not (np.all(np.isfinite(g)) and np.all(np.isfinite(rate))):
+        raise ParameterError(f"{owner}: the reference load (the loads, prescribed motions and motors at load factor "
+                             "1) has a non-finite linear response; scale it down (its size sets the load factor's unit)")
 
 
 def _first_step(owner: str, metric, t_0, arc_length, max_load_factor) -> float:

@@ -285,3 +285,94 @@ def test_arch_imperfection_sensitivity_follows_koiter_two_thirds_law():
     np.testing.assert_allclose(loads, [model(eta) for eta in etas], rtol=5e-4)
     slope = np.polyfit(np.log(etas), np.log(1 - np.array(loads) / perfect), 1)[0]
     assert slope == pytest.approx(2 / 3, abs=0.01)
+
+
+# -- no cry-wolf, Ctrl-C, arguments ----------------------------------------------------------------------------
+
+def test_trace_keeps_its_points_on_a_real_ctrl_c():
+    """SIGINT (Ctrl-C) sent to the process while the path is traced (from the stop predicate at
+    its fourth point): `trace` returns the points computed, says so and warns; nothing is lost."""
+    import os
+    import signal
+
+    calls = []
+
+    def stop(solution):
+        calls.append(solution.load_factor)
+        if len(calls) == 4:
+            os.kill(os.getpid(), signal.SIGINT)
+        return False
+
+    with pytest.warns(UserWarning, match=r"trace: interrupted \(Ctrl-C\)"):
+        path = flexmb.trace(sine_arch(20), steps=50, progress=False, stop=stop)
+    assert path.stopped_by == "interrupted" and path.interrupted and "the points reached are kept" in path.message
+    assert len(path) == 4 and all(s.converged for s in path)  # the start and three points (the 4th call: the start)
+    np.testing.assert_array_equal(path.load_factor[1:], calls[1:4])
+
+
+def test_sweep_keeps_its_solutions_on_a_real_ctrl_c(monkeypatch):
+    """SIGINT while the third solution of a ten-value motion sweep is checked (sent from the
+    per-solution check, before it is handed over): `sweep` returns the two solutions before it
+    and their values, ``interrupted``, with a warning."""
+    import os
+    import signal
+
+    from flexmb import sweeps
+
+    seen = []
+    real = sweeps.check
+
+    def check(sol, **kw):
+        seen.append(sol)
+        if len(seen) == 3:
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(sol, **kw)
+
+    monkeypatch.setattr(sweeps, "check", check)
+    values = np.linspace(-0.005, -0.05, 10)  # below the first bifurcation (0.0955 mm): stable
+    with pytest.warns(UserWarning, match=r"sweep: interrupted \(Ctrl-C\) after 2 of 10 values"):
+        result = flexmb.sweep(bistable_pair(6), values, motion=("S", "y"), progress=False)
+    assert len(result) == 2 and result.interrupted and all(s.converged for s in result)
+    np.testing.assert_array_equal(result.values, values[:2])
+    np.testing.assert_allclose([s.displacement("S")[1] for s in result], values[:2], rtol=0, atol=1e-12)
+
+
+def test_no_unstable_warning_inside_trace():
+    """The arch's path runs through unstable points past its bifurcation; `solve` warns about an
+    unstable equilibrium (PlausibilityWarning), a path reports stability point by point and does not."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        path = flexmb.trace(sine_arch(20), steps=25, max_load_factor=30.0, progress=False)
+    assert not path.stable.all()
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(stop=lambda s: s.displacement("P0")), r"stop returned ndarray .* must return True or False"),
+    (dict(stop=lambda s: 1 / 0), "stop raised ZeroDivisionError"),
+    (dict(arc_length=0.0), r"arc_length=0.0 must be > 0"),
+    (dict(arc_length=-0.1), r"arc_length=-0.1 must be > 0"),
+    (dict(branch="both"), r"branch='both'; valid: stable, primary, bifurcated"),
+])
+def test_bad_trace_arguments_are_refused_up_front(kwargs, match):
+    """A stop predicate that answers an array (the `ValueError` of ``if array`` leaked and lost the
+    path) or raises is refused on the path's start, before any step; so are a zero or negative arc
+    length and an unknown branch: a `ParameterError` naming the argument."""
+    with pytest.raises(flexmb.errors.ParameterError, match=match):
+        flexmb.trace(sine_arch(10), progress=False, **kwargs)
+
+
+def test_a_non_finite_reference_load_is_refused():
+    """Loads whose linear response overflows (1e308 N on the arch) and a non-finite load put in
+    the problem are refused, naming the reference load, before a step is taken (was: "cannot
+    continue from load factor 0")."""
+    m = sine_arch(10)
+    m.clear_loads()
+    m.apply_force("a5", (1e308, -1e308))
+    with pytest.raises(flexmb.errors.ParameterError, match="reference load .* non-finite"):
+        flexmb.trace(m, progress=False)
+    m = sine_arch(10)
+    m._loads[0] = (m._loads[0][0], m._loads[0][1], np.array([0.0, np.inf]), m._loads[0][3])
+    with pytest.raises(flexmb.errors.ParameterError, match="the reference load on link 'a1' is not finite"):
+        flexmb.trace(m, progress=False)

@@ -376,3 +376,148 @@ def test_a_non_finite_reference_load_is_refused():
     m._loads[0] = (m._loads[0][0], m._loads[0][1], np.array([0.0, np.inf]), m._loads[0][3])
     with pytest.raises(flexmb.errors.ParameterError, match="the reference load on link 'a1' is not finite"):
         flexmb.trace(m, progress=False)
+
+
+# -- hinge motors and a given starting state ----------------------------------------------------------------------
+
+FOURBAR = dict(a=0.02, b=0.08, c=0.05, d=0.08)  # crank, coupler, rocker, ground [m]: a Grashof crank-rocker
+
+
+def _rocker_tip(A, P):
+    """The coupler-rocker pin B of the rigid four-bar: |B - A| = b, |B - P| = c, above the line AP."""
+    b, c = FOURBAR["b"], FOURBAR["c"]
+    v = P - A
+    L = float(np.linalg.norm(v))
+    x = (L**2 + b**2 - c**2) / (2 * L)
+    e = v / L
+    return A + x * e + math.sqrt(b**2 - x**2) * np.array([-e[1], e[0]])
+
+
+def motor_fourbar(dim: int, turn: float = 2 * math.pi) -> flexmb.Mechanism:
+    """A crank-rocker four-bar (`FOURBAR`): the crank turned by a hinge motor at the origin, the
+    coupler pinned to it and to the rocker, the rocker's pivot a cross flexure (30 mm leaves,
+    0.3 mm thick) centred at (d, 0); 2D or 3D (the same plane)."""
+    z = (0.0,) if dim == 3 else ()
+    a, d = FOURBAR["a"], FOURBAR["d"]
+    A0, P = np.array([0.0, a]), np.array([d, 0.0])
+    B0 = _rocker_tip(A0, P)
+    cf = flexmb.CrossFlexure(length=0.03, thickness=3e-4, width_inner=0.01, width_outer=0.005, elements_per_leaf=6)
+    half = cf.interface_b(2)[1] / 2  # the leaves cross half-way between the blocks
+    m = flexmb.Mechanism(dim=dim)
+    m.add_link("G", fixed=True)
+    m.add_link("crank", (0.0, 0.0) + z)
+    m.add_link("coupler", tuple(A0) + z)
+    m.add_link("rocker", (d, half) + z)
+    m.add_joint("G", "crank", "hinge", angle=turn, origin=(0.0, 0.0) + z)
+    m.add_joint("crank", "coupler", "hinge", origin=tuple(A0) + z)
+    m.add_joint("coupler", "rocker", "hinge", origin=tuple(B0) + z)
+    m.add_joint("G", "rocker", cf, origin=(d, -half) + z)
+    return m
+
+
+def _rigid_rocker(phi):
+    """The rigid four-bar's rocker rotation at crank rotation ``phi`` (loop closure), the
+    cross flexure an ideal pivot at its crossing."""
+    a, d = FOURBAR["a"], FOURBAR["d"]
+    P = np.array([d, 0.0])
+    B = np.array([_rocker_tip(a * np.array([-math.sin(f), math.cos(f)]), P) for f in np.atleast_1d(phi)])
+    B0 = _rocker_tip(np.array([0.0, a]), P)
+    return np.arctan2(B[:, 1], B[:, 0] - d) - math.atan2(B0[1], B0[0] - d)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_hinge_motor_turns_a_cross_flexure_four_bar_through_a_full_crank_turn(dim):
+    """Issue 29: `trace` stopped this four-bar at load factor 0 ("cannot continue") in 2D and
+    3D, though `solve` converged: with no applied load its forces (~1e-3 N) sat below the
+    round-off of the hinges' constraint rows. The motor now turns the crank through 2 pi; the
+    rocker swings 49 deg and back, within 1.4 % of its swing of the rigid four-bar with an ideal
+    pivot at the leaves' crossing (measured 0.0114 rad: the cross flexure's compliance and
+    centre shift), and the path agrees with `flexmb.solve` of the motor at a quarter turn."""
+    path = flexmb.trace(motor_fourbar(dim), max_load_factor=1.0, steps=200, progress=False)
+    assert path.stopped_by == "max_load_factor" and path.load_factor[-1] == 1.0 and len(path) > 20
+    assert path.stable.all() and not path.critical
+    phi = 2 * math.pi * path.load_factor  # the motor ramps with the load factor
+    psi = np.array([s.rotation_vector("rocker")[-1] for s in path])
+    ref = _rigid_rocker(phi)
+    swing = np.ptp(_rigid_rocker(np.linspace(0, 2 * math.pi, 721)))
+    assert swing == pytest.approx(0.862, abs=1e-3) and np.ptp(psi) > 0.95 * swing  # 49 deg, through the range
+    assert np.max(np.abs(psi - ref)) < 0.014 * swing
+    assert abs(psi[-1]) < 1e-9  # a full turn brings the rocker back
+    quarter = flexmb.solve(motor_fourbar(dim, turn=math.pi / 2))
+    on_path = path.crossings(lambda s: s.load_factor, 0.25)[0]
+    np.testing.assert_allclose(on_path.node_positions(), quarter.node_positions(), rtol=0, atol=1e-9)
+
+
+def test_trace_from_a_pre_deformed_solution():
+    """The bistable pair solved with its shuttle pushed 0.05 mm (`solve`), then traced from that
+    Solution towards twice the rise: the load factor blends the given state (0) into the
+    mechanism as given (1); the path meets the same double bifurcation as a trace from rest
+    (115.53 N at 12 elements), and its end is the trace from rest's end."""
+    L, a = LEAF["L"], LEAF["alpha"]
+    pushed = bistable_pair(12)
+    pushed.prescribe("S", y=-0.05)
+    start = flexmb.solve(pushed)
+    path = flexmb.trace(bistable_pair(12), start=start, max_load_factor=1.0, steps=200, progress=False)
+    np.testing.assert_allclose(path[0].node_positions(), start.node_positions(), rtol=0, atol=1e-12)
+    d = np.array([-s.displacement("S")[1] for s in path])
+    np.testing.assert_allclose(d, 0.05 + path.load_factor * (2 * L * math.sin(a) - 0.05), rtol=0, atol=1e-9)
+    rest = flexmb.trace(bistable_pair(12), max_load_factor=1.0, steps=200, progress=False)
+    assert [(c.kind, c.multiplicity) for c in path.critical] == [(c.kind, c.multiplicity) for c in rest.critical]
+    # each located to locate_tol = 1e-6 of its step (other steps: measured 3.6e-8 apart)
+    assert _push(path.critical[0].solution) == pytest.approx(_push(rest.critical[0].solution), rel=1e-6)
+    np.testing.assert_allclose(path[-1].node_positions(), rest[-1].node_positions(), rtol=0, atol=1e-9)
+
+
+def test_trace_from_a_pre_loaded_solution_adds_the_new_load():
+    """The sine arch carrying half its bifurcation load (solved), a central point load added:
+    traced from that Solution, each point is the equilibrium under the old loads plus load
+    factor x the new one (dead loads: a `solve` of that mechanism agrees)."""
+    base = sine_arch(20)
+    start = flexmb.solve(_scaled(base, 0.5 * arch_closed_form(6.0)[0]))
+    target = _scaled(base, 0.5 * arch_closed_form(6.0)[0])
+    target.apply_force("a10", (0.0, -0.05))
+    path = flexmb.trace(target, start=start, max_load_factor=1.0, progress=False)
+    assert path.stopped_by == "max_load_factor"
+    mid = path.crossings(lambda s: s.load_factor, 0.5)[0]
+    check = _scaled(base, 0.5 * arch_closed_form(6.0)[0])
+    check.apply_force("a10", (0.0, -0.025))
+    np.testing.assert_allclose(mid.node_positions(), flexmb.solve(check).node_positions(), rtol=0, atol=1e-10)
+
+
+def _scaled(m: flexmb.Mechanism, factor: float) -> flexmb.Mechanism:
+    """A copy of the sine arch ``m`` with its loads times ``factor``."""
+    out = sine_arch(20)
+    out.clear_loads()
+    for link, offset, force, moment in m.loads:
+        out.apply_force(link, factor * force)
+    return out
+
+
+def test_the_load_factor_derivative_of_a_trace_from_a_solution():
+    """The residual of a path started at a Solution, ``r(u, lam) = r_given(u) - (1 - lam) r_given(u_0)``
+    on the free DOFs with the prescribed DOFs moved from the start: its load-factor derivative
+    (`load_tangent`) against central differences at a deformed, unbalanced state."""
+    from flexmb import path as path_module
+    from flexmb.solvers.arclength import ArcLength, load_tangent
+
+    pushed = bistable_pair(6)
+    pushed.prescribe("S", y=-0.05)
+    start = flexmb.solve(pushed)
+    target = bistable_pair(6)
+    target.apply_force("S", (3.0, -20.0))
+    compiled, state = path_module._compiled("trace", target, ArcLength(), start)
+    problem = compiled.problem
+    rng = np.random.default_rng(4)
+    lam, h = 0.3, 1e-6
+    du = problem.full_increment(rng.normal(scale=1e-3, size=problem.n_free), problem.prescribed_increment(lam, 0.0))
+    moved = problem.model.apply_increment(state, du)
+
+    def r_at(x):
+        s = problem.model.apply_increment(moved, problem.full_increment(np.zeros(problem.n_free),
+                                                                         problem.prescribed_increment(x - lam, lam)))
+        return problem.residual(s, x)[problem.free]
+
+    fd = (r_at(lam + h) - r_at(lam - h)) / (2 * h)
+    g, _ = load_tangent(problem, moved, lam)
+    np.testing.assert_allclose(g, fd, rtol=0, atol=1e-6 * np.max(np.abs(fd)))
+    assert np.max(np.abs(fd)) > 1.0

@@ -355,7 +355,9 @@ class ArcLength:
         a, b = np.linalg.norm(rf_tr) / F, np.linalg.norm(rf_rot) / M
         if a <= self.rtol and b <= self.rtol:
             return True
-        return None if max(a, b) <= 1e-5 else False
+        if max(a, b) <= 1e-5 or float(np.linalg.norm(r[free])) <= _hinge_floor(problem.model, metric.size):
+            return None
+        return False
 
     def next_arc(self, ds: float, iterations: int, ds0: float) -> float:
         """The next step's arc length after a step that took ``iterations`` (Crisfield 1981)."""
@@ -510,6 +512,18 @@ def _split(problem, du: np.ndarray, dl: float, lam: float) -> np.ndarray:
     out = du.copy()
     out[problem.prescribed] = problem.prescribed_increment(dl, lam)
     return out
+
+
+def _hinge_floor(model, size: float) -> float:
+    """The round-off floor of the hinges' constraint rows [N]: their scale (the stiffest element's
+    EA / L, `flexmb.fe.build._row_scales`) times 100 eps of the mechanism's size. A four-bar whose
+    cross-flexure rocker is back at rest after a full crank turn carries forces of ~1e-6 N and its
+    residual stalls at 1e-9 N; below this floor `ArcLength.step` accepts a correction that moves
+    nothing."""
+    hinges = getattr(model, "hinges", None)
+    if hinges is None:
+        return 0.0
+    return 100.0 * np.finfo(float).eps * float(np.asarray(hinges.scale).ravel()[0]) * size  # a position row
 
 
 def _negligible(model, du: np.ndarray, size: float) -> bool:

@@ -521,3 +521,92 @@ def test_the_load_factor_derivative_of_a_trace_from_a_solution():
     g, _ = load_tangent(problem, moved, lam)
     np.testing.assert_allclose(g, fd, rtol=0, atol=1e-6 * np.max(np.abs(fd)))
     assert np.max(np.abs(fd)) > 1.0
+
+
+# -- Qiu's curved-beam bistable with and without its centre shuttle ------------------------------------------------
+
+QIU = dict(span=3e-3, rise=1.2e-4, t=1e-5, w=5e-4, E=169e9)  # Qiu, Lang & Slocum (2004): Q = h / t = 12
+
+
+def qiu_beam(elements: int, shuttle: bool) -> flexmb.Mechanism:
+    """The whole cosine-shaped clamped-clamped beam ``w0 = h/2 (1 - cos(2 pi x / L))``
+    (``elements`` chords per half, both ends fixed), its centre C pushed down by twice the rise
+    at load factor 1. ``shuttle``: Qiu's double beam, two beams joined by the centre shuttle
+    (twice the stiffness, C's rotation and sideways motion held); without it a single beam
+    whose centre turns freely."""
+    span, rise, t, w, E = (QIU[k] for k in ("span", "rise", "t", "w", "E"))
+    k = 2 if shuttle else 1
+    n = 2 * elements
+    x = np.linspace(0.0, span, n + 1)
+    names = ["L"] + [f"q{i}" for i in range(1, n)] + ["R"]
+    names[elements] = "C"
+    m = flexmb.Mechanism(dim=2)
+    m.add_link("L", (0.0, 0.0), fixed=True)
+    m.add_link("R", (span, 0.0), fixed=True)
+    polyline(m, np.c_[x, rise / 2 * (1 - np.cos(2 * np.pi * x / span))], beam_section(E, k * w * t, k * w * t**3 / 12),
+             names)
+    if shuttle:
+        m.prescribe("C", x=0.0, rotation=0.0)
+    m.prescribe("C", y=-2 * rise)
+    return m
+
+
+def qiu_modal(mode_squared: float) -> tuple[float, float]:
+    """Qiu, Lang & Slocum's (2004) modal model of one beam [N] (Sec. III): while mode 1 alone
+    deforms, the axial force is ``N L^2 / EI = 3 pi^2 Q^2 Delta (2 - Delta)`` (``Delta``: centre
+    travel over rise); once it reaches a higher mode's buckling load ``lambda^2 EI / L^2`` the
+    force follows that mode's line ``F L^3 / (EI h) = pi^2 / 2 (lambda^2 - (lambda^2 - 4 pi^2)
+    Delta)`` between the two roots ``Delta = 1 -+ sqrt(1 - lambda^2 / (3 pi^2 Q^2))``: returns the
+    force at both ends, ``(F_top, F_bottom)``. Mode 3 (``lambda = 4 pi``, the shuttle holds mode
+    2): Qiu's ``pi^4 (8 - 6 Delta)``; mode 2 (antisymmetric, ``lambda = 8.9868``, ``tan(lambda /
+    2) = lambda / 2``) without it."""
+    span, rise, t, w, E = (QIU[k] for k in ("span", "rise", "t", "w", "E"))
+    Q, unit = rise / t, E * w * t**3 / 12 * rise / span**3
+    root = math.sqrt(1 - mode_squared / (3 * math.pi**2 * Q**2))
+
+    def line(delta):
+        return math.pi**2 / 2 * (mode_squared - (mode_squared - 4 * math.pi**2) * delta) * unit
+
+    return line(1 - root), line(1 + root)
+
+
+@pytest.mark.parametrize("elements", [20, 40])
+def test_qiu_double_beam_with_its_shuttle_is_bistable(elements):
+    """With the shuttle (mode 2 held) the double beam switches through mode 3: under a prescribed
+    centre travel the path takes the branch on which both halves buckle (each bifurcation once,
+    multiplicity 2: the shuttle decouples the halves), stays stable (no snap) and crosses zero
+    force twice, the second time in the second stable state. Against Qiu's modal model (two
+    beams): F_top -3.0 / -3.6 %, F_bottom -1.2 / -2.1 % at 20 / 40 elements per half (the model
+    keeps modes 1 and 3 of a shallow beam: 3 % is its own error), the second stable position
+    (the mode-1 cubic's root 3/2 + sqrt(1/4 - 4 / (3 Q^2)) of the rise) -0.08 %."""
+    rise, Q = QIU["rise"], QIU["rise"] / QIU["t"]
+    path = flexmb.trace(qiu_beam(elements, True), max_load_factor=1.0, steps=300, progress=False)
+    assert path.stopped_by == "max_load_factor" and path.snap is None and path.stable.all()
+    assert [(c.kind, c.multiplicity, c.switched) for c in path.critical] == [("bifurcation", 2, True)] * 2
+    top, bottom = (2 * f for f in qiu_modal(16 * math.pi**2))
+    forces = [-c.solution.reaction("C")[1] for c in path.critical]
+    assert forces[0] / top - 1 == pytest.approx(-0.033, abs=0.01)
+    assert forces[1] / bottom - 1 == pytest.approx(-0.017, abs=0.01)
+    zeros = [-s.displacement("C")[1] / rise for s in path.crossings(lambda s: s.reaction("C")[1])]
+    assert len(zeros) == 3 and zeros[2] == pytest.approx(1.5 + math.sqrt(0.25 - 4 / (3 * Q**2)), rel=2e-3)
+
+
+@pytest.mark.parametrize("elements", [20, 40])
+def test_qiu_single_beam_without_a_shuttle_switches_through_mode_two(elements):
+    """Without the shuttle the centre turns: the beam leaves its symmetric branch at a simple
+    bifurcation into the antisymmetric mode 2 at a quarter of the double beam's force (Qiu's
+    modal model of one beam: -1.0 / -0.85 % at 20 / 40 elements per half), its centre turning
+    in the critical mode; along mode 2's line the force barely dips below zero (the model:
+    -2.2e-4 N, a difference of two terms 50 x larger: +19 / +10 % here, against -0.0232 N for
+    the double beam): in practice no longer bistable, as Qiu et al. found."""
+    path = flexmb.trace(qiu_beam(elements, False), max_load_factor=1.0, steps=300, progress=False)
+    first = path.critical[0]
+    assert (first.kind, first.multiplicity, first.switched) == ("bifurcation", 1, True)
+    top, bottom = qiu_modal(8.986818916**2)
+    assert -first.solution.reaction("C")[1] == pytest.approx(top, rel=0.015)
+    compiled = first.solution.compiled
+    node = compiled.link_node["C"]
+    mode = first.modes[0].reshape(-1, 3)
+    assert abs(mode[node, 1]) < 1e-6 * np.abs(mode[:, 1]).max() and abs(mode[node, 2]) > 0  # C turns, does not sink
+    lowest = min(-s.reaction("C")[1] for s in list(path) + [c.solution for c in path.critical])
+    assert lowest == pytest.approx(bottom, rel=0.25) and abs(lowest) < 0.02 * 0.0232

@@ -29,7 +29,7 @@ LAYERS = [
                              "flexmb.joints",
                              "flexmb.joints.*", "flexmb.registry", "flexmb.reference"]),
     ("problems", ["flexmb.linear", "flexmb.linear_jit", "flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),
-    ("builders", ["flexmb.boundary", "flexmb.fe.build", "flexmb.closed_form", "flexmb.closed_form.build"]),
+    ("builders", ["flexmb.boundary", "flexmb.fe.build", "flexmb.fe.joint_points", "flexmb.closed_form", "flexmb.closed_form.build"]),
     ("mechanism", ["flexmb.mechanism"]),
     ("results and joint data", ["flexmb.results", "flexmb.database.eob_format", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),
     ("strategies and analysis", ["flexmb.plausibility_jit", "flexmb.plausibility", "flexmb.solvers", "flexmb.solvers.*", "flexmb.analysis", "flexmb.modal",

@@ -36,6 +36,7 @@ LAYERS = [
                                  "flexmb.linearised", "flexmb.peers", "flexmb.testing", "flexmb.database", "flexmb.database.training",
                                  "flexmb.models"]),
     ("workflows", ["flexmb.sweeps", "flexmb.study", "flexmb.table", "flexmb.design_properties", "flexmb.path",
+                   "flexmb.imperfection",
                    "flexmb.discretisation"]),
     ("faces", ["flexmb.plot", "flexmb.export"]),
     ("studies", ["flexmb.studies", "flexmb.studies.*"]),

@@ -32,11 +32,19 @@ ON_NODE = 1e-9
 class Remeshed(Joint):
     """A joint whose mesh has extra nodes at given points of its elements (`refined`):
     ``splits`` ((element, t) per point, t in (0, 1) along the element from its first point) in
-    the order the points are named; the joint's own mesh otherwise. Offers ``"fe_model"`` only."""
+    the order the points are named; ``offsets`` (n, dim) [m] moves the base mesh's points in the
+    joint frame (a geometric imperfection, `flexmb.imperfection`); the joint's own mesh
+    otherwise. Offers ``"fe_model"`` only; its other attributes (``leaves``) are the base's."""
 
     kind: ClassVar[str] = "remeshed"
     base: Joint
     splits: tuple = ()
+    offsets: np.ndarray | None = None
+
+    def __getattr__(self, name):
+        if name in ("base", "splits", "offsets") or name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.base, name)
 
     def interface_b(self, dim: int) -> np.ndarray:
         return self.base.interface_b(dim)
@@ -44,6 +52,8 @@ class Remeshed(Joint):
     def mesh(self, dim: int) -> JointMesh:
         m = self.base.mesh(dim)
         pts, side, el = np.asarray(m.points, float), np.asarray(m.side), np.asarray(m.elements)
+        if self.offsets is not None:
+            pts = pts + self.offsets
         sections, ny = list(m.sections), None if m.ny0 is None else np.asarray(m.ny0, float)
         body = None if m.body is None else np.asarray(m.body)
         for e, t in self.splits:  # each split appends its point and its second half-element

@@ -33,7 +33,7 @@ LAYERS = [
     ("mechanism", ["flexmb.mechanism"]),
     ("results and joint data", ["flexmb.results", "flexmb.database.eob_format", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),
     ("strategies and analysis", ["flexmb.plausibility_jit", "flexmb.plausibility", "flexmb.solvers", "flexmb.solvers.*", "flexmb.analysis", "flexmb.modal",
-                                 "flexmb.linearised", "flexmb.peers", "flexmb.testing", "flexmb.database", "flexmb.database.training",
+                                 "flexmb.linearised", "flexmb.peers", "flexmb.design", "flexmb.design.*", "flexmb.testing", "flexmb.database", "flexmb.database.training",
                                  "flexmb.models"]),
     ("workflows", ["flexmb.sweeps", "flexmb.study", "flexmb.table", "flexmb.design_properties", "flexmb.path",
                    "flexmb.imperfection",

@@ -119,7 +119,7 @@ def test_an_imperfection_load_inside_a_leaf_turns_the_double_bifurcation_into_a_
     double bifurcation becomes a limit point, below it (an imperfect unstable-symmetric
     bifurcation), where the device snaps (`Path.snap`); the point's sideways travel grows
     towards it."""
-    from test_snap import bistable_pair
+    from flexmb.studies.paths import bistable_pair
 
     perfect = flexmb.trace(bistable_pair(12, "load"), steps=12, progress=False).snap.load_factor
     m = bistable_pair(12, "load")

@@ -114,10 +114,11 @@ def test_the_tangent_of_a_remeshed_joint_equals_central_differences():
 
 
 def test_an_imperfection_load_inside_a_leaf_turns_the_double_bifurcation_into_a_limit_point():
-    """The bistable pair of `test_snap` pushed by a force, with 0.1 % of it sideways at the middle
-    of one leaf (what issue 29's user had to fake by splitting the leaf): the perfect pair's
-    double bifurcation becomes a limit point, below it (an imperfect unstable-symmetric
-    bifurcation), where the device snaps (`Path.snap`); the point's sideways travel grows
+    """The bistable pair pushed by a force, with 0.1 % of it sideways at the middle of one leaf
+    (what issue 29's user had to fake by splitting the leaf into two joints): the perfect pair's
+    double bifurcation splits into the other (perfect) leaf's simple bifurcation and the loaded
+    leaf's limit point (an imperfect unstable-symmetric bifurcation), both below the perfect
+    pair's, where the device snaps (`Path.snap`, the limit); the point's sideways travel grows
     towards it."""
     from flexmb.studies.paths import bistable_pair
 
@@ -127,7 +128,8 @@ def test_an_imperfection_load_inside_a_leaf_turns_the_double_bifurcation_into_a_
     m.apply_force("mid", (0.0, 0.1))  # 0.1 % of the 100 N push, (nearly) across the leaf
     path = flexmb.trace(m, steps=40, progress=False, stop=lambda s: -s.displacement("S")[1] > 1.0)
     snap = path.snap
-    assert snap.kind == "limit" and snap.multiplicity == 1 and 0.9 * perfect < snap.load_factor < perfect
+    assert [(c.kind, c.multiplicity) for c in path.critical] == [("bifurcation", 1), ("limit", 1)]
+    assert snap is path.critical[1] and 0.95 * perfect < path.critical[0].load_factor < snap.load_factor < perfect
     side = [abs(s.displacement("mid")[1]) for s in path]
     assert side[1] < side[3] < abs(snap.solution.displacement("mid")[1])
 

@@ -199,7 +199,7 @@ class Mechanism:
             raise ModelError(f"no joint named {joint!r}; joints: {', '.join(map(repr, self.joints)) or 'none'}")
         if not isinstance(name, str) or not name:
             raise ModelError(f"joint point name must be a non-empty string, got {name!r}")
-        if name in self.graph or name in self._joint_point_names():
+        if name in self.graph or self._is_joint_point(name):
             raise ModelError(f"a link or joint point named {name!r} exists already")
         where = f"joint point {name!r}"
         fraction = v.finite(where, "fraction", fraction)
@@ -216,6 +216,9 @@ class Mechanism:
 
     def _joint_point_names(self) -> set:
         return {p[0] for p in self._inside[0]}
+
+    def _is_joint_point(self, name) -> bool:
+        return isinstance(name, str) and any(p[0] == name for p in self._inside[0])
 
     def _inside_load(self, name: str, force, moment) -> None:
         points, loads, motions = self._inside
@@ -249,7 +252,7 @@ class Mechanism:
         Repeated calls update the given components. A point inside a joint (`add_joint_point`)
         takes ``x``, ``y`` (``z``) and ``rotation`` (a vector in 3D) the same way.
         """
-        if name in self._joint_point_names():
+        if self._is_joint_point(name):
             return self._inside_motion(name, motion)
         lk = self.link(name)
         if lk.fixed:
@@ -281,7 +284,7 @@ class Mechanism:
     def apply_force(self, name: str, force, point=None) -> None:
         """Dead force [N] (global axes) at ``point`` [m] (undeformed global position; default the link's
         reference), or at a point inside a joint (`add_joint_point`, no ``point``)."""
-        if name in self._joint_point_names():
+        if self._is_joint_point(name):
             f = v.vector(f"joint point {name!r}", "force", force, self.dim)
             return self._inside_load(name, f, np.zeros(1 if self.dim == 2 else 3))
         lk = self.link(name)
@@ -293,7 +296,7 @@ class Mechanism:
     def apply_moment(self, name: str, moment) -> None:
         """Dead moment [N m]: a scalar (about z) in 2D, a vector (3,) in global axes in 3D (at a link
         or a point inside a joint)."""
-        inside = name in self._joint_point_names()
+        inside = self._is_joint_point(name)
         if not inside:
             self.link(name)
         where = f"{'joint point' if inside else 'link'} {name!r}"

@@ -94,8 +94,8 @@ class InclinedLeaf:
         det = np.array([np.linalg.det(self.full(q, d)[1]) for q, d in zip(prim, ds)])
         bif = []
         for k in np.flatnonzero(np.diff(np.sign(det))):
-            d = brentq(lambda x: np.linalg.det(self.full(self.newton(self.half, x, prim[k]), x)[1]), ds[k], ds[k + 1],
-                       xtol=1e-12)
+            d = brentq(lambda x, k=k: np.linalg.det(self.full(self.newton(self.half, x, prim[k]), x)[1]), ds[k],
+                       ds[k + 1], xtol=1e-12)
             bif.append((d, self.newton(self.half, d, prim[k])))
         (d1, q1), (d2, q2) = bif
         null = np.linalg.svd(self.full(q1, d1)[1])[2][-1]

@@ -391,7 +391,7 @@ class ArcLength:
                     return
                 continue
             following = b
-            for kind, p, multiplicity, modes in self._critical(problem, metric, a, b, ds):
+            for kind, p, count, modes in self._critical(problem, metric, a, b, ds):
                 q = None
                 if kind == "bifurcation" and branch != "primary":
                     # a branch the path was not scaled for (a strut's bending under an axial
@@ -400,7 +400,7 @@ class ArcLength:
                     own, others = branch_points(self, problem, metric, p, a, modes, ds)
                     q = choose(p, own, others, branch)
                     q = None if q is own else q
-                yield ("critical", kind, p, multiplicity, modes, q is not None)
+                yield ("critical", kind, p, count, modes, q is not None)
                 if q is not None:  # onto another branch: the critical points beyond p are not on it
                     following, ref = q, max(ref, ds)
                     break

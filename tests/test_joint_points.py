@@ -164,3 +164,10 @@ def test_changing_a_joint_point_load_recompiles():
     first = flexmb.solve(m).displacement("B")[1]
     m.apply_force("P", (0.0, -1.0))
     assert flexmb.solve(m).displacement("B")[1] == pytest.approx(2 * first, rel=1e-3)
+
+
+def test_saving_a_mechanism_with_joint_points_is_refused_not_dropped(tmp_path):
+    m = _leaf(2, 4)
+    m.add_joint_point("leaf", "P", 0.5)
+    with pytest.raises(flexmb.errors.FlexmbError, match=r"points inside joints \(P\) are not in the file format"):
+        flexmb.files.save(m, tmp_path / "m.json")

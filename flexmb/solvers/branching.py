@@ -24,8 +24,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
-__all__ = ["critical_modes", "multiplicity", "switch_arc", "is_bifurcation", "branch_points", "choose", "BRANCHES", "SAME_POINT",
-           "ORTHOGONAL"]
+__all__ = ["BRANCHES", "ORTHOGONAL", "SAME_POINT", "branch_points", "choose", "critical_modes", "is_bifurcation",
+           "multiplicity", "switch_arc"]
 
 #: What `flexmb.trace` may do at a bifurcation point: ``"stable"`` take the branch the device
 #: follows (`choose`), ``"primary"`` stay on the path it came along, ``"bifurcated"`` leave it
@@ -161,12 +161,11 @@ def directions(modes: np.ndarray) -> list[np.ndarray]:
 
 def branch_points(strategy, problem, metric, p, came_from, modes: np.ndarray, ds: float) -> tuple:
     """Points at arc length ``ds`` from the critical point ``p`` on the branches that leave it,
-    ``(own, others)``: the path's own continuation (``p``'s tangent, its direction; None if its
-    corrector failed) and a list of one point per predictor
-    along the critical modes (`directions`) and along the branch whose load factor changes
-    there (`load_directions`) whose corrector converged to a new branch: not the
-    way the path came (from ``came_from``), not a point found already. Each `PathPoint` has its
-    direction (the way it runs away from ``p``) and stability; its arc length counts from ``p``."""
+    ``(own, others)``: the path's own continuation (along its secant from ``came_from``; None if
+    its corrector failed) and one point per predictor along the critical modes (`directions`)
+    and along the branch whose load factor changes there (`load_directions`) whose corrector
+    converged to a new branch: not the way the path came, not a point found already. Each
+    `PathPoint` has its direction (the way it runs away from ``p``) and stability."""
     incoming = metric.difference(came_from.state, p.state), came_from.lam - p.lam
     found = []
     # p's own tangent is any vector of the null space (the tangent is singular there): the path

@@ -525,3 +525,19 @@ def _bare_point():
     from flexmb.solvers.arclength import PathPoint
 
     return PathPoint(None, 0.0, None, None, 0.0, 1.0, 0, np.zeros(0), 0.0, 0.0, 0)
+
+
+def test_both_branches_can_be_asked_for():
+    """The hinged pinned-pinned column past its Euler load: by default the path takes the stable
+    post-buckled branch (switched at the bifurcation) and stays on it at the second bifurcation
+    it meets (P / P_E = 2.19, the ends turned 131 deg), where no other branch is more stable;
+    ``branch="bifurcated"`` leaves there too; ``branch="primary"`` never leaves the straight path."""
+    kw = dict(arc_length=0.1, max_load_factor=2.2, progress=False)
+    stable = flexmb.trace(_hinged_column(False), **kw)
+    assert [(c.kind, c.switched) for c in stable.critical] == [("bifurcation", True), ("bifurcation", False)]
+    bifurcated = flexmb.trace(_hinged_column(False), **kw, branch="bifurcated")
+    assert [(c.kind, c.switched) for c in bifurcated.critical][:2] == [("bifurcation", True), ("bifurcation", True)]
+    assert bifurcated.critical[1].load_factor == pytest.approx(stable.critical[1].load_factor, rel=1e-6)
+    primary = flexmb.trace(_hinged_column(False), **kw, branch="primary")
+    assert [(c.kind, c.switched) for c in primary.critical] == [("bifurcation", False)]
+    assert np.allclose([s.rotation_vector("A")[0] for s in primary], 0.0, atol=1e-12)

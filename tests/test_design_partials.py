@@ -85,7 +85,7 @@ def test_residual_and_tangent_rates_equal_differences_of_rebuilt_models(case):
 
 
 def _full_tangent(problem, state):
-    from flexmb.modal import _full_pattern
+    from flexmb.linearisation import _full_pattern
 
     m = problem.model
     Ke = m.element_response(state, tangent=True)[1]

@@ -18,7 +18,7 @@ import numpy as np
 from ..boundary import boundary
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
 from ..linear import single_threaded
-from .adjoint import STRATEGIES, Sensitivity
+from .adjoint import STRATEGIES, Sensitivity, full_model
 from .parameters import ModelRates, as_design, model_numbers, model_rates
 
 __all__ = ["Evaluation", "DesignPoint", "evaluate", "value_and_grad"]
@@ -175,7 +175,7 @@ class DesignPoint:
         if not solution.converged:
             raise ConvergenceError(f"the design at {self.design.values} did not converge ({solution.message}); "
                                    "no responses or gradients of an unconverged state", solution)
-        if solution.method not in STRATEGIES + ("ksd-reduced",):  # refused naming the method and each parameter's kind
+        if not (full_model(solution) or _reduced(solution)):  # refused naming the method and each parameter's kind
             if gradient:
                 Sensitivity(solution, self.rates(None))
             raise UnsupportedStrategyError(f"design responses with method {solution.method!r}: available for "
@@ -220,10 +220,17 @@ def _same_model(compiled, solution, values) -> None:
                              "reference numbers differ): pass a solve of DesignPoint.mechanism(configure)")
 
 
+def _reduced(solution) -> bool:
+    """Whether ``solution`` is KSD-reduced's solution kind (`flexmb.ksd.linearisation.ReducedSolution`)."""
+    from ..ksd.linearisation import ReducedSolution
+
+    return isinstance(solution, ReducedSolution)
+
+
 def _sensitivity(solution, rates, items):
     """The linearisation of ``solution`` for the responses ``items``: `Sensitivity` of the full
     model; a KSD-reduced solution's `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
-    if solution.method != "ksd-reduced":
+    if not _reduced(solution):
         return Sensitivity(solution, rates)
     from .reduced import ReducedSensitivity
 

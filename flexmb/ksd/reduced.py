@@ -23,15 +23,17 @@ from ..database.store import ENVIRONMENT, file_name, search_path, shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
 from ..fe.ideal import row_names
 from ..fe.model import State
+from ..linear import single_threaded
 from ..rotations import cross, skew, unskew
 from . import constraints
 from .eob import EOBTemplate
 from .eob_table import lookup_for
-from .geometry import ACTIVE, JointFrames, LinkPoses, expm, intended_angle
+from .geometry import ACTIVE, JointFrames, LinkPoses, compose, expm, intended_angle
 
 __all__ = ["ReducedMechanism", "template"]
 
 _EYE = np.eye(3)
+_BUILT: set = set()  # the attribute names `ReducedMechanism.__init__` sets
 #: ``Q.reshape(9) @ _DUNSKEW`` = ``0.5 (trace(Q) I - Q)`` flattened, d unskew(Q) / d omega (dQ = skew(omega) Q)
 _DUNSKEW = 0.5 * (np.outer(_EYE.ravel(), _EYE.ravel()) - np.eye(9))
 
@@ -229,12 +231,8 @@ class ReducedMechanism:
         self.joint_names = names
         self.folder = folder
         self._templates = used  # (joint, template, database file signature) per distinct joint value
-        a, b = np.array(a), np.array(b)
-        P = np.repeat(_EYE[None], len(names), axis=0)
-        P[:, :dim, :dim] = rot
         self.b0 = _embed(np.array(b0), dim)
-        origin = _embed(np.array(origin), dim)
-        self.frames = JointFrames(a, b, origin - self.X0[a], origin + (P @ self.b0[..., None])[..., 0] - self.X0[b], P)
+        self.frames = self._frames(np.array(a), np.array(b), rot, origin)
         self.D0 = np.sqrt((self.b0 * self.b0).sum(axis=1))
         self.groups = [(tpl, cons, np.array(idx)) for tpl, cons, idx in groups.values()]
         # how to take a group's joints from per-joint arrays (all of them: a view, not a copy)
@@ -280,12 +278,8 @@ class ReducedMechanism:
         else:
             self.lam_rate = np.zeros(r0)
         self.n_equations = r0
-        loads = problem.loads
-        self.load_node = loads.node
-        self.load_offset = _embed(loads.offset, dim)
-        self.load_force = _embed(loads.force, dim)
-        self.load_moment = loads.moment if dim == 3 else np.concatenate(
-            [np.zeros((len(loads.node), 2)), loads.moment], axis=1)
+        self.load_node = problem.loads.node
+        self._set_loads(problem.loads)
         # step 3: where the joints' wrenches on links b and a and the loads go in the residual, and
         # each joint's 12 x 12 block and each offset load's 3 x 3 block in the flattened tangent
         ld = self.load_node[:, None] * 6
@@ -294,6 +288,24 @@ class ReducedMechanism:
         lr = ld + np.arange(3, 6)
         self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
                                      (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])
+        _BUILT.update(vars(self))  # the attributes a set-up has when built (`rebind` keeps only these)
+
+    def _frames(self, a: np.ndarray, b: np.ndarray, rot: list, origin: list) -> JointFrames:
+        """The joints' `JointFrames` from their links ``a``, ``b`` (J,), placements' rotations and
+        origins (global, undeformed), with `X0` and `b0` set."""
+        dim = self.dim
+        P = np.repeat(_EYE[None], len(a), axis=0)
+        P[:, :dim, :dim] = rot
+        origin = _embed(np.array(origin), dim)
+        return JointFrames(a, b, origin - self.X0[a], origin + (P @ self.b0[..., None])[..., 0] - self.X0[b], P)
+
+    def _set_loads(self, loads) -> None:
+        """The dead loads' offsets, forces and moments in 3D form (`load_node` fixed)."""
+        dim = self.dim
+        self.load_offset = _embed(loads.offset, dim)
+        self.load_force = _embed(loads.force, dim)
+        self.load_moment = loads.moment if dim == 3 else np.concatenate(
+            [np.zeros((len(loads.node), 2)), loads.moment], axis=1)
 
     def _set_values(self, values: np.ndarray) -> None:
         """The prescribed values (on `prescribed`) and the moves of step 1 they give."""
@@ -324,6 +336,33 @@ class ReducedMechanism:
         start = vars(self).get("_kinematic_start")
         if start is not None:  # at rest (lam = 0) the same; the turn rate follows the values
             out._kinematic_start = start[:-1] + (None,)
+        return out
+
+    def rebind(self, compiled) -> ReducedMechanism | None:
+        """This set-up for ``compiled``, another mechanism of the same structure (issue 31: a design
+        loop's new mechanism): the same links, joints (equal values, on the same sides), prescribed
+        DOFs and loaded links, no hinges, with other link positions, joint placements, prescribed
+        values and loads. Templates, constraint sets, groups and index maps are shared; the numbers
+        (links' reference positions, joint frames, loads, moves) are recomputed and what steps 1-4
+        derived from them is dropped, so the result is the set-up `ReducedMechanism(compiled)`
+        builds. None when ``compiled`` is not such a mechanism."""
+        new, old = compiled.problem, self.compiled.problem
+        if (self.hinges is not None or getattr(new.model, "hinges", None) is not None
+                or compiled.link_node != self.compiled.link_node or len(compiled.joints) != len(self.joint_names)
+                or any(k != name or (jt is not j0 and not (hashable(jt) and jt == j0)) or (sa, sb) != (a0, b0)
+                       for (k, jt, _, sa, sb), (name, j0, _, a0, b0) in zip(compiled.joints, self.compiled.joints))
+                or new.model.dim != self.dim or not np.array_equal(new.prescribed, old.prescribed)
+                or not np.array_equal(new.loads.node, old.loads.node)):
+            return None
+        out = copy.copy(self)
+        for derived in set(vars(out)) - _BUILT:  # what steps 1-4 derived from the numbers on first use
+            del vars(out)[derived]
+        out.compiled = compiled
+        out.X0 = _embed(new.model.x0[:self.n_links], self.dim)
+        out.frames = out._frames(self.frames.a, self.frames.b, [pl.rotation for _, _, pl, _, _ in compiled.joints],
+                                 [pl.origin for _, _, pl, _, _ in compiled.joints])
+        out._set_values(np.asarray(new.values, dtype=float))
+        out._set_loads(new.loads)
         return out
 
     def current(self) -> bool:
@@ -399,7 +438,78 @@ class ReducedMechanism:
             return vals, None, theta, p
         return vals, (jac if jacobian == "deferred" else jac()), theta, p
 
+    # -- step 2: the joints' EOBs, condensed ---------------------------------------------------
+    def condensed_joints(self, theta: np.ndarray, p_hat: np.ndarray, *, lookup: bool, compiled: bool):
+        """KSD step 2: every joint's EOB at its intended rotation ``theta`` (J,) [rad] and node B's
+        near position ``p_hat`` (J, 3), condensed on node B with node A held (Craig-Bampton,
+        Eq. 2.5). Returns ``K`` (J, 6, 6) and ``F_hat`` (J, 6) in the joint frames (inactive planar
+        rows zero), per group of joints its EOB (an `flexmb.ksd.eob.EOB`, or with ``compiled`` the
+        arrays ``[recover, internal positions, internal rotations or angles]`` the compiled step 4
+        reads) and how many joints were looked up. ``lookup``: a group whose rotations its
+        tabulated condensation covers reads it (`flexmb.ksd.eob_table`) instead of evaluating its
+        EOB (not for KSD-full, whose step 5 needs the EOBs' element fields)."""
+        dim, emb = self.dim, ACTIVE[self.dim]
+        J = len(self.joint_names)
+        K, Fh = np.zeros((J, 6, 6)), np.zeros((J, 6))
+        eobs, tabulated = [], 0
+        for tpl, _, idx in self.groups:
+            if lookup and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
+                tabulated += len(idx)
+                if compiled:  # tabulated, one compiled call (flexmb.ksd.reduced_jit.eob_lookup)
+                    eobs.append(list(tpl.lookup.compiled(theta, p_hat, idx, K, Fh)[2:]))
+                    continue
+                e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
+            elif compiled:  # outside the compiled solve's thread limit: the Craig-Bampton solves' BLAS
+                with single_threaded():
+                    e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
+            else:
+                e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
+            K[idx[:, None, None], emb[:, None], emb] = e.K_T
+            Fh[idx[:, None], emb] = e.F_hat_T
+            eobs.append([np.ascontiguousarray(a) for a in (e.recover, e.node_position[:, 2:], e.node_rotation[:, 2:]
+                         if dim == 3 else e.node_angle[:, 2:])] if compiled else e)
+        return K, Fh, eobs, tabulated
+
     # -- step 3: equilibrium with the condensed joints ----------------------------------------
+    def step3_unknowns(self) -> np.ndarray:
+        """Step 3's unknowns among the links' 6 n_links coordinates and the hinges' multipliers
+        (after them): the free link coordinates, then every multiplier."""
+        if self.hinges is None:
+            return self.free
+        return np.concatenate([self.free, 6 * self.n_links + np.arange(self.hinges.n_rows)])
+
+    def step3_residual(self, poses: LinkPoses, multipliers, hinge_angles, K, F_hat, p_hat, R_hat):
+        """Step 3's residual on the links' coordinates (and, with hinges, the saddle point of the
+        full model's hinges, `flexmb.fe.ideal`: their multipliers' forces on the links, their
+        scaled constraints on the multiplier rows) and its tangent as a function (`equilibrium`'s
+        deferred one)."""
+        if self.hinges is None:
+            return self.equilibrium(poses, K, F_hat, p_hat, R_hat, tangent="deferred")
+        n = 6 * self.n_links
+        r, Kr = self.equilibrium(poses, K, F_hat, p_hat, R_hat, tangent="deferred")
+        rh, Kh = self.hinge_response(poses, multipliers, angles=hinge_angles)
+        rh[:n] += r
+
+        def tangent():
+            out = Kh()
+            out[:n, :n] += Kr()
+            return out
+
+        return rh, tangent
+
+    def step3_moved(self, poses: LinkPoses, multipliers, hinge_angles, x: np.ndarray):
+        """The unknowns moved by a Newton correction ``x`` on `step3_unknowns`: the links' poses
+        (exponential map), the multipliers (added), the 3D hinges' angles (turns counted)."""
+        dz = np.zeros(6 * self.n_links)
+        if self.hinges is None:
+            dz[self.free] = x
+            return poses.moved(dz), multipliers, hinge_angles
+        nf = len(self.free)
+        dz[self.free] = x[:nf]
+        poses = poses.moved(dz)
+        return poses, multipliers + x[nf:], self.hinge_angles(poses, hinge_angles)
+
+
     def equilibrium(self, poses: LinkPoses, K: np.ndarray, F_hat: np.ndarray, p_hat: np.ndarray,
                     R_hat: np.ndarray, tangent: bool | str = True):
         """Residual (6 n_links,) = joint wrenches on the links minus applied loads, and its
@@ -493,6 +603,56 @@ class ReducedMechanism:
         return r, jacobian
 
     # -- step 4: back to the full model -----------------------------------------------------
+    def internal_nodes(self, poses: LinkPoses, eobs, p_hat, R_hat, multipliers=None, hinge_angles=None,
+                       displacements: bool = False):
+        """KSD step 4: every joint's internal nodes from its interface displacement (Eq. 2.6) about
+        its EOB's near configuration. Returns the full model's `State` and, with
+        ``displacements``, per group of joints the node displacements (Jg, N nd) from the EOBs'
+        near poses (`eob_axial_stress` reads them; else an empty list). ``eobs`` as
+        `condensed_joints` returns them (its compiled arrays: `fe_state_compiled`)."""
+        if eobs and isinstance(eobs[0], list):  # the compiled path's arrays
+            return self.fe_state_compiled(poses, [(idx, *e) for (_, _, idx), e in zip(self.groups, eobs)], p_hat,
+                                          R_hat), []
+        dim = self.dim
+        emb = ACTIVE[dim]
+        nd = len(emb)
+        p, Rrel, _ = self.frames.relative(poses)
+        xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
+        internal, q_nodes = [], []
+        for (tpl, _, idx), e in zip(self.groups, eobs):
+            n_int = tpl.n_nodes - 2
+            xi = -((e.recover[:, :, :nd] @ xi_B[idx][..., None])[..., 0] + e.recover[:, :, nd])
+            if displacements:
+                q_nodes.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
+            xi = xi.reshape(len(idx), n_int, nd)
+            x = e.node_position[:, 2:] + xi[..., :dim]
+            if dim == 2:
+                rot = e.node_angle[:, 2:] + xi[..., 2]
+            else:
+                rot = compose(xi[..., 3:], e.node_rotation[:, 2:])
+            internal.append((idx, x, rot))
+        return self.fe_state(poses, internal, multipliers, hinge_angles), q_nodes
+
+    def eob_axial_stress(self, eobs, q_nodes):
+        """A function replacing the joint elements' axial forces in the full model's generalised
+        stresses by the EOBs' (`EOBTemplate.axial_force` of the node displacements ``q_nodes``,
+        `internal_nodes`): KSD-full's first geometric stiffness in step 5 (step 4's positions are
+        exact to first order only; their axial forces up to 15x the converged ones)."""
+        names, elements = self.joint_names, self.compiled.joint_elements
+        at, values = [], []
+        for (tpl, _, idx), e, q in zip(self.groups, eobs, q_nodes):
+            at.append(np.concatenate([elements[names[j]] for j in idx]))
+            values.append(tpl.axial_force(e, q).ravel())
+        at, values = np.concatenate(at), np.concatenate(values)
+
+        def geometric_stress(sigma):
+            out = sigma.copy()
+            out[at, 0] = values
+            return out
+
+        return geometric_stress
+
+
     def fe_state(self, poses: LinkPoses, internal, multipliers: np.ndarray | None = None, hinge_angles=None):
         """The full model's `State`: link nodes from ``poses``; ``internal`` is a list of
         ``(idx, x, rot)`` per group of joints sharing a mesh: joint indices (Jg,), internal node

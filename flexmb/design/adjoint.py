@@ -78,8 +78,10 @@ class Sensitivity:
 
     @functools.cached_property
     def K(self):
-        """The full tangent (n_dofs, n_dofs), CSR (`flexmb.modal.full_tangent`)."""
-        return full_tangent(self.solution).tocsr()
+        """The full tangent (n_dofs, n_dofs), CSR (`flexmb.linearisation.full_tangent`, the one the
+        solution's linearisation assembled)."""
+        full = getattr(self.linearisation, "full", None)
+        return (full if full is not None else full_tangent(self.solution)).tocsr()
 
     @functools.cached_property
     def _dense(self) -> np.ndarray | None:

@@ -1,4 +1,5 @@
 import os
+import tempfile
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -10,6 +11,10 @@ settings.register_profile("ci", max_examples=25, deadline=None, derandomize=True
 settings.register_profile("dev", max_examples=25, deadline=None)
 settings.register_profile("thorough", max_examples=500, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+# issue 31: the compiled kernels' cache in a folder of the system's temporary directory (kept between runs),
+# never the user's cache folder (numba reads NUMBA_CACHE_DIR when first imported, after this)
+os.environ.setdefault("NUMBA_CACHE_DIR", os.path.join(tempfile.gettempdir(), "flexmb-tests-numba-cache"))
 
 
 def pytest_report_header(config):

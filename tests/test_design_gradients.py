@@ -270,3 +270,29 @@ def test_a_user_gradient_is_checked_and_a_wrong_one_fails():
     wrong = {**right, "t": 1.01 * right["t"]}  # one component 1 % off
     c = check_gradient(spatial, SPATIAL, R.displacement("B", "z"), gradient=lambda p: wrong, **TIGHT)
     assert not c.ok and c.errors["t"] > 1e-4 and max(v for k, v in c.errors.items() if k != "t") < 1e-6
+
+
+def test_configurations_that_add_loads_do_not_accumulate():
+    # configure may add a load (not only replace values): each configuration starts from the builds
+    point = DesignPoint(_pivot(2), PIVOT, PIVOT_BOUNDS)
+    jac = [point.evaluate(R.displacement("B", "x"), configure=lambda m, f=force: m.apply_force("B", (f, 0.0)),
+                          **TIGHT).jacobian for force in (1.0, 2.0, 1.0)]
+    np.testing.assert_allclose(jac[2], jac[0], rtol=1e-10)
+    assert np.abs(jac[1] - jac[0]).max() > 1e-6 * np.abs(jac[0]).max()
+
+
+def _chained(p):
+    """A leaf turned by a chain of two rotations (a manipulator's prescribed joint angles)."""
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=(0.1, 0.0, 0.0))
+    m.add_joint("A", "B", "leaf_spring", length=0.1, thickness=p["t"], elements=6)
+    m.prescribe("B", rotation=[(0.0, 0.0, p["a"]), (0.1, 0.0, 0.0)])
+    return m
+
+
+def test_a_prescribed_chain_of_rotations_serves_other_parameters_and_refuses_its_own():
+    c = check_gradient(lambda q: _chained({**q, "a": 0.35}), {"t": 1e-3}, R.reaction("B", "rz"), **TIGHT)
+    assert c.ok, str(c)
+    with pytest.raises(UnsupportedStrategyError, match=r"\['a'\].*chain"):
+        evaluate(_chained, {"t": 1e-3, "a": 0.35}, R.reaction("B", "rz"))

@@ -9,6 +9,7 @@ gradient is read from it.
 
 from __future__ import annotations
 
+import copy
 import time
 
 import attrs
@@ -17,7 +18,7 @@ import numpy as np
 from ..boundary import boundary
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
 from ..linear import single_threaded
-from .adjoint import STRATEGIES, Sensitivity
+from .adjoint import STRATEGIES, Sensitivity, full_model
 from .parameters import ModelRates, as_design, model_numbers, model_rates
 
 __all__ = ["Evaluation", "DesignPoint", "evaluate", "value_and_grad"]
@@ -104,7 +105,8 @@ class _Configured(ModelRates):
         out = {f: np.zeros((len(self.names),) + np.shape(base[f])) for f in self.BOUNDARY}
         for k, (_, h) in enumerate(self._builds):
             for w, mech in self._base._mechanisms[k]:
-                if mech is not None:
+                if mech is not None:  # a copy: configure may add loads, and the builds serve every configuration
+                    mech = _copy_mechanism(mech)
                     self._configure(mech)
                 nums = base if mech is None else numbers(mech)
                 for f in self.BOUNDARY:
@@ -112,6 +114,22 @@ class _Configured(ModelRates):
         for f in self.BOUNDARY:
             out[f].flags.writeable = False
             self._cache[f] = out[f]
+
+
+def _copy_mechanism(mech):
+    """A copy of a `flexmb.Mechanism` that its methods can change without touching ``mech``: its
+    graph (links, joints, placements: `Mechanism.add_link`, `add_joint`, `fix`), loads (`apply_force`,
+    `apply_moment`, `clear_loads`), prescribed motions (`prescribe`) and points (`add_point`) in new
+    containers, their immutable items shared (~10 us; ``copy.deepcopy`` took 1-4 ms on the 3D hinge's
+    builds). Another class of mechanism is deep-copied."""
+    if not all(hasattr(mech, k) for k in ("graph", "_loads", "_prescribed", "_points")):
+        return copy.deepcopy(mech)
+    out = copy.copy(mech)
+    out.graph = mech.graph.copy()
+    out._loads = list(mech._loads)
+    out._prescribed = {k: dict(v) for k, v in mech._prescribed.items()}
+    out._points = dict(mech._points)
+    return out
 
 
 class DesignPoint:
@@ -157,7 +175,7 @@ class DesignPoint:
         if not solution.converged:
             raise ConvergenceError(f"the design at {self.design.values} did not converge ({solution.message}); "
                                    "no responses or gradients of an unconverged state", solution)
-        if solution.method not in STRATEGIES + ("ksd-reduced",):  # refused naming the method and each parameter's kind
+        if not (full_model(solution) or _reduced(solution)):  # refused naming the method and each parameter's kind
             if gradient:
                 Sensitivity(solution, self.rates(None))
             raise UnsupportedStrategyError(f"design responses with method {solution.method!r}: available for "
@@ -202,10 +220,17 @@ def _same_model(compiled, solution, values) -> None:
                              "reference numbers differ): pass a solve of DesignPoint.mechanism(configure)")
 
 
+def _reduced(solution) -> bool:
+    """Whether ``solution`` is KSD-reduced's solution kind (`flexmb.ksd.linearisation.ReducedSolution`)."""
+    from ..ksd.linearisation import ReducedSolution
+
+    return isinstance(solution, ReducedSolution)
+
+
 def _sensitivity(solution, rates, items):
     """The linearisation of ``solution`` for the responses ``items``: `Sensitivity` of the full
     model; a KSD-reduced solution's `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
-    if solution.method != "ksd-reduced":
+    if not _reduced(solution):
         return Sensitivity(solution, rates)
     from .reduced import ReducedSensitivity
 

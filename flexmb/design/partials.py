@@ -27,9 +27,10 @@ H = 1e-30
 
 
 def _changed(rate: np.ndarray) -> np.ndarray:
-    """(K, n) whether row n of a field changes with parameter k."""
-    return np.any(rate.reshape(rate.shape[0], rate.shape[1], -1) != 0.0, axis=2) if rate.ndim > 1 and \
-        rate.shape[1] else np.zeros((rate.shape[0], rate.shape[1] if rate.ndim > 1 else 0), dtype=bool)
+    """(K, n) whether row n of a field (rows (n, ...)) changes with parameter k."""
+    if rate.ndim < 2 or rate.shape[1] == 0:  # an empty field (no loads, no rigid masses)
+        return np.zeros((rate.shape[0], rate.shape[1] if rate.ndim > 1 else 0), dtype=bool)
+    return np.any(rate.reshape(rate.shape[0], rate.shape[1], -1) != 0.0, axis=2)
 
 
 def _element_rows(model, rates, du) -> tuple[np.ndarray, np.ndarray]:

@@ -108,7 +108,8 @@ def assemble3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, tangent, sg_giv
                 for j in range(3):
                     Kk[o + 3 + i, o + 3 + j] += dv[i] * fv[j] - (df if i == j else 0.0)
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
-    largest_by_kind(Fm.ravel(), 6, 3, largest)
+    nd = Fm.shape[1] // 2  # ndof 6, dim 3 read from the array: literal constants would make numba
+    largest_by_kind(Fm.ravel(), nd, nd // 2, largest)  # compile a second specialisation (issue 31)
 
 
 @njit
@@ -156,7 +157,8 @@ def assemble2d(pos, rot, master, offset, moved, alpha0, L0, S, tangent, sg_given
                 Kk[o + 2, col] += -d1 * Kk[o, col] + d0 * Kk[o + 1, col]
             Kk[o + 2, o + 2] -= d0 * f0 + d1 * f1
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
-    largest_by_kind(Fm.ravel(), 3, 2, largest)
+    nd = Fm.shape[1] // 2  # ndof 3, dim 2 from the array: not literals (one specialisation, issue 31)
+    largest_by_kind(Fm.ravel(), nd, nd - 1, largest)
 
 
 @njit

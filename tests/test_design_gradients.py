@@ -296,3 +296,15 @@ def test_a_prescribed_chain_of_rotations_serves_other_parameters_and_refuses_its
     assert c.ok, str(c)
     with pytest.raises(UnsupportedStrategyError, match=r"\['a'\].*chain"):
         evaluate(_chained, {"t": 1e-3, "a": 0.35}, R.reaction("B", "rz"))
+
+
+def test_a_build_with_a_kink_at_the_design_is_refused_by_name():
+    # thickness = max(t, 1 mm) at t = 1 mm: the model's stiffness has slope 3 S/t above and 0 below
+    def build(p):
+        m = _cantilever({"L": 0.1, "t": max(p["t"], 1e-3)}, 2)
+        m.apply_force("B", (0.0, p["F"]))
+        return m
+
+    with pytest.raises(ParameterError, match="'t'.*not smooth"):
+        evaluate(build, {"t": 1e-3, "F": 1e-3}, R.displacement("B", "y"))
+    evaluate(build, {"t": 1.2e-3, "F": 1e-3}, R.displacement("B", "y"))  # away from the kink: fine

@@ -14,7 +14,10 @@ tests/test_design_parameters.py (relative 1e-10 on the cantilever's closed forms
 
 The topology must not depend on ``p``: the structure of the compiled model (element ends, node
 and point numbering, DOF layout, prescribed DOFs, load and mass rows) is compared between the
-builds, and a change is refused (`flexmb.TopologyError` naming the parameter).
+builds, and a change is refused (`flexmb.TopologyError` naming the parameter). Nor may the numbers
+have a kink at the design (a ``max()``, a rounding, a branch on ``p`` in the build): the builds at
+``p + h``, ``p`` and ``p - h`` tell it (forward and backward differences disagree), and it is
+refused naming the parameter rather than averaged into a wrong gradient.
 """
 
 from __future__ import annotations
@@ -264,7 +267,10 @@ class ModelRates:
             base = model_numbers(self.compiled, field)
             out = np.zeros((len(self.names),) + base.shape)
             for k, (stencil, h) in enumerate(self._builds):
-                out[k] = sum(w * (model_numbers(c, field) if c is not None else base) for w, c in stencil) / h
+                values = [(w, model_numbers(c, field) if c is not None else base) for w, c in stencil]
+                out[k] = sum(w * v for w, v in values) / h
+                if len(values) == 2:  # central: the base build tells a kink in build(p) (module notes)
+                    _check_smooth(self.names[k], field, base, values[1][1], values[0][1], h)
             out.flags.writeable = False
             self._cache[field] = out
         return self._cache[field]
@@ -298,6 +304,29 @@ class ModelRates:
     def touched(self, k: int) -> bool:
         """Whether parameter ``k`` changes any model number at all."""
         return any(np.any(self.rate(f)[k] != 0.0) for f in MODEL_FIELDS)
+
+
+#: The largest difference of a model number's forward and backward differences about the design,
+#: relative to the field's largest rate, that passes as smooth: a smooth build differs by ~(step /
+#: scale) (p N''/N') ~ 1e-5; a kink (max(), a branch, a rounding) by order 1.
+KINK = 1e-3
+
+
+def _check_smooth(name: str, field: str, base: np.ndarray, plus: np.ndarray, minus: np.ndarray, h: float) -> None:
+    """Refuse (`ParameterError`) a build whose model numbers have a kink at the design in parameter
+    ``name``: their forward and backward differences (builds at ``p + h``, ``p``, ``p - h``)
+    disagree by more than `KINK` of the field's largest rate, where a central difference would
+    silently average two slopes."""
+    if base.size == 0:
+        return
+    fwd, bwd = (plus - base) / h, (base - minus) / h
+    scale = max(float(np.max(np.abs(fwd))), float(np.max(np.abs(bwd))))
+    floor = 1e3 * np.finfo(float).eps * float(np.max(np.abs(base))) / h  # round-off of the differences
+    worst = float(np.max(np.abs(fwd - bwd)))
+    if worst > KINK * scale + floor:
+        raise ParameterError(f"design parameter {name!r}: build(p) is not smooth in it at the design (the model's "
+                             f"{field} changes at different rates above and below it: {worst:.3g} against {scale:.3g}); "
+                             "a max(), a rounding or a branch on the parameter in build(p) has no derivative there")
 
 
 def _stencil(q: Parameter) -> tuple:

@@ -291,11 +291,11 @@ def _chained(p):
     return m
 
 
-def test_a_prescribed_chain_of_rotations_serves_other_parameters_and_refuses_its_own():
-    c = check_gradient(lambda q: _chained({**q, "a": 0.35}), {"t": 1e-3}, R.reaction("B", "rz"), **TIGHT)
+@pytest.mark.parametrize("response", [R.reaction("B", "rz"), R.displacement("B", "y"), R.reaction("A", "rx")])
+def test_a_prescribed_chain_of_rotations_and_its_angles(response):
+    # R = exp(w_1) exp(w_2) with w_1 = (0, 0, a): the spin sum_i P_(i-1) J_l(w_i) w_i'
+    c = check_gradient(_chained, {"t": 1e-3, "a": 0.35}, response, **TIGHT)
     assert c.ok, str(c)
-    with pytest.raises(UnsupportedStrategyError, match=r"\['a'\].*chain"):
-        evaluate(_chained, {"t": 1e-3, "a": 0.35}, R.reaction("B", "rz"))
 
 
 def test_a_build_with_a_kink_at_the_design_is_refused_by_name():

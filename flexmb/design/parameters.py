@@ -42,7 +42,7 @@ RELATIVE_STEP = 1e-5
 #: lengths, stiffness, frames and mass per length, the nodes' reference positions, the links' rigid
 #: masses, the loads, the prescribed values and the named points' offsets.
 MODEL_FIELDS = ("point_offset", "L0", "S", "ny0", "nz0", "alpha0", "rho_A", "local_mass", "x0", "rigid_mass",
-                "rigid_inertia", "rigid_offset", "load_offset", "load_force", "load_moment", "values", "points")
+                "rigid_inertia", "rigid_offset", "load_offset", "load_force", "load_moment", "values", "chains", "points")
 
 
 @attrs.frozen
@@ -208,8 +208,10 @@ def model_numbers(compiled, field: str) -> np.ndarray:
     if field == "points":
         pts = [offset for _, offset in compiled.points.values()]
         return np.array(pts, dtype=float).reshape(len(pts), model.dim)
-    if field in ("values", ):
+    if field == "values":
         return np.asarray(problem.values, dtype=float)
+    if field == "chains":  # the rotation vectors of prescribed chains of rotations, flattened
+        return np.concatenate([np.asarray(w, dtype=float).ravel() for _, w in problem.rotation_paths] + [np.zeros(0)])
     if field in ("x0", "point_offset"):
         return np.asarray(getattr(model, field), dtype=float)
     value = getattr(el, field)
@@ -228,7 +230,7 @@ def structure(compiled) -> dict:
             "links": tuple(compiled.link_node.items()),
             "joints' elements": tuple((k, tuple(v)) for k, v in compiled.joint_elements.items()),
             "named points": tuple((k, link) for k, (link, _) in compiled.points.items()),
-            "rotation chains": tuple(tuple(d) for d, _ in problem.rotation_paths)}
+            "rotation chains": tuple((tuple(d), len(w)) for d, w in problem.rotation_paths)}
 
 
 def _same(a, b) -> bool:
@@ -295,7 +297,7 @@ class ModelRates:
         groups = (("joint dimension or material", ("S", "L0", "rho_A")),
                   ("placement", ("point_offset", "x0", "ny0", "nz0", "alpha0", "points")),
                   ("mass", ("rigid_mass", "rigid_inertia", "rigid_offset")),
-                  ("load", ("load_offset", "load_force", "load_moment")), ("prescribed motion", ("values",)))
+                  ("load", ("load_offset", "load_force", "load_moment")), ("prescribed motion", ("values", "chains")))
         kinds = [name for name, fields in groups if any(np.any(self.rate(f)[k] != 0.0) for f in fields)]
         if kinds and kinds[0] == "joint dimension or material":
             kinds = [k for k in kinds if k != "placement"]  # a joint's length moves its nodes too

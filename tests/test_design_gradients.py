@@ -308,3 +308,20 @@ def test_a_build_with_a_kink_at_the_design_is_refused_by_name():
     with pytest.raises(ParameterError, match="'t'.*not smooth"):
         evaluate(build, {"t": 1e-3, "F": 1e-3}, R.displacement("B", "y"))
     evaluate(build, {"t": 1.2e-3, "F": 1e-3}, R.displacement("B", "y"))  # away from the kink: fine
+
+
+def _manipulator(p):
+    """The spatial manipulator of Dwarshuis et al. (2020) Sec. 4.4 (three 3x-infinity joints, its
+    links' orientations prescribed as chains of the joints' turns, 0.35 rad) with its arms' lengths
+    as placements of joints 3 and the end point, and a dead load on the end link."""
+    m = flexmb.models.manipulator("joint", rotation=0.35, geometry={"arm2": p["arm2"], "arm3": p["arm3"]})
+    m.apply_force("link3", (0.0, 0.0, p["Fz"]))
+    return m
+
+
+@pytest.mark.slow  # ~2.5 s
+@pytest.mark.parametrize("response", [R.reaction("link2", "ry"), R.displacement("link3", "z")])
+def test_the_manipulator_s_placements(response):
+    c = check_gradient(_manipulator, {"arm2": 0.3, "arm3": 0.25, "Fz": -20.0}, response, rtol=1e-11)
+    assert c.ok, str(c)
+    assert abs(c.taylor.rate - 2.0) <= 0.1

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..boundary import boundary
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
+from ..ksd.linearisation import ReducedSolution
 from ..linear import single_threaded
 from .adjoint import STRATEGIES, Sensitivity, full_model
 from .parameters import ModelRates, as_design, model_numbers, model_rates
@@ -222,8 +223,6 @@ def _same_model(compiled, solution, values) -> None:
 
 def _reduced(solution) -> bool:
     """Whether ``solution`` is KSD-reduced's solution kind (`flexmb.ksd.linearisation.ReducedSolution`)."""
-    from ..ksd.linearisation import ReducedSolution
-
     return isinstance(solution, ReducedSolution)
 
 

@@ -19,7 +19,7 @@ from ..boundary import boundary
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
 from ..ksd.linearisation import ReducedSolution
 from ..linear import single_threaded
-from .adjoint import STRATEGIES, Sensitivity
+from .adjoint import STRATEGIES, Sensitivity, full_model
 from .parameters import ModelRates, as_design, model_numbers, model_rates
 
 __all__ = ["Evaluation", "DesignPoint", "evaluate", "value_and_grad"]

@@ -59,6 +59,7 @@ class ReducedSensitivity:
     def check_response(self, response) -> None:
         """Refuse a response whose KSD-reduced value is not a function of the links' DOFs alone."""
         if type(response).__name__ not in RESPONSES:
+            method = self.solution.method
             raise UnsupportedStrategyError(
                 f"{response.name} cannot be differentiated with KSD-reduced (method {method!r}: its value comes from the "
                 "joints' condensed EOB models, which the design parameters' gradient does not follow): solve with "

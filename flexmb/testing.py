@@ -10,6 +10,7 @@ import scipy.sparse as sp
 
 from .fe.model import State
 from .problem import StaticProblem
+from .solvers.ksd import KSDFull, KSDReduced
 from .testing_ksd import (KSD_FULL_TOLERANCE, KSD_REDUCED_REACTION, KSD_REDUCED_TOLERANCE, KSDShape, check_ksd_database,
                           trained_shape)
 
@@ -519,8 +520,8 @@ def check_ksd(shape: KSDShape, dim: int, origin=None, rotation=None, *, motion: 
     """KSD-full and KSD-reduced against the conventional method on the shape's joint placed at
     ``origin`` with ``rotation``, B turned by ``motion`` (moved into the trained range:
     `ksd_motion`) and loaded by a wrench that moves it ``load`` times its size (linear theory,
-    kept below half its buckling load). Returns the errors ``{"ksd-full": (position, reaction),
-    "ksd-reduced": (...)}`` as fractions of the joint's size and of the load scale."""
+    kept below half its buckling load). Returns the errors ``{method name: (position, reaction)}``
+    of KSD-full and KSD-reduced as fractions of the joint's size and of the load scale."""
     from .errors import FlexmbError
 
     joint = shape.joint
@@ -542,13 +543,13 @@ def check_ksd(shape: KSDShape, dim: int, origin=None, rotation=None, *, motion: 
     wscale = max(np.abs(ref.reaction("A") / units).max(), np.abs(w / units).max())
     floor = 10.0 * _scales(joint, dim)[1] * (1.0 + float(np.linalg.norm(o)) / size) / wscale  # roundoff
     out = {}
-    for method, tol, tol_reaction in (("ksd-full", KSD_FULL_TOLERANCE, KSD_FULL_TOLERANCE),
-                                      ("ksd-reduced", KSD_REDUCED_TOLERANCE, KSD_REDUCED_REACTION)):
+    for method, tol, tol_reaction in ((KSDFull.name, KSD_FULL_TOLERANCE, KSD_FULL_TOLERANCE),
+                                      (KSDReduced.name, KSD_REDUCED_TOLERANCE, KSD_REDUCED_REACTION)):
         try:
             sol = _solve(m, joint, dim, o, method=method, database=shape.folder)
         except FlexmbError as exc:  # the kit trained the data or the author named them: a failure
             raise AssertionError(f"{joint.kind} {dim}D {method}: {type(exc).__name__}: {exc}") from None
-        if method == "ksd-full":
+        if method == KSDFull.name:
             pos = np.abs(sol.node_positions() - ref.node_positions()).max() / size
         else:
             pos = np.abs(sol.pose("B")[0] - ref.pose("B")[0]).max() / size

@@ -36,7 +36,7 @@ LAYERS = [
                                  "flexmb.linearised", "flexmb.statespace", "flexmb.peers", "flexmb.design", "flexmb.design.*", "flexmb.testing_ksd", "flexmb.testing", "flexmb.database", "flexmb.database.training",
                                  "flexmb.models"]),
     ("workflows", ["flexmb.sweeps", "flexmb.study", "flexmb.table", "flexmb.design_properties", "flexmb.path",
-                   "flexmb.discretisation"]),
+                   "flexmb.discretisation", "flexmb.design.stroke", "flexmb.design.optimize"]),
     ("faces", ["flexmb.plot", "flexmb.export"]),
     ("studies", ["flexmb.studies", "flexmb.studies.*"]),
     ("command line and package", ["flexmb.cli", "flexmb"]),
@@ -77,6 +77,9 @@ def imports(module: str) -> set[str]:
 
 
 def layer(module: str) -> int:
+    for k, (_, members) in enumerate(LAYERS):  # a module named exactly wins over a pattern
+        if module in members:
+            return k
     for k, (_, members) in enumerate(LAYERS):
         for pattern in members:
             if module == pattern or (pattern.endswith(".*") and module.startswith(pattern[:-1])):

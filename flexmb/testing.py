@@ -139,7 +139,7 @@ def perturbed_state(problem: StaticProblem, state: State, rng: np.random.Generat
 
 #: Richardson-extrapolated central differences (steps 1e-5 and 2e-5 of the joint's size or rad,
 #: `check_tangent`): measured 4e-11 to 1.6e-8 (thin leaves at the origin and 100 sizes away, the
-#: notch 100 sizes away), so a wrong entry of a thousandth of its diagonal is seen.
+#: notch 100 sizes away): an entry wrong by more than 1e-6 of its scale sqrt(K_ii K_jj) fails.
 FD_TOLERANCE = 1e-6
 #: Relative agreement of two solves: the conventional method's default relative criterion
 #: (``rtol`` 1e-8 of the problem's force scale) and `solver_tolerance` for the other strategies

@@ -24,7 +24,7 @@ from .linearised import buckling, compliance
 from .design_properties import properties
 from . import design
 from .design import responses, value_and_grad
-from .design.optimize import optimize  # issue 28 item 5 (opt's one-line hook)
+from .design.optimize import optimize
 from .discretisation import DiscretisationEstimate, discretisation_error
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint

@@ -51,7 +51,7 @@ def to_dict(mechanism: Mechanism) -> dict:
     """The mechanism as the JSON-ready document `save` writes (see ``docs/files.md``)."""
     if not isinstance(mechanism, Mechanism):
         raise MechanismFileError(f"save: {type(mechanism).__name__} is not a flexmb.Mechanism")
-    if mechanism.joint_points:  # not in the format yet: refused, never dropped (issue 29's add_joint_point)
+    if mechanism.joint_points:  # not in the format yet: refused, never dropped
         raise MechanismFileError(f"save: points inside joints ({', '.join(mechanism.joint_points)}) are not in the file "
                                  "format yet; add them (Mechanism.add_joint_point) after loading")
     materials: dict = {}

@@ -188,7 +188,7 @@ _HELD = weakref.WeakKeyDictionary()
 
 def held_and_free(solution, held, owner: str = "modes"):
     """`held_dofs` and the free DOFs (sorted, read-only), kept per compiled mechanism for the named
-    ``held`` ("prescribed", "none", "floating": ~10 us of a KSD-reduced ``modes`` each call)."""
+    ``held`` ("prescribed", "none", "floating": a visible share of a KSD-reduced ``modes`` otherwise)."""
     compiled = solution.compiled
     key = held if isinstance(held, str) else None
     per = _HELD.setdefault(compiled, {})
@@ -196,7 +196,7 @@ def held_and_free(solution, held, owner: str = "modes"):
         held_idx = held_dofs(solution, held, owner)
         keep = np.ones(compiled.problem.model.n_dofs, dtype=bool)
         keep[held_idx] = False
-        out = held_idx, np.flatnonzero(keep)  # np.setdiff1d's sort: 0.15 ms of the manipulator's KSD-reduced 2.2 ms
+        out = held_idx, np.flatnonzero(keep)  # not np.setdiff1d, whose sort was a visible share
         if key is None:
             return out
         for a in out:
@@ -212,8 +212,8 @@ class DenseFactor:
     non-symmetric ``K`` the LU, for an exactly symmetric one Cholesky or, indefinite,
     Bunch-Kaufman (upper triangle), as scipy tries them. The first solve with ``K`` is LAPACK's
     driver (``dgesv``, ``dposv``; ``dsytrf`` + ``dsytrs``), bit for bit `scipy.linalg.solve`'s
-    answer without its structure detection and checks per call (~45 of the KSD-reduced
-    manipulator's ~120 us ``compliance``); it keeps the factors, and every later solve (or a
+    answer without its structure detection and checks per call (a third of
+    the KSD-reduced manipulator's ``compliance``); it keeps the factors, and every later solve (or a
     first with ``K^T``) runs LAPACK's triangular solves (``dgetrs`` ...) on them: the same
     factorisation, whose OpenBLAS solve kernels may round the last bit differently from the
     driver's. Raises ``LinAlgError`` for an exactly singular ``K`` and, where the reciprocal

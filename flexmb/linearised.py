@@ -91,8 +91,8 @@ def _multipliers(Ks, Km, n: int, nf: int) -> np.ndarray:
         except np.linalg.LinAlgError:  # K_m not positive definite (an unstable base): the general problem
             mu = sla.eigvals(A, B)
     else:
-        # ARPACK to 1e-10 relative (its default, machine precision, did not finish in 15 min on
-        # a 10 000-DOF manipulator; 1e-10: 0.9 s)
+        # ARPACK to 1e-10 relative (its default, machine precision, did not finish on a
+        # 10 000-DOF manipulator)
         k = min(nf - 2, 2 * n + 8)
         if symmetric:
             mu = spla.eigsh((0.5 * (Ks + Ks.T)).tocsc(), k=k, M=(0.5 * (Km + Km.T)).tocsc(), which="SA",
@@ -142,7 +142,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     if offset.any():
         T = model._lever(model.offsets(state, np.array([node]), offset[None]))[0]  # point motion = T node motion
         C = T @ C_node @ T.T
-    else:  # the node itself: T = I (the same numbers; the lever's assembly was ~10 us)
+    else:  # the node itself: T = I (the same numbers without the lever's assembly)
         C = C_node
     if axes == "link":
         R = model.rotation_matrices(state)[node]

@@ -49,11 +49,11 @@ __all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", 
            "DENSE_BELOW_NONSYMMETRIC"]
 
 #: Free DOFs below which `modes` solves the symmetric eigenproblem dense (LAPACK ``eigh``); at and
-#: above, sparse shift-invert Lanczos (``eigsh``). Measured (6 modes, medians of 5, one BLAS
-#: thread): a 3D cantilever with 204 free DOFs 13.9 ms dense / 17.0 ms sparse, 300: 29.9 / 16.8.
+#: above, sparse shift-invert Lanczos (``eigsh``). The two break even between 204 and 300
+#: free DOFs (a 3D cantilever, 6 modes: BENCHMARKS.md, Timings moved from docstrings).
 DENSE_BELOW = 250
 #: The same for a non-symmetric tangent (LAPACK ``eig``, all eigenvalues, against Arnoldi ``eigs``):
-#: the Table 1 pivot at 75 deg with 77 free DOFs 12.3 / 16.5 ms, 95: 17.1 / 16.7, 131: 24.1 / 16.8.
+#: the two break even near 90 free DOFs (the Table 1 pivot at 75 deg).
 DENSE_BELOW_NONSYMMETRIC = 90
 
 
@@ -274,8 +274,8 @@ def _link_rows(full, compiled, nd):
 
 
 def _dense_eigenvalues(K, M, n):
-    """`_dense`'s eigenvalues alone for a symmetric problem (LAPACK without the vectors: 51 against
-    71 us for the KSD-reduced manipulator's 27 DOFs; the same to ~1e-15), the same mass check;
+    """`_dense`'s eigenvalues alone for a symmetric problem (LAPACK without the vectors; the same
+    to ~1e-15), the same mass check;
     None where it would fall back to the direct form (an unstable equilibrium)."""
     _definite_mass(M)
     sigma = _shift(K, M)
@@ -289,7 +289,7 @@ def _dense_eigenvalues(K, M, n):
 
 def _definite_mass(M) -> None:
     """Raise `ModelError` unless the dense ``M`` is positive definite (LAPACK ``dpotrf``: np.linalg.cholesky's
-    test, 10 us less)."""
+    test without its overhead)."""
     if _lapack.dpotrf(M, lower=1, clean=0)[1] != 0:
         raise ModelError("modes: the mass matrix on the free DOFs is singular (a combination of free directions "
                          "carries no mass); hold it or give the parts mass")
@@ -319,15 +319,14 @@ def _dense(K, M, n, symmetric):
 
 @functools.lru_cache(maxsize=64)
 def _sygvx_lwork(nf: int) -> int:
-    """LAPACK's optimal work size of ``dsygvx`` for order ``nf`` (a query per call cost ~10 us)."""
+    """LAPACK's optimal work size of ``dsygvx`` for order ``nf`` (queried once per order)."""
     return int(_lapack.dsygvx_lwork(nf, uplo="L")[0])
 
 
 def _highest_pairs(A, B, n, vectors: bool = True):
     """The ``n`` highest eigenpairs of ``A x = mu B x`` (``B`` definite): what
     ``scipy.linalg.eigh(A, B, subset_by_index=[nf - n, nf - 1])`` returns, by the same LAPACK
-    ``dsygvx`` called directly (scipy's checks cost 0.04 of its 0.15 ms at 36 DOFs, the
-    KSD-reduced manipulator's). Raises `numpy.linalg.LinAlgError` where eigh would."""
+    ``dsygvx`` called directly (without scipy's checks). Raises `numpy.linalg.LinAlgError` where eigh would."""
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
     if not (np.isfinite(A).all() and np.isfinite(B).all()):
         raise ValueError("array must not contain infs or NaNs")

@@ -1,4 +1,4 @@
-"""Warnings where a returned `Solution` is not what it looks like (issue 20, class 7): a solve
+"""Warnings where a returned `Solution` is not what it looks like: a solve
 that did not converge, strains a linear-elastic beam model cannot represent, a stress above the
 material's given yield stress, and the parasitic shortening the closed-form model leaves out.
 """
@@ -112,8 +112,7 @@ def check_mass_units(solution, model, stacklevel: int = 3) -> None:
 
 def peak_stress(model, state) -> np.ndarray:
     """`flexmb.fe.stress.peak_normal_stress` of ``state``; with the compiled kernels one pass of
-    `flexmb.fe.stress_jit.peak_normal_stress` over `flexmb.fe.model.FEModel.stresses` (the
-    manipulator's 81 elements: ~17 -> ~1 us beyond the stresses, issue 21). `ModelError` for
+    `flexmb.fe.stress_jit.peak_normal_stress` over `flexmb.fe.model.FEModel.stresses`. `ModelError` for
     sections without extreme-fibre distances, as the numpy function."""
     tab = section_table(model.elements)  # built once per compiled model
     if not jit.enabled() or not tab.has_y or (model.dim == 3 and not tab.has_z):

@@ -326,7 +326,7 @@ class StaticProblem(BoundaryConditions):
     def positive_definite(self, K_ff: sp.csr_array) -> bool | None:
         """Whether the tangent ``K_ff`` (this problem's pattern) is positive definite, from the
         pivots of the linear solver's factorisation (`flexmb.linear.TangentSolver.positive_definite`,
-        ~10x faster than a separate SuperLU); None where it cannot tell (hinges: their
+        not a separate SuperLU); None where it cannot tell (hinges: their
         multipliers make a saddle point, judged on `reduced_tangent`; small dense systems)."""
         if self.model.hinges is not None:
             return None

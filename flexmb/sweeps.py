@@ -251,7 +251,7 @@ def _failed(strategy, compiled, value, exc: Exception, seconds: float) -> Soluti
 
 def _warm_starts(strategy) -> bool:
     """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies);
-    known per solve function after the first look (inspect.signature costs ~40 us, once per solve before)."""
+    known per solve function after the first look (inspect.signature once, not per solve)."""
     import inspect
 
     solve = getattr(strategy, "solve", None)
@@ -269,7 +269,7 @@ _WARM: dict = {}
 
 def _compiled_force_sweep(strategy, compiled, values, warm):
     """A force sweep as compiled Newton loops (`flexmb.solvers.newton.Newton.sweep_forces`): the
-    gripper's 138-force opening-closing sweep in about 5 ms instead of 60 (BENCHMARKS.md); the
+    gripper's opening-closing sweep an order of magnitude faster (BENCHMARKS.md, Gripper); the
     same iterations and equilibria as the per-solve path (tests/test_closed_form_jit.py)."""
     return strategy.sweep_forces(compiled, values, warm, lambda value: _with_actuation(compiled, value))
 

@@ -125,7 +125,7 @@ def perturbed_state(problem: StaticProblem, state: State, rng: np.random.Generat
     return model.apply_increment(state, du)
 
 
-# -- joint conformance suite (issue 6) -------------------------------------------------------
+# -- joint conformance suite -------------------------------------------------------
 #
 # Every check builds the smallest mechanism around one joint: link "A" fixed, link "B" free at the
 # joint's interface node B, the joint frame placed at ``origin`` with ``rotation``. The checks are
@@ -681,7 +681,7 @@ def check_strategies(joint, dim: int, motion: float = 0.2, **options) -> dict:
     return out
 
 
-# -- vibration invariants (issue 22): the joint's own mass, B free ------------------------------
+# -- vibration invariants: the joint's own mass, B free ------------------------------
 #
 # These checks linearise the joint mechanism with its leaves' own mass (the sections' density);
 # a joint without mass has nothing to check and returns None.
@@ -1082,5 +1082,5 @@ def conformance_report(suite) -> ConformanceReport:
     return ConformanceReport(tuple(out))
 
 
-from .design.check import check_gradient, central_differences, taylor_test  # noqa: E402 (issue 28's checker)
+from .design.check import check_gradient, central_differences, taylor_test  # noqa: E402 (the design layer's checker)
 __all__ += ["check_gradient", "central_differences", "taylor_test"]

@@ -239,7 +239,7 @@ def _kinematics_call(red: ReducedMechanism) -> tuple:
 
 def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool):
     """`solve_kinematics` through `flexmb.ksd.reduced_jit.kinematics` (no hinges): the same steps in
-    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21). The kernel keeps
+    one compiled call. The kernel keeps
     the residuals of the first 64 ``max_iter`` iterations (the manipulator needs ~5); beyond that
     (a motion of many turns: the 2D pivot turned 300 rad with max_iter=2, 191 iterations) it runs
     again with room for all, so info's ``history`` holds every iteration, as the numpy loop's."""

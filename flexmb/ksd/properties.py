@@ -1,4 +1,4 @@
-"""Properties of a KSD-reduced solution (issue 22 item 6): the reduced mechanism's tangent on the
+"""Properties of a KSD-reduced solution: the reduced mechanism's tangent on the
 links' DOFs, from which `flexmb.compliance` takes a link point's compliance; with the joints'
 condensed mass (`flexmb.ksd.joint_mass`) the model `flexmb.modes` solves; and the joint
 elements' axial forces from the EOBs' element forces, which `Solution.stresses` uses.
@@ -92,7 +92,7 @@ def near(solution, database=None):
     """The solution's `ReducedMechanism` and `near_configuration`, built once per solution and
     database (default: the one the solve used; a second property of the same solution skips it),
     from step 1's intended rotations and near positions that the solve keeps in
-    ``solution.stages["kinematics"]`` (solving step 1 again took 2 of the manipulator's 4 ms) and,
+    ``solution.stages["kinematics"]`` (solving step 1 again took half of the manipulator's properties) and,
     with the solve's database, its `ReducedMechanism` and step 2's EOBs, stiffness and preload it
     keeps in ``solution.stages["eob"]["near"]`` (the same arrays `near_configuration` would
     rebuild; the set-up as the solve found it current)."""
@@ -104,7 +104,7 @@ def near(solution, database=None):
         step1 = (step1["theta"], step1["p_hat"]) if "theta" in step1 and "p_hat" in step1 else None
         step2 = stages.get("eob", {}).get("near")
         if step1 is not None and step2 is not None and database == _database(solution, None):
-            red, eobs, K, Fh = step2  # the solve's own set-up and step 2: 0.1 ms not spent again
+            red, eobs, K, Fh = step2  # the solve's own set-up and step 2, not computed again
             # the compiled step 2 keeps a group's lookup as arrays [recover, positions, rotations]
             eobs = [_LookedUp(e[0]) if isinstance(e, (list, tuple)) else e for e in eobs]
             per[database] = red, (eobs, K, Fh, step1[1], rz(step1[0]), step1[0])
@@ -194,8 +194,7 @@ def eob_axial_forces(solution, database=None):
 def reduced_tangent(solution, database=None):
     """The KSD-reduced solution's tangent (n_links ndof, n_links ndof) on the links' FE DOFs
     (link k's DOFs ``k ndof ..``, as in the full model), symmetric up to the dead loads' part,
-    and the `ReducedMechanism`; built once per solution (a copy each call: 0.2 ms of the
-    manipulator's ``compliance`` after ``modes``). ``database``: a folder of joint data (default: the one the solve used)."""
+    and the `ReducedMechanism`; built once per solution (a copy each call). ``database``: a folder of joint data (default: the one the solve used)."""
     red, (_, K, Fh, p_hat, R_hat, _) = near(solution, database)
     key = ("tangent", _database(solution, database))
     per = _NEAR[solution]
@@ -254,7 +253,7 @@ def reduced_modal_model(solution, n_fixed: int, database=None, table: bool = Tru
     parts = [condensed_subspace(tpl, st["joints"][red.joint_names[idx[0]]], theta[idx], n_fixed, table,
                                 recovery=False) for tpl, _, idx in red.groups]  # interior shapes: when to_full asks
     counts = tuple(ws.shape[1] for _, _, ws, _ in parts)  # modal coordinates per joint of each group
-    if counts not in st:  # each joint's first modal coordinate, per kept counts: ~6 us a call
+    if counts not in st:  # each joint's first modal coordinate, per kept counts
         nm = np.zeros(len(red.joint_names), dtype=np.int64)
         for (_, _, idx), c in zip(red.groups, counts):
             nm[idx] = c
@@ -338,7 +337,7 @@ def _recovery(red, st, parts, G, pos, F, at, n: int, model, compiled: bool):
         if not recovered:  # the joints' interior transformations (X, Phi), read once
             recovered.extend(rec() for *_, rec in parts)
         for (_, _, idx), (_, _, ws, _), (Xs, Phis), dofs in zip(red.groups, parts, recovered, st["dofs"]):
-            if compiled:  # (a compiled pass measured no faster: 30 against 27 us on the manipulator)
+            if compiled:  # (a compiled pass measured no faster on the manipulator)
                 qb = G[idx] @ v[pos[idx]]  # (Jg, 2 nd, k): interface DOFs in the joint frames
             else:
                 qb = G[idx][:, :, red.emb_dofs] @ v[:nl]

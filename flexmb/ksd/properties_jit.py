@@ -1,7 +1,7 @@
 """Compiled kernel of `flexmb.ksd.properties.reduced_modal_model`'s assembly: the joints'
 condensed mass carried to the links (``G^T M_b G``) and their fixed-interface modes' coupling
 ``C G``, joint by joint into the reduced mechanism's mass, as the numpy path does with (J, 2 nd,
-6 n_links) arrays (~0.2 ms of small numpy operations on the manipulator). Held equal to the numpy
+6 n_links) arrays (many small numpy operations). Held equal to the numpy
 path to 1e-12 in tests/test_ksd_properties.py.
 """
 
@@ -51,8 +51,7 @@ def joint_maps(R, a, b, s_a, s_b, P, emb, pos6, F, G, pos):
     """`interface_maps` from the links' rotations ``R`` (n_links, 3, 3) directly: the joint
     frames' axes ``F = R_a P`` (filled, (J, 3, 3)) and the arms of node A from link a (``R_a
     s_a``) and of node B from link b (``R_b s_b``), as `flexmb.ksd.geometry.JointFrames.frame_a`
-    and ``relative`` give them (their three numpy calls and the stacking: ~20 us of the
-    manipulator's modes)."""
+    and ``relative`` give them (instead of their three numpy calls and the stacking)."""
     arm = np.empty((F.shape[0], 2, 3))
     for j in range(F.shape[0]):
         ia, ib = a[j], b[j]
@@ -104,7 +103,7 @@ def bspline_rows(t, c, k, x, out):
     ``k`` with knots ``t`` and coefficients ``c`` (n, m) at ``x`` (S,), the basis by the same de
     Boor recursion (`flexmb.ksd.reduced_jit.deboor_basis`, as `scipy.interpolate._bspl`), outside
     the base interval the end pieces; the coefficient rows summed outermost, so each row is one contiguous pass (scipy sums per
-    column: 0.1 of the manipulator's 0.13 ms table call)."""
+    column, most of a table call)."""
     n = c.shape[0]
     h, hh = np.empty(k + 1), np.empty(k + 1)
     for i in range(len(x)):
@@ -155,8 +154,7 @@ def eob_axial(recover, xi_b, idx, element_dofs, A, c0, G, b_position, out):
 def interface_b(p, Rrel, p_hat, R_hat, emb, out):
     """Node B's displacement from its near pose in the joint frames into ``out`` (J, nd): the
     translation ``p - p_hat`` and the axial vector of ``Rrel R_hat^T`` (`flexmb.rotations.
-    unskew`), components ``emb`` (`flexmb.ksd.properties.node_displacements`' numpy steps:
-    ~13 us of the manipulator's ~20)."""
+    unskew`), components ``emb`` (`flexmb.ksd.properties.node_displacements`' numpy steps)."""
     v = np.empty(6)
     W = np.empty((3, 3))
     for j in range(p.shape[0]):

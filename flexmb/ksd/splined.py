@@ -20,8 +20,8 @@ FINEST_DEG = 0.125  # finest grid step [deg]
 DEGREE = 7  # spline degree
 #: Interpolation error accepted, relative to each array's largest entry. Measured on the condensed
 #: mass of three_x_infinity at 40 random rotations against direct condensation: 1 deg grid (built
-#: in 1.0 s, once per joint template and process; loaded host), M_b 1.8e-9, omega^2 2e-12; the 2D
-#: cross flexure 0.5 deg (0.15 s), M_b 1.7e-8. 1e-9 would take 0.5 deg and 2.6 s for
+#: once per joint template and process), M_b 1.8e-9, omega^2 2e-12; the 2D cross flexure
+#: 0.5 deg, M_b 1.7e-8. 1e-9 would take a 0.5 deg grid and build times 2.6 times as long for
 #: three_x_infinity, far below the reduction's own error (the frequencies' 0.2-0.6 %).
 TOL = 1e-7
 
@@ -54,10 +54,10 @@ class SplinedTable:
             step /= 2
         self.step, self._spline = step, spline
         # knots, coefficients (contiguous) and degree as the compiled evaluation reads them
-        # (BSpline's ``c`` is a property: 7 us per read)
+        # (BSpline's ``c`` is a property, computed per read)
         self._tck = (spline.t, np.ascontiguousarray(spline.c), int(spline.k))
         self._shapes = {name: v.shape[1:] for name, v in parts.items()}
-        self._slices, at = [], 0  # each array's columns among the spline's (np.prod per call: 20 us)
+        self._slices, at = [], 0  # each array's columns among the spline's (not np.prod per call)
         for name, shape in self._shapes.items():
             size = int(np.prod(shape))
             self._slices.append((name, shape, at, at + size))

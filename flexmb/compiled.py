@@ -113,7 +113,7 @@ def _read_only(compiled: Compiled) -> None:
     """Make the arrays of a compiled problem that describe the mechanism read-only (the prescribed
     DOFs and values, the loads, the reference positions, the maps to links and joints): a
     `Compiled` shared by the solves of one mechanism cannot be changed through one
-    `Solution.compiled`. The element batches stay as they are (the compiled kernels are typed on
+    `Solution.compiled`. The element batches stay as they are (the numba kernels are typed on
     writeable arrays)."""
     problem = compiled.problem
     model = getattr(problem, "model", None)

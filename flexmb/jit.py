@@ -1,4 +1,5 @@
-"""Compiled kernels: numba when it is installed and wanted, the numpy code otherwise.
+"""The numba kernels' switch: numba when it is installed and wanted, the numpy code otherwise
+(flexmb says "numba kernel" for these; "compiled" is a mechanism turned into a problem, `flexmb.compiled`).
 
 ``FLEXMB_KERNELS`` chooses: ``auto`` (default: numba if importable), ``numba`` (required: an
 import failure is an error) or ``numpy`` (never compile). The choice is read once, at import;
@@ -42,7 +43,7 @@ _enabled = _resolve(os.environ.get("FLEXMB_KERNELS", "auto").strip().lower() or 
 
 
 def enabled() -> bool:
-    """Whether the compiled kernels run (numba importable and not switched off)."""
+    """Whether the numba kernels run (numba importable and not switched off)."""
     return _enabled
 
 

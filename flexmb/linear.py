@@ -59,7 +59,7 @@ _STALL = 0.1
 #: fallbacks), 1e-8: 9 / 12 / 67, 1e-10: 16 / 15 / 75, 1e-12: 53 / 48 / 161 with 7 / 4 / 6 fallbacks
 #: (cancellation).
 SADDLE_SHIFT = 1e-8
-#: Patterns with at least this many entries are analysed by the compiled pass
+#: Patterns with at least this many entries are analysed by the numba pass
 #: (`flexmb.linear_jit.upper_maps`; smaller ones by numpy: no compilation for them)
 COMPILED_ANALYSIS_FROM = 200_000
 
@@ -90,7 +90,7 @@ def available() -> dict:
 
 def _backward_error(K, x: np.ndarray, b: np.ndarray):
     """``r = b - K x`` and the backward error ``max|r| / (max|K| max|x| + max|b|)`` (inf when ``x``
-    is not finite); one compiled pass with numba."""
+    is not finite); one numba pass with numba."""
     if jit.enabled() and np.ndim(b) == 1:  # several right-hand sides (compliance): the numpy lines
         from . import linear_jit
 
@@ -153,7 +153,7 @@ class TangentSolver:
         of its ``L D L^T`` on this solver's analysis (Sylvester's law of inertia; no pivoting, as
         `flexmb.solvers.conventional.is_stable`'s SuperLU in symmetric mode): qdldl's when installed
         and the compiled L D U not analysed yet (its analysis is costly on large models), else
-        the compiled factorisation. None where this cannot tell (below the dense limit, no
+        the numba factorisation. None where this cannot tell (below the dense limit, no
         sparse path, a pattern not structurally symmetric, a zero diagonal or pivot): the caller
         decides another way. Faster than `is_stable`'s own factorisation (BENCHMARKS.md, Timings
         moved from docstrings)."""
@@ -249,7 +249,7 @@ class TangentSolver:
 
     @staticmethod
     def _maps_compiled(K):
-        """`_maps` by one compiled pass (`flexmb.linear_jit.upper_maps`): the same arrays, for large patterns
+        """`_maps` by one numba pass (`flexmb.linear_jit.upper_maps`): the same arrays, for large patterns
         (1e5 beam elements: ~11 million entries)."""
         from . import linear_jit
 

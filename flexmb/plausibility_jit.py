@@ -1,4 +1,4 @@
-"""The plausibility check's strains by compiled kernels (`flexmb.plausibility`): the elements'
+"""The plausibility check's strains by numba kernels (`flexmb.plausibility`): the elements'
 generalised stresses (`flexmb.fe.model_jit.assemble3d` / ``assemble2d`` without a tangent, the
 kernels `flexmb.fe.model.FEModel.stresses` runs), their peak normal stress
 (`flexmb.fe.stress_jit.peak_normal_stress`) and the elements of the largest strain and of the

@@ -10,9 +10,10 @@ import attrs
 import numpy as np
 
 from . import _validate as v
+from ._warnings import renamed
 from .errors import ParameterError
 
-__all__ = ["Section", "rectangle", "circle", "properties", "torsion_constant_rectangle", "shear_coefficient_rectangle",
+__all__ = ["Section", "rectangle", "circle", "section_values", "torsion_constant_rectangle", "shear_coefficient_rectangle",
            "shear_coefficient_circle", "SHAPES", "STEEL_DENSITY"]
 
 #: Cross-section shapes whose stresses `flexmb.fe.stress` can evaluate at the perimeter.
@@ -189,10 +190,14 @@ def circle(diameter: float, E: float, G: float | None = None, density: float = S
                    yield_stress=yield_stress, **props)
 
 
-def properties(sections, names) -> np.ndarray:
-    """The named properties (e.g. ``("E", "A")``) of a sequence of sections as a (len(names), n)
+def section_values(sections, names) -> np.ndarray:
+    """The named values (e.g. ``("E", "A")``) of a sequence of sections as a (len(names), n)
     float array; each distinct section object is read once (a mesh repeats a few sections)."""
     distinct = {}
     code = [distinct.setdefault(id(s), (len(distinct), s))[0] for s in sections]
     table = np.array([[getattr(s, n) for n in names] for _, s in distinct.values()], dtype=float)
     return table.reshape(-1, len(names))[code].T
+
+
+#: ``properties``, `section_values`' name until flexmb 0.2: warns, kept one release
+__getattr__ = renamed("flexmb.sections", {"properties": "flexmb.sections.section_values"})

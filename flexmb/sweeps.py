@@ -67,7 +67,7 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     caught = []  # each value's warnings (`_checked`), for the table's "warnings" column
     values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress,
                               record=caught)
-    if isinstance(solutions, Sequence):  # run already, as compiled loops
+    if isinstance(solutions, Sequence):  # run already, as numba loops
         result = SweepResult(solutions, values, "force")
     else:
         bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
@@ -86,7 +86,7 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
 
 def _until_interrupted(bar, total: int) -> list:
     """The solutions of ``bar`` (a tqdm over the sweep's generator) up to Ctrl-C: an interrupted
-    sweep returns those computed, with a UserWarning (a compiled loop runs at once: not these)."""
+    sweep returns those computed, with a UserWarning (a numba loop runs at once: not these)."""
     import warnings
 
     done = []

@@ -744,7 +744,7 @@ def check_modes_rigid_move(joint, dim: int, origin, rotation, *, motion: float =
     a = _massive_solution(joint, dim, motion=motion)
     b = _massive_solution(joint, dim, origin, rotation, motion=motion)
     n = min(n, len(a.compiled.problem.free) - 1)
-    fa, fb = modes(a, n=n).frequencies, modes(b, n=n).frequencies
+    fa, fb = modes(a, n_modes=n).frequencies, modes(b, n_modes=n).frequencies
     assert np.allclose(fb, fa, rtol=MODES_TOLERANCE, atol=MODES_TOLERANCE * np.abs(fa).max()), \
         f"{joint.kind} {dim}D: a rigid move changed the frequencies: {fa} -> {fb}"
     return fa
@@ -758,7 +758,7 @@ def check_floating_modes(joint, dim: int, rotation=None):
 
     sol = _massive_solution(joint, dim, rotation=rotation)
     k = 3 if dim == 2 else 6
-    md = modes(sol, n=k + 1, held="floating")
+    md = modes(sol, n_modes=k + 1, held="floating")
     lam = md.eigenvalues
     assert lam[k] > 0 and np.all(np.abs(lam[:k]) <= 1e-8 * lam[k]), \
         f"{joint.kind} {dim}D: floating eigenvalues {lam} are not {k} zeros and an elastic one"
@@ -780,7 +780,7 @@ def check_rayleigh(joint, dim: int, rotation=None, *, motion: float = 0.2, n: in
 
     sol = _massive_solution(joint, dim, rotation=rotation, motion=motion)
     n = min(n, len(sol.compiled.problem.free) - 1)
-    md = modes(sol, n=n)
+    md = modes(sol, n_modes=n)
     K, M = stiffness_and_mass(sol)
     phi = md.shapes.reshape(n, -1).T
     mass = np.einsum("ik,ik->k", phi, M @ phi)

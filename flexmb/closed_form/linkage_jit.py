@@ -1,4 +1,4 @@
-"""The closed-form linkage residual, tangent terms and Newton loop as compiled loops.
+"""The closed-form linkage residual, tangent terms and Newton loop as numba loops.
 
 The formulas of `flexmb.closed_form.flexures` and `flexmb.closed_form.problem` term by term
 (Cammarata et al. 2022, Eqs. 1-28 and A2-A13), one flexure at a time with complex scalars

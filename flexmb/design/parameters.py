@@ -190,9 +190,9 @@ def model_numbers(compiled, field: str) -> np.ndarray:
     model, el, loads = problem.model, problem.model.elements, problem.loads
     rigid = model.rigid_masses
     if field == "rho_A":
-        from ..sections import properties
+        from ..sections import section_values
 
-        rho, A = properties(el.sections, ("density", "A"))
+        rho, A = section_values(el.sections, ("density", "A"))
         return rho * A
     if field == "local_mass":
         from ..fe.mass import local_mass

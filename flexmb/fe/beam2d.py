@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import jit
-from ..sections import properties
+from ..sections import section_values
 
 __all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "numpy_deformation_gradient",
            "internal_force_and_tangent", "hypot_atan2"]
@@ -25,7 +25,7 @@ __all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "numpy_deforma
 def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     """Local stiffness ``S`` (E, 3, 3): ``EA/L0`` and the in-plane bending block of Eq. (A.15) with ``Iz``."""
     L0 = np.asarray(L0, dtype=float)
-    E, G, A, Iz, ky = properties(sections, ("E", "G", "A", "Iz", "ky"))
+    E, G, A, Iz, ky = section_values(sections, ("E", "G", "A", "Iz", "ky"))
     phi = 12.0 * E * Iz / (ky * G * A * L0**2)
     c = E * Iz / ((1.0 + phi) * L0**3)
     S = np.zeros((len(L0), 3, 3))

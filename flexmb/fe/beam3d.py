@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import jit
 from ..rotations import cross, skew
-from ..sections import properties
+from ..sections import section_values
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent",
            "numpy_internal_force_and_tangent", "numpy_deformation_gradient", "length"]
@@ -34,7 +34,7 @@ def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     ``sections`` is a sequence of `flexmb.sections.Section`, one per element; ``L0`` [m] (E,).
     """
     L0 = np.asarray(L0, dtype=float)
-    E, G, A, Iy, Iz, It, ky, kz = properties(sections, ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
+    E, G, A, Iy, Iz, It, ky, kz = section_values(sections, ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
     S = np.zeros((len(L0), 6, 6))
     S[:, 0, 0] = E * A / L0
     S[:, 1, 1] = G * It / L0**3

@@ -1,4 +1,4 @@
-"""The 3D co-rotational beam of `flexmb.fe.beam3d` as one compiled loop over the elements.
+"""The 3D co-rotational beam of `flexmb.fe.beam3d` as one numba loop over the elements.
 
 The same formulas, term by term: deformations of Eq. (A.4), ``D`` from (A.9)-(A.10), the
 material part ``D^T S D`` and the geometric part ``sum_i sigma_i dD_i/dq`` (see `beam3d` for the

@@ -351,7 +351,7 @@ def constrained(model, free: np.ndarray, K, state=None):
     first order (rows of ``K``'s multiplier-node block), or ``(free, None)`` without hinges.
     ``state``: the rows dropped at build time (`Hinges.dropped_rows`) hold too; dependent only
     while the prescribed DOFs are held, they keep a released link on its hinge's axis (without
-    them a 3D pendulum whose turn was prescribed swung at 0 Hz with ``held="none"``)."""
+    them a 3D pendulum whose turn was prescribed swung at 0 Hz with ``held="fixed"``)."""
     if model.hinges is None:
         return free, None
     fn, fm = free[free < model.n_node_dofs], free[free >= model.n_node_dofs]

@@ -1,4 +1,4 @@
-"""`flexmb.fe.model.FEModel.assemble` as compiled loops: the elements' end points from their
+"""`flexmb.fe.model.FEModel.assemble` as numba loops: the elements' end points from their
 master nodes, the beam kernel, the transfer to the masters and the scatter into the residual
 and the tangent's CSR data, in one call per evaluation.
 

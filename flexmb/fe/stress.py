@@ -45,7 +45,7 @@ import numpy as np
 from .. import jit
 from .._validate import positive
 from ..errors import ModelError, ParameterError
-from ..sections import properties
+from ..sections import section_values
 from . import stress_jit
 
 __all__ = ["peak_normal_stress", "section_table", "SectionTable", "section_resultants", "stress_points", "perimeter_peaks", "element_stresses", "Stresses",
@@ -112,7 +112,7 @@ def section_table(elements) -> SectionTable:
     # stresses are recovered at each element's stress section (`flexmb.JointMesh.stress_sections`:
     # the thinnest of a variable section), its mass read from its own
     sections = getattr(elements, "stress_sections", None) or elements.sections
-    E, A, Iz = properties(sections, ("E", "A", "Iz"))  # what every beam element reads
+    E, A, Iz = section_values(sections, ("E", "A", "Iz"))  # what every beam element reads
     # a plugin section may lack the others (a planar one Iy; density, shape and fibres are optional)
     Iy = np.array([getattr(s, "Iy", np.nan) for s in sections], dtype=float)
     rho = np.array([getattr(s, "density", 0.0) for s in elements.sections], dtype=float)
@@ -283,7 +283,7 @@ def _points_key(section) -> tuple:
 
 @functools.lru_cache(maxsize=256)
 def _units(key, Iy, Iz, points: int, step: int) -> tuple[np.ndarray, np.ndarray]:
-    """`_points`'s per-point fields as the compiled search reads them (8, P): ``z/Iy``, ``y/Iz``
+    """`_points`'s per-point fields as the numba search reads them (8, P): ``z/Iy``, ``y/Iz``
     (as `_fields` divides them), then ``tau_T``, ``tau_Vy``, ``tau_Vz`` (two components each),
     padded by ``step`` points on each side with those one period away (8, P + 2 step: each fine
     window contiguous); their coarse points (every ``step``-th), contiguous; and each field's
@@ -484,7 +484,7 @@ def _plan(tab: SectionTable, n_elements: int):
 
 def _peaks(model, state, tab, kt, axial):
     """Per element its peak normal, shear and von Mises stresses times ``kt`` (`element_stresses`):
-    one compiled pass over the elements' generalised stresses (`stress_jit.element_peaks`, the
+    one numba pass over the elements' generalised stresses (`stress_jit.element_peaks`, the
     per-group path's numbers to the last bit: tests/test_stress.py) when `flexmb.jit.enabled` and
     every section's shape is known, else per group of equal sections (`perimeter_peaks`)."""
     el = model.elements

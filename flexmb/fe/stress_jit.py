@@ -5,7 +5,7 @@ the peak normal stress of every element (`peak_normal_stress`).
 row, the same floating-point operations in the same order (the numpy path's results to the last
 bit; tests/test_stress.py holds them equal to 1e-12). The numpy path builds (rows, points)
 temporaries for the coarse points and gathers the fine windows, most of `Solution.stresses`;
-the compiled search keeps the fine windows contiguous, takes lane-wise maxima, searches NaN only
+the numba search keeps the fine windows contiguous, takes lane-wise maxima, searches NaN only
 where a value could be NaN, lets an element's second end reuse its shear peak and inlines the
 helpers (coarse points vectorised in `_coarse`). `element_peaks` goes from the elements'
 generalised stresses to their peaks in one call (`flexmb.fe.stress.element_stresses`).

@@ -8,7 +8,7 @@ the intended rotation alone, plus ``-a . T^T q_hat``, which is linear in node B'
 ``p`` (the markers' gaps move with the nodes' near positions). `axial_forces` splines the
 coefficients, the constant and its ``p`` gradient (`flexmb.ksd.splined`, one table per joint
 template), so no EOB need be assembled per configuration (`EOBTemplate.evaluate` costs ten times the
-tabulated forces); with the compiled kernels `flexmb.ksd.properties_jit.eob_axial` builds the node
+tabulated forces); with the numba kernels `flexmb.ksd.reduced_model_jit.eob_axial` builds the node
 displacements and sums the forces in one pass.
 """
 

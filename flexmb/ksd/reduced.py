@@ -469,7 +469,7 @@ class ReducedMechanism:
         return vals, (jac if jacobian == "deferred" else jac()), theta, p
 
     def tabulated_plan(self):
-        """KSD-reduced's compiled path with every joint's condensation tabulated, prepared once per
+        """KSD-reduced's numba path with every joint's condensation tabulated, prepared once per
         set-up (kept on the set-up; `with_values` drops it): per group of joints its indices,
         `flexmb.ksd.eob_table.Lookup.kernel_args` split around the per-solve arguments, its internal
         nodes' count and FE nodes; per joint the rotations [rad] within which a solve takes this
@@ -506,7 +506,7 @@ class ReducedMechanism:
         near position ``p_hat`` (J, 3), condensed on node B with node A held (Craig-Bampton,
         Eq. 2.5). Returns ``K`` (J, 6, 6) and ``F_hat`` (J, 6) in the joint frames (inactive planar
         rows zero), per group of joints its EOB (an `flexmb.ksd.eob.EOB`, or with ``compiled`` the
-        arrays ``[recover, internal positions, internal rotations or angles]`` the compiled step 4
+        arrays ``[recover, internal positions, internal rotations or angles]`` the numba step 4
         reads) and how many joints were looked up. ``lookup``: a group whose rotations its
         tabulated condensation covers reads it (`flexmb.ksd.eob_table`) instead of evaluating its
         EOB (not for KSD-full, whose step 5 needs the EOBs' element fields)."""
@@ -517,7 +517,7 @@ class ReducedMechanism:
         for tpl, _, idx in self.groups:
             if lookup and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
                 tabulated += len(idx)
-                if compiled:  # tabulated, one compiled call (flexmb.ksd.reduced_jit.eob_lookup)
+                if compiled:  # tabulated, one numba call (flexmb.ksd.reduced_jit.eob_lookup)
                     eobs.append(list(tpl.lookup.compiled(theta, p_hat, idx, K, Fh)[2:]))
                     continue
                 e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
@@ -579,7 +579,7 @@ class ReducedMechanism:
         condensed stiffness on node B (node A held) about its near pose ``p_hat`` (J, 3),
         ``R_hat`` (J, 3, 3), in the joint frame. ``tangent="deferred"`` returns a function that
         computes the Jacobian when called (a converged Newton iterate never needs it).
-        With the compiled kernels one pass of `flexmb.ksd.reduced_jit.equilibrium` (the same terms;
+        With the numba kernels one pass of `flexmb.ksd.reduced_jit.equilibrium` (the same terms;
         the tangent always)."""
         if jit.enabled():
             return self._equilibrium_compiled(poses, K, F_hat, p_hat, R_hat, tangent)
@@ -672,7 +672,7 @@ class ReducedMechanism:
         ``displacements``, per group of joints the node displacements (Jg, N nd) from the EOBs'
         near poses (`eob_axial_stress` reads them; else an empty list). ``eobs`` as
         `condensed_joints` returns them (its compiled arrays: `fe_state_compiled`)."""
-        if eobs and isinstance(eobs[0], list):  # the compiled path's arrays
+        if eobs and isinstance(eobs[0], list):  # the numba path's arrays
             return self.fe_state_compiled(poses, [(idx, *e) for (_, _, idx), e in zip(self.groups, eobs)], p_hat,
                                           R_hat), []
         dim = self.dim

@@ -534,7 +534,7 @@ def deboor_basis(t, k, n, xi, h, hh):
     ``h`` (``hh``: scratch of the same size), by de Boor's recursion (scipy's ``_deBoor_D``);
     returns the interval ``l`` with ``t[l] <= xi < t[l + 1]`` among the ``n`` coefficients' (the
     last one closed, outside the base interval the end pieces): ``h[i]`` multiplies coefficient
-    ``l - k + i``. Shared by `bspline` and `flexmb.ksd.properties_jit.bspline_rows`."""
+    ``l - k + i``. Shared by `bspline` and `flexmb.ksd.reduced_model_jit.bspline_rows`."""
     l = k
     while l < n - 1 and xi >= t[l + 1]:
         l += 1

@@ -53,7 +53,7 @@ class SplinedTable:
                 break
             step /= 2
         self.step, self._spline = step, spline
-        # knots, coefficients (contiguous) and degree as the compiled evaluation reads them
+        # knots, coefficients (contiguous) and degree as the numba evaluation reads them
         # (BSpline's ``c`` is a property, computed per read)
         self._tck = (spline.t, np.ascontiguousarray(spline.c), int(spline.k))
         self._shapes = {name: v.shape[1:] for name, v in parts.items()}
@@ -97,12 +97,12 @@ class SplinedTable:
     def __call__(self, theta: np.ndarray, names: tuple | None = None) -> dict:
         theta = np.asarray(theta, dtype=float)
         spline, tck, slices = (self._spline, self._tck, self._slices) if names is None else self._part(tuple(names))
-        if jit.enabled() and theta.ndim == 1:  # compiled, row by row (flexmb.ksd.properties_jit)
-            from . import properties_jit
+        if jit.enabled() and theta.ndim == 1:  # compiled, row by row (flexmb.ksd.reduced_model_jit)
+            from . import reduced_model_jit
 
             t, c, k = tck
             flat = np.empty((len(theta), c.shape[1]))
-            properties_jit.bspline_rows(t, c, k, theta, flat)
+            reduced_model_jit.bspline_rows(t, c, k, theta, flat)
         else:
             flat = spline(theta)
         J = len(flat)

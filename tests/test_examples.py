@@ -144,7 +144,7 @@ def gripper(res, printed, out, ex):
 
 @check
 def manipulator(res, printed, out, ex):
-    """Sec. 4.4 at -45, 0, 45 deg: every solve converges; KSD-reduced's errors within the README's
+    """Sec. 4.4 at -45, 0, 45 deg: every solve converges; KSD-reduced's errors within docs/manipulator.md's
     measured bounds over the 19 positions (location case: reaction <= 1.32 %, displacement <= 0.10 %).
     (Its speed-ups are printed, not asserted: times belong to benchmarks/bench_manipulator.py.)"""
     rows = res["rows"]
@@ -161,7 +161,7 @@ def manipulator(res, printed, out, ex):
 @check
 def manipulator_modes(res, printed, out, ex):
     """At -45, 0, 45 deg: KSD-full's frequencies are the conventional ones (same equilibrium, to
-    1e-8), KSD-reduced's f1-f3 within 1 % (README table), and the figure draws 6 modes x 3 methods."""
+    1e-8), KSD-reduced's f1-f3 within 1 % (docs/properties.md's table), and the figure draws 6 modes x 3 methods."""
     f = res["frequencies"]
     np.testing.assert_allclose(f["ksd-full"], f["conventional"], rtol=1e-8)
     assert np.abs(f["ksd-reduced"][:, :3] / f["conventional"][:, :3] - 1).max() < 0.01
@@ -378,7 +378,7 @@ def tutorial_prb_linkage(res, printed, out, ex):
 def tutorial_gripper(res, printed, out, ex):
     """The closed forms' closing forces of Cammarata et al. (2022) as tests/test_gripper.py holds
     them (63.947, 77.035 uN); the FE model at 16 el./arc within 1 % of its converged 69.853 uN
-    (Richardson 32/64, README); both models agree at rest to 1e-9 mm."""
+    (Richardson 32/64, docs/gripper.md); both models agree at rest to 1e-9 mm."""
     _shown_on_its_page("tutorial_gripper", printed)
     c = res["closing"]
     assert c["linear (closed form)"] == pytest.approx(63.947, abs=1e-3)

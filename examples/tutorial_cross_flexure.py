@@ -19,7 +19,7 @@ from flexmb.reference import cross_spring_pivot
 from flexmb.studies import example_arguments
 
 # --8<-- [start:pivot]
-pivot = flexmb.CrossFlexure()                 # Table 1: L = 0.1 m, t = 1 mm, steel; 10 el./leaf
+pivot = flexmb.CrossFlexure(elements_per_leaf=24)   # Table 1: L = 0.1 m, t = 1 mm, steel
 m = flexmb.Mechanism(dim=2)
 m.add_link("A", fixed=True)
 m.add_link("B", position=pivot.interface_b(2), mass=1.0, inertia=1e-3)   # a 1 kg block [kg, kg m^2]

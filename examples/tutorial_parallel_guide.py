@@ -20,7 +20,8 @@ from flexmb.studies import example_arguments
 # --8<-- [start:data]
 UNITS = "mm-N-MPa"           # lengths in mm, forces in N, stresses in MPa (flexmb.units)
 L, T, W = 40.0, 0.3, 8.0     # leaf length, thickness, width [mm]
-LEAF = dict(length=L, thickness=T, width=W, material="spring_steel")   # E = 196 500 MPa here
+LEAF = dict(length=L, thickness=T, width=W, material="spring_steel",   # E = 196 500 MPa here
+            elements=24)     # beam elements per leaf: parasitic quantities within 0.2 %
 STROKE = 4.0                 # [mm], a tenth of the leaf length
 # --8<-- [end:data]
 

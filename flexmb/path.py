@@ -3,7 +3,7 @@
 Arc-length continuation (`flexmb.solvers.arclength`) through limit points, snap-through and
 snap-back, with the stability of every point, the limit and bifurcation points located on the
 way (each once, with its multiplicity and critical modes) and, at a bifurcation, the switch onto
-the branch the device follows (`flexmb.solvers.branching`); the result is a `EquilibriumPath`, a sequence of
+the branch the device follows (`flexmb.solvers.branching`); the result is an `EquilibriumPath`, a sequence of
 `Solution` s like a `SweepResult`, whose `EquilibriumPath.snap` is the first instability.
 """
 
@@ -42,7 +42,7 @@ FIRST_MOTION = 0.05
 
 @attrs.frozen(eq=False)
 class Critical:
-    """A critical point of a `EquilibriumPath`: ``kind`` (``"limit"``: the load factor's extremum;
+    """A critical point of an `EquilibriumPath`: ``kind`` (``"limit"``: the load factor's extremum;
     ``"bifurcation"``: the stability changes without one), its ``load_factor`` and `Solution`,
     ``arc_length`` from the path's start (the dimensionless metric of `trace`), its
     ``multiplicity`` (the number of eigenvalues of the tangent that vanish there: 2 for the two
@@ -209,7 +209,7 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         ``desired_iterations``, ``psi`` (0: cylindrical constraint), ``min_arc``, ``max_arc``,
         ``max_rotation``, ``locate_tol``, ``max_turn``.
 
-    Returns a `EquilibriumPath`. A path that cannot continue (no equilibrium within the smallest arc length)
+    Returns an `EquilibriumPath`. A path that cannot continue (no equilibrium within the smallest arc length)
     ends there: the points reached are kept and `EquilibriumPath.message` says why (``stopped_by="failure"``);
     so does Ctrl-C (``stopped_by="interrupted"``, with a UserWarning).
     """

@@ -109,8 +109,8 @@ class Section:
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
 
 
-#: The section builders' default density [density]: steel, as the shipped joints' (issue 22: "a
-#: ``density`` parameter [density] on the shipped joints (steel default 7800)"), so a leaf given
+#: The section builders' default density [density]: steel, as the shipped joints' (their ``density``
+#: parameter [density], steel default 7800), so a leaf given
 #: ``section=rectangle(...)`` weighs what the same leaf without it does. In other units give
 #: ``density`` (mass per length cubed); 0 makes a massless section, which `flexmb.modes` refuses
 #: by name where it leaves a free direction without mass.

@@ -110,7 +110,7 @@ def test_bad_requests_name_what_is_wrong(swept):
         flexmb.properties(res, ("compliance",), compliance_entries=[("B", "w", "x")])
     with pytest.raises(flexmb.ParameterError, match="must be a flexmb.Solution"):
         flexmb.properties([1, 2], ("modes",))
-    with pytest.raises(flexmb.ParameterError, match="n=99"):  # strict on the first converged row
+    with pytest.raises(flexmb.ParameterError, match="n_modes=99"):  # strict on the first converged row
         flexmb.properties(res, ("modes",), n_modes=99)
 
 

@@ -139,7 +139,7 @@ def test_linearised_properties_refuse_bad_input():
         flexmb.compliance(sol, "tip", "probe")
     with pytest.raises(flexmb.ParameterError, match="point"):
         flexmb.compliance(sol, "tip", point=(1.0, 2.0, 3.0))
-    with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
+    with pytest.raises(flexmb.ParameterError, match=r"n_buckling=7 must be an integer in \[1, 6\]"):
         flexmb.buckling(sol, n_buckling=7)  # every one of the 6 free DOFs' multipliers can be asked for (was [1, 5])
     with pytest.raises(flexmb.UnsupportedStrategyError):
         flexmb.buckling(flexmb.solve(flexmb.models.gripper(), method="newton"))

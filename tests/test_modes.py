@@ -471,7 +471,7 @@ def test_bad_inertia_is_refused_naming_the_link(inertia, match):
 
 def test_modes_refuse_bad_requests():
     sol = flexmb.solve(_leaf_mechanism(2, 2, length=0.1, thickness=1e-3))  # 2 free nodes: 6 DOFs
-    with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
+    with pytest.raises(flexmb.ParameterError, match=r"n_modes=7 must be an integer in \[1, 6\]"):
         flexmb.modes(sol, n_modes=7)  # all 6 free DOFs' modes can be asked for (was [1, 5])
     with pytest.raises(flexmb.ParameterError, match="held"):
         flexmb.modes(sol, held="everything")
@@ -640,14 +640,14 @@ def test_a_one_dof_mechanism_has_its_one_mode(dim):
     sol = flexmb.solve(_pendulum(dim))
     md = flexmb.modes(sol, n_modes=1)
     assert md.frequencies == pytest.approx([np.sqrt(5.0 / (1e-4 + 0.2 * 0.05**2)) / (2 * np.pi)], rel=1e-10)
-    with pytest.raises(flexmb.ParameterError, match=r"n=2 must be an integer in \[1, 1\]"):
+    with pytest.raises(flexmb.ParameterError, match=r"n_modes=2 must be an integer in \[1, 1\]"):
         flexmb.modes(sol, n_modes=2)
 
 
 @pytest.mark.parametrize("n", [0, -1, 1.0, True, "3"])
 def test_modes_refuse_a_count_that_is_not_a_positive_integer(n):
     sol = flexmb.solve(_pendulum(2))
-    with pytest.raises(flexmb.ParameterError, match=r"modes: n=.* must be an integer"):
+    with pytest.raises(flexmb.ParameterError, match=r"modes: n_modes=.* must be an integer"):
         flexmb.modes(sol, n_modes=n)
 
 
@@ -673,7 +673,7 @@ def test_every_mode_of_a_small_model_can_be_asked_for():
     all_ = flexmb.modes(sol, n_modes=6)
     assert len(all_.frequencies) == 6 and np.all(np.diff(all_.frequencies) > 0)
     assert flexmb.modes(sol, n_modes=3).frequencies == pytest.approx(all_.frequencies[:3], rel=1e-10)
-    with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
+    with pytest.raises(flexmb.ParameterError, match=r"n_modes=7 must be an integer in \[1, 6\]"):
         flexmb.modes(sol, n_modes=7)
 
 
@@ -729,7 +729,7 @@ def test_buckling_counts_the_motions_the_hinges_allow_as_modes_does(dim):
     sol = flexmb.solve(m)
     # the pendulum pushed towards its pivot: k_eff = k - P r = 5 - 0.05 > 0, lam = k / (P r) = 100
     assert flexmb.buckling(sol, n_buckling=1) == pytest.approx([100.0], rel=1e-9)
-    with pytest.raises(flexmb.ParameterError, match=r"buckling: n=2 must be an integer in \[1, 1\]"):
+    with pytest.raises(flexmb.ParameterError, match=r"buckling: n_buckling=2 must be an integer in \[1, 1\]"):
         flexmb.buckling(sol, n_buckling=2)
     m.prescribe("arm", rotation=0.0 if dim == 2 else [0.0, 0.0, 0.0])
     with pytest.raises(flexmb.ModelError, match="buckling: no free motion"):

@@ -124,7 +124,7 @@ def test_ksd_reduced_model_is_the_old_ksd_properties():
 def test_section_values_is_the_old_sections_properties():
     from flexmb import sections
 
-    secs = [sections.rectangle(1e-3, 2e-3, E=2e11), sections.rectangle(2e-3, 2e-3, E=7e10)]
+    secs = [sections.rectangle(1e-3, 2e-3, E=2e11, nu=0.3), sections.rectangle(2e-3, 2e-3, E=7e10, nu=0.33)]
     new = _new_only(lambda: sections.section_values(secs, ("E", "A")))
     old = _old(lambda: sections.properties, "flexmb.sections.section_values")(secs, ("E", "A"))
     np.testing.assert_array_equal(old, new)

@@ -208,7 +208,7 @@ def _translation(model, du: np.ndarray, length: float) -> float:
 
 def _size(model, du: np.ndarray, length: float) -> float:
     """Size of an increment: the largest nodal translation over ``length`` or rotation [rad]."""
-    translation, rotation = model.largest_motion(du)  # one compiled pass (FEModel.largest_motion)
+    translation, rotation = model.largest_motion(du)  # one numba pass (FEModel.largest_motion)
     return max(translation / length, rotation)
 
 

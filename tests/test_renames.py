@@ -94,7 +94,7 @@ def test_joint_characteristics_is_the_old_analysis():
     module = importlib.import_module("flexmb.analysis")
     for old_name, new_name in (("joint_stiffness", "joint_stiffness"), ("support_ratios", "support_ratios"),
                                ("joint_properties", "joint_characteristics")):
-        assert _old(lambda: getattr(module, old_name), f"flexmb.joint_characteristics.{new_name}") \
+        assert _old(lambda name=old_name: getattr(module, name), f"flexmb.joint_characteristics.{new_name}") \
             is getattr(new, new_name)
     assert _old(lambda: new.joint_properties, "joint_characteristics") is new.joint_characteristics
     with pytest.raises(AttributeError):

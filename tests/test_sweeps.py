@@ -8,8 +8,8 @@ import pytest
 
 import flexmb
 from flexmb import models
-from flexmb.joint_characteristics import joint_characteristics
 from flexmb.errors import ModelError, ParameterError
+from flexmb.joint_characteristics import joint_characteristics
 from flexmb.study import grid, parameter_study
 from flexmb.table import Table, read_csv
 

@@ -85,10 +85,10 @@ def test_any_sequence_of_solutions_and_failures_keep_the_other_rows(swept, monke
     sols = [res[0], bad, res[1], res[2]]
     real = dp.modes
 
-    def flaky(sol, n, held):
+    def flaky(sol, n_modes, held):
         if sol is res[2]:
             raise flexmb.ModelError("modes: the tangent is singular here")
-        return real(sol, n=n, held=held)
+        return real(sol, n_modes=n_modes, held=held)
 
     monkeypatch.setattr(dp, "modes", flaky)
     t = flexmb.properties(sols, ("modes", "stress"), n_modes=2, held=[("B", "rz")])

@@ -133,9 +133,12 @@ def test_section_values_is_the_old_sections_properties():
 
 def test_the_changelog_names_every_rename():
     text = (Path(__file__).resolve().parents[1] / "CHANGELOG.md").read_text(encoding="utf-8")
-    for old, new in [("flexmb.Path", "flexmb.EquilibriumPath"), ("n=", "n_modes="), ("n=", "n_buckling="),
-                     ('held="none"', 'held="fixed"'), ("flexmb.analysis", "flexmb.joint_characteristics"),
-                     ("joint_properties", "joint_characteristics"), ("flexmb.ksd.properties", "flexmb.ksd.reduced_model"),
+    for old, new in [("flexmb.Path", "flexmb.EquilibriumPath"), ("modes(solution, n=6)", "modes(solution, n_modes=6)"),
+                     ("buckling(solution, n=1)", "buckling(solution, n_buckling=1)"),
+                     ("state_space(..., n=6)", "state_space(..., n_modes=6)"), ('held="none"', 'held="fixed"'),
+                     ("flexmb.analysis", "flexmb.joint_characteristics"),
+                     ("flexmb.analysis.joint_properties", "flexmb.joint_characteristics.joint_characteristics"),
+                     ("flexmb.ksd.properties", "flexmb.ksd.reduced_model"),
                      ("flexmb.ksd.properties_jit", "flexmb.ksd.reduced_model_jit"),
-                     ("flexmb.sections.properties", "flexmb.sections.section_values")]:
-        assert f"`{old}`" in text and f"`{new}`" in text, (old, new)
+                     ("flexmb.sections.properties(sections, names)", "flexmb.sections.section_values(sections, names)")]:
+        assert f"{old}`" in text and f"{new}`" in text, (old, new)  # the end of a `code` span

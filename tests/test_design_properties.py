@@ -97,7 +97,7 @@ def test_any_sequence_of_solutions_and_failures_keep_the_other_rows(swept, monke
     assert np.isnan(t["f1"][3]) and np.isfinite(t["von_mises"][3])
     assert t["property_errors"][3] == "modes: modes: the tangent is singular here"
     assert t["property_errors"][0] == t["property_errors"][2] == ""
-    assert t["f1"][2] == real(res[1], n=2, held=[("B", "rz")]).frequencies[0]
+    assert t["f1"][2] == real(res[1], n_modes=2, held=[("B", "rz")]).frequencies[0]
 
 
 def test_bad_requests_name_what_is_wrong(swept):

@@ -3,7 +3,8 @@
 Every case is checked against a reference written here: the extensible elastica by shooting
 (`InclinedLeaf`), the shallow-arch closed form of Timoshenko & Gere (1961, Theory of Elastic
 Stability, Sec. 7.8: the half-sine arch with hinged ends under a half-sine load; Fung & Kaplan
-1952, NACA TN 2840), Qiu, Lang & Slocum's (2004) modal model, and Koiter's (1945) 2/3 law.
+1952, NACA TN 2840), Qiu, Lang & Slocum's (2004) modal model, Koiter's (1945) 2/3 law, and
+Roorda's frame (Roorda 1965, Koiter 1967) by shooting (`RoordaElastica`) for the 1/2 law.
 """
 
 import math
@@ -11,10 +12,11 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from scipy.optimize import brentq, minimize_scalar
+from scipy.optimize import brentq, minimize_scalar, root
 
 import flexmb
-from flexmb.studies.paths import FOURBAR, LEAF, QIU, bistable_pair, motor_fourbar, qiu_beam, sine_arch
+from flexmb.studies.paths import (FOURBAR, FRAME, LEAF, QIU, bistable_pair, motor_fourbar, qiu_beam, roorda_frame,
+                                  sine_arch)
 
 
 # -- the reference: an inclined clamped-guided leaf by shooting ------------------------------------------------
@@ -239,6 +241,126 @@ def test_arch_imperfection_sensitivity_follows_koiter_two_thirds_law(elements):
     np.testing.assert_allclose(loads, [model(eta) for eta in etas], rtol=5e-4)
     slope = np.polyfit(np.log(etas), np.log(1 - np.array(loads) / perfect), 1)[0]
     assert slope == pytest.approx(2 / 3, abs=0.01)
+
+
+# -- Koiter's 1/2-power law: Roorda's frame, an asymmetric bifurcation ------------------------------------------
+
+class RoordaElastica:
+    """The extensible Euler-Bernoulli elastica of Roorda's frame (`roorda_frame`) by shooting:
+    the column from the pinned base A (its angle ``th0`` and internal force ``(nx, ny)``
+    unknown, no moment), the rigid corner C (the load ``(0, -P)`` and the moment ``ecc P L``
+    applied), the beam to the pin B (x held, y settled by ``P L / EA``, no moment); lengths
+    over L, forces over EI / L^2 (so ``P`` is the load factor). `solve` finds the equilibrium at
+    a corner rotation ``phi`` [rad] with the load unknown (through the limit point), scipy's
+    hybrid Newton on DOP853 integrations (rtol 1e-11)."""
+
+    def __init__(self, L, t, w, E):
+        self.kap = t * t / (12 * L * L)  # (EI / L^2) / EA
+
+    def _rhs(self, s, Y, nx, ny):
+        c, sn = math.cos(Y[2]), math.sin(Y[2])
+        e = 1 + self.kap * (nx * c + ny * sn)  # the stretch of the axial force n . tangent
+        return [e * c, e * sn, Y[3], -e * (c * ny - sn * nx)]
+
+    def _ends(self, q, ecc):
+        th0, nx, ny, P = q
+        o = dict(rtol=1e-11, atol=1e-12, method="DOP853")
+        c = solve_ivp(self._rhs, (0, 1), [0, 0, th0, 0], args=(nx, ny), **o).y[:, -1]
+        b = solve_ivp(self._rhs, (0, 1), [c[0], c[1], c[2] - math.pi / 2, c[3] - ecc * P], args=(nx, ny + P),
+                      **o).y[:, -1]
+        return c, b
+
+    def _residual(self, q, ecc, phi):
+        c, b = self._ends(q, ecc)
+        return [b[0] - 1, b[1] - (1 - self.kap * q[3]), b[3], c[2] - math.pi / 2 - phi]
+
+    def solve(self, ecc, phi, guess):
+        """``(th0, nx, ny, P)`` at corner rotation ``phi`` from ``guess``."""
+        r = root(self._residual, guess, args=(ecc, phi), method="hybr", options=dict(xtol=1e-11))
+        if not r.success:
+            raise RuntimeError(f"no equilibrium at ecc={ecc}, phi={phi}: {r.message}")
+        return r.x
+
+    def critical(self):
+        """``(P_c, a)``: the perfect frame's bifurcation load and its initial post-buckling slope
+        ``a = d(P / P_c) / d phi`` (central differences at phi = +-1e-4 on the bifurcated branch)."""
+        g, h = np.array([math.pi / 2, 0.0, -13.9, 13.9]), 1e-4
+        up, down = self.solve(0.0, h, g)[3], self.solve(0.0, -h, g)[3]
+        return (up + down) / 2, (up - down) / (up + down) / h
+
+    def limit(self, ecc, Pc):
+        """The limit load with eccentricity ``ecc`` > 0: continuation in phi from 5 ecc (the load
+        near 0.8 P_c) to 3 sqrt(ecc), the maximum by Brent's method."""
+        phis = np.geomspace(5 * ecc, 3 * math.sqrt(ecc), 8)
+        qs = [self.solve(ecc, phis[0], np.array([math.pi / 2, 0.0, -0.8 * Pc, 0.8 * Pc]))]
+        for phi in phis[1:]:
+            qs.append(self.solve(ecc, phi, qs[-1]))
+        i = int(np.argmax([q[3] for q in qs]))
+        assert 0 < i < len(phis) - 1
+        best = minimize_scalar(lambda x: -self.solve(ecc, x, qs[i])[3], bounds=(phis[i - 1], phis[i + 1]),
+                               method="bounded", options={"xatol": 1e-8})
+        return -best.fun
+
+
+#: Eccentricities (over L) of the imperfection sweep
+ECCENTRICITIES = np.array([1e-5, 3e-5, 1e-4])
+
+
+@pytest.fixture(scope="module")
+def roorda():
+    ref = RoordaElastica(**FRAME)
+    Pc, a = ref.critical()
+    return dict(model=ref, Pc=Pc, a=a, limits=np.array([ref.limit(e, Pc) for e in ECCENTRICITIES]))
+
+
+def test_roorda_reference_is_koiters_frame(roorda):
+    """The shooting reference against the closed forms of the inextensible frame: the column
+    (pinned at A, C held) turning the beam's end (stiffness 3 EI / L, B pinned) buckles where
+    ``x^2 / (1 - x cot x) = -3`` (x = L sqrt(P / EI), the stability function of a propped
+    column): P_c L^2 / EI = 13.8859 (Roorda 1965's 13.89); extensible, +1.1e-4. Its bifurcated
+    branch falls as P / P_c = 1 - 0.3805 phi, Koiter's (1967) initial post-buckling slope of
+    the equal-member frame (Thompson & Hunt 1973, Sec. 3.5)."""
+    x = brentq(lambda x: x * x / (1 - x / math.tan(x)) + 3, 3.5, 4.0)
+    assert roorda["Pc"] / (x * x) - 1 == pytest.approx(1.06e-4, abs=1e-5)
+    assert roorda["a"] == pytest.approx(-0.3805, abs=5e-4)
+
+
+@pytest.mark.parametrize("elements", [12, pytest.param(48, marks=pytest.mark.slow)])
+def test_roorda_frame_imperfection_sensitivity_follows_koiters_half_power_law(roorda, elements):
+    """An asymmetric bifurcation (Koiter 1945): the perfect frame's trivial path bifurcates at
+    P_c (+0.65 / +0.04 % at 12 / 48 elements against the shooting reference), reported once as
+    a bifurcation; the path goes on along its stable branch, rising as the corner turns away
+    from the beam (its first two points' loads within 4e-5 / 2e-6 of the shooting branch's at
+    the same corner rotation, the mesh's P_c error taken out). A load eccentricity e L towards the
+    beam turns it into a limit point whose drop below P_c goes as e^(1/2): the traced limit
+    loads' drops (each over its own P_c) within 0.5 / 0.05 % of the shooting reference's
+    (measured 0.32 / 0.02 %), and their log-log slope within 1 % of 1/2 at the smallest
+    eccentricities: 0.4979 over 1e-5 ... 3e-5, 0.4962 over 3e-5 ... 1e-4 at both meshes (the
+    reference's to 1e-4). Path.snap of the perfect frame is None: its stable branch goes on."""
+    ref, Pc = roorda["model"], roorda["Pc"]
+    perfect = flexmb.trace(roorda_frame(elements), max_load_factor=16.0, steps=30, progress=False)
+    first = perfect.critical[0]
+    assert (first.kind, first.multiplicity, first.switched) == ("bifurcation", 1, True)
+    mesh = first.load_factor / Pc - 1
+    assert mesh == pytest.approx(0.0065 if elements == 12 else 0.0004, abs=0.0015 if elements == 12 else 2e-4)
+    after = [perfect[k] for k in np.flatnonzero(perfect.arc_length > first.arc_length)[:2]]
+    guess = np.array([math.pi / 2, 0.0, -Pc, Pc])
+    for s in after:  # the stable branch: rising, the corner turning away from the beam (a < 0)
+        phi = float(s.rotation_vector("C")[-1])
+        assert phi < 0 and s.load_factor > first.load_factor and s.stable
+        expected = ref.solve(0.0, phi, guess)[3] * (1 + mesh)
+        assert s.load_factor == pytest.approx(expected, rel=1e-4 if elements == 12 else 1e-5)
+    drops = []
+    for e in ECCENTRICITIES:
+        path = flexmb.trace(roorda_frame(elements, e), steps=60, progress=False, stop=lambda s: not s.stable)
+        snap = path.snap
+        assert snap is path.critical[0] and snap.kind == "limit"
+        drops.append(1 - snap.load_factor / first.load_factor)
+    drops, expected = np.array(drops), 1 - roorda["limits"] / Pc
+    np.testing.assert_allclose(drops, expected, rtol=5e-3 if elements == 12 else 5e-4)
+    slope = np.diff(np.log(drops)) / np.diff(np.log(ECCENTRICITIES))
+    assert abs(slope[0] - 0.5) < 5e-3 and np.all(np.abs(slope - 0.5) < 1e-2), slope
+    np.testing.assert_allclose(slope, np.diff(np.log(expected)) / np.diff(np.log(ECCENTRICITIES)), atol=1e-3)
 
 
 # -- no cry-wolf, Ctrl-C, arguments ----------------------------------------------------------------------------

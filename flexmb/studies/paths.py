@@ -20,7 +20,8 @@ from ..sections import Section
 
 __all__ = ["beam_section", "polyline", "lee_frame", "deep_arch", "euler_strut", "strut_elastica",
            "von_mises_truss", "von_mises_force", "qiu_bistable", "qiu_switching_forces", "qiu_force",
-           "LEAF", "bistable_pair", "sine_arch", "FOURBAR", "motor_fourbar", "QIU", "qiu_beam"]
+           "LEAF", "bistable_pair", "sine_arch", "FOURBAR", "motor_fourbar", "QIU", "qiu_beam",
+           "FRAME", "roorda_frame"]
 
 
 def beam_section(E: float, A: float, I: float, shear: bool = False, G: float | None = None) -> Section:
@@ -319,4 +320,40 @@ def qiu_beam(elements: int, shuttle: bool) -> Mechanism:
     if shuttle:
         m.prescribe("C", x=0.0, rotation=0.0)
     m.prescribe("C", y=-2 * rise)
+    return m
+
+
+#: Roorda's two-bar frame (Roorda 1965; Koiter 1967): two equal steel members 100 x 10 x 1 mm (mm, N, MPa)
+FRAME = dict(L=100.0, t=1.0, w=10.0, E=200000.0)
+
+
+def roorda_frame(elements: int = 12, eccentricity: float = 0.0) -> Mechanism:
+    """Roorda's L-frame: a column from the pinned base A (origin) up to the corner C, rigidly
+    joined there to a beam out to the pinned support B (`FRAME`: equal members, ``elements``
+    each, Euler-Bernoulli sections), pushed down at C along the column by ``EI / L^2`` per unit
+    load factor (so the load factor is ``P L^2 / EI``, Koiter's parameter), with the moment
+    ``eccentricity * P * L`` of a load off the column's axis (Roorda's imperfection; > 0
+    counter-clockwise, towards the beam: the collapsing side).
+
+    B settles with the column's axial shortening ``P L / EA`` (its vertical position prescribed,
+    scaled with the load): the beam translates without bending and the fundamental path stays
+    the trivial one of the inextensible theory; with B held, the shortening would turn the beam
+    and the corner from the start, and the perfect frame would meet a limit point instead of
+    its asymmetric bifurcation."""
+    L, t, w, E = (FRAME[k] for k in "LtwE")
+    EI, EA = E * w * t**3 / 12, E * w * t
+    P = EI / L**2
+    sec = beam_section(E, w * t, w * t**3 / 12)
+    m = Mechanism(dim=2)
+    m.add_link("A", (0.0, 0.0))
+    m.add_link("C", (0.0, L))
+    m.add_link("B", (L, L))
+    m.prescribe("A", x=0.0, y=0.0)
+    m.prescribe("B", x=0.0, y=-P * L / EA)
+    m.add_joint("A", "C", "leaf_spring", length=L, section=sec, elements=elements, origin=(0.0, 0.0),
+                rotation=math.pi / 2)
+    m.add_joint("C", "B", "leaf_spring", length=L, section=sec, elements=elements, origin=(0.0, L))
+    m.apply_force("C", (0.0, -P))
+    if eccentricity:
+        m.apply_moment("C", eccentricity * P * L)
     return m

@@ -4,7 +4,9 @@ Every case is checked against a reference written here: the extensible elastica 
 (`InclinedLeaf`), the shallow-arch closed form of Timoshenko & Gere (1961, Theory of Elastic
 Stability, Sec. 7.8: the half-sine arch with hinged ends under a half-sine load; Fung & Kaplan
 1952, NACA TN 2840), Qiu, Lang & Slocum's (2004) modal model, Koiter's (1945) 2/3 law, and
-Roorda's frame (Roorda 1965, Koiter 1967) by shooting (`RoordaElastica`) for the 1/2 law.
+Roorda's frame (Roorda 1965, Koiter 1967) by shooting (`RoordaElastica`) for the 1/2 law, and
+the shallow clamped circular arch's closed form (`clamped_arch_closed_form`, after Pi, Bradford &
+Uy 2002 and Bradford, Uy & Pi 2002).
 """
 
 import math
@@ -15,8 +17,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar, root
 
 import flexmb
-from flexmb.studies.paths import (FOURBAR, FRAME, LEAF, QIU, bistable_pair, motor_fourbar, qiu_beam, roorda_frame,
-                                  sine_arch)
+from flexmb.studies.paths import (FOURBAR, FRAME, LEAF, QIU, bistable_pair, clamped_arch, motor_fourbar, qiu_beam,
+                                  roorda_frame, sine_arch)
 
 
 # -- the reference: an inclined clamped-guided leaf by shooting ------------------------------------------------
@@ -212,6 +214,118 @@ def test_shallow_arch_bifurcates_below_its_limit_point(elements):
     assert limits[0].load_factor > first.load_factor
 
 
+#: The clamped beam's antisymmetric buckling mode: ``tan(k S / 2) = k S / 2``, k S = 2 x 4.4934
+KB = 2 * 4.493409457909064
+
+
+def clamped_arch_closed_form(e: float, load: str, rise: float = 0.01) -> tuple:
+    """``(bifurcation, limit)`` load factors of the shallow clamped circular arch `clamped_arch`
+    (span S = 1, EI = 1, r = rise / e, R the radius of the circle through its ends and crown),
+    re-derived in the shallow-arch theory of Pi, Bradford & Uy (2002, Int. J. Solids Struct. 39,
+    105-125: a uniform axial compression N, ``EI v'''' + N (y0'' + v'') = p``) and Bradford, Uy &
+    Pi (2002, J. Eng. Mech. 128, 710-719: the central point load). On the left half, with
+    ``k^2 = N / EI`` and ``y0'' = -1 / R``: ``v = A + B x + C cos kx + D sin kx + beta x^2 / 2``,
+    clamped at x = 0, ``v'(S/2) = 0`` and the crown's shear ``EI v'''(S/2) = Q / 2`` (point load
+    Q) or 0 (uniform load q: ``beta = 1 / R - q / N``); v is linear in the load at a given N, and
+    the ends' fixed distance, ``N S / EA = -int (y0' v' + v'^2 / 2) dx``, a quadratic in it: the
+    symmetric path, its load through the root that grows from 0 (the two roots cross at k S =
+    2 pi, the symmetric clamped mode, where the path passes from the lower to the upper). The
+    antisymmetric mode leaves the symmetric path where N reaches its clamped-beam buckling load,
+    k = `KB` (an antisymmetric increment changes no axial force: the bifurcation); the limit point
+    is the load's maximum before the path turns in N. The bifurcation is None where the path
+    does not reach it (N turns first). The compatibility integral: 64-point Gauss-Legendre."""
+    R = (0.25 + rise * rise) / (2 * rise)
+    EA = (e / rise) ** 2
+    x, w = np.polynomial.legendre.leggauss(64)
+    x, w = (x + 1) / 4, w / 4
+    y0p = (0.5 - x) / R
+
+    def slope(k, beta, shear):
+        s, c = math.sin(k / 2), math.cos(k / 2)
+        M = [[1, 0, 1, 0], [0, 1, 0, k], [0, 1, -k * s, k * c], [0, 0, k**3 * s, -k**3 * c]]
+        A, B, C, D = np.linalg.solve(M, [0, 0, -beta / 2, shear])
+        return B - C * k * np.sin(k * x) + D * k * np.cos(k * x) + beta * x
+
+    def quadratic(k):
+        v0 = slope(k, 1 / R, 0.0)
+        v1 = slope(k, 0.0, 0.5) if load == "point" else slope(k, -1 / k**2, 0.0)
+        return (k * k / EA + 2 * np.sum(w * (y0p * v0 + v0**2 / 2)), 2 * np.sum(w * (y0p * v1 + v0 * v1)),
+                np.sum(w * v1**2))
+
+    def disc(k):
+        c0, c1, c2 = quadratic(k)
+        return c1 * c1 - 4 * c2 * c0
+
+    def Q(k):
+        c0, c1, c2 = quadratic(k)
+        return (-c1 + math.sqrt(disc(k))) / (2 * c2)
+
+    ks = np.arange(2 * math.pi + 0.01, 16, 0.01)
+    j = int(np.argmax([disc(k) < 0 for k in ks]))
+    turn = brentq(disc, ks[j - 1], ks[j], xtol=1e-14)
+    top = minimize_scalar(lambda k: -Q(k), bounds=(2 * math.pi + 1e-6, turn), method="bounded",
+                          options={"xatol": 1e-10})
+    return (Q(KB) if KB < turn else None), -top.fun
+
+
+def _antisymmetric(critical, elements):
+    """Whether the critical mode's vertical motions are antisymmetric about the crown."""
+    node = critical.solution.compiled.link_node
+    names = ["L"] + [f"a{i}" for i in range(1, elements)] + ["R"]
+    names[elements // 2] = "crown"
+    v = critical.modes[0].reshape(-1, 3)[[node[n] for n in names], 1]
+    return np.allclose(v, -v[::-1], atol=1e-6 * np.abs(v).max())
+
+
+@pytest.mark.parametrize("elements", [40, 80])
+def test_clamped_arch_under_a_uniform_load_bifurcates_below_its_limit_point(elements):
+    """A shallow clamped circular arch (rise 1 % of the span, rise / r = 15) under a uniform
+    load: the antisymmetric bifurcation (q S^3 / EI = 5.9789) lies below the symmetric limit
+    point (6.7566); the first critical point is the bifurcation (measured +0.36 / +0.07 % at 40 /
+    80 elements, -0.002 % at 160), simple, its mode antisymmetric; the arch snaps there
+    (`Path.snap`) and the path leaves along the antisymmetric branch; held on the symmetric
+    branch (``branch="primary"``) it meets the limit point (+0.38 / +0.07 %)."""
+    Qb, Ql = clamped_arch_closed_form(15.0, "uniform")
+    path = flexmb.trace(clamped_arch(elements), steps=20, max_load_factor=8.0, progress=False)
+    first = path.critical[0]
+    assert (first.kind, first.multiplicity, first.switched) == ("bifurcation", 1, True) and path.snap is first
+    assert _antisymmetric(first, elements)
+    err = first.load_factor / Qb - 1
+    assert 0 < err < 5e-3 if elements == 40 else abs(err) < 1.5e-3
+    primary = flexmb.trace(clamped_arch(elements), steps=30, max_load_factor=8.0, progress=False, branch="primary",
+                           stop=lambda s: s.load_factor < 6.0 and not s.stable)
+    limit = [c for c in primary.critical if c.kind == "limit"][0]
+    assert primary.critical[0].kind == "bifurcation" and limit.load_factor > first.load_factor
+    err = limit.load_factor / Ql - 1
+    assert 0 < err < 5e-3 if elements == 40 else abs(err) < 1.5e-3
+
+
+@pytest.mark.parametrize("elements", [40, 80])
+def test_clamped_arch_under_a_central_point_load_snaps_at_its_limit_point(elements):
+    """A clamped arch under a central point load snaps at its symmetric limit point: at rise /
+    r = 30 the closed form's limit (Q S^2 / EI = 2.3160) comes before the axial force reaches the
+    antisymmetric mode's, which it does past the limit, on the unstable branch (2.0849); at
+    rise / r = 15, never. The first critical point is the limit (+0.43 / +0.10 % at 40 / 80
+    elements), where the arch snaps (`Path.snap`); the bifurcation follows on the falling branch
+    (+0.78 / +0.16 %), its mode antisymmetric. At rise / r = 15: a limit point alone (2.1607;
+    +0.39 % at 40 elements)."""
+    Qb, Ql = clamped_arch_closed_form(30.0, "point")
+    path = flexmb.trace(clamped_arch(elements, e=30.0, load="point"), steps=30, progress=False,
+                        stop=lambda s: s.load_factor < 1.5 and not s.stable)
+    first, second = path.critical[:2]
+    assert first.kind == "limit" and path.snap is first and first.multiplicity == 1
+    assert second.kind == "bifurcation" and second.load_factor < first.load_factor and _antisymmetric(second, elements)
+    errors = np.array([first.load_factor / Ql, second.load_factor / Qb]) - 1
+    assert np.all(errors > 0) and np.all(errors < (1e-2 if elements == 40 else 2.5e-3)), errors
+    Qb, Ql = clamped_arch_closed_form(15.0, "point")
+    assert Qb is None
+    if elements == 40:
+        path = flexmb.trace(clamped_arch(elements, e=15.0, load="point"), steps=30, progress=False,
+                            stop=lambda s: s.load_factor < 1.5 and not s.stable)
+        assert [c.kind for c in path.critical] == ["limit"] and path.snap is path.critical[0]
+        assert path.critical[0].load_factor / Ql - 1 == pytest.approx(0.0039, abs=1e-3)
+
+
 @pytest.mark.parametrize("elements", [40, pytest.param(80, marks=pytest.mark.slow)])
 def test_arch_imperfection_sensitivity_follows_koiter_two_thirds_law(elements):
     """An antisymmetric imperfection of amplitude eta r turns the bifurcation into a limit point:
@@ -319,7 +433,7 @@ def test_roorda_reference_is_koiters_frame(roorda):
     ``x^2 / (1 - x cot x) = -3`` (x = L sqrt(P / EI), the stability function of a propped
     column): P_c L^2 / EI = 13.8859 (Roorda 1965's 13.89); extensible, +1.1e-4. Its bifurcated
     branch falls as P / P_c = 1 - 0.3805 phi, Koiter's (1967) initial post-buckling slope of
-    the equal-member frame (Thompson & Hunt 1973, Sec. 3.5)."""
+    the equal-member frame (as quoted by Thompson & Hunt 1973, A General Theory of Elastic Stability)."""
     x = brentq(lambda x: x * x / (1 - x / math.tan(x)) + 3, 3.5, 4.0)
     assert roorda["Pc"] / (x * x) - 1 == pytest.approx(1.06e-4, abs=1e-5)
     assert roorda["a"] == pytest.approx(-0.3805, abs=5e-4)

@@ -395,13 +395,15 @@ class ArcLength:
                 q = None
                 if kind == "bifurcation" and branch != "primary":
                     # a branch the path was not scaled for (a strut's bending under an axial
-                    # load): its first step moves the mode by SWITCH_MOTION, and sets the bounds
-                    ds = max(ds, switch_arc(metric, modes))
-                    own, others = branch_points(self, problem, metric, p, a, modes, ds)
+                    # load): its first step moves the mode by SWITCH_MOTION, and sets the bounds;
+                    # the branches through p along which the load factor changes: the path's step
+                    switch = max(ds, switch_arc(metric, modes))
+                    own, others = branch_points(self, problem, metric, p, a, modes, ds, switch)
                     q = choose(p, own, others, branch)
                     q = None if q is own else q
                 yield ("critical", kind, p, count, modes, q is not None)
                 if q is not None:  # onto another branch: the critical points beyond p are not on it
+                    ds = switch
                     following, ref = q, max(ref, ds)
                     break
             yield ("point", following, ds)

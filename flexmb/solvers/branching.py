@@ -11,7 +11,9 @@ combinations of them (every ``pi / 4`` in the plane of two; each mode and their 
 find the branches in between (the symmetric two-leaf device's: one leaf buckled, or both).
 
 Of the points found (and the path's own continuation), `choose` keeps the one the device
-follows: the fewest negative eigenvalues (stable where a stable branch exists), then a load
+follows: the fewest negative eigenvalues (stable where a stable branch exists), then, where the
+path's own continuation is unstable, a branch that leaves it (a device's imperfections grow the
+critical mode: it snaps along the bifurcated branch, as the shallow arches do), then a load
 factor that keeps growing (the control moves on), then the first found.
 """
 
@@ -159,13 +161,15 @@ def directions(modes: np.ndarray) -> list[np.ndarray]:
     return [s * d for d in (*modes, total) for s in (1.0, -1.0)]
 
 
-def branch_points(strategy, problem, metric, p, came_from, modes: np.ndarray, ds: float) -> tuple:
-    """Points at arc length ``ds`` from the critical point ``p`` on the branches that leave it,
-    ``(own, others)``: the path's own continuation (along its secant from ``came_from``; None if
-    its corrector failed) and one point per predictor along the critical modes (`directions`)
-    and along the branch whose load factor changes there (`load_directions`) whose corrector
-    converged to a new branch: not the way the path came, not a point found already. Each
-    `PathPoint` has its direction (the way it runs away from ``p``) and stability."""
+def branch_points(strategy, problem, metric, p, came_from, modes: np.ndarray, ds: float,
+                  switch: float | None = None) -> tuple:
+    """Points on the branches that leave the critical point ``p``, ``(own, others)``: the
+    path's own continuation (along its secant from ``came_from``, at arc length ``ds``; None if
+    its corrector failed) and one point per predictor along the branch whose load factor changes
+    there (`load_directions`, at ``ds``) and along the critical modes (`directions`, at
+    ``switch``, default ``ds``) whose corrector converged to a new branch: not the way the path
+    came, not a point found already. Each `PathPoint` has its direction (the way it runs away
+    from ``p``) and stability."""
     incoming = metric.difference(came_from.state, p.state), came_from.lam - p.lam
     found = []
     # p's own tangent is any vector of the null space (the tangent is singular there): the path
@@ -175,16 +179,18 @@ def branch_points(strategy, problem, metric, p, came_from, modes: np.ndarray, ds
                                                       direction=1.0, dlam_ds=-incoming[1] / n), ds)
     if own is not None:
         found.append(own)
-    predictors = [(d, 0.0) for d in directions(modes)] + load_directions(strategy, problem, metric, p, modes)
-    for d, dl in predictors:
-        start = attrs.evolve(p, tangent=d, tangent_lam=dl, direction=1.0, dlam_ds=dl)
-        q = strategy.step(problem, metric, start, ds)
+    switch = ds if switch is None else switch
+    predictors = [(d, 0.0, switch) for d in directions(modes)] + \
+        [(d, dl, ds) for d, dl in load_directions(strategy, problem, metric, p, modes)]
+    for d, dl, length in predictors:
+        q = strategy.step(problem, metric, attrs.evolve(p, tangent=d, tangent_lam=dl, direction=1.0, dlam_ds=dl),
+                          length)
         if q is None:
             continue
         chord = metric.difference(q.state, p.state), q.lam - p.lam
         if _cosine(metric, chord, incoming) > _BACK:
             continue  # the branch the path came along, going back
-        if any(_distance(metric, q, f) < SAME_POINT * ds for f in found):
+        if any(_distance(metric, q, f) < SAME_POINT * length for f in found):
             continue
         found.append(q)
     return own, found[1:] if own is not None else found
@@ -196,7 +202,7 @@ def choose(p, own, others: list, branch: str):
     if branch == "primary" or not others:
         return own
     pool = others if branch == "bifurcated" or own is None else [own] + others
-    return min(pool, key=lambda c: (c.negative, c.lam < p.lam, pool.index(c)))
+    return min(pool, key=lambda c: (c.negative, c is own and c.negative > 0, c.lam < p.lam, pool.index(c)))
 
 
 def _cosine(metric, a, b) -> float:

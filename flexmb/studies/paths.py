@@ -21,7 +21,7 @@ from ..sections import Section
 __all__ = ["beam_section", "polyline", "lee_frame", "deep_arch", "euler_strut", "strut_elastica",
            "von_mises_truss", "von_mises_force", "qiu_bistable", "qiu_switching_forces", "qiu_force",
            "LEAF", "bistable_pair", "sine_arch", "FOURBAR", "motor_fourbar", "QIU", "qiu_beam",
-           "FRAME", "roorda_frame"]
+           "FRAME", "roorda_frame", "clamped_arch"]
 
 
 def beam_section(E: float, A: float, I: float, shear: bool = False, G: float | None = None) -> Section:
@@ -356,4 +356,34 @@ def roorda_frame(elements: int = 12, eccentricity: float = 0.0) -> Mechanism:
     m.apply_force("C", (0.0, -P))
     if eccentricity:
         m.apply_moment("C", eccentricity * P * L)
+    return m
+
+
+def clamped_arch(elements: int = 40, e: float = 15.0, rise: float = 0.01, load: str = "uniform") -> Mechanism:
+    """A shallow circular arch of span S = 1 and ``rise`` (L, R: both ends clamped; the crown
+    link "crown" at mid-span, ``elements`` even), radius of gyration ``r = rise / e``, EI = 1
+    (steel, I = 1 / E), its chords on the circle. ``load``: ``"uniform"``, a downward load of
+    EI / S^3 per unit span per unit load factor (lumped at the nodes by their tributary span),
+    or ``"point"``, EI / S^2 down at the crown: the load factor is ``q S^3 / EI`` or
+    ``Q S^2 / EI``."""
+    S, r = 1.0, rise / e
+    R = (S * S / 4 + rise * rise) / (2 * rise)
+    half = math.asin(S / (2 * R))
+    th = np.linspace(-half, half, elements + 1)
+    x, y = S / 2 + R * np.sin(th), R * (np.cos(th) - math.cos(half))
+    names = ["L"] + [f"a{i}" for i in range(1, elements)] + ["R"]
+    names[elements // 2] = "crown"
+    m = Mechanism(dim=2)
+    m.add_link("L", (x[0], y[0]), fixed=True)
+    m.add_link("R", (x[-1], y[-1]), fixed=True)
+    E = 2e11
+    polyline(m, np.c_[x, y], beam_section(E, 1.0 / (E * r**2), 1.0 / E), names)
+    if load == "point":
+        m.apply_force("crown", (0.0, -1.0))
+    else:
+        span = np.zeros(elements + 1)
+        span[:-1] += np.diff(x) / 2
+        span[1:] += np.diff(x) / 2
+        for k in range(1, elements):
+            m.apply_force(names[k], (0.0, -span[k]))
     return m

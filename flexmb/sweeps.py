@@ -40,7 +40,8 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     """Solve ``mechanism`` for each of ``values``: actuation forces [N] (`Mechanism.set_actuation`)
     by default, or with ``motion=(link, component)`` the prescribed value of that component of a
     link (``"x"``, ``"y"``, ``"z"`` [m]; ``"rotation"`` [rad], in 3D rotation vectors, shape
-    (n, 3)); the component must already be prescribed (`Mechanism.prescribe`).
+    (n, 3)) or of a point inside a joint (`Mechanism.add_joint_point`; the finite-element model);
+    the component must already be prescribed (`Mechanism.prescribe`).
 
     ``start="previous"`` starts each solve from the last converged solution (continuation, the
     paper's Fig. 12 warm start; the conventional method then steps from the previous value to
@@ -208,8 +209,11 @@ def _motion_dofs(mechanism, motion) -> list[int]:
             or motion[1] not in comps):
         raise ParameterError(f"sweep: motion={motion!r} must be a (link, component) tuple with component one of "
                              f"{', '.join(comps)}")
-    if motion[0] not in mechanism.links:
-        raise ModelError(f"sweep: no link named {motion[0]!r}; links: {', '.join(mechanism.links)}")
+    points = getattr(mechanism, "joint_points", {})
+    if motion[0] not in mechanism.links and motion[0] not in points:
+        what = "link or joint point" if points else "link"
+        raise ModelError(f"sweep: no {what} named {motion[0]!r}; links: {', '.join(mechanism.links)}"
+                         + (f"; joint points: {', '.join(points)}" if points else ""))
     return comps[motion[1]]
 
 
@@ -230,12 +234,15 @@ def _motions(values, motion, width: int) -> np.ndarray:
 
 
 def _prescribed_slots(compiled, motion, comps) -> np.ndarray:
-    """Positions of the swept DOFs in ``compiled.problem.prescribed``."""
+    """Positions of the swept DOFs in ``compiled.problem.prescribed`` (of a link or a point inside
+    a joint, `Mechanism.add_joint_point`)."""
     problem = compiled.problem
-    dofs = problem.model.node_dofs[compiled.link_node[motion[0]]][comps]
+    inside = motion[0] not in compiled.link_node
+    node = compiled.joint_points[motion[0]] if inside else compiled.link_node[motion[0]]
+    dofs = problem.model.node_dofs[node][comps]
     if not np.all(np.isin(dofs, problem.prescribed)):
-        raise ModelError(f"sweep: the {motion[1]} of link {motion[0]!r} is not prescribed; prescribe it first, "
-                         f"e.g. Mechanism.prescribe({motion[0]!r}, {motion[1]}=0.0)")
+        raise ModelError(f"sweep: the {motion[1]} of {'joint point' if inside else 'link'} {motion[0]!r} is not "
+                         f"prescribed; prescribe it first, e.g. Mechanism.prescribe({motion[0]!r}, {motion[1]}=0.0)")
     if any(np.isin(dofs, d).any() for d, _ in getattr(problem, "rotation_paths", ())):
         raise ModelError(f"sweep: link {motion[0]!r} has a chain of rotations prescribed; sweep a single rotation "
                          f"vector instead")

@@ -219,3 +219,39 @@ def test_joint_points_round_trip_through_a_mechanism_file_bit_for_bit(dim, tmp_p
     assert abs(a.reaction("M")[1]) > 1.0  # the prescribed point is held by a real force
     plain = _leaf(dim, 4)
     assert json.loads(flexmb.files.dumps(plain))["version"] == 1 and "joint_points" not in flexmb.files.dumps(plain)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_prescribed_motion_inside_a_joint_swept(dim):
+    """`flexmb.sweep(motion=("M", "y"))` at the midpoint of a clamped-clamped leaf: each value's
+    holding force is the Timoshenko closed form ``delta / (L^3 / (192 EI) + L / (4 k G A))``
+    (within 1e-6: motions below 1e-3 of the thickness, where the
+    leaf's stretching adds (delta / t)^2), each solution is `flexmb.solve` of the mechanism prescribed
+    there (to 1e-9 of the motion), and the table names the swept column ``M.y``."""
+    m = _leaf(dim, 12, fixed_b=True)
+    m.add_joint_point("leaf", "M", 0.5)
+    m.prescribe("M", y=0.0)
+    values = np.array([-2e-7, -4e-7, 1e-7, 6e-7])
+    result = flexmb.sweep(m, values, motion=("M", "y"), progress=False)
+    assert result.quantity == "M.y" and result.converged.all()
+    np.testing.assert_array_equal(result.table()["M.y"], values)
+    s = flexmb.LeafSpring(length=L, width=W, thickness=T, E=E, nu=0.3).cross_section()
+    stiffness = 1 / (L**3 / (192 * s.E * s.Iz) + L / (4 * s.ky * s.G * s.A))
+    np.testing.assert_allclose([sol.reaction("M")[1] for sol in result], stiffness * values, rtol=1e-6)
+    for value, sol in zip(values, result):
+        alone = _leaf(dim, 12, fixed_b=True)
+        alone.add_joint_point("leaf", "M", 0.5)
+        alone.prescribe("M", y=value)
+        gap = np.abs(sol.node_positions() - flexmb.solve(alone).node_positions()).max()
+        assert gap <= 1e-9 * abs(value)
+        assert sol.displacement("M")[1] == value
+
+
+def test_a_swept_joint_point_must_be_prescribed_and_exist():
+    m = _leaf(2, 6, fixed_b=True)
+    m.add_joint_point("leaf", "M", 0.5)
+    with pytest.raises(ModelError, match=r"the y of joint point 'M' is not prescribed; prescribe it first, e\.g\. "
+                                         r"Mechanism\.prescribe\('M', y=0\.0\)"):
+        flexmb.sweep(m, [1e-6], motion=("M", "y"), progress=False)
+    with pytest.raises(ModelError, match="no link or joint point named 'N'; links: A, B; joint points: M"):
+        flexmb.sweep(m, [1e-6], motion=("N", "y"), progress=False)

@@ -367,7 +367,8 @@ class SweepResult(Sequence):
         link in ``links`` (default: all) its position ``"<link>.x"`` ... [m], rotation
         ``"<link>.rotation"`` (2D) or rotation vector ``"<link>.rotation_x"`` ... [rad], and for
         links with a fixed or prescribed DOF the reaction ``"<link>.Fx"`` ... [N],
-        ``"<link>.Mz"`` ... [N m]; for every named point in ``points`` its position [m]. Write it
+        ``"<link>.Mz"`` ... [N m] (``links`` may name points inside joints, `Mechanism.add_joint_point`);
+        for every named point in ``points`` its position [m]. Write it
         with ``.to_csv(path)``; ``result.table().to_pandas()`` makes a data frame.
 
         Nothing is overwritten: a column keeps the first name it takes, in the order above, and
@@ -400,7 +401,8 @@ class SweepResult(Sequence):
                 cols[f"{link}.rotation"] = rot[:, 0]
             else:
                 cols.update({f"{link}.rotation_{a}": rot[:, i] for i, a in enumerate(axes)})
-            if compiled.link_node[link] in held:
+            node = compiled.link_node[link] if link in compiled.link_node else compiled.joint_points.get(link)
+            if node in held:
                 w = np.array([s.reaction(link) for s in sols])
                 labels = [f"F{a}" for a in axes] + (["Mz"] if dim == 2 else [f"M{a}" for a in axes])
                 cols.update({f"{link}.{n}": w[:, i] for i, n in enumerate(labels)})

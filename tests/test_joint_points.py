@@ -235,6 +235,9 @@ def test_a_prescribed_motion_inside_a_joint_swept(dim):
     result = flexmb.sweep(m, values, motion=("M", "y"), progress=False)
     assert result.quantity == "M.y" and result.converged.all()
     np.testing.assert_array_equal(result.table()["M.y"], values)
+    table = result.table(links=["M"])  # the point's own columns: its position and the force holding it
+    np.testing.assert_array_equal(table["M.Fy"], [sol.reaction("M")[1] for sol in result])
+    np.testing.assert_array_equal(table["M.y#2"], [sol.pose("M")[0][1] for sol in result])
     s = flexmb.LeafSpring(length=L, width=W, thickness=T, E=E, nu=0.3).cross_section()
     stiffness = 1 / (L**3 / (192 * s.E * s.Iz) + L / (4 * s.ky * s.G * s.A))
     np.testing.assert_allclose([sol.reaction("M")[1] for sol in result], stiffness * values, rtol=1e-6)

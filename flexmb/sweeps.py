@@ -320,6 +320,28 @@ class _Columns(dict):
             self[name] = values
 
 
+def _link_columns(sols, link: str) -> dict:
+    """`SweepResult.table`'s columns of one link (or point inside a joint): its position, rotation
+    and, where a DOF of it is fixed or prescribed, the reaction."""
+    compiled, dim = sols[0].compiled, sols[0].dim
+    axes = "xyz"[:dim]
+    problem = compiled.problem
+    held = set(np.asarray(problem.prescribed) // problem.model.ndof)
+    pos = np.array([s.pose(link)[0] for s in sols])
+    rot = np.array([s.rotation_vector(link) for s in sols])
+    cols = {f"{link}.{a}": pos[:, i] for i, a in enumerate(axes)}
+    if dim == 2:
+        cols[f"{link}.rotation"] = rot[:, 0]
+    else:
+        cols.update({f"{link}.rotation_{a}": rot[:, i] for i, a in enumerate(axes)})
+    node = compiled.link_node[link] if link in compiled.link_node else compiled.joint_points.get(link)
+    if node in held:
+        w = np.array([s.reaction(link) for s in sols])
+        labels = [f"F{a}" for a in axes] + (["Mz"] if dim == 2 else [f"M{a}" for a in axes])
+        cols.update({f"{link}.{n}": w[:, i] for i, n in enumerate(labels)})
+    return cols
+
+
 class SweepResult(Sequence):
     """The solutions of a `sweep` (a sequence: ``len``, indexing, iteration) with ``values``, the
     swept quantity's name ``quantity`` (``"force"`` or ``"link.component"``) and `table`."""
@@ -390,22 +412,8 @@ class SweepResult(Sequence):
             cols["warnings"] = np.array(self.warnings, dtype=str)
         cols["iterations"] = np.array([s.iterations for s in sols])
         cols["time"] = np.array([s.wall_time.get("total", np.nan) for s in sols])
-        links = list(compiled.link_node) if links is None else list(links)
-        problem = compiled.problem
-        held = set(np.asarray(problem.prescribed) // problem.model.ndof)
-        for link in links:
-            pos = np.array([s.pose(link)[0] for s in sols])
-            rot = np.array([s.rotation_vector(link) for s in sols])
-            cols.update({f"{link}.{a}": pos[:, i] for i, a in enumerate(axes)})
-            if dim == 2:
-                cols[f"{link}.rotation"] = rot[:, 0]
-            else:
-                cols.update({f"{link}.rotation_{a}": rot[:, i] for i, a in enumerate(axes)})
-            node = compiled.link_node[link] if link in compiled.link_node else compiled.joint_points.get(link)
-            if node in held:
-                w = np.array([s.reaction(link) for s in sols])
-                labels = [f"F{a}" for a in axes] + (["Mz"] if dim == 2 else [f"M{a}" for a in axes])
-                cols.update({f"{link}.{n}": w[:, i] for i, n in enumerate(labels)})
+        for link in list(compiled.link_node) if links is None else list(links):
+            cols.update(_link_columns(sols, link))
         for name in points:
             owner = compiled.points.get(name, (None,))[0]
             if owner is None:

@@ -141,7 +141,8 @@ def test_bistable_pair_force_stroke_follows_the_elastica(elastica, elements):
     lists each bifurcation once, with multiplicity 2 (one eigenvalue per leaf)."""
     path = flexmb.trace(bistable_pair(elements), max_load_factor=1.0, steps=200, progress=False)
     assert path.stopped_by == "max_load_factor" and path.stable.all() and path.snap is None
-    assert [(c.kind, c.multiplicity, c.switched) for c in path.critical] == [("bifurcation", 2, True)] * 2
+    assert [(c.kind, c.multiplicity, c.switched, c.asymmetric) for c in path.critical] == \
+        [("bifurcation", 2, True, False)] * 2
     snap, minimum = (_push(c.solution) for c in path.critical)
     forces = [_push(s) for s in path]
     assert max(forces) < path.load_factor[-1] * 1e4 and snap == pytest.approx(max(forces[:10]), rel=1e-3)
@@ -289,7 +290,7 @@ def test_clamped_arch_under_a_uniform_load_bifurcates_below_its_limit_point(elem
     path = flexmb.trace(clamped_arch(elements), steps=20, max_load_factor=8.0, progress=False)
     first = path.critical[0]
     assert (first.kind, first.multiplicity, first.switched) == ("bifurcation", 1, True) and path.snap is first
-    assert _antisymmetric(first, elements)
+    assert _antisymmetric(first, elements) and not first.asymmetric  # a symmetric (unstable) bifurcation
     err = first.load_factor / Qb - 1
     assert 0 < err < 5e-3 if elements == 40 else abs(err) < 1.5e-3
     primary = flexmb.trace(clamped_arch(elements), steps=30, max_load_factor=8.0, progress=False, branch="primary",
@@ -450,11 +451,14 @@ def test_roorda_frame_imperfection_sensitivity_follows_koiters_half_power_law(ro
     loads' drops (each over its own P_c) within 0.5 / 0.05 % of the shooting reference's
     (measured 0.32 / 0.02 %), and their log-log slope within 1 % of 1/2 at the smallest
     eccentricities: 0.4979 over 1e-5 ... 3e-5, 0.4962 over 3e-5 ... 1e-4 at both meshes (the
-    reference's to 1e-4). Path.snap of the perfect frame is None: its stable branch goes on."""
+    reference's to 1e-4). The perfect frame's bifurcation is reported asymmetric (the branches
+    along +-mode change the load with opposite signs) and is its `Path.snap`: the critical state
+    itself is unstable (Koiter), though the path goes on along the stable branch."""
     ref, Pc = roorda["model"], roorda["Pc"]
     perfect = flexmb.trace(roorda_frame(elements), max_load_factor=16.0, steps=30, progress=False)
     first = perfect.critical[0]
-    assert (first.kind, first.multiplicity, first.switched) == ("bifurcation", 1, True)
+    assert (first.kind, first.multiplicity, first.switched, first.asymmetric) == ("bifurcation", 1, True, True)
+    assert perfect.snap is first  # the critical state itself is unstable, though a stable branch rises
     mesh = first.load_factor / Pc - 1
     assert mesh == pytest.approx(0.0065 if elements == 12 else 0.0004, abs=0.0015 if elements == 12 else 2e-4)
     after = [perfect[k] for k in np.flatnonzero(perfect.arc_length > first.arc_length)[:2]]
@@ -771,3 +775,20 @@ def test_imperfect_refuses_a_mode_of_another_model():
         flexmb.imperfect(sine_arch(10), np.ones(3), 1e-4)
     with pytest.raises(flexmb.errors.ParameterError, match="amplitude"):
         flexmb.imperfect(sine_arch(10), np.ones(33), float("nan"))
+
+
+def test_is_asymmetric_reads_the_branches_on_both_sides():
+    """`branching.is_asymmetric` on the load-factor changes of the mode predictors (the measured
+    ones: Roorda's frame +-5.8e-5 at 13.98; the sine arch -0.049 both ways; the perfect strut
+    3.3e-10 both ways; a double point's eight directions, opposite ones four apart)."""
+    from flexmb.solvers.branching import is_asymmetric
+
+    assert is_asymmetric([5.81e-5, -5.75e-5], 1, 13.98)
+    assert not is_asymmetric([-0.0492, -0.0492], 1, 19.4)  # symmetric unstable
+    assert not is_asymmetric([3.3e-10, -3.3e-10], 1, 1.0)  # flat: round-off either way
+    assert not is_asymmetric([1e-3, -1e-5], 1, 1.0)  # not comparable: a branch and round-off
+    assert not is_asymmetric([1e-3, None], 1, 1.0)
+    double = [0.02, 0.02, 0.02, 0.02, 0.02, 0.02, 0.02, 0.02]
+    assert not is_asymmetric(double, 2, 0.5)
+    double[6] = -0.02  # opposite to direction 2
+    assert is_asymmetric(double, 2, 0.5)

@@ -371,10 +371,12 @@ class ArcLength:
     def follow(self, problem, metric, first: PathPoint, ds0: float, branch: str = "primary"):
         """Step along the path from ``first`` with first arc length ``ds0``: yields
         ``("point", PathPoint, ds)`` for every converged step (``ds`` its constraint radius),
-        ``("critical", kind, PathPoint, multiplicity, modes, switched)`` before the point past a
-        limit (``"limit"``) or bifurcation (``"bifurcation"``) point (``modes`` (m, n_dofs) the
-        critical modes, `flexmb.solvers.branching.critical_modes`; ``switched``: the path leaves
-        there for another branch, chosen by ``branch``, `flexmb.solvers.branching.BRANCHES`), and
+        ``("critical", kind, PathPoint, multiplicity, modes, switched, asymmetric)`` before the
+        point past a limit (``"limit"``) or bifurcation (``"bifurcation"``) point (``modes`` (m,
+        n_dofs) the critical modes, `flexmb.solvers.branching.critical_modes`; ``switched``: the
+        path leaves there for another branch, chosen by ``branch``,
+        `flexmb.solvers.branching.BRANCHES`; ``asymmetric``: an asymmetric bifurcation,
+        `flexmb.solvers.branching.is_asymmetric`, known where the branches were sought), and
         ``("stuck", message)`` once when the arc length falls below ``min_arc`` (then stops).
         Runs until the consumer stops asking."""
         a, ds, ref = first, ds0, ds0  # ref: the arc length the bounds min_arc, max_arc refer to
@@ -392,16 +394,16 @@ class ArcLength:
                 continue
             following = b
             for kind, p, count, modes in self._critical(problem, metric, a, b, ds):
-                q = None
+                q, asymmetric = None, False
                 if kind == "bifurcation" and branch != "primary":
                     # a branch the path was not scaled for (a strut's bending under an axial
                     # load): its first step moves the mode by SWITCH_MOTION, and sets the bounds;
                     # the branches through p along which the load factor changes: the path's step
                     switch = max(ds, switch_arc(metric, modes))
-                    own, others = branch_points(self, problem, metric, p, a, modes, ds, switch)
+                    own, others, asymmetric = branch_points(self, problem, metric, p, a, modes, ds, switch)
                     q = choose(p, own, others, branch)
                     q = None if q is own else q
-                yield ("critical", kind, p, count, modes, q is not None)
+                yield ("critical", kind, p, count, modes, q is not None, asymmetric)
                 if q is not None:  # onto another branch: the critical points beyond p are not on it
                     ds = switch
                     following, ref = q, max(ref, ds)

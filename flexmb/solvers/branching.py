@@ -26,8 +26,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
-__all__ = ["BRANCHES", "ORTHOGONAL", "SAME_POINT", "branch_points", "choose", "critical_modes", "is_bifurcation",
-           "multiplicity", "switch_arc"]
+__all__ = ["BRANCHES", "ORTHOGONAL", "SAME_POINT", "ASYMMETRIC", "branch_points", "choose", "critical_modes",
+           "is_bifurcation", "multiplicity", "switch_arc", "is_asymmetric"]
 
 #: What `flexmb.trace` may do at a bifurcation point: ``"stable"`` take the branch the device
 #: follows (`choose`), ``"primary"`` stay on the path it came along, ``"bifurcated"`` leave it
@@ -46,6 +46,13 @@ _BACK = 0.9
 #: dual). A symmetric device's antisymmetric mode and symmetric load give round-off (~1e-12) and
 #: the located point's offset from the bifurcation ~1e-7; a true limit point's cosine is O(1).
 ORTHOGONAL = 1e-5
+
+#: A bifurcation is asymmetric (Koiter 1945: the critical state itself unstable, a snap under any
+#: control) when the branches leaving along opposite critical modes ``+phi``, ``-phi`` change the
+#: load factor with opposite signs, each by more than this fraction of the load factor there and
+#: their sizes within a factor 2 (a symmetric pitchfork's change the same sign, a flat one's
+#: round-off: the perfect Euler strut's 3e-10 of its step; Roorda's frame: +-5.8e-5 of its step).
+ASYMMETRIC = 1e-8
 
 #: Eigenvalues nearest zero below this fraction of the largest of them (`PathPoint.near`) count
 #: towards a critical point's multiplicity.
@@ -168,8 +175,9 @@ def branch_points(strategy, problem, metric, p, came_from, modes: np.ndarray, ds
     its corrector failed) and one point per predictor along the branch whose load factor changes
     there (`load_directions`, at ``ds``) and along the critical modes (`directions`, at
     ``switch``, default ``ds``) whose corrector converged to a new branch: not the way the path
-    came, not a point found already. Each `PathPoint` has its direction (the way it runs away
-    from ``p``) and stability."""
+    came, not a point found already, and whether the bifurcation is asymmetric (`is_asymmetric`
+    of the mode predictors' load-factor changes): ``(own, others, asymmetric)``. Each `PathPoint`
+    has its direction (the way it runs away from ``p``) and stability."""
     incoming = metric.difference(came_from.state, p.state), came_from.lam - p.lam
     found = []
     # p's own tangent is any vector of the null space (the tangent is singular there): the path
@@ -180,11 +188,15 @@ def branch_points(strategy, problem, metric, p, came_from, modes: np.ndarray, ds
     if own is not None:
         found.append(own)
     switch = ds if switch is None else switch
-    predictors = [(d, 0.0, switch) for d in directions(modes)] + \
+    along = directions(modes)
+    predictors = [(d, 0.0, switch) for d in along] + \
         [(d, dl, ds) for d, dl in load_directions(strategy, problem, metric, p, modes)]
-    for d, dl, length in predictors:
+    changes = []  # the load factor's change along each mode predictor (None: no point)
+    for k, (d, dl, length) in enumerate(predictors):
         q = strategy.step(problem, metric, attrs.evolve(p, tangent=d, tangent_lam=dl, direction=1.0, dlam_ds=dl),
                           length)
+        if k < len(along):
+            changes.append(None if q is None else q.lam - p.lam)
         if q is None:
             continue
         chord = metric.difference(q.state, p.state), q.lam - p.lam
@@ -193,7 +205,24 @@ def branch_points(strategy, problem, metric, p, came_from, modes: np.ndarray, ds
         if any(_distance(metric, q, f) < SAME_POINT * length for f in found):
             continue
         found.append(q)
-    return own, found[1:] if own is not None else found
+    return own, found[1:] if own is not None else found, is_asymmetric(changes, len(modes), p.lam)
+
+
+def is_asymmetric(changes: list, m: int, lam: float) -> bool:
+    """Whether the load-factor ``changes`` along the mode predictors (`directions` of ``m``
+    modes, in order; None where the corrector failed) of a bifurcation at load factor ``lam``
+    show an asymmetric bifurcation: a pair of opposite directions whose changes have opposite
+    signs, comparable sizes and exceed `ASYMMETRIC` of ``lam`` (see there)."""
+    pairs = [(0, 1)] if m == 1 else [(k, k + 4) for k in range(4)] if m == 2 else \
+        [(k, k + 1) for k in range(0, len(changes) - 1, 2)]
+    floor = ASYMMETRIC * max(abs(lam), 1e-300)
+    for i, j in pairs:
+        a, b = changes[i], changes[j]
+        if a is None or b is None or a * b >= 0.0:
+            continue
+        if min(abs(a), abs(b)) > floor and min(abs(a), abs(b)) >= 0.5 * max(abs(a), abs(b)):
+            return True
+    return False
 
 
 def choose(p, own, others: list, branch: str):

@@ -792,3 +792,25 @@ def test_is_asymmetric_reads_the_branches_on_both_sides():
     assert not is_asymmetric(double, 2, 0.5)
     double[6] = -0.02  # opposite to direction 2
     assert is_asymmetric(double, 2, 0.5)
+
+
+def test_multiplicity_counts_the_eigenvalues_below_the_gap():
+    """`branching.multiplicity` at a located critical point, on the eigenvalues nearest zero
+    measured there: Qiu's double beam (40 el./half) at its second double bifurcation, met at the
+    load factor's turn (numpy kernels: the two vanishing ones at round-off, +-3e-9, 1.1e-4 of the
+    next pair: a fixed fraction 1e-4 counted none), one of a pair crossing zero exactly (no gap of
+    its own), a simple limit point (Lee's frame's kind: the next eigenvalue O(1)), and a simple one
+    whose neighbour is itself small (1e-5 of the largest, no gap wide enough: the fraction)."""
+    from types import SimpleNamespace
+
+    from flexmb.solvers.branching import multiplicity
+
+    def m(*near):
+        return multiplicity(SimpleNamespace(near=np.array(near)))
+
+    assert m(-3.558e-9, 2.957e-9, 2.758e-5, 2.758e-5) == 2  # numpy kernels
+    assert m(-5.095e-10, 1.723e-9, 2.758e-5, 2.758e-5) == 2  # compiled kernels
+    assert m(0.0, 7.6e-10, 2.758e-5, 2.759e-5) == 2
+    assert m(1e-12, 0.3, 1.2, 2.7) == 1
+    assert m(-2e-9, 0.01, 0.02, 0.05) == 1
+    assert m() == 1

@@ -54,9 +54,17 @@ ORTHOGONAL = 1e-5
 #: round-off: the perfect Euler strut's 3e-10 of its step; Roorda's frame: +-5.8e-5 of its step).
 ASYMMETRIC = 1e-8
 
-#: Eigenvalues nearest zero below this fraction of the largest of them (`PathPoint.near`) count
-#: towards a critical point's multiplicity.
+#: The eigenvalues that vanish at a critical point stand apart from the others nearest zero
+#: (`PathPoint.near`) by a gap: consecutive magnitudes (floored at `NEAR_FLOOR` of the largest)
+#: whose ratio is the widest and at least `NEAR_GAP`; without such a gap, those below `NEAR_ZERO`
+#: of the largest. A fixed fraction alone failed where the vanishing eigenvalues sit at the
+#: tangent's round-off: Qiu's double beam at its second (double) bifurcation, met at the load
+#: factor's turn on the branch where both halves buckle, has ``[-3.6e-9, 3.0e-9, 2.76e-5,
+#: 2.76e-5]`` (40 el./half, numpy kernels; 1.7e-9 with the compiled ones): 1.1e-4 of the next
+#: pair, above `NEAR_ZERO`, counted as a simple point whose switch missed the path beyond.
 NEAR_ZERO = 1e-4
+NEAR_GAP = 1e2
+NEAR_FLOOR = 1e-6
 
 #: The first step onto a bifurcated branch moves the mechanism along the critical mode by at
 #: least this fraction of its size (or turns a node by this [rad]): the path's metric is scaled
@@ -101,9 +109,19 @@ def critical_modes(problem, metric, p, m: int) -> np.ndarray:
 
 def multiplicity(p) -> int:
     """The number of the eigenvalues nearest zero at ``p`` (`PathPoint.near`) that vanish: those
-    below `NEAR_ZERO` of the largest of them; at least 1."""
-    a = np.abs(p.near)
-    return max(1, int(np.sum(a <= NEAR_ZERO * a.max()))) if len(a) else 1
+    below the widest gap between consecutive magnitudes when it is at least `NEAR_GAP` (magnitudes
+    floored at `NEAR_FLOOR` of the largest: one eigenvalue of a pair crossing zero exactly must not
+    open a gap of its own), else those below `NEAR_ZERO` of the largest; at least 1."""
+    a = np.sort(np.abs(p.near))
+    if len(a) == 0 or a[-1] == 0.0:
+        return 1
+    if len(a) > 1:
+        f = np.maximum(a, NEAR_FLOOR * a[-1])
+        ratios = f[1:] / f[:-1]
+        i = int(np.argmax(ratios))
+        if ratios[i] >= NEAR_GAP:
+            return i + 1
+    return max(1, int(np.sum(a <= NEAR_ZERO * a[-1])))
 
 
 def is_bifurcation(problem, metric, modes: np.ndarray, g_free: np.ndarray) -> bool:

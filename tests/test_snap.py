@@ -769,6 +769,32 @@ def test_qiu_single_beam_without_a_shuttle_switches_through_mode_two(elements):
     assert lowest == pytest.approx(bottom, rel=0.25) and abs(lowest) < 0.02 * 0.0232
 
 
+@pytest.mark.slow
+def test_qiu_primary_path_lists_each_critical_point_of_the_double_beam_once_with_multiplicity_two():
+    """``branch="primary"``: the symmetric primary path (unstable past the first bifurcation)
+    winds through 16 critical points to twice the rise. The shuttle decouples the double beam's
+    halves, so every eigenvalue of its tangent is double and every critical point, the limit
+    points too, is listed once with multiplicity 2 (a double limit was listed as a simple limit
+    and a bifurcation at one load). The single beam (its centre free to turn, but not turning on
+    the symmetric path) follows the same path (the stroke is prescribed; twice the stiffness only
+    doubles the forces): its limit points at the same loads (measured to 1.1e-14), simple, and
+    the double beam's bifurcations among its own (the symmetric modes; measured within 2.4e-4:
+    a round-off-split double crossing is reported at its first)."""
+    double, single = (flexmb.trace(qiu_beam(20, shuttle), max_load_factor=1.0, steps=300, progress=False,
+                                   branch="primary") for shuttle in (True, False))
+    assert double.stopped_by == single.stopped_by == "max_load_factor"
+    assert len(double.critical) == 16 and all(c.multiplicity == 2 for c in double.critical)
+    loads = np.sort([c.load_factor for c in double.critical])
+    assert np.all(np.diff(loads) > 1e-3)  # none listed twice
+    limits = [[c.load_factor for c in p.critical if c.kind == "limit"] for p in (double, single)]
+    assert len(limits[0]) == 8 and all(c.multiplicity == 1 for c in single.critical if c.kind == "limit")
+    np.testing.assert_allclose(limits[0], limits[1], rtol=1e-10)
+    own = np.array([c.load_factor for c in single.critical if c.kind == "bifurcation"])
+    for c in double.critical:
+        if c.kind == "bifurcation":
+            assert np.min(np.abs(own / c.load_factor - 1)) < 1e-3
+
+
 def test_an_imperfection_along_the_critical_mode_with_the_helper():
     """`flexmb.imperfect` moves the perfect arch's geometry along the mode of its bifurcation
     (`Critical.modes`, computed at the deformed critical state), its largest node translation

@@ -424,7 +424,9 @@ class ArcLength:
         Each eigenvalue (ascending order) that changes sign between them is located by its zero;
         the limit point, if ``dlam/ds`` changes sign, by that zero. The eigenvalue crossing
         nearest the limit point is the limit's own (the two zeros agree only to the equilibrium's
-        accuracy: the eigenvalue is flat there); the other crossings are bifurcation points, those
+        accuracy: the eigenvalue is flat there), and so are the others located at it (within
+        `SAME_CRITICAL` of the step: a double limit point, whose multiplicity is their number or
+        `flexmb.solvers.branching.multiplicity`'s, the larger); the other crossings are bifurcation points, those
         located at the same point (within `SAME_CRITICAL` of the step) one point whose
         multiplicity is their number (a double eigenvalue: a symmetric two-leaf device). A load
         factor's extremum whose critical modes the load pattern does not work on is a bifurcation
@@ -445,8 +447,13 @@ class ArcLength:
             p = self.locate(problem, metric, a, ds, ga, gb, crossing)
             if p is not None:
                 crossings.append(p)
-        if found and crossings:  # the crossing nearest the limit point is the limit's own eigenvalue
-            crossings.remove(min(crossings, key=lambda p: abs(p.arc - found[0][1].arc)))
+        if found and crossings:  # the crossing nearest the limit point is the limit's own eigenvalue, and
+            # so are those located at it (a double limit: a decoupled two-half device's halves turn together)
+            at = found[0][1].arc
+            nearest = min(crossings, key=lambda p: abs(p.arc - at))
+            own = [p for p in crossings if p is nearest or abs(p.arc - at) <= SAME_CRITICAL * ds]
+            crossings = [p for p in crossings if all(p is not q for q in own)]
+            found[0] = ("limit", found[0][1], len(own))
         groups = []
         for p in sorted(crossings, key=lambda p: p.arc):
             if groups and p.arc - groups[-1][0].arc <= SAME_CRITICAL * ds:
@@ -457,7 +464,7 @@ class ArcLength:
         out = []
         for kind, p, m in sorted(found, key=lambda f: f[1].arc):
             if kind == "limit":  # a pitchfork met along its bifurcated branch turns the load factor too
-                m = multiplicity(p)
+                m = max(m, multiplicity(p))
                 modes = critical_modes(problem, metric, p, m)
                 g = load_tangent(problem, p.state, p.lam)[0]
                 kind = "bifurcation" if is_bifurcation(problem, metric, modes, g) else kind

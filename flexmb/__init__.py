@@ -17,6 +17,9 @@ from .errors import (
 )
 from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
+from .materials import Material, material
+from .files import MechanismFileError, load, save
+from .statespace import StateSpace, state_space
 from .linearised import buckling, compliance
 from .design_properties import properties
 from . import design
@@ -56,6 +59,13 @@ __all__ = [
     "ThreeXInfinity",
     "Link",
     "Mechanism",
+    "Material",
+    "material",
+    "MechanismFileError",
+    "StateSpace",
+    "state_space",
+    "load",
+    "save",
     "Modes",
     "MissingExtraError",
     "ModelError",

@@ -259,7 +259,7 @@ def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: 
         raise ParameterError(f"gripper: material={material!r}; valid: {sorted(GRIPPER_MATERIALS)}")
     t = {k: np.asarray(x, dtype=float) if not isinstance(x, (float, int)) else x for k, x in GRIPPER_TABLE_1.items()}
     origin = {"body1": np.zeros(2), "body2": t["G2"], "body3": t["G3"], "body4": t["G4"]}
-    m = Mechanism(dim=2)
+    m = Mechanism(dim=2, units="mm-uN-Pa")
     m.add_link("body1", fixed=True)
     for name in ("body2", "body3", "body4"):
         m.add_link(name, position=origin[name])

@@ -218,3 +218,16 @@ def three_x_infinity_range(res, printed, out, ex):
 
 def _has_matplotlib() -> bool:
     return importlib.util.find_spec("matplotlib") is not None
+
+
+@check
+def state_space(res, printed, out, ex):
+    """The static gain is the compliance at the tip (to 1e-9), the poles the modes times i 2 pi
+    with 1 % damping (to 1e-9), and the Bode plot is written."""
+    ss, C, f = res["state_space"], res["compliance"], res["frequencies"]
+    np.testing.assert_allclose(ss.static_gain()[0, 0], C[1, 1], rtol=1e-9)
+    np.testing.assert_allclose(np.sort(ss.poles().imag[ss.poles().imag > 0]),
+                               2 * np.pi * f * np.sqrt(1 - 0.01**2), rtol=1e-9)
+    assert "static gain tip y / force y" in printed
+    if _has_matplotlib():
+        _png(out / "state_space_bode.png")

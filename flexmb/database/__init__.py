@@ -2,7 +2,8 @@
 
 from .store import (FORMAT, FORMAT_VERSION, JointData, Polynomial, data_path, file_name, load, locate, save,
                     search_path, shipped, user_path)
-from .training import TrainingRun, simulate, train, verify
+from .training import TRAINING, TRAINING_SCHEMA, TrainingRun, simulate, train, training_settings, verify
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "JointData", "Polynomial", "TrainingRun", "data_path", "file_name", "load",
-           "locate", "save", "search_path", "shipped", "simulate", "train", "user_path", "verify"]
+           "locate", "save", "search_path", "shipped", "simulate", "train", "training_settings", "user_path", "verify",
+           "TRAINING", "TRAINING_SCHEMA"]

@@ -113,7 +113,9 @@ def equilibrium(p, Rrel, F_all, Ft_all, rb_all, ra_all, K, Fh, p_hat, R_hat, col
         for i in range(3):
             for c in range(12):
                 tmp[i, c] = Dq[i, 0] * Jr[3, c] + Dq[i, 1] * Jr[4, c] + Dq[i, 2] * Jr[5, c]
-        Jr[3:] = tmp
+        for i in range(3):  # Jr[3:] = tmp, element by element (no array assignment: issue 31)
+            for c in range(12):
+                Jr[3 + i, c] = tmp[i, c]
         for i in range(6):
             for c in range(12):
                 acc = 0.0
@@ -487,7 +489,8 @@ def _evaluate(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_node, loa
         for i in range(3):
             d[l, i] = R[n, i, 0] * load_offset[l, 0] + R[n, i, 1] * load_offset[l, 1] + R[n, i, 2] * load_offset[l, 2]
         f = load_force[l]
-        loads[6 * l:6 * l + 3] = f
+        for i in range(3):
+            loads[6 * l + i] = f[i]
         loads[6 * l + 3] = load_moment[l, 0] + (d[l, 1] * f[2] - d[l, 2] * f[1])
         loads[6 * l + 4] = load_moment[l, 1] + (d[l, 2] * f[0] - d[l, 0] * f[2])
         loads[6 * l + 5] = load_moment[l, 2] + (d[l, 0] * f[1] - d[l, 1] * f[0])

@@ -24,6 +24,7 @@ from .linearised import buckling, compliance
 from .design_properties import properties
 from . import design
 from .design import responses, value_and_grad
+from .design.optimize import optimize  # issue 28 item 5 (opt's one-line hook)
 from .discretisation import DiscretisationEstimate, discretisation_error
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
@@ -33,6 +34,7 @@ from .solvers import solve
 from .study import grid, parameter_study
 from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
 from .path import Critical, Path, trace
+from .imperfection import imperfect
 from .table import Table, read_csv
 from ._version import __version__  # noqa: F401 (flexmb.__version__)
 
@@ -41,6 +43,7 @@ __all__ = [
     "design",
     "responses",
     "value_and_grad",
+    "optimize",
     "ConvergenceError",
     "ConvergenceWarning",
     "ExtrapolationWarning",
@@ -49,6 +52,7 @@ __all__ = [
     "DiscretisationEstimate",
     "Path",
     "trace",
+    "imperfect",
     "CrossFlexure",
     "CurvedBeam",
     "FlexmbError",

@@ -115,21 +115,7 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
 
     if not callable(function):
         raise ParameterError(f"parameter_study: function must be callable, got {function!r}")
-    if isinstance(designs, (Mapping, str, bytes)) or not isinstance(designs, Iterable):
-        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
-    designs = list(designs)  # a generator is read once, here
-    if not all(isinstance(d, Mapping) for d in designs):
-        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
-    designs = [dict(d) for d in designs]
-    if not designs:
-        raise ParameterError("parameter_study: designs is empty")
-    bad = [k for d in designs for k in d if not isinstance(k, str)]
-    if bad:
-        raise ParameterError(f"parameter_study: design keys must be parameter names (text), got {bad[0]!r}")
-    taken = sorted({k for d in designs for k in d} & {ERROR_COLUMN, CONVERGED_COLUMN, WARNINGS_COLUMN})
-    if taken:
-        raise ParameterError(f"parameter_study: design parameters {taken} have the names of the table's own "
-                             f"columns ({ERROR_COLUMN}, {CONVERGED_COLUMN}, {WARNINGS_COLUMN}); rename them")
+    designs = _checked_designs(designs)
     if on_error not in ON_ERROR:
         raise ParameterError(f"parameter_study: on_error={on_error!r}; valid: {', '.join(ON_ERROR)}")
     if timeout is not None:
@@ -168,6 +154,27 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
         raise StudyError(f"parameter_study: design {i} {designs[i]!r} failed: {outcomes[i][1]} (the other designs' "
                          "results are in exc.table)", table, i, designs[i])
     return _table(designs, outcomes, "cancelled")
+
+
+def _checked_designs(designs) -> list[dict]:
+    """``designs`` as a new list of dicts, refused (`ParameterError`) unless a non-empty sequence of
+    keyword dicts whose names are text and not those of the table's own columns."""
+    if isinstance(designs, (Mapping, str, bytes)) or not isinstance(designs, Iterable):
+        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
+    designs = list(designs)  # a generator is read once, here
+    if not all(isinstance(d, Mapping) for d in designs):
+        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
+    designs = [dict(d) for d in designs]
+    if not designs:
+        raise ParameterError("parameter_study: designs is empty")
+    bad = [k for d in designs for k in d if not isinstance(k, str)]
+    if bad:
+        raise ParameterError(f"parameter_study: design keys must be parameter names (text), got {bad[0]!r}")
+    taken = sorted({k for d in designs for k in d} & {ERROR_COLUMN, CONVERGED_COLUMN, WARNINGS_COLUMN})
+    if taken:
+        raise ParameterError(f"parameter_study: design parameters {taken} have the names of the table's own "
+                             f"columns ({ERROR_COLUMN}, {CONVERGED_COLUMN}, {WARNINGS_COLUMN}); rename them")
+    return designs
 
 
 def _check_picklable(function) -> None:
@@ -372,17 +379,13 @@ def _stop(pool: ProcessPoolExecutor) -> None:
 # -- the table -------------------------------------------------------------------------------
 
 def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
-    """One row per design: inputs, outputs (NaN where a design has none) and the error record.
-    Outputs named like an input or the error column are refused, with the table attached."""
+    """One row per design: inputs, outputs (NaN where a design has none), the error record, whether
+    it converged and its warnings (`_status`). Outputs named like an input or the error column are
+    refused, with the table attached."""
     inputs = list(dict.fromkeys(k for d in designs for k in d))
     rows = [dict(o[1]) if o is not None and o[0] == "ok" else {} for o in outcomes]
     errors = ["" if o is not None and o[0] == "ok" else (o[1] if o is not None else unfinished) for o in outcomes]
-    # the designs' own converged and warnings outputs join those columns
-    converged = [not e and bool(r.pop(CONVERGED_COLUMN, True)) for r, e in zip(rows, errors)]
-    caught = [[str(r.pop(WARNINGS_COLUMN, "") or "")] + [o[2] if o is not None and len(o) > 2 else ""]
-              for r, o in zip(rows, outcomes)]
-    warned = [WARNING_SEPARATOR.join(dict.fromkeys(w for c in ws for w in c.split(WARNING_SEPARATOR) if w))
-              for ws in caught]
+    converged, warned = _status(rows, errors, outcomes)
     outputs = list(dict.fromkeys(k for r in rows for k in r))
     clash = [k for k in outputs if k in inputs or k == ERROR_COLUMN]  # (converged, warnings: merged above)
     names = {k: (f"output.{k}" if k in clash else k) for k in outputs}
@@ -390,7 +393,7 @@ def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
     cols.update({names[k]: column([r.get(k, np.nan) for r in rows]) for k in outputs})
     cols[ERROR_COLUMN] = column(errors)
     cols[CONVERGED_COLUMN] = np.array(converged, dtype=bool)
-    cols[WARNINGS_COLUMN] = column(warned) if warned else np.zeros(0, dtype=str)
+    cols[WARNINGS_COLUMN] = column(warned)
     table = Table(cols)
     if clash:
         exc = ParameterError(f"parameter_study: outputs {sorted(clash)} have the names of inputs or of the "
@@ -399,6 +402,18 @@ def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
         exc.table = table
         raise exc
     return table
+
+
+def _status(rows: list[dict], errors: list[str], outcomes: list) -> tuple[list, list]:
+    """Each design's `CONVERGED_COLUMN` and `WARNINGS_COLUMN` cells: its own ``converged`` and
+    ``warnings`` outputs (taken out of ``rows``) joined with its error and the warnings recorded
+    in its worker (an outcome's third item)."""
+    converged, warned = [], []
+    for row, error, outcome in zip(rows, errors, outcomes):
+        converged.append(not error and bool(row.pop(CONVERGED_COLUMN, True)))
+        texts = [str(row.pop(WARNINGS_COLUMN, "") or ""), outcome[2] if outcome is not None and len(outcome) > 2 else ""]
+        warned.append(WARNING_SEPARATOR.join(dict.fromkeys(w for t in texts for w in t.split(WARNING_SEPARATOR) if w)))
+    return converged, warned
 
 
 def joint_range(kind: str, rotations, *, which=("modes", "stress"), n_modes: int = 3, held=(("B", "rz"),),

@@ -1,4 +1,6 @@
-"""Checks for plugin authors and the test suite: finite-difference tangents, perturbed states."""
+"""The conformance kit for joint plugins (`JointConformance`, `conformance_report`) and its checks:
+finite-difference tangents, perturbed states, frame invariance, reciprocity, energy, vibration,
+and KSD on a trained shape (`check_ksd`; docs/plugins.md)."""
 
 from __future__ import annotations
 
@@ -30,13 +32,13 @@ def scaled_error(K: np.ndarray, Kfd: np.ndarray, diag_rows: np.ndarray, diag_col
 
 
 def finite_difference_tangent(problem: StaticProblem, state: State, lam: float = 1.0, step: float | None = None,
-                              size: float | None = None):
+                              size: float | None = None, rotation_step: float = 1e-6):
     """Analytic ``[K_ff | K_fp]`` and its central finite-difference counterpart at ``state``.
 
     Columns are ``(r(u + h e_j) - r(u - h e_j)) / 2h`` with the increment applied exactly as the
     solver does (positions add, rotations compose by the exponential map), so the comparison
     checks the tangent Newton actually uses. ``step`` defaults to ``1e-6`` times ``size`` (default:
-    the model's extent along its longest axis) for positions and ``1e-6`` rad for rotations. Returns ``(K_analytic, K_fd)`` as dense arrays of
+    the model's extent along its longest axis) for positions and ``rotation_step`` [rad] for rotations. Returns ``(K_analytic, K_fd)`` as dense arrays of
     shape (n_free, n_free + n_prescribed): the free DOFs' columns first, then the prescribed ones.
     """
     model = problem.model
@@ -45,7 +47,7 @@ def finite_difference_tangent(problem: StaticProblem, state: State, lam: float =
     K = np.hstack([Kff.toarray(), Kfp.toarray()])
     Kfd = np.empty_like(K)
     for col, dof in enumerate(np.concatenate([problem.free, problem.prescribed])):
-        h = step if step is not None else (1e-6 * size if dof % model.ndof < model.dim else 1e-6)
+        h = step if step is not None else (1e-6 * size if dof % model.ndof < model.dim else rotation_step)
         du = np.zeros(model.n_dofs)
         du[dof] = h
         rp = problem.residual(model.apply_increment(state, du), lam)[problem.free]
@@ -130,10 +132,14 @@ def perturbed_state(problem: StaticProblem, state: State, rng: np.random.Generat
 # scale free: every tolerance is relative to the joint's own size (`joint_size`) and stiffness
 # (`force_scale`), and the solves converge relative to the problem's own forces (the conventional
 # method's default) or to `solver_tolerance` (strategies with an absolute ``tol``), so a joint
-# passes alike in SI, mm-N-MPa or um-uN-MPa, at mm or um scale (tests/test_conformance.py). A
-# failed check raises AssertionError saying what broke.
+# passes alike in SI, mm-N-MPa or um-uN-MPa, at mm or um scale, placed anywhere within 100 joint
+# sizes of the origin (tests/test_conformance.py, tests/test_plugin_notch.py). A failed check raises
+# AssertionError saying what broke (a NaN or inf as such, naming the element); a check with nothing
+# to check raises `CheckSkipped` with the reason.
 
-#: Central differences (step 1e-6 relative): truncation ~1e-12, cancellation ~eps/h ~ 1e-10.
+#: Richardson-extrapolated central differences (steps 1e-5 and 2e-5 of the joint's size or rad,
+#: `check_tangent`): measured 4e-11 to 1.6e-8 (thin leaves at the origin and 100 sizes away, the
+#: notch 100 sizes away): an entry wrong by more than 1e-6 of its scale sqrt(K_ii K_jj) fails.
 FD_TOLERANCE = 1e-6
 #: Relative agreement of two solves: the conventional method's default relative criterion
 #: (``rtol`` 1e-8 of the problem's force scale) and `solver_tolerance` for the other strategies
@@ -337,28 +343,41 @@ def check_tangent(joint, dim: int, origin=None, rotation=None, *, motion: float 
     # perturbations and steps relative to the joint's own size, wherever it is placed (the spread
     # of its global coordinates grows with the placement: 100 sizes away it broke the elements)
     size = joint_size(joint, dim)
-    state = perturbed_state(problem, sol.state, np.random.default_rng(seed), displacement=1e-3 * size,
-                            rotation=0.05)
+    displacement, rotation = _perturbation(problem.model, size)
+    state = perturbed_state(problem, sol.state, np.random.default_rng(seed), displacement=displacement,
+                            rotation=rotation)
     _finite(joint, dim, sol.compiled, state, problem.residual(state, 1.0), "residual (internal force)")
-    # two steps, 1e-6 of the joint's size and of the geometric mean of its size and shortest element,
-    # the smaller error counting: the first's roundoff (~1e-16 |x| / h) is small 100 sizes away, the
-    # second's truncation (~(h / l)^2 times an element's axial over bending stiffness) on a thin
-    # leaf's short elements (8 mm, L/t = 150: 1.0e-6 with the first, 8e-8 with the second; the notch
-    # 100 sizes away: 2e-8 with the first, 5e-7 with the second); a wrong entry fails both
-    L0 = problem.model.elements.L0
-    err = math.inf
-    for length in dict.fromkeys((size, math.sqrt(size * L0.min()) if len(L0) else size)):
-        K, Kfd = finite_difference_tangent(problem, state, size=length)
-        _finite(joint, dim, sol.compiled, state, K, "analytic tangent")
-        _finite(joint, dim, sol.compiled, state, Kfd, "central differences of the residual")
-        nf = problem.n_free
-        d = np.abs(np.diag(K[:, :nf]))
-        d = np.where(d > 0, d, np.abs(K[:, :nf]).max(axis=1))  # an ideal joint's multiplier rows: zero diagonal
-        cols = np.concatenate([d, np.abs(K[:, nf:]).max(axis=0)]) if K.shape[1] > nf else d
-        cols = np.where(cols > 0, cols, np.abs(K).max())  # a column without stiffness (a hinge's ground DOF)
-        err = min(err, scaled_error(K, Kfd, d, cols))
+    # Richardson's extrapolation of central differences at steps h and 2h, (4 D(h) - D(2h)) / 3:
+    # truncation O(h^4), so h can be 1e-5 of the joint's size (1e-5 rad) and the roundoff of
+    # coordinates 100 sizes away (~1e-16 |x| / h) stays small. Plain differences at 1e-6 of the size
+    # failed both ways: 1.2e-6 on a 799 um leaf (L/t 150) 100 sizes away, 1.0e-6 on an 8 mm one at
+    # the origin (truncation ~ 12 (h / t)^2); extrapolated 1.6e-8 and 3e-10, the notch 1.3e-8.
+    _, D1 = finite_difference_tangent(problem, state, size=10.0 * size, rotation_step=1e-5)
+    K, D2 = finite_difference_tangent(problem, state, size=20.0 * size, rotation_step=2e-5)
+    Kfd = (4.0 * D1 - D2) / 3.0
+    _finite(joint, dim, sol.compiled, state, K, "analytic tangent")
+    _finite(joint, dim, sol.compiled, state, Kfd, "central differences of the residual")
+    nf = problem.n_free
+    d = np.abs(np.diag(K[:, :nf]))
+    d = np.where(d > 0, d, np.abs(K[:, :nf]).max(axis=1))  # an ideal joint's multiplier rows: zero diagonal
+    cols = np.concatenate([d, np.abs(K[:, nf:]).max(axis=0)]) if K.shape[1] > nf else d
+    cols = np.where(cols > 0, cols, np.abs(K).max())  # a column without stiffness (a hinge's ground DOF)
+    err = scaled_error(K, Kfd, d, cols)
     assert err <= FD_TOLERANCE, f"{joint.kind} {dim}D: tangent differs from central differences by {err:.3g} (scaled)"
     return err
+
+
+def _perturbation(model, size: float) -> tuple[float, float]:
+    """The random perturbation of `check_tangent`: displacements ~1e-3 of the joint's size and
+    rotations ~0.05 rad, each at most a few per cent of the shortest element (an element's end on a
+    rigid body turns with the body's lever arm: 0.05 rad at a 21 mm arm moved a 1.8 mm element's
+    end by 1 mm in a three_x_infinity and broke it; an element's validity ends at 90 degrees)."""
+    L0 = model.elements.L0
+    if not len(L0):
+        return 1e-3 * size, 0.05
+    arm = float(np.linalg.norm(model.point_offset[model.elements.ends], axis=-1).max())
+    shortest = float(L0.min())
+    return min(1e-3 * size, 0.03 * shortest), 0.05 * min(1.0, shortest / arm) if arm > 0 else 0.05
 
 
 def check_rigid_motion(joint, dim: int, translation, rotation) -> None:

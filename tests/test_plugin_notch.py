@@ -440,3 +440,35 @@ def test_to_pandas_without_pandas_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "pandas", None)  # as if not installed
     with pytest.raises(MissingExtraError, match=r"Table.to_pandas needs pandas: .*flexmb\[pandas\]"):
         Table({"a": [1.0]}).to_pandas()
+
+
+def test_the_command_line_solves_a_mechanism_file_with_the_plugin(notch, tmp_path, capsys):
+    """A two-notch parallel guide (a stage on two notch hinges, in mm-N-MPa) saved with
+    `flexmb.save` (the designer-I/O issue's files name the joint by its registered kind) and solved
+    by ``flexmb solve FILE``: the reaction of the conventional solve, and KSD-full on the
+    database ``flexmb train`` wrote, equal the in-process solve (exact: repr round trip)."""
+    import json
+
+    from flexmb import cli
+
+    m = flexmb.Mechanism(2, units="mm-N-MPa")
+    m.add_link("ground", fixed=True)
+    m.add_link("stage", position=(10.0, 0.0))
+    params = {"radius": 5.0, "thickness": 0.5, "width": 10.0, "E": 200e3, "G": 76.9e3, "density": 7.8e-9}
+    m.add_joint("ground", "stage", KIND, name="lower", origin=(0.0, 0.0), **params)
+    m.add_joint("ground", "stage", KIND, name="upper", origin=(0.0, 20.0), **params)
+    m.prescribe("stage", y=0.2, rotation=0.0)
+    path = flexmb.save(m, tmp_path / "guide.json")
+    assert cli.main(["solve", str(path), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    ref = flexmb.solve(flexmb.load(path))
+    assert report["converged"] and report["links"]["stage"]["reaction"] == ref.reaction("stage").tolist()
+    assert cli.main(["train", KIND, "--dim", "2", "--param", "radius=5.0", "--param", "thickness=0.5",
+                     "--param", "width=10.0", "--param", "E=200000.0", "--param", "G=76900.0",
+                     "--param", "density=7.8e-9", "--out", str(tmp_path / "db")]) == 0
+    capsys.readouterr()
+    assert cli.main(["solve", str(path), "--method", "ksd-full", "--option", f"database={tmp_path / 'db'}",
+                     "--json"]) == 0
+    ksd = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(ksd["links"]["stage"]["reaction"], ref.reaction("stage"), rtol=1e-8,
+                               atol=1e-8 * np.abs(ref.reaction("stage")).max())

@@ -20,7 +20,8 @@ from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
 from ..ksd.linearisation import ReducedSolution
 from ..linear import single_threaded
 from .adjoint import STRATEGIES, Sensitivity, full_model
-from .parameters import ModelRates, as_design, model_numbers, model_rates
+from .builds import model_rates
+from .parameters import ModelRates, as_design, model_numbers
 
 __all__ = ["Evaluation", "DesignPoint", "evaluate", "value_and_grad"]
 
@@ -95,26 +96,50 @@ class _Configured(ModelRates):
         return super().compiled_numbers(field)
 
     def _boundary_rates(self) -> None:
-        link_node = self.compiled.link_node
-
-        def numbers(mech):
-            _, vals, loads, _ = boundary(mech, link_node)
-            return {"values": vals, "load_offset": loads.offset, "load_force": loads.force,
-                    "load_moment": loads.moment}
-
+        """The boundary fields' rates: ``configure`` on a copy of each parameter's builds (its
+        complex-step mechanism, or the real ones of its central differences), their boundaries
+        combined (`flexmb.design.builds.ParameterBuild.combine`; numpy's ``ComplexWarning`` an error:
+        a ``configure`` that drops the complex step is refused naming the parameter)."""
         base = {f: model_numbers(self.compiled, f) for f in self.BOUNDARY}
         out = {f: np.zeros((len(self.names),) + np.shape(base[f])) for f in self.BOUNDARY}
-        for k, (_, h) in enumerate(self._builds):
-            for w, mech in self._base._mechanisms[k]:
-                if mech is not None:  # a copy: configure may add loads, and the builds serve every configuration
-                    mech = _copy_mechanism(mech)
-                    self._configure(mech)
-                nums = base if mech is None else numbers(mech)
-                for f in self.BOUNDARY:
-                    out[f][k] += w * np.asarray(nums[f], dtype=float) / h
+        for k, b in enumerate(self._builds):
+            seen = {}
+
+            def read(mech, _, f, k=k, seen=seen):
+                if id(mech) not in seen:
+                    seen[id(mech)] = self._configured(mech, k, base)
+                return seen[id(mech)][f]
+
+            for f in self.BOUNDARY:
+                out[f][k] = b.combine(lambda mech, nums, f=f, read=read: read(mech, nums, f))
         for f in self.BOUNDARY:
             out[f].flags.writeable = False
             self._cache[f] = out[f]
+
+    def _configured(self, mech, k: int, base: dict) -> dict:
+        """The boundary fields of ``configure`` applied to a copy of ``mech`` (parameter ``k``'s build)."""
+        import warnings
+
+        from .builds import culprit
+
+        mech = _copy_mechanism(mech)  # a copy: configure may add loads, and the builds serve every configuration
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", np.exceptions.ComplexWarning)
+            try:
+                self._configure(mech)
+                _, vals, loads, _ = boundary(mech, self.compiled.link_node)
+            except (TypeError, np.exceptions.ComplexWarning) as exc:
+                raise ParameterError(f"design parameter {self.names[k]!r}: configure does not carry the gradient's "
+                                     f"complex step through {culprit(exc)} ({type(exc).__name__}: {exc}); configure "
+                                     "may set prescribed values and loads: keep the mechanism's numbers complex "
+                                     "(no float(), math.*, comparisons on them)") from exc
+        out = dict(zip(self.BOUNDARY, (vals, loads.offset, loads.force, loads.moment)))
+        for f, value in out.items():
+            if np.shape(value) != np.shape(base[f]):
+                raise ParameterError(f"configure: the configured mechanism's {f} differ in shape between the design "
+                                     f"and its build for parameter {self.names[k]!r}; configure may set prescribed "
+                                     "values and loads, the same ones for every design")
+        return out
 
 
 def _copy_mechanism(mech):
@@ -135,7 +160,7 @@ def _copy_mechanism(mech):
 
 class DesignPoint:
     """A design at parameter values ``p``: its mechanism and, on first need, the rates of its
-    model's numbers (`flexmb.design.parameters.model_rates`, shared by every configuration)."""
+    model's numbers (`flexmb.design.builds.model_rates`, shared by every configuration)."""
 
     def __init__(self, build, p=None, bounds=None):
         self.design = as_design(build, p, bounds)

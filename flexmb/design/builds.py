@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import FlexmbError, ParameterError
 from .parameters import H, ModelRates, check_structure, numbers_field, numbers_structure, structure
 
-__all__ = ["model_rates", "ParameterBuild", "parameter_builds", "compiled_numbers", "COMPLEX_STEP", "CENTRAL", "DIRECTION_AGREEMENT"]
+__all__ = ["model_rates", "ParameterBuild", "compiled_numbers", "COMPLEX_STEP", "CENTRAL", "DIRECTION_AGREEMENT"]
 
 COMPLEX_STEP, CENTRAL = "complex step", "central differences"
 
@@ -195,10 +195,9 @@ def culprit(exc: BaseException) -> str:
     return joint or user or "flexmb's build"
 
 
-def parameter_builds(design, compiled) -> list[ParameterBuild]:
-    """Every parameter's `ParameterBuild` about ``compiled`` (the compiled model of
-    ``design.mechanism()``), by the module's rule; the topology checked at every build
-    (`flexmb.TopologyError` naming the parameter)."""
+def _context(design, compiled) -> tuple:
+    """``(check, base)``: the topology check of a build against ``compiled`` (`flexmb.TopologyError`
+    naming the parameter) and the design's own real build ``(mechanism, numbers)``, made on first use."""
     reference = structure(compiled)
     dim, link_node = compiled.problem.model.dim, compiled.link_node
     cache = {}
@@ -211,14 +210,7 @@ def parameter_builds(design, compiled) -> list[ParameterBuild]:
             cache["base"] = _build(design, design.values, link_node)
         return cache["base"]
 
-    builds = []
-    for q in design.parameters:
-        b = _complex(design, q, link_node, check)
-        builds.append(b if isinstance(b, ParameterBuild) else _central(design, q, link_node, check, base, dim, b))
-    failed = _direction_check(design, builds, link_node, check, base, dim)
-    for k, message in failed.items():
-        builds[k] = _central(design, design.parameters[k], link_node, check, base, dim, message)
-    return builds
+    return check, base
 
 
 def _direction(design, builds) -> tuple[np.ndarray, tuple]:
@@ -246,9 +238,11 @@ def _direction(design, builds) -> tuple[np.ndarray, tuple]:
     return d, ((0.0, -1.5), (1.0, 2.0), (2.0, -0.5))
 
 
-def _direction_check(design, builds, link_node, check, base, dim) -> dict:
+def _direction_check(design, rates: ModelRates, check, base) -> dict:
     """Rule 3: ``{k: reason}`` for the complex-step parameters whose rates disagree with central
     differences of the build (empty when the rates along the check's direction agree)."""
+    builds, compiled = rates._builds, rates.compiled
+    dim, link_node = compiled.problem.model.dim, compiled.link_node
     d, stencil = _direction(design, builds)
     if not np.any(d):
         return {}
@@ -269,7 +263,7 @@ def _direction_check(design, builds, link_node, check, base, dim) -> dict:
     ref = base()[1]
     bad = [f for f in _CHECKED
            if not _agrees(sum(w * np.real(numbers_field(n, f, dim)) for w, n in points),
-                          sum(dk * builds[k].field(f, dim) for k, dk in enumerate(d) if dk), ref, f, dim)]
+                          np.tensordot(d, rates.rate(f), axes=1), ref, f, dim)]
     if not bad:
         return {}
     return _culprits(design, builds, link_node, check, base, dim, bad)
@@ -311,10 +305,22 @@ def _culprits(design, builds, link_node, check, base, dim, fields) -> dict:
 
 def model_rates(design, compiled) -> ModelRates:
     """The `flexmb.design.parameters.ModelRates` about ``compiled`` (the compiled model of
-    ``design.mechanism()``): one complex-step build per parameter, central differences where it
-    cannot pass (the module's rule), the topology checked; a parameter that changes no model number
-    is refused naming it."""
-    rates = ModelRates(design, compiled, parameter_builds(design, compiled))
+    ``design.mechanism()``) by the module's rule: one complex-step build per parameter, central
+    differences where it cannot pass or drops it silently; the topology checked at every build
+    (`flexmb.TopologyError` naming the parameter); a parameter that changes no model number is
+    refused naming it."""
+    check, base = _context(design, compiled)
+    link_node, dim = compiled.link_node, compiled.problem.model.dim
+    builds = []
+    for q in design.parameters:
+        b = _complex(design, q, link_node, check)
+        builds.append(b if isinstance(b, ParameterBuild) else _central(design, q, link_node, check, base, dim, b))
+    rates = ModelRates(design, compiled, builds)
+    failed = _direction_check(design, rates, check, base)
+    if failed:
+        for k, message in failed.items():
+            builds[k] = _central(design, design.parameters[k], link_node, check, base, dim, message)
+        rates = ModelRates(design, compiled, builds)
     for k, q in enumerate(design.parameters):
         if not rates.touched(k):
             raise ParameterError(f"design parameter {q.name!r} changes nothing in the model: no joint, link, placement, "

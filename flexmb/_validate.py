@@ -1,14 +1,17 @@
 """Small validators that raise `ParameterError` naming the parameter and its valid range.
 
-Complex numbers pass where a real one is asked for, judged by their real part and returned as
-they came: the complex step of `flexmb.design` builds a mechanism at ``p + i h`` and reads its
-model's rates from the imaginary parts (``docs/plugins.md``, "Complex-step safe joints"). Real
-numbers take the float path unchanged.
+Within a complex-step build (`complex_step`, entered by `flexmb.design.builds`) complex numbers
+pass where a real one is asked for, judged by their real part and returned as they came: the
+design is built at ``p + i h`` and its model's rates are read from the imaginary parts
+(``docs/plugins.md``, "Complex-step safe joints"). Outside one, complex input is refused as
+before; real numbers take the float path unchanged.
 """
 
 from __future__ import annotations
 
 import cmath
+import contextlib
+import contextvars
 import math
 import os
 
@@ -16,15 +19,43 @@ import numpy as np
 
 from .errors import ParameterError
 
+#: Whether a complex-step build of `flexmb.design` is running (`complex_step`): only then do the
+#: validators take complex numbers; elsewhere a complex value is refused as not a real number.
+_COMPLEX_STEP = contextvars.ContextVar("flexmb_complex_step", default=False)
+
+
+@contextlib.contextmanager
+def complex_step():
+    """A context in which design quantities may be complex (the complex step of `flexmb.design`:
+    `flexmb.design.builds`, `flexmb.testing.check_complex_step`)."""
+    token = _COMPLEX_STEP.set(True)
+    try:
+        yield
+    finally:
+        _COMPLEX_STEP.reset(token)
+
+
+def accepts_complex() -> bool:
+    """Whether a complex-step build is running (`complex_step`): the validators then take complex
+    design quantities; outside one they refuse them (or fail as on any non-real input), as before."""
+    return _COMPLEX_STEP.get()
+
 
 def is_complex(value) -> bool:
     """Whether ``value`` (a number, an array or a sequence of them) is complex: a complex-step
-    perturbed design quantity (`flexmb.design`)."""
+    perturbed design quantity (`flexmb.design`). (Data already validated; the validators of input
+    take complex numbers only within `complex_step`.)"""
     if isinstance(value, (complex, np.complexfloating)):
         return True
     if isinstance(value, (tuple, list)):  # items may be None or of mixed kinds
         return any(map(is_complex, value))
     return isinstance(value, np.ndarray) and value.dtype.kind == "c"
+
+
+def _input_dtype(value) -> type:
+    """The dtype an input array is taken as: complex within `complex_step` where it is complex,
+    else float (outside a complex step, complex input fails as it always did)."""
+    return complex if _COMPLEX_STEP.get() and is_complex(value) else float
 
 
 def real(value):
@@ -39,8 +70,9 @@ def real_or_complex(value) -> type:
 
 
 def array(value) -> np.ndarray:
-    """``np.asarray(value, dtype=float)``, or complex where ``value`` is (never dropping an imaginary part)."""
-    return np.asarray(value, dtype=real_or_complex(value))
+    """``np.asarray(value, dtype=float)``, or complex where ``value`` is within a complex step (never
+    dropping an imaginary part)."""
+    return np.asarray(value, dtype=_input_dtype(value))
 
 
 def sin(x):
@@ -94,6 +126,8 @@ def finite(owner: str, name: str, value) -> float:
     if isinstance(value, (str, bytes, bool)):
         raise ParameterError(f"{owner}: {name}={value!r} is not a real number")
     if isinstance(value, (complex, np.complexfloating)):
+        if not _COMPLEX_STEP.get():
+            raise ParameterError(f"{owner}: {name}={value!r} is not a real number")
         if not (math.isfinite(value.real) and math.isfinite(value.imag)):
             raise ParameterError(f"{owner}: {name}={value!r} must be finite")
         return complex(value)
@@ -131,7 +165,7 @@ def vector(owner: str, name: str, value, size: int) -> np.ndarray:
     """``value`` as a new float array of shape (size,) (a copy: the caller's array stays theirs;
     complex where ``value`` is, the complex step)."""
     try:
-        a = np.array(value, dtype=real_or_complex(value))
+        a = np.array(value, dtype=_input_dtype(value))
     except (TypeError, ValueError):
         raise ParameterError(f"{owner}: {name}={value!r} is not a vector of {size} real numbers") from None
     if a.shape != (size,):
@@ -160,7 +194,7 @@ def rigid_body(owner: str, mass, inertia, center, dim: int):
     if inertia is None:
         return m, np.zeros((3, 3)), c
     try:
-        J = np.array(inertia, dtype=real_or_complex(inertia))
+        J = np.array(inertia, dtype=_input_dtype(inertia))
     except (TypeError, ValueError):
         raise ParameterError(f"{owner}: inertia={inertia!r} is not a (3, 3) tensor of real numbers") from None
     if J.shape != (3, 3) or not np.all(np.isfinite(J)):
@@ -219,7 +253,7 @@ def modulus_units(owner: str, E: float, length: float, what: str = "length", sta
 def frozen(a) -> np.ndarray:
     """A read-only copy of array ``a``: what a model object stores, so no caller can change it
     (complex where ``a`` is: the complex step)."""
-    out = np.array(a, dtype=real_or_complex(a))
+    out = np.array(a, dtype=_input_dtype(a))
     out.flags.writeable = False
     return out
 

@@ -109,7 +109,7 @@ class Section:
             v.positive("Section", name, getattr(self, name))
         for name in ("ky", "kz"):  # inf is allowed: no shear deformation (a complex one: the complex step)
             val = getattr(self, name)
-            if isinstance(val, (complex, np.complexfloating)) and math.isfinite(val.imag):
+            if v.accepts_complex() and v.is_complex(val) and math.isfinite(val.imag):
                 val = val.real
             if not (isinstance(val, numbers.Real) and not isinstance(val, bool) and val > 0):
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
@@ -213,7 +213,7 @@ def shear_factor(num, k, den):
 
 def _number(x):
     """``float(x)``, or ``x`` as a complex number where it is one (the complex step)."""
-    return complex(x) if isinstance(x, (complex, np.complexfloating)) else float(x)
+    return complex(x) if v.is_complex(x) else float(x)
 
 
 def properties(sections, names) -> np.ndarray:

@@ -846,6 +846,7 @@ def check_complex_step(joint, dim: int, *, parameters=None, agreement: float = 1
     (``abs``, ``np.linalg.norm``, ``.real``). See docs/plugins.md, "Complex-step safe joints"."""
     import warnings
 
+    from . import _validate as v
     from .design.builds import culprit
     from .design.parameters import H
 
@@ -856,7 +857,7 @@ def check_complex_step(joint, dim: int, *, parameters=None, agreement: float = 1
         x = values[name]
         scale = abs(x) or 1.0
         h, d = H * scale, 1e-6 * scale
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), v.complex_step():
             warnings.simplefilter("error", np.exceptions.ComplexWarning)
             try:
                 cs = _mesh_numbers(attrs.evolve(joint, **{name: complex(x, h)}), dim)

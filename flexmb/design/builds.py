@@ -1,16 +1,16 @@
 """The builds of a design that its model numbers' rates are read from, one `ParameterBuild` per parameter.
 
-The rule (``docs/design.md``, "How the build is differentiated"):
+The rule (``docs/design-loops.md``, "How the build is differentiated"):
 
 1. **Complex step** (Squire & Trapp 1998; Martins, Sturdza & Alonso 2003): one build per
    parameter at ``p_k + i h`` (``h`` = `flexmb.design.parameters.H` times its scale), its model
    numbers (`flexmb.fe.build.numbers`) carry ``N(p) + i h N'(p)``: exact to round-off, one build.
 2. **Central differences of the build where the complex step cannot pass**: a build, a joint
    plugin or a validator that refuses complex numbers (``TypeError`` of ``float(complex)``,
-   ``math.sin``, a comparison or ``max()`` on ``p``; numpy's ``ComplexWarning``, an error here; any
-   `flexmb.FlexmbError` of the complex build) falls back, for that parameter, to central
-   differences of real builds (two builds; one-sided of second order at a bound; a kink at the
-   design refused naming the parameter). `ParameterBuild.reason` says why (the joint or line).
+   ``math.sin``, a comparison or ``max()`` on ``p``; numpy's ``ComplexWarning``, an error here; a
+   ``ValueError``, ``AttributeError`` or any `flexmb.FlexmbError` of the complex build) falls
+   back, for that parameter, to central differences of real builds (two builds; one-sided of
+   second order at a bound; a kink at the design refused naming the parameter). `ParameterBuild.reason` says why (the joint or line).
 3. **A check for silent drops** (``abs()``, ``np.linalg.norm``, ``.real`` of ``p``'s numbers give a
    real number without error): the complex-step rates along one direction of all parameters
    (random signs, each parameter's difference step) are compared with central differences of two
@@ -23,11 +23,13 @@ cost is one build per parameter plus two, or two per parameter that falls back.
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 
 import attrs
 import numpy as np
 
+from .. import _validate as v
 from ..errors import FlexmbError, ParameterError
 from .parameters import H, ModelRates, check_structure, numbers_field, numbers_structure, structure
 
@@ -46,7 +48,8 @@ _CHECKED = ("point_offset", "L0", "S", "ny0", "nz0", "alpha0", "rho_A", "x0", "r
             "rigid_offset", "load_offset", "load_force", "load_moment", "values", "chains", "points")
 
 #: A complex build's failures that mean "the complex step cannot pass here" (rule 2).
-_NOT_COMPLEX = (TypeError, ValueError, ArithmeticError, np.exceptions.ComplexWarning, FlexmbError)
+_NOT_COMPLEX = (TypeError, ValueError, AttributeError, ArithmeticError, np.exceptions.ComplexWarning,
+                FlexmbError)
 
 
 @attrs.frozen(eq=False)
@@ -80,7 +83,7 @@ def _build(design, p: dict, link_node: dict, complex_step: bool = False):
     """``(mechanism, numbers)`` of ``design`` at ``p`` (numpy's ``ComplexWarning`` an error for a complex step)."""
     from ..fe.build import numbers
 
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), (v.complex_step() if complex_step else contextlib.nullcontext()):
         if complex_step:
             warnings.simplefilter("error", np.exceptions.ComplexWarning)
         mech = design.mechanism(p)

@@ -122,8 +122,10 @@ class _Configured(ModelRates):
 
         from .builds import culprit
 
+        from .. import _validate as v
+
         mech = _copy_mechanism(mech)  # a copy: configure may add loads, and the builds serve every configuration
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), v.complex_step():
             warnings.simplefilter("error", np.exceptions.ComplexWarning)
             try:
                 self._configure(mech)

@@ -36,9 +36,10 @@ from ..errors import ParameterError, TopologyError, UnsupportedStrategyError
 __all__ = ["Parameter", "Design", "as_design", "ModelRates", "model_numbers", "MODEL_FIELDS",
            "RELATIVE_STEP", "H"]
 
-#: Relative step of central differences of the build (times the parameter's scale): the *check*
-#: of the complex-step rates (`flexmb.testing`); truncation ~ step^2 and round-off ~ eps / step
-#: balance near 1e-5 (errors ~1e-10 relative on smooth builds).
+#: Relative step of central differences of the build (times the parameter's scale): the fallback
+#: where the complex step cannot pass and the check of the complex-step rates along one direction
+#: (`flexmb.design.builds`); truncation ~ step^2 and round-off ~ eps / step balance near 1e-5
+#: (errors ~1e-10 relative on smooth builds).
 RELATIVE_STEP = 1e-5
 
 #: The complex step of the build, relative to the parameter's scale: far below the round-off of
@@ -58,7 +59,7 @@ class Parameter:
     """A named design parameter: ``value`` within [``lower``, ``upper``] (its unit is the build's).
 
     ``scale``: the parameter's typical size, for the build's complex step (`H` times it) and the
-    checker's difference step (`RELATIVE_STEP` times it); default ``max(|value|, (upper - lower) /
+    difference steps (`RELATIVE_STEP` times it); default ``max(|value|, (upper - lower) /
     100)``, 1 where both are 0 or unbounded."""
 
     name: str
@@ -91,7 +92,7 @@ class Parameter:
 
     @property
     def step(self) -> float:
-        """The checker's central-difference step [the parameter's unit] (`RELATIVE_STEP` x `size`)."""
+        """The build's central-difference step [the parameter's unit] (`RELATIVE_STEP` x `size`)."""
         return RELATIVE_STEP * self.size
 
 

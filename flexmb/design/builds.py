@@ -33,7 +33,7 @@ from .. import _validate as v
 from ..errors import FlexmbError, ParameterError
 from .parameters import H, ModelRates, check_structure, numbers_field, numbers_structure, structure
 
-__all__ = ["model_rates", "ParameterBuild", "compiled_numbers", "COMPLEX_STEP", "CENTRAL", "DIRECTION_AGREEMENT"]
+__all__ = ["model_rates", "ParameterBuild", "compiled_numbers", "agrees", "COMPLEX_STEP", "CENTRAL", "DIRECTION_AGREEMENT"]
 
 COMPLEX_STEP, CENTRAL = "complex step", "central differences"
 
@@ -253,7 +253,7 @@ def _direction_check(design, rates: ModelRates, check, base) -> dict:
     points = []
     for t, w in stencil:
         if t == 0.0:
-            points.append((w, base()[1]))
+            points.append((w, *base()))
             continue
         p = {n: x + t * dk for (n, x), dk in zip(design.values.items(), d)}
         try:
@@ -262,26 +262,34 @@ def _direction_check(design, rates: ModelRates, check, base) -> dict:
             raise type(exc)(f"design parameters {[n for n, dk in zip(names, d) if dk]}: the build a difference step "
                             f"away ({p}: the check of the gradient's complex step) fails: {exc}") from exc
         check(nums, mech, "(the check's direction)", p)
-        points.append((w, nums))
+        points.append((w, mech, nums))
     ref = base()[1]
+    rates.direction = (d, tuple((w, mech) for w, mech, _ in points))  # configure's check (evaluate)
     bad = [f for f in _CHECKED
-           if not _agrees(sum(w * np.real(numbers_field(n, f, dim)) for w, n in points),
-                          np.tensordot(d, rates.rate(f), axes=1), ref, f, dim)]
+           if not agrees(sum(w * np.real(numbers_field(n, f, dim)) for w, _, n in points),
+                         np.tensordot(d, rates.rate(f), axes=1), magnitude(ref, f, dim))]
     if not bad:
         return {}
     return _culprits(design, builds, link_node, check, base, dim, bad)
 
 
-def _agrees(fd: np.ndarray, cs, ref: dict, field: str, dim: int, agreement: float = DIRECTION_AGREEMENT) -> bool:
+def magnitude(ref: dict, field: str, dim: int) -> float:
+    """The size of a field's numbers in ``ref`` (`flexmb.fe.build.numbers`) that sets its differences'
+    round-off (point offsets: the positions they are differences of)."""
+    values = np.real(numbers_field(ref, "x0" if field == "point_offset" else field, dim))
+    return float(np.abs(values).max(initial=0.0))
+
+
+def agrees(fd: np.ndarray, cs, size: float, agreement: float = DIRECTION_AGREEMENT) -> bool:
     """Whether a field's rate ``cs`` agrees with its differences ``fd`` (both per unit of the
-    stencil's step), within ``agreement`` of the larger plus the differences' round-off."""
+    stencil's step), within ``agreement`` of the larger plus the differences' round-off (numbers of
+    magnitude ``size``)."""
     cs = np.zeros(np.shape(fd)) if np.isscalar(cs) else cs
     if np.size(fd) == 0:
         return True
-    values = np.real(numbers_field(ref, "x0" if field == "point_offset" else field, dim))  # offsets: positions' round-off
-    floor = 1e3 * np.finfo(float).eps * float(np.abs(values).max(initial=0.0))
-    size = max(float(np.abs(fd).max()), float(np.abs(cs).max()))
-    return float(np.abs(fd - cs).max()) <= agreement * size + floor
+    floor = 1e3 * np.finfo(float).eps * size
+    larger = max(float(np.abs(fd).max()), float(np.abs(cs).max()))
+    return float(np.abs(fd - cs).max()) <= agreement * larger + floor
 
 
 def _culprits(design, builds, link_node, check, base, dim, fields) -> dict:
@@ -294,7 +302,7 @@ def _culprits(design, builds, link_node, check, base, dim, fields) -> dict:
         fd = _central(design, q, link_node, check, base, dim, "")
         for f in fields:
             a, b = fd.field(f, dim), builds[k].field(f, dim)
-            if not _agrees(q.step * a, q.step * b, base()[1], f, dim):
+            if not agrees(q.step * a, q.step * b, magnitude(base()[1], f, dim)):
                 err = float(np.abs(a - b).max())
                 out[k] = (f"its complex step is dropped silently on the way into the model's {f} (its rate is "
                           f"{err:.3g} off central differences of the build: abs(), np.linalg.norm or .real of "
@@ -321,9 +329,22 @@ def model_rates(design, compiled) -> ModelRates:
     rates = ModelRates(design, compiled, builds)
     failed = _direction_check(design, rates, check, base)
     if failed:
+        direction = rates.direction
         for k, message in failed.items():
             builds[k] = _central(design, design.parameters[k], link_node, check, base, dim, message)
         rates = ModelRates(design, compiled, builds)
+        rates.direction = direction
+    central = {}
+
+    def fallback(k: int) -> ParameterBuild:
+        if builds[k].method == CENTRAL:
+            return builds[k]
+        if k not in central:
+            central[k] = _central(design, design.parameters[k], link_node, check, base, dim,
+                                  "configure cannot carry its complex step")
+        return central[k]
+
+    rates.fallback = fallback
     for k, q in enumerate(design.parameters):
         if not rates.touched(k):
             raise ParameterError(f"design parameter {q.name!r} changes nothing in the model: no joint, link, placement, "

@@ -98,29 +98,56 @@ class _Configured(ModelRates):
     def _boundary_rates(self) -> None:
         """The boundary fields' rates: ``configure`` on a copy of each parameter's builds (its
         complex-step mechanism, or the real ones of its central differences), their boundaries
-        combined (`flexmb.design.builds.ParameterBuild.combine`; numpy's ``ComplexWarning`` an error:
-        a ``configure`` that drops the complex step is refused naming the parameter)."""
+        combined (`flexmb.design.builds.ParameterBuild.combine`). A ``configure`` that cannot carry
+        a complex step (a ``TypeError``, numpy's ``ComplexWarning``: ``float()`` of a position)
+        takes central differences of the build for that parameter (`ModelRates.fallback`); one that
+        drops it silently (``.real``, ``abs()``) is caught along the design's check direction
+        (`ModelRates.direction`), and then every parameter takes them."""
         base = {f: model_numbers(self.compiled, f) for f in self.BOUNDARY}
         out = {f: np.zeros((len(self.names),) + np.shape(base[f])) for f in self.BOUNDARY}
         for k, b in enumerate(self._builds):
-            seen = {}
-
-            def read(mech, _, f, k=k, seen=seen):
-                if id(mech) not in seen:
-                    seen[id(mech)] = self._configured(mech, k, base)
-                return seen[id(mech)][f]
-
+            try:
+                rows = self._combined(b, k, base)
+            except _DropsStep:
+                rows = self._combined(self._base.fallback(k), k, base)
             for f in self.BOUNDARY:
-                out[f][k] = b.combine(lambda mech, nums, f=f, read=read: read(mech, nums, f))
+                out[f][k] = rows[f]
+        if not self._direction_agrees(out, base):
+            for k in range(len(self.names)):
+                rows = self._combined(self._base.fallback(k), k, base)
+                for f in self.BOUNDARY:
+                    out[f][k] = rows[f]
         for f in self.BOUNDARY:
             out[f].flags.writeable = False
             self._cache[f] = out[f]
 
-    def _configured(self, mech, k: int, base: dict) -> dict:
-        """The boundary fields of ``configure`` applied to a copy of ``mech`` (parameter ``k``'s build)."""
-        import warnings
+    def _combined(self, build, k: int, base: dict) -> dict:
+        """``{field: rate}`` of the boundary fields of parameter ``k``'s ``build`` after ``configure``."""
+        seen = {}
 
-        from .builds import culprit
+        def read(mech, f):
+            if id(mech) not in seen:
+                seen[id(mech)] = self._configured(mech, k, base)
+            return seen[id(mech)][f]
+
+        return {f: build.combine(lambda mech, _, f=f: read(mech, f)) for f in self.BOUNDARY}
+
+    def _direction_agrees(self, out: dict, base: dict) -> bool:
+        """Whether the boundary rates ``out`` agree along the design's check direction with central
+        differences of its real builds after ``configure`` (`flexmb.design.builds.agrees`)."""
+        from .builds import agrees
+
+        if self._base.direction is None:
+            return True
+        d, points = self._base.direction
+        configured = [(w, self._configured(mech, None, base)) for w, mech in points]
+        return all(agrees(sum(w * np.real(c[f]) for w, c in configured), np.tensordot(d, out[f], axes=1),
+                          float(np.abs(base[f]).max(initial=0.0))) for f in self.BOUNDARY)
+
+    def _configured(self, mech, k, base: dict) -> dict:
+        """The boundary fields of ``configure`` applied to a copy of ``mech`` (parameter ``k``'s build;
+        `_DropsStep` where a complex one cannot pass)."""
+        import warnings
 
         from .. import _validate as v
 
@@ -131,17 +158,19 @@ class _Configured(ModelRates):
                 self._configure(mech)
                 _, vals, loads, _ = boundary(mech, self.compiled.link_node)
             except (TypeError, np.exceptions.ComplexWarning) as exc:
-                raise ParameterError(f"design parameter {self.names[k]!r}: configure does not carry the gradient's "
-                                     f"complex step through {culprit(exc)} ({type(exc).__name__}: {exc}); configure "
-                                     "may set prescribed values and loads: keep the mechanism's numbers complex "
-                                     "(no float(), math.*, comparisons on them)") from exc
+                raise _DropsStep() from exc
         out = dict(zip(self.BOUNDARY, (vals, loads.offset, loads.force, loads.moment)))
         for f, value in out.items():
             if np.shape(value) != np.shape(base[f]):
+                which = "the design's" if k is None else f"parameter {self.names[k]!r}'s"
                 raise ParameterError(f"configure: the configured mechanism's {f} differ in shape between the design "
-                                     f"and its build for parameter {self.names[k]!r}; configure may set prescribed "
-                                     "values and loads, the same ones for every design")
+                                     f"and {which} build; configure may set prescribed values and loads, the same "
+                                     "ones for every design")
         return out
+
+
+class _DropsStep(Exception):
+    """``configure`` cannot carry a complex step (its cause: the ``TypeError`` or ``ComplexWarning``)."""
 
 
 def _copy_mechanism(mech):

@@ -323,6 +323,12 @@ class ModelRates:
         self.names = design.names
         self._builds = builds
         self._cache = {}
+        #: the check's direction (K,) and its real builds ((weight, mechanism), ...), or None
+        #: (`flexmb.design.builds`; a ``configure`` step is checked along it too)
+        self.direction = None
+        #: ``k -> ParameterBuild`` of central differences (real builds) for parameter ``k``, made on
+        #: first use: where ``configure`` cannot carry a complex step (`flexmb.design.evaluate`)
+        self.fallback = None
 
     @property
     def methods(self) -> tuple:

@@ -425,9 +425,10 @@ class ArcLength:
         nearest the limit point is the limit's own (the two zeros agree only to the equilibrium's
         accuracy: the eigenvalue is flat there), and so are the others located at it (within
         `SAME_CRITICAL` of the step: a double limit point, whose multiplicity is their number or
-        `flexmb.solvers.branching.multiplicity`'s, the larger); the other crossings are bifurcation points, those
-        located at the same point (within `SAME_CRITICAL` of the step) one point whose
-        multiplicity is their number (a double eigenvalue: a symmetric two-leaf device). A load
+        `flexmb.solvers.branching.multiplicity`'s, the larger); the other crossings are
+        bifurcation points, those located at the same point (within `SAME_CRITICAL` of the step)
+        one point whose multiplicity is their number (a double eigenvalue: a symmetric two-leaf
+        device). A load
         factor's extremum whose critical modes the load pattern does not work on is a bifurcation
         (`flexmb.solvers.branching.is_bifurcation`: a pitchfork met along its bifurcated branch)."""
         found = []

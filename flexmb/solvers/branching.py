@@ -72,6 +72,9 @@ NEAR_FLOOR = 1e-6
 #: beside its bending).
 SWITCH_MOTION = 0.01
 
+#: A critical mode's sign: its first weighted component (DOF order) at least this fraction of
+#: its largest is positive (`critical_modes`).
+SIGN_FRACTION = 0.5
 
 #: Below this many free DOFs eigenvectors come from LAPACK's dense ``eigh``, above from
 #: shift-invert ARPACK at 0 (as `flexmb.solvers.arclength.inertia`'s eigenvalues).
@@ -82,7 +85,10 @@ def critical_modes(problem, metric, p, m: int) -> np.ndarray:
     """The ``m`` critical modes at ``p`` (a `PathPoint` at a critical point): eigenvectors of
     the symmetric free tangent (with hinges, on the motions they allow) for the ``m``
     eigenvalues nearest zero, as increments of every DOF (m, n_dofs), each of unit length in
-    the path's metric, its largest weighted component positive (a deterministic sign)."""
+    the path's metric, its sign such that its first weighted component (in DOF order) above
+    `SIGN_FRACTION` of its largest is positive (the largest alone may tie between a buckled
+    leaf's two equal and opposite peaks: round-off flipped it between the compiled and numpy
+    kernels, and the branch a double bifurcation's switch chose with it)."""
     Kff = problem.evaluate(p.state, p.lam)[1]
     model = problem.model
     n = len(problem.free) - (model.hinges.n_rows if model.hinges is not None else 0)
@@ -101,9 +107,10 @@ def critical_modes(problem, metric, p, m: int) -> np.ndarray:
         vf = np.zeros(len(problem.free))
         vf[:n] = y if Z is None else Z @ y
         phi = problem.full_increment(vf, np.zeros(len(problem.prescribed)))
-        w = metric.weights() * phi
+        w = np.abs(metric.weights() * phi)
         phi = phi / metric.length(phi, 0.0)
-        out.append(phi if w[np.argmax(np.abs(w))] > 0 else -phi)
+        first = np.flatnonzero(w >= SIGN_FRACTION * w.max())[0]
+        out.append(phi if phi[first] > 0 else -phi)
     return np.array(out)
 
 

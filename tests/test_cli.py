@@ -312,6 +312,7 @@ def test_run_prints_the_message_of_sys_exit(tmp_path, capsys):
     assert cli.main(["run", str(script)]) == 0
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_train_by_default_reproduces_the_shipped_cross_flexure_databases(tmp_path, capsys):
     """``flexmb train`` trains the shipped meshes, 1-5 and the joint's default 10 el./leaf (its
     default ``--elements 1..5`` missed the 10 el./leaf files the joint now looks up), in 2D and

@@ -33,6 +33,7 @@ def stage_problem(**kw):
     return optimize(stage, dict(STAGE), BOUNDS, **args)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_slsqp_with_design_gradients_reaches_the_derivative_free_optimum_with_fewer_solves():
     """SLSQP (adjoint) and COBYLA (plain solves) from the same start under the same constraints: the
     same optimum within 0.5 %; the stroke force constraint active (t^3 / L^3 at its ceiling)."""
@@ -63,6 +64,7 @@ def test_one_design_evaluated_for_objective_constraints_and_gradients_is_solved_
     assert prob.solves == len(STROKE) and len(prob.rows) == 1
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_central_differences_reach_the_same_optimum_with_many_more_solves():
     grad = stage_problem(optimizer="slsqp")
     central = stage_problem(optimizer="slsqp", gradient="central")
@@ -93,6 +95,7 @@ class Failing:
         return stage(p)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_a_failing_design_is_recorded_and_never_ends_the_run():
     build = Failing()
     result = optimize(build, dict(STAGE), BOUNDS, objective=ks_min(support_stiffness("stage", "y", point="tool")),
@@ -109,6 +112,7 @@ def test_a_failing_design_is_recorded_and_never_ends_the_run():
         Constraint(ks_max(R.reaction("stage", "x")), upper=5.0)]).objective * (1 - 5e-3)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_a_design_that_does_not_converge_is_penalised(monkeypatch):
     """A real non-converged solve (one Newton iteration per step, no step halving) for short leaves."""
     from flexmb.design import stroke as stroke_module

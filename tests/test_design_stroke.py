@@ -57,6 +57,7 @@ def _taylor_and_central(build, p, aggregates, stroke, bounds=None, h0=1e-2, **op
 PIVOT_STROKE = Stroke(np.linspace(0.3, 0.6, 3), motion=("B", "rotation"))
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_aggregates_over_a_2d_stroke_pass_the_taylor_test_and_central_differences():
     aggs = [ks_max(R.reaction("B", "rotation")), ks_min(R.frequency(1, held=[("B", "rotation")])),
             mean(R.displacement("B", "x")), total(R.stress(scale=1e9)), at(R.rotation("B", "rotation"), 1)]
@@ -70,6 +71,7 @@ def test_aggregates_over_a_2d_stroke_pass_the_taylor_test_and_central_difference
         assert np.all(e <= AGREEMENT), (a.name, e)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_aggregates_over_a_3d_stroke_of_rotation_vectors():
     """3D: the pivot turned about z through 0.3 .. 0.5 rad, prescribed as rotation vectors (N, 3);
     support stiffness at an offset point, the actuation moment and the first parasitic frequency."""
@@ -139,6 +141,7 @@ def stage(p: dict) -> flexmb.Mechanism:
 STAGE = dict(t=0.5, L=60.0, d=40.0)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_support_stiffness_of_a_stage_over_its_stroke_in_mm_n_mpa():
     """The minimum support stiffness [N/mm] over +-5 mm (its drop with the stroke, Awtar et al. 2007's
     effect) with the peak stroke force and stress, each aggregate's gradient checked."""

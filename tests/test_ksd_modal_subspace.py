@@ -57,6 +57,7 @@ def test_tabulated_span_gives_the_per_configuration_frequencies():
         np.testing.assert_allclose(_frequencies(sol, 6, True), _frequencies(sol, 6, False), rtol=1e-7)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_the_kept_span_keeps_whole_ties_at_the_cut():
     """The four-bar's cross flexures have three interior chains whose fixed-interface
     eigenvalues tie at the joint's middle rotation (the 5th-7th of the pooled spectrum): all
@@ -154,6 +155,7 @@ def test_a_planar_cross_flexure_turned_where_the_alignment_degenerates():
     assert data.table(6) is None and "alignment's smallest singular value" in data.refused[6]
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_the_interior_recovery_is_read_only_when_the_shapes_are():
     """`condensed_subspace(..., recovery=False)` defers the joints' interior transformation
     (``X``, fixed-interface shapes): called, it gives bit for bit what ``recovery=True`` gives,

@@ -527,6 +527,7 @@ def _bare_point():
     return PathPoint(None, 0.0, None, None, 0.0, 1.0, 0, np.zeros(0), 0.0, 0.0, 0)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_both_branches_can_be_asked_for():
     """The hinged pinned-pinned column past its Euler load: by default the path takes the stable
     post-buckled branch (switched at the bifurcation); at the second bifurcation it meets (P /

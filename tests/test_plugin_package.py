@@ -13,6 +13,8 @@ import pytest
 import flexmb
 from flexmb import registry, testing
 
+pytestmark = pytest.mark.slow  # each module pip-installs its plugin package (~9 s): CI's full run, not the fast set
+
 PACKAGE = Path(__file__).parent / "plugin_pkg"
 
 

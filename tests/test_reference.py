@@ -260,6 +260,7 @@ def _pivot_by_collocation(theta, length, angle, ei):
     return moment, d
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("theta_deg", [45.0, 75.0])
 def test_pivot_agrees_with_independent_collocation_solution(theta_deg):
     # Reference: the same model solved by collocation (solve_bvp) above.

@@ -129,6 +129,7 @@ def _push(solution):
     return -solution.reaction("S")[1]
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("elements", [12, pytest.param(48, marks=pytest.mark.slow)])
 def test_bistable_pair_force_stroke_follows_the_elastica(elastica, elements):
     """Pushed by a prescribed travel, the device follows the stable branch: up the symmetric
@@ -157,6 +158,7 @@ def test_bistable_pair_force_stroke_follows_the_elastica(elastica, elements):
         assert np.all(err > 0) and err[0] == pytest.approx(0.0232, abs=2e-3) and err[1] == pytest.approx(0.053, abs=3e-3)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_bistable_pair_under_load_control_snaps_at_the_first_bifurcation(elastica):
     """Pushed by a force, the device snaps where the symmetric branch first bifurcates (both
     leaves, multiplicity 2), below the symmetric branch's limit point (211 N at 12 elements): the
@@ -195,6 +197,7 @@ def arch_closed_form(e: float) -> tuple[float, float]:
     return e + 3 * zb, (e - zl) + zl * (e * e - zl * zl) / 4
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("elements", [40, 80])
 def test_shallow_arch_bifurcates_below_its_limit_point(elements):
     """e = rise / r = 6 > sqrt(22): the antisymmetric bifurcation (Q = 19.416) lies below the
@@ -278,6 +281,7 @@ def _antisymmetric(critical, elements):
     return np.allclose(v, -v[::-1], atol=1e-6 * np.abs(v).max())
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("elements", [40, 80])
 def test_clamped_arch_under_a_uniform_load_bifurcates_below_its_limit_point(elements):
     """A shallow clamped circular arch (rise 1 % of the span, rise / r = 15) under a uniform
@@ -301,6 +305,7 @@ def test_clamped_arch_under_a_uniform_load_bifurcates_below_its_limit_point(elem
     assert 0 < err < 5e-3 if elements == 40 else abs(err) < 1.5e-3
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("elements", [40, 80])
 def test_clamped_arch_under_a_central_point_load_snaps_at_its_limit_point(elements):
     """A clamped arch under a central point load snaps at its symmetric limit point: at rise /
@@ -327,6 +332,7 @@ def test_clamped_arch_under_a_central_point_load_snaps_at_its_limit_point(elemen
         assert path.critical[0].load_factor / Ql - 1 == pytest.approx(0.0039, abs=1e-3)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("elements", [40, pytest.param(80, marks=pytest.mark.slow)])
 def test_arch_imperfection_sensitivity_follows_koiter_two_thirds_law(elements):
     """An antisymmetric imperfection of amplitude eta r turns the bifurcation into a limit point:
@@ -608,6 +614,7 @@ def _rigid_rocker(phi):
     return np.angle(np.exp(1j * (psi[1:] - psi[0])))
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("dim", [2, 3])
 def test_a_hinge_motor_turns_a_cross_flexure_four_bar_through_a_full_crank_turn(dim):
     """Issue 29: `trace` stopped this four-bar at load factor 0 ("cannot continue") in 2D and
@@ -631,6 +638,7 @@ def test_a_hinge_motor_turns_a_cross_flexure_four_bar_through_a_full_crank_turn(
     np.testing.assert_allclose(on_path.node_positions(), quarter.node_positions(), rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_trace_from_a_pre_deformed_solution():
     """The bistable pair solved with its shuttle pushed 0.05 mm (`solve`), then traced from that
     Solution towards twice the rise: the load factor blends the given state (0) into the
@@ -727,6 +735,7 @@ def qiu_modal(mode_squared: float) -> tuple[float, float]:
     return line(1 - root), line(1 + root)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("elements", [20, 40])
 def test_qiu_double_beam_with_its_shuttle_is_bistable(elements):
     """With the shuttle (mode 2 held) the double beam switches through mode 3: under a prescribed
@@ -748,6 +757,7 @@ def test_qiu_double_beam_with_its_shuttle_is_bistable(elements):
     assert len(zeros) == 3 and zeros[2] == pytest.approx(1.5 + math.sqrt(0.25 - 4 / (3 * Q**2)), rel=2e-3)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 @pytest.mark.parametrize("elements", [20, 40])
 def test_qiu_single_beam_without_a_shuttle_switches_through_mode_two(elements):
     """Without the shuttle the centre turns: the beam leaves its symmetric branch at a simple
@@ -795,6 +805,7 @@ def test_qiu_primary_path_lists_each_critical_point_of_the_double_beam_once_with
             assert np.min(np.abs(own / c.load_factor - 1)) < 1e-3
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_an_imperfection_along_the_critical_mode_with_the_helper():
     """`flexmb.imperfect` moves the perfect arch's geometry along the mode of its bifurcation
     (`Critical.modes`, computed at the deformed critical state), its largest node translation

@@ -137,6 +137,7 @@ def test_python_control_statespace(solved):
     np.testing.assert_allclose(np.asarray(sys_.dcgain()).reshape(2, 1), ss.static_gain(), rtol=1e-9)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_a_bode_plot_with_unit_labels(solved, tmp_path):
     pytest.importorskip("matplotlib")
     ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n_modes=3, damping=0.02)

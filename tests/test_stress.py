@@ -42,6 +42,7 @@ def test_rectangle_torsion_peak_is_timoshenko_goodier(ratio, k):
     assert tp[0] == pytest.approx(0.0, abs=1e-12)
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_rectangle_torsion_field_carries_the_torque_and_is_symmetric():
     """The shear field's moment about the axis, integrated over the section (Gauss 80 x 80),
     is G theta I_t with the series torsion constant of `torsion_constant_rectangle` (an

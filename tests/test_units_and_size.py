@@ -74,6 +74,7 @@ def elastica_tip(alpha: float) -> tuple[float, float, float]:
     return np.sqrt(2 * np.sin(t0) / alpha), 1 - 2 * (ellipe(m) - ellipeinc(phi1, m)) / np.sqrt(alpha), t0
 
 
+@pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_a_10000_element_cantilever_matches_the_elastica():
     # a 0.1 mm leaf (L/t = 1000) at alpha = F L^2 / EI = 5: 48 degrees at the tip. Its axial and
     # shear compliance, which the elastica lacks, moves the tip by ~alpha t^2 / (12 L^2) = 4e-7 L;

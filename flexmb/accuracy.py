@@ -1,0 +1,599 @@
+"""Accuracy by default (issue 30 item 3): every converged finite-element result carries the
+estimate of its discretisation error, and one whose estimate exceeds the accuracy target warns,
+once per kind of result and mesh (a loop or a sweep over one mesh warns once).
+
+The estimate is a Richardson pair (Roache 1998, *Verification and Validation in Computational
+Science and Engineering*, Ch. 5, with the beam elements' order 2 assumed, as
+`flexmb.discretisation_error` does with two meshes): the same equilibrium on a *companion* mesh,
+every flexure's element count (`flexmb.Joint.mesh_parameter`) halved (all even) or else doubled,
+started from the solution's own configuration carried onto the companion's nodes (`transfer`)
+and converged there by Newton (`flexmb.problem.StaticProblem.continued_from`: one or two
+iterations). With ``q`` on the given mesh of size ``h`` and ``q_c`` on ``r h``:
+``q* = q + (q - q_c) / (r^2 - 1)`` (``r = 2``), ``q* = q_c + (q_c - q) / 3`` (``r = 1/2``),
+and the error ``q - q*``. A property (`flexmb.modes`, `flexmb.buckling`, `flexmb.compliance`,
+`flexmb.Solution.stresses`) is evaluated on the companion equilibrium the same way.
+
+What is estimated (`Estimate.names`): for a solve, the prescribed components of the reactions
+and the free components of the links' displacements; for the properties, the frequencies, the
+buckling multipliers, the compliance entries and the peak stresses. Each error is relative to the
+quantity, or to 1 % of the largest of its kind when the quantity is smaller than that (a
+reaction component or a rotation that is zero by symmetry is not a quantity a designer reads).
+
+`set_target` changes the target (default 1 %) or, with None, switches the estimates off (the
+cost of a solve as before: the companion costs ~0.2-0.5 of a solve, BENCHMARKS.md "accuracy").
+Solutions of the KSD-reduced model (their state is not the full model's equilibrium) and of
+the closed-form models (no mesh) carry an estimate that says why it is not available.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import functools
+import math
+import threading
+import warnings
+import weakref
+
+import attrs
+import numpy as np
+
+from .errors import DiscretisationWarning, FlexmbError, ParameterError
+from .fe.model import State
+from .mechanism import COMPILED_FROM
+from . import results
+from .rotations import expm_so3, logm_so3
+
+__all__ = ["Estimate", "DEFAULT_TARGET", "target", "set_target", "estimate", "attach", "check",
+           "companion_solution", "transfer", "reset_warnings", "off"]
+
+#: The accuracy target: the largest relative discretisation error a result may carry unwarned.
+DEFAULT_TARGET = 0.01
+#: A quantity smaller than this fraction of the largest of its kind is judged against that fraction.
+FLOOR = 0.01
+#: The companion's convergence tolerance (`flexmb.solvers.Conventional`'s rtol): its difference to
+#: the result is ~1e-3 relative and wanted to a few per cent of itself
+COMPANION_RTOL = 1e-7
+_STATE = {"target": DEFAULT_TARGET}
+_LOCAL = threading.local()  # .off: estimates suspended in this thread (a companion's own properties)
+_WARNED: set = set()
+_COMPANIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # FE model -> (compiled, ratio, note)
+_SOLVED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Solution -> (companion Solution | None, note)
+_ESTIMATES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Solution -> its Estimate
+
+
+def target() -> float | None:
+    """The accuracy target (relative; None: estimates off)."""
+    return _STATE["target"]
+
+
+def set_target(value: float | None = DEFAULT_TARGET) -> float | None:
+    """Set the accuracy target to ``value`` (relative, in (0, 1); default 0.01), or switch the
+    estimates off with None; returns the previous target."""
+    if value is not None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 < value < 1.0:
+            raise ParameterError(f"set_target: value={value!r} must be a relative error in (0, 1), or None "
+                                 "(no estimates)")
+        value = float(value)
+    old, _STATE["target"] = _STATE["target"], value
+    return old
+
+
+def reset_warnings() -> None:
+    """Forget which results have warned (each warns once per kind of result and mesh)."""
+    _WARNED.clear()
+
+
+@contextlib.contextmanager
+def off():
+    """Context manager: no estimates (and no warnings) in this thread inside; for solves on a
+    mesh chosen on purpose (database training, the companion's own properties)."""
+    before = getattr(_LOCAL, "off", False)
+    _LOCAL.off = True
+    try:
+        yield
+    finally:
+        _LOCAL.off = before
+
+
+def _active() -> bool:
+    return _STATE["target"] is not None and not getattr(_LOCAL, "off", False)
+
+
+@attrs.frozen(eq=False)
+class Estimate:
+    """The estimated discretisation error of one result (module notes).
+
+    Attributes
+    ----------
+    kind
+        ``"solve"``, ``"modes"``, ``"buckling"``, ``"compliance"`` or ``"stress"``.
+    names
+        The quantities (tuple of str), e.g. ``"reaction stage y"``, ``"f2"``, ``"C[1,1]"``.
+    value, companion
+        (q,): the quantities on the result's mesh and on the companion mesh.
+    ratio
+        The companion's element size over the result's (2: half the elements; 0.5: twice).
+    scale
+        (q,): what each error is relative to: ``max(|value|, 1 % of the largest of its kind)``.
+    elements
+        (elements of the result's mesh, of the companion's).
+    target
+        The accuracy target when estimated.
+    note
+        Why no estimate is available (then ``names`` is empty), or "".
+    """
+
+    kind: str
+    names: tuple = ()
+    value: np.ndarray = attrs.field(factory=lambda: np.zeros(0))
+    companion: np.ndarray = attrs.field(factory=lambda: np.zeros(0))
+    ratio: float = 2.0
+    scale: np.ndarray = attrs.field(factory=lambda: np.zeros(0))
+    elements: tuple = (0, 0)
+    target: float = DEFAULT_TARGET
+    note: str = ""
+
+    @property
+    def available(self) -> bool:
+        """Whether there is an estimate (else `note` says why)."""
+        return not self.note
+
+    @property
+    def reference(self) -> np.ndarray:
+        """(q,): the Richardson extrapolation of the pair, order 2 (module notes)."""
+        q, qc, r = self.value, self.companion, self.ratio
+        if r > 1.0:
+            return q + (q - qc) / (r * r - 1.0)
+        s = 1.0 / r
+        return qc + (qc - q) / (s * s - 1.0)
+
+    @property
+    def error(self) -> np.ndarray:
+        """(q,): the estimated error of `value`, ``value - reference``."""
+        return self.value - self.reference
+
+    @property
+    def relative(self) -> np.ndarray:
+        """(q,): ``|error| / scale`` (see `scale`)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.abs(self.error) / self.scale
+        return np.where(np.isfinite(self.value) & np.isfinite(self.companion) & (self.scale > 0), rel, np.nan)
+
+    @property
+    def worst(self) -> tuple[str, float]:
+        """``(name, relative error)`` of the quantity with the largest estimated error
+        (``("", 0.0)`` when there is none)."""
+        rel = self.relative
+        if not len(rel) or np.all(np.isnan(rel)):
+            return "", 0.0
+        k = int(np.nanargmax(rel))
+        return self.names[k], float(rel[k])
+
+    @property
+    def exceeds(self) -> bool:
+        """Whether the largest estimated relative error is above `target`."""
+        return self.available and self.worst[1] > self.target
+
+    def __getitem__(self, name: str) -> dict:
+        """One quantity's numbers: value, companion, reference, error, relative."""
+        try:
+            k = self.names.index(name)
+        except ValueError:
+            raise FlexmbError(f"no quantity {name!r}; quantities: {', '.join(self.names) or 'none'}") from None
+        return {"value": float(self.value[k]), "companion": float(self.companion[k]),
+                "reference": float(self.reference[k]), "error": float(self.error[k]),
+                "relative": float(self.relative[k])}
+
+    def columns(self) -> dict:
+        """The quantities as columns (a `flexmb.Table` takes them): ``quantity``, ``value``,
+        ``reference``, ``error``, ``relative``."""
+        return dict({"quantity": np.array(self.names, dtype=object), "value": self.value.copy(),
+                      "reference": self.reference, "error": self.error, "relative": self.relative})
+
+    def __repr__(self) -> str:
+        if not self.available:
+            return f"Estimate({self.kind}: not available: {self.note})"
+        name, rel = self.worst
+        return (f"Estimate({self.kind}: largest {100 * rel:.2g} % ({name}), {len(self.names)} quantities, "
+                f"elements {self.elements[0]} vs {self.elements[1]} on the companion, target {100 * self.target:g} %)")
+
+
+def _unavailable(kind: str, note: str) -> Estimate:
+    return Estimate(kind, target=_STATE["target"] or DEFAULT_TARGET, note=note)
+
+
+# -- the companion mesh -----------------------------------------------------------------------------
+
+def _counts(compiled) -> tuple[dict | None, str]:
+    """``{joint: elements}`` of the flexures of ``compiled`` with a mesh parameter, or None and why."""
+    counts = {}
+    for name, joint, *_ in compiled.joints:
+        if "fe_model" not in joint.capabilities:
+            continue  # an ideal joint: exact
+        param = type(joint).mesh_parameter
+        if not param or not isinstance(getattr(joint, param, None), (int, np.integer)):
+            return None, (f"joint {name!r} (kind {joint.kind!r}) names no integer mesh_parameter, so its mesh cannot "
+                          "be refined or coarsened")
+        counts[name] = (param, int(getattr(joint, param)))
+    if not counts:
+        return None, "no joint with a mesh (ideal joints only)"
+    return counts, ""
+
+
+def _companion(compiled):
+    """``(companion compiled, ratio, note)`` for the FE model of ``compiled``, built once per model."""
+    model = compiled.problem.model
+    kept = _COMPANIONS.get(model)
+    if kept is not None:
+        return kept
+    kept = _build_companion(compiled)
+    _COMPANIONS[model] = kept
+    return kept
+
+
+def _build_companion(compiled):
+    ref = COMPILED_FROM.get(compiled.problem.model)
+    mechanism = ref() if ref is not None else None
+    if mechanism is None:
+        return None, 2.0, "the mechanism this result was solved from is gone (the companion mesh is built from it)"
+    counts, note = _counts(compiled)
+    if counts is None:
+        return None, 2.0, note
+    coarse = all(n % 2 == 0 for _, n in counts.values())
+    ratio = 2.0 if coarse else 0.5
+    joints = {name: (joint, placement) for name, joint, placement, *_ in compiled.joints}
+    out = copy.copy(mechanism)  # shares the links, loads and motions (compiling only reads them)
+    out.graph = mechanism.graph.copy()  # new edge data dicts: the joints replaced below are the copy's
+    for _, _, name, data in out.graph.edges(keys=True, data=True):
+        if name not in joints:
+            return None, ratio, "the mechanism changed after it was solved (a joint was added)"
+        joint, placement = joints[name]
+        if name in counts:
+            param, n = counts[name]
+            joint = attrs.evolve(joint, **{param: n // 2 if coarse else 2 * n})
+        data["joint"], data["placement"] = joint, placement
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            comp = out.compile("fe_model")
+    except FlexmbError as exc:
+        return None, ratio, f"the companion mesh could not be built: {exc}"
+    p, q = compiled.problem, comp.problem
+    if (list(comp.link_node) != list(compiled.link_node) or not np.array_equal(p.prescribed, q.prescribed)
+            or not np.array_equal(p.loads.node, q.loads.node) or (p.model.hinges is None) != (q.model.hinges is None)):
+        return None, ratio, "the mechanism changed after it was solved (links, motions or loads)"
+    return comp, ratio, ""
+
+
+def transfer(state: State, fine, coarse) -> State:
+    """``state`` of ``fine`` (a `flexmb.compiled.Compiled`) carried onto the nodes of ``coarse``,
+    a mesh of the same mechanism: the links' nodes copied; each joint's internal node copied from
+    the fine node at the same undeformed place, else placed on the fine element of the same joint
+    nearest to it and most nearly parallel to its own elements (leaves that cross share places),
+    by linear interpolation along it (positions; rotations along the relative rotation of its ends)."""
+    fm, cm = fine.problem.model, coarse.problem.model
+    n_links = len(fine.link_node)
+    pos = np.array(cm.x0, dtype=float)
+    rot = np.zeros(cm.n_nodes) if fm.dim == 2 else np.tile(np.eye(3), (cm.n_nodes, 1, 1))
+    pos[:n_links] = state.positions[:n_links]
+    rot[:n_links] = state.rotations[:n_links]
+    points = fm.point_positions(state)
+    size = float(fine.problem.model_length)
+    for name, nodes in coarse.joint_nodes.items():
+        els = fine.joint_elements.get(name)
+        if len(nodes) and els is not None and len(els):
+            p, r = _joint_transfer(state, fm, cm, points, (els, fine.joint_nodes[name]),
+                                   coarse.joint_elements[name], nodes, size)
+            pos[nodes], rot[nodes] = p, r
+    mult = None if state.multipliers is None else state.multipliers.copy()
+    angles = None if state.hinge_angles is None else state.hinge_angles.copy()
+    return State(pos, rot, mult, angles)
+
+
+def _directions(model, els) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Start, unit direction and length of elements ``els`` of ``model`` (undeformed)."""
+    ends = model.elements.ends[els]
+    a, b = model.point_x0[ends[:, 0]], model.point_x0[ends[:, 1]]
+    d = b - a
+    length = np.linalg.norm(d, axis=1)
+    return a, d / np.where(length > 0, length, 1.0)[:, None], length
+
+
+def _joint_transfer(state, fm, cm, points, fine_joint, coarse_els, nodes, size):
+    """The positions and rotations of one joint's coarse internal ``nodes`` (`transfer`);
+    ``fine_joint``: the joint's elements and internal nodes in the fine model."""
+    els, fine_nodes = fine_joint
+    a, u, length = _directions(fm, els)
+    _, uc, _ = _directions(cm, coarse_els)
+    owner_c = cm.point_master[cm.elements.ends[coarse_els]]  # (e_c, 2) coarse nodes of each coarse element
+    x = cm.x0[nodes]
+    # the direction of each coarse node's first element (a node no element ends at: any direction)
+    first = np.full(len(nodes), -1)
+    for col in (1, 0):
+        hit = np.searchsorted(nodes, owner_c[:, col])
+        ok = (hit < len(nodes)) & (nodes[np.minimum(hit, len(nodes) - 1)] == owner_c[:, col])
+        first[hit[ok]] = np.flatnonzero(ok)
+    direction = np.where(first[:, None] >= 0, uc[np.maximum(first, 0)], 0.0)
+    rel = x[:, None, :] - a[None]  # (k, e, dim)
+    s = np.clip(np.einsum("kej,ej->ke", rel, u) / np.where(length > 0, length, 1.0), 0.0, 1.0)
+    gap = np.linalg.norm(rel - (s * length)[..., None] * u[None], axis=2)
+    parallel = np.abs(direction @ u.T)  # (k, e); 0 for a node without elements
+    score = gap / max(size, 1e-300) + np.where(first[:, None] >= 0, 1.0 - parallel, 0.0)
+    e = np.argmin(score, axis=1)
+    k = np.arange(len(nodes))
+    s = s[k, e]
+    ends = fm.elements.ends[els[e]]
+    pa, pb = ends[:, 0], ends[:, 1]
+    pos = (1.0 - s)[:, None] * points[pa] + s[:, None] * points[pb]
+    ma, mb = fm.point_master[pa], fm.point_master[pb]
+    # a fine node at the node's own undeformed place (a rigid body's node, a nested mesh's node):
+    # the chosen element's end there if it has one (leaves crossing share places), else any
+    near = np.linalg.norm(fm.x0[fine_nodes][None] - x[:, None], axis=2) <= 1e-9 * size  # (k, f)
+    at = np.where(s < 0.5, ma, mb)
+    own = np.linalg.norm(fm.x0[at] - x, axis=1) <= 1e-9 * size
+    same = own | near.any(axis=1)
+    at = np.where(own, at, fine_nodes[np.argmax(near, axis=1)] if len(fine_nodes) else at)
+    pos[same] = state.positions[at[same]]
+    if fm.dim == 2:
+        rot = (1.0 - s) * state.rotations[ma] + s * state.rotations[mb]
+        rot[same] = state.rotations[at[same]]
+    else:
+        Ra, Rb = state.rotations[ma], state.rotations[mb]
+        rot = Ra @ expm_so3(s[:, None] * logm_so3(Ra.transpose(0, 2, 1) @ Rb))
+        rot[same] = state.rotations[at[same]]
+    return pos, rot
+
+
+def _prescribed_totals(problem, state) -> np.ndarray:
+    """The prescribed DOFs' values at ``state`` as totals from the undeformed configuration."""
+    m = problem.model
+    node, comp = np.divmod(problem.prescribed, m.ndof)
+    out = np.zeros(len(node))
+    tr = comp < m.dim
+    out[tr] = state.positions[node[tr], comp[tr]] - m.x0[node[tr], comp[tr]]
+    if m.dim == 2:
+        out[~tr] = state.rotations[node[~tr]]
+    elif np.any(~tr):
+        w = logm_so3(state.rotations[node[~tr]])
+        out[~tr] = w[np.arange(len(w)), comp[~tr] - 3]
+    return out
+
+
+def companion_solution(solution):
+    """``(companion Solution or None, ratio, note)``: ``solution``'s equilibrium on the companion
+    mesh (module notes), computed once per solution."""
+    kept = _SOLVED.get(solution)
+    if kept is not None:
+        return kept
+    kept = _solve_companion(solution)
+    _SOLVED[solution] = kept
+    return kept
+
+
+def _solve_companion(solution):
+    from .solvers.conventional import Conventional
+
+    if not solution.converged:
+        return None, 2.0, "the solve did not converge"
+    if not type(solution).full_equilibrium:
+        return None, 2.0, ("a KSD-reduced solution is not the full model's equilibrium (its error is the "
+                           "reduction's as well as the mesh's): solve with method='ksd-full' or 'conventional'")
+    compiled = solution.compiled
+    if not hasattr(getattr(compiled.problem, "model", None), "elements"):
+        return None, 2.0, "a closed-form model has no mesh (no discretisation error)"
+    base, ratio, note = _companion(compiled)
+    if base is None:
+        return None, ratio, note
+    fine = compiled.problem
+    start = transfer(solution.state, compiled, base)
+    problem = base.problem.with_loads(fine.loads).with_motion(_prescribed_totals(fine, solution.state))
+    try:
+        with off(), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            comp = Conventional(rtol=COMPANION_RTOL).solve(attrs.evolve(base, problem=problem.continued_from(start)),
+                                                           state=start)
+    except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
+        return None, ratio, f"the companion mesh's solve failed: {exc}"
+    if not comp.converged:
+        return None, ratio, f"the companion mesh did not converge: {comp.message}"
+    return comp, ratio, ""
+
+
+# -- the estimates ------------------------------------------------------------------------------------
+
+def _elements(compiled) -> int:
+    return int(sum(len(e) for e in compiled.joint_elements.values()))
+
+
+def _scales(values: np.ndarray, kinds: np.ndarray | None = None, least=None) -> np.ndarray:
+    """``max(|value|, FLOOR x the largest |value| of its kind)`` (kinds: an int per quantity); NaN
+    where that is not above ``least[kind]`` (round-off: nothing of that kind to judge)."""
+    v = np.abs(np.asarray(values, dtype=float))
+    kinds = np.zeros(len(v), dtype=int) if kinds is None else np.asarray(kinds)
+    out = v.copy()
+    for k in np.unique(kinds):
+        sel = kinds == k
+        finite = v[sel][np.isfinite(v[sel])]
+        top = float(finite.max()) if len(finite) else 0.0
+        out[sel] = np.maximum(v[sel], FLOOR * top)
+        floor = 0.0 if least is None else least.get(int(k), 0.0)
+        out[sel] = np.where(out[sel] > floor, out[sel], np.nan)
+    return out
+
+
+def _solve_quantities(solution, L: float) -> tuple[list, np.ndarray, np.ndarray]:
+    """(names, values, kinds) of a solve: the prescribed components of the reactions (kinds 0:
+    forces, 1: moments over the model length) and the free components of the links'
+    displacements (2: translations and rotations times ``L``, the given mesh's model length)."""
+    problem = solution.compiled.problem
+    m = problem.model
+    labels = ("x", "y", "rotation") if m.dim == 2 else ("x", "y", "z", "rx", "ry", "rz")
+    pres = set(problem.prescribed.tolist())
+    names, values, kinds = [], [], []
+    state = solution.state
+    for link, node in solution.compiled.link_node.items():
+        r = solution.residual[m.node_dofs[node]]
+        d = np.concatenate([state.positions[node] - m.x0[node],
+                            [state.rotations[node]] if m.dim == 2 else logm_so3(state.rotations[node])])
+        for c, label in enumerate(labels):
+            moment = c >= m.dim
+            if node * m.ndof + c in pres:
+                names.append(f"reaction {link} {label}")
+                values.append(r[c])
+                kinds.append(1 if moment else 0)
+            else:
+                names.append(f"displacement {link} {label}")
+                values.append(d[c])
+                kinds.append(2)
+    values, kinds = np.array(values, dtype=float), np.array(kinds)
+    scaled = values * np.where(kinds == 1, 1.0 / L, 1.0)
+    rot = np.array([k == 2 and n.split()[-1] in ("rotation", "rx", "ry", "rz") for n, k in zip(names, kinds)])
+    scaled = np.where(rot, values * L, scaled)
+    return names, scaled, np.where(kinds == 1, 0, kinds)  # moments / L and forces together
+
+
+def estimate(solution) -> Estimate:
+    """The estimated discretisation error of ``solution``'s reactions and displacements
+    (`Estimate`, kind ``"solve"``), computed once per solution."""
+    kept = _ESTIMATES.get(solution)
+    if kept is not None:
+        return kept
+    if _STATE["target"] is None:
+        return _unavailable("solve", "estimates are off (flexmb.accuracy.set_target(None))")
+    comp, ratio, note = companion_solution(solution)
+    if comp is None:
+        out = _unavailable("solve", note)
+    else:
+        L = float(solution.compiled.problem.model_length)  # one length for both meshes
+        names, q, kinds = _solve_quantities(solution, L)
+        _, qc, _ = _solve_quantities(comp, L)
+        force = float(getattr(solution.compiled.problem, "force_scale", 0.0) or 0.0)
+        least = {0: 1e-6 * force, 2: 1e-9 * L}  # below: round-off (an undeformed state's reactions)
+        out = Estimate("solve", tuple(names), q, qc, ratio, _scales(q, kinds, least),
+                       (_elements(solution.compiled), _elements(comp.compiled)), _STATE["target"])
+    _ESTIMATES[solution] = out
+    return out
+
+
+def _mesh_key(compiled) -> tuple:
+    return tuple(sorted((joint.kind, name, getattr(joint, type(joint).mesh_parameter or "", None))
+                        for name, joint, *_ in compiled.joints))
+
+
+def warn(est: Estimate, compiled, stacklevel: int = 3) -> None:
+    """Warn (`flexmb.DiscretisationWarning`) when ``est`` exceeds its target, once per kind of
+    result and mesh."""
+    if not est.exceeds:
+        return
+    key = (est.kind, _mesh_key(compiled))
+    if key in _WARNED:
+        return
+    _WARNED.add(key)
+    name, rel = est.worst
+    warnings.warn(f"{est.kind}: estimated discretisation error {100 * rel:.2g} % ({name}) exceeds the accuracy target "
+                  f"{100 * est.target:g} % on this mesh ({est.elements[0]} beam elements; Richardson pair with "
+                  f"{est.elements[1]}): refine the joints' meshes (their elements / elements_per_leaf), e.g. "
+                  "flexmb.discretisation.refined(mechanism, 2); the result's .discretisation holds the estimate "
+                  "(this warning is shown once per kind of result and mesh)", DiscretisationWarning,
+                  stacklevel=stacklevel)
+
+
+def check(solution, stacklevel: int = 3) -> None:
+    """Estimate ``solution``'s error now (when the estimates are on) and warn if it exceeds the
+    target: what `flexmb.solve` does with every converged finite-element solution."""
+    if not _active() or not solution.converged or not hasattr(getattr(solution.compiled.problem, "model", None),
+                                                               "elements"):
+        return
+    est = estimate(solution)
+    warn(est, solution.compiled, stacklevel + 1)
+
+
+# -- the properties ---------------------------------------------------------------------------------
+
+class EstimatedArray(np.ndarray):
+    """An array result (`flexmb.buckling`, `flexmb.compliance`) with its ``discretisation``
+    `Estimate` (arrays derived from it carry None)."""
+
+    discretisation = None
+
+    def __array_finalize__(self, obj):
+        self.discretisation = None
+
+    def __reduce__(self):  # pickled as a plain array
+        return np.asarray(self).copy().__reduce__()
+
+
+def _modes_quantities(result) -> tuple[list, np.ndarray, np.ndarray | None]:
+    f = np.asarray(result.frequencies, dtype=float)
+    return [f"f{k + 1}" for k in range(len(f))], np.abs(f), None
+
+
+def _buckling_quantities(result) -> tuple[list, np.ndarray, np.ndarray | None]:
+    lam = np.asarray(result, dtype=float)
+    return [f"buckling{k + 1}" for k in range(len(lam))], lam, None
+
+
+def _compliance_quantities(result) -> tuple[list, np.ndarray, np.ndarray | None]:
+    C = np.asarray(result, dtype=float)
+    n = len(C)
+    d = np.sqrt(np.abs(np.diag(C)))
+    names = [f"C[{i},{j}]" for i in range(n) for j in range(n)]
+    values = C.ravel()
+    # each entry against sqrt(C_ii C_jj) (a diagonal against itself): per-entry kinds below
+    scale = np.outer(d, d).ravel()
+    return names, values, scale
+
+
+def _stress_quantities(result) -> tuple[list, np.ndarray, np.ndarray | None]:
+    s = result.summary()
+    names = [k for k in ("normal", "shear", "von_mises") if k in s]
+    return names, np.array([s[k] for k in names], dtype=float), None
+
+
+_QUANTITIES = {"modes": _modes_quantities, "buckling": _buckling_quantities,
+               "compliance": _compliance_quantities, "stress": _stress_quantities}
+
+
+def attach(kind: str, result, solution, again, stacklevel: int = 3):
+    """``result`` (of property ``kind`` of ``solution``) with its estimate: ``again(companion)``
+    evaluates the property on the companion solution. Arrays come back as `EstimatedArray`,
+    objects with a ``discretisation`` field evolved; a warning when the estimate exceeds the target."""
+    if not _active() or solution is None or not getattr(solution, "converged", False):
+        return result
+    comp, ratio, note = companion_solution(solution)
+    if comp is None:
+        est = _unavailable(kind, note)
+    else:
+        try:
+            with off(), warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                other = again(comp)
+        except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
+            est = _unavailable(kind, f"the property failed on the companion mesh: {exc}")
+        else:
+            names, q, scale = _QUANTITIES[kind](result)
+            _, qc, _ = _QUANTITIES[kind](other)
+            if len(qc) != len(q):
+                est = _unavailable(kind, "the companion mesh gave another number of values")
+            else:
+                scale = _scales(q, least={0: 0.0}) if scale is None else np.where(scale > 0, scale, np.nan)
+                est = Estimate(kind, tuple(names), q, qc, ratio, scale,
+                               (_elements(solution.compiled), _elements(comp.compiled)), _STATE["target"])
+    warn(est, solution.compiled, stacklevel + 1)
+    if isinstance(result, np.ndarray):
+        out = np.array(result).view(EstimatedArray)
+        out.discretisation = est
+        return out
+    return attrs.evolve(result, discretisation=est)
+
+
+def relative_worst(result) -> float:
+    """The largest estimated relative error a result carries (NaN: none available)."""
+    est = getattr(result, "discretisation", None)
+    if not isinstance(est, Estimate) or not est.available:
+        return math.nan
+    return est.worst[1]
+
+
+results.ESTIMATES.update(solve=estimate, property=attach)  # the hooks of Solution and the property functions

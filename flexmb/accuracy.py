@@ -31,6 +31,7 @@ import contextlib
 import copy
 import functools
 import math
+import os
 import threading
 import warnings
 import weakref
@@ -41,7 +42,7 @@ import numpy as np
 from .errors import DiscretisationWarning, FlexmbError, ParameterError
 from .fe.model import State
 from .mechanism import COMPILED_FROM
-from . import results
+from . import _warnings, results
 from .rotations import expm_so3, logm_so3
 
 __all__ = ["Estimate", "DEFAULT_TARGET", "target", "set_target", "estimate", "attach", "check",
@@ -54,7 +55,27 @@ FLOOR = 0.01
 #: The companion's convergence tolerance (`flexmb.solvers.Conventional`'s rtol): its difference to
 #: the result is ~1e-3 relative and wanted to a few per cent of itself
 COMPANION_RTOL = 1e-7
-_STATE = {"target": DEFAULT_TARGET}
+
+
+def _from_environment() -> float | None:
+    """The target from ``$FLEXMB_ACCURACY`` (a relative error, or ``off``), else the default."""
+    text = os.environ.get("FLEXMB_ACCURACY", "").strip().lower()
+    if not text:
+        return DEFAULT_TARGET
+    if text in ("off", "none", "0"):
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0.0 < value < 1.0:
+        warnings.warn(f"FLEXMB_ACCURACY={text!r} is neither a relative error in (0, 1) nor 'off': the target is "
+                      f"{DEFAULT_TARGET}", UserWarning, stacklevel=2)
+        return DEFAULT_TARGET
+    return value
+
+
+_STATE = {"target": _from_environment()}
 _LOCAL = threading.local()  # .off: estimates suspended in this thread (a companion's own properties)
 _WARNED: set = set()
 _COMPANIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # FE model -> (compiled, ratio, note)
@@ -483,20 +504,19 @@ def _mesh_key(compiled) -> tuple:
 
 def warn(est: Estimate, compiled, stacklevel: int = 3) -> None:
     """Warn (`flexmb.DiscretisationWarning`) when ``est`` exceeds its target, once per kind of
-    result and mesh."""
+    result and mesh; every time while the thread records its warnings (a study's design, a
+    sweep's value: `flexmb._warnings.recording`), so each record is the same in any order."""
     if not est.exceeds:
         return
     key = (est.kind, _mesh_key(compiled))
-    if key in _WARNED:
+    if key in _WARNED and _warnings.current() is None:
         return
     _WARNED.add(key)
     name, rel = est.worst
-    warnings.warn(f"{est.kind}: estimated discretisation error {100 * rel:.2g} % ({name}) exceeds the accuracy target "
-                  f"{100 * est.target:g} % on this mesh ({est.elements[0]} beam elements; Richardson pair with "
-                  f"{est.elements[1]}): refine the joints' meshes (their elements / elements_per_leaf), e.g. "
-                  "flexmb.discretisation.refined(mechanism, 2); the result's .discretisation holds the estimate "
-                  "(this warning is shown once per kind of result and mesh)", DiscretisationWarning,
-                  stacklevel=stacklevel)
+    warnings.warn(f"{est.kind}: estimated discretisation error {100 * rel:.2g} % ({name}) above the "
+                  f"{100 * est.target:g} % target on this mesh ({est.elements[0]} beam elements, against "
+                  f"{est.elements[1]}): refine the joints (elements, elements_per_leaf); .discretisation holds the "
+                  "estimate; shown once per kind of result and mesh", DiscretisationWarning, stacklevel=stacklevel)
 
 
 def check(solution, stacklevel: int = 3) -> None:

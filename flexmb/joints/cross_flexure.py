@@ -55,8 +55,8 @@ class CrossFlexure(MaterialJoint):
         32/64/128 el./leaf, ``benchmarks/bench_accuracy.py``, ``bench_discretisation.py``): a 3D
         pivot turned 15 deg under an axial load at a quarter of its buckling load: buckling
         multiplier +3.3 / +0.82 / +0.57 %, first frequency +1.1 / +0.29 / +0.20 % at 10 / 20 / 24
-        el./leaf; Table 1's pivot at 20 deg: buckling +3.2 / +0.56 %, centre shift +0.50 /
-        +0.09 % at 10 / 24. Table 1 and the four-bar of the paper use 1-5 (`flexmb.models`
+        el./leaf; Table 1's pivot at 20 deg: buckling +3.2 / +1.25 / +0.31 %, centre shift +0.50 /
+        +0.20 / +0.05 % at 10 / 16 / 32. Table 1 and the four-bar of the paper use 1-5 (`flexmb.models`
         states them); the shipped database holds 1-5, 10 and 24. The estimate every result
         carries (``.discretisation``) says how far another mesh is off.
     gap

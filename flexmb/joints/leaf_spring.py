@@ -42,7 +42,7 @@ class LeafSpring(MaterialJoint):
         from 32/64/128 or 16/32/64 elements; ``benchmarks/bench_accuracy.py``,
         ``bench_discretisation.py``): at 12 / 24 elements the support stiffness of a
         double-parallelogram stage at full stroke +1.1 / +0.28 %, a chevron bistable's snap force
-        +0.98 / +0.27 %, a parallel guide's buckling multiplier +2.3 / +0.57 %, its parasitic
+        +0.62 / +0.16 %, a parallel guide's buckling multiplier +2.3 / +0.57 %, its parasitic
         drop +0.58 / +0.15 %. The estimate every result carries (``.discretisation``) says how
         far another mesh is off.
     section

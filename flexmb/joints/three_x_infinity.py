@@ -72,9 +72,10 @@ class ThreeXInfinity(MaterialJoint):
         Beam elements per leaf, 1 or more (24: 216 flexible elements for 3 stages; the accuracy
         target of 1 %, `flexmb.accuracy`). Measured (turned 45 deg under a 10 N axial load,
         converged-mesh reference by Richardson from 16/32/64 el./leaf,
-        ``benchmarks/bench_discretisation.py``): buckling multiplier +26 / +3.4 / +0.84 %, axial
-        support stiffness +10.4 / +0.64 / +0.16 %, drift of node B off the axis +5.6 / +0.35 /
-        +0.09 % at 3 / 12 / 24 el./leaf. The manipulator of the paper (`flexmb.models.manipulator`)
+        ``benchmarks/bench_discretisation.py``): buckling multiplier +26 / +3.4 / +1.9 / +0.50 %,
+        axial support stiffness +10.4 / +0.64 / +0.36 / +0.09 %, drift of node B off the axis
+        +5.6 / +0.35 / +0.20 / +0.05 % at 3 / 12 / 16 / 32 el./leaf (24: about +0.85, +0.16,
+        +0.09 %, order 2). The manipulator of the paper (`flexmb.models.manipulator`)
         keeps 3, the mesh of the shipped database's EOB table; the database holds 3 and 24
         (KSD on another mesh needs ``flexmb train three_x_infinity --elements N``).
 

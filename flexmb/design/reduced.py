@@ -39,7 +39,8 @@ class ReducedSensitivity:
         if bad:
             listed = ", ".join(f"{name!r} ({kind})" for name, kind in bad)
             raise UnsupportedStrategyError(
-                f"design gradients with KSD-reduced are available with respect to loads only; the parameters "
+                f"design gradients with KSD-reduced (method {solution.method!r}) are available with respect to loads only; "
+                "the parameters "
                 f"{listed} change the joints' database entries, frames or near configurations (KSD steps 1-2): solve "
                 "with method='ksd-full' (the full equilibrium from the KSD start, with every parameter's gradient)")
         self.solution, self.rates = solution, rates
@@ -58,9 +59,10 @@ class ReducedSensitivity:
     def check_response(self, response) -> None:
         """Refuse a response whose KSD-reduced value is not a function of the links' DOFs alone."""
         if type(response).__name__ not in RESPONSES:
+            method = self.solution.method
             raise UnsupportedStrategyError(
-                f"{response.name} cannot be differentiated with KSD-reduced (its value comes from the joints' "
-                "condensed EOB models, which the design parameters' gradient does not follow): solve with "
+                f"{response.name} cannot be differentiated with KSD-reduced (method {method!r}: its value comes from the "
+                "joints' condensed EOB models, which the design parameters' gradient does not follow): solve with "
                 "method='ksd-full'; with KSD-reduced: reactions, displacements, positions, rotations and the mass")
 
     def row(self, dof: int) -> np.ndarray:

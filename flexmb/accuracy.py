@@ -254,6 +254,9 @@ def _companion(compiled):
 
 
 def _build_companion(compiled):
+    if getattr(compiled, "joint_points", None):
+        return None, 2.0, ("points inside a joint (Mechanism.add_joint_point) sit on nodes of the given mesh: no "
+                           "companion mesh is built for them; flexmb.discretisation_error estimates any quantity")
     ref = COMPILED_FROM.get(compiled.problem.model)
     mechanism = ref() if ref is not None else None
     if mechanism is None:

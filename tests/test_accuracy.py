@@ -63,9 +63,9 @@ def test_the_defaults_give_what_a_designer_reads_within_1_percent(case):
 
 @pytest.mark.slow
 def test_the_default_bistable_snaps_within_1_percent():
-    """The chevron bistable's snap force (the first critical point of its force-controlled path,
-    a limit point: `flexmb.trace`; `Path.snap` was not on main yet) within 1 % of the converged
-    mesh; the former default (12 el.) was 0.62 % off."""
+    """The chevron bistable's snap force (`flexmb.Path.snap` of its force-controlled path traced
+    by `flexmb.trace`: a limit point) within 1 % of the converged mesh; the former default (12
+    el.) was 0.62 % off."""
     force, kind = cases.snap_force(cases.bistable())
     assert kind == "limit"
     assert force == pytest.approx(REFERENCES["bistable"]["snap_force"], rel=0.01)

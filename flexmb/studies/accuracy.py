@@ -10,7 +10,7 @@ benchmarks/bench_accuracy.py times them.
 3. `pivot`: a 3D cross flexure (SI) turned 15 deg carrying a 0.3 kg block under an axial load of a
    quarter of its buckling load; the first three frequencies and the buckling multiplier.
 4. `bistable`: a chevron of two inclined leaves (mm, N, MPa) whose shuttle is guided across; the
-   snap force, the first critical point of the force-controlled path (a limit point).
+   snap force, the first instability of the force-controlled path (`flexmb.Path.snap`: a limit point).
 """
 
 from __future__ import annotations
@@ -119,14 +119,14 @@ def bistable(n: int | None = None, force: float = 40.0) -> Mechanism:
 
 
 def snap_force(mechanism, force: float = 40.0) -> tuple[float, str]:
-    """The force [N] at the first critical point of the path of ``mechanism`` (a `bistable` under
-    ``force``) traced by `flexmb.trace` until the shuttle has crossed the anchors' line, and that
-    point's kind (``"limit"``: the snap-through under force control)."""
+    """The snap force [N] of ``mechanism`` (a `bistable` under ``force``): its path's first
+    instability (`flexmb.Path.snap`, traced by `flexmb.trace` until the shuttle has crossed the
+    anchors' line) times ``force``, and that point's kind (``"limit"``: the snap-through)."""
     rise = mechanism.links["shuttle"].position[1]
     path = trace(mechanism, steps=300, arc_length=0.05, progress=False,
                  stop=lambda s: -s.displacement("shuttle")[1] > 1.2 * rise)
-    first = path.critical[0]
-    return float(first.load_factor * force), first.kind
+    snap = path.snap
+    return float(snap.load_factor * force), snap.kind
 
 
 #: case -> (builder, quantities of a solution) for the solved cases (the bistable is traced)

@@ -45,8 +45,8 @@ from .mechanism import COMPILED_FROM
 from . import _warnings, results
 from .rotations import expm_so3, logm_so3
 
-__all__ = ["Estimate", "DEFAULT_TARGET", "target", "set_target", "estimate", "attach", "check",
-           "companion_solution", "transfer", "reset_warnings", "off"]
+__all__ = ["Estimate", "Deferred", "DEFAULT_TARGET", "target", "set_target", "estimate", "attach", "check",
+           "companion_solution", "full_solution", "critical_estimate", "prepare", "transfer", "reset_warnings", "off"]
 
 #: The accuracy target: the largest relative discretisation error a result may carry unwarned.
 DEFAULT_TARGET = 0.01
@@ -81,6 +81,7 @@ _WARNED: set = set()
 _COMPANIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # FE model -> (compiled, ratio, note)
 _SOLVED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Solution -> (companion Solution | None, note)
 _ESTIMATES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Solution -> its Estimate
+_FULL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # KSD-reduced Solution -> (full Solution | None, note)
 
 
 def target() -> float | None:
@@ -143,6 +144,10 @@ class Estimate:
         The accuracy target when estimated.
     note
         Why no estimate is available (then ``names`` is empty), or "".
+    basis
+        What the pair was solved as when it is not the result itself, or "": a KSD-reduced
+        result's is the full model's equilibrium on the result's own mesh (its discretisation
+        error; the reduction's own is KSD's error estimate).
     """
 
     kind: str
@@ -154,6 +159,7 @@ class Estimate:
     elements: tuple = (0, 0)
     target: float = DEFAULT_TARGET
     note: str = ""
+    basis: str = ""
 
     @property
     def available(self) -> bool:
@@ -216,8 +222,10 @@ class Estimate:
         if not self.available:
             return f"Estimate({self.kind}: not available: {self.note})"
         name, rel = self.worst
+        basis = f"; {self.basis}" if self.basis else ""
         return (f"Estimate({self.kind}: largest {100 * rel:.2g} % ({name}), {len(self.names)} quantities, "
-                f"elements {self.elements[0]} vs {self.elements[1]} on the companion, target {100 * self.target:g} %)")
+                f"elements {self.elements[0]} vs {self.elements[1]} on the companion, target {100 * self.target:g} %"
+                f"{basis})")
 
 
 def _unavailable(kind: str, note: str) -> Estimate:
@@ -384,13 +392,53 @@ def _prescribed_totals(problem, state) -> np.ndarray:
     return out
 
 
+#: What a KSD-reduced result's pair is solved as (`Estimate.basis`).
+REDUCED_BASIS = ("the full model's equilibrium on this mesh, converged from the KSD-reduced state (KSD-full's answer): "
+                 "the mesh's error; KSD-reduced's own is KSD's error estimate")
+
+
+def full_solution(solution):
+    """``(Solution or None, note)``: ``solution`` when it is the full model's equilibrium, else (a
+    KSD-reduced solution) the full model's equilibrium on the same mesh converged by Newton from
+    its state (as KSD-full's step 5), computed once per solution."""
+    if type(solution).full_equilibrium:
+        return solution, ""
+    kept = _FULL.get(solution)
+    if kept is None:
+        kept = _solve_full(solution)
+        _FULL[solution] = kept
+    return kept
+
+
+def _solve_full(solution):
+    from .solvers.conventional import Conventional
+
+    if not solution.converged:
+        return None, "the solve did not converge"
+    compiled = solution.compiled
+    if not hasattr(getattr(compiled.problem, "model", None), "elements"):
+        return None, "a closed-form model has no mesh (no discretisation error)"
+    state = solution.state
+    try:
+        with off(), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            full = Conventional(rtol=COMPANION_RTOL).solve(
+                attrs.evolve(compiled, problem=compiled.problem.continued_from(state)), state=state)
+    except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
+        return None, f"the full model's solve from the reduced state failed: {exc}"
+    if not full.converged:
+        return None, f"the full model did not converge from the reduced state: {full.message}"
+    return full, ""
+
+
 def companion_solution(solution):
     """``(companion Solution or None, ratio, note)``: ``solution``'s equilibrium on the companion
-    mesh (module notes), computed once per solution."""
+    mesh (module notes; a KSD-reduced solution's: that of `full_solution`), computed once per solution."""
     kept = _SOLVED.get(solution)
     if kept is not None:
         return kept
-    kept = _solve_companion(solution)
+    full, note = full_solution(solution)
+    kept = (None, 2.0, note) if full is None else _solve_companion(full)
     _SOLVED[solution] = kept
     return kept
 
@@ -400,9 +448,6 @@ def _solve_companion(solution):
 
     if not solution.converged:
         return None, 2.0, "the solve did not converge"
-    if not type(solution).full_equilibrium:
-        return None, 2.0, ("a KSD-reduced solution is not the full model's equilibrium (its error is the "
-                           "reduction's as well as the mesh's): solve with method='ksd-full' or 'conventional'")
     compiled = solution.compiled
     if not hasattr(getattr(compiled.problem, "model", None), "elements"):
         return None, 2.0, "a closed-form model has no mesh (no discretisation error)"
@@ -489,14 +534,18 @@ def estimate(solution) -> Estimate:
     if comp is None:
         out = _unavailable("solve", note)
     else:
-        L = float(solution.compiled.problem.model_length)  # one length for both meshes
-        names, q, kinds = _solve_quantities(solution, L)
+        full = full_solution(solution)[0]
+        L = float(full.compiled.problem.model_length)  # one length for both meshes
+        names, q, kinds = _solve_quantities(full, L)
         _, qc, _ = _solve_quantities(comp, L)
-        force = float(getattr(solution.compiled.problem, "force_scale", 0.0) or 0.0)
+        force = float(getattr(full.compiled.problem, "force_scale", 0.0) or 0.0)
         least = {0: 1e-6 * force, 2: 1e-9 * L}  # below: round-off (an undeformed state's reactions)
         out = Estimate("solve", tuple(names), q, qc, ratio, _scales(q, kinds, least),
-                       (_elements(solution.compiled), _elements(comp.compiled)), _STATE["target"])
+                       (_elements(full.compiled), _elements(comp.compiled)), _STATE["target"],
+                       basis="" if full is solution else REDUCED_BASIS)
     _ESTIMATES[solution] = out
+    if full_solution(solution)[0] is not solution:  # estimated on request (solve does not): warn here
+        warn(out, solution.compiled, stacklevel=4)
     return out
 
 
@@ -522,14 +571,132 @@ def warn(est: Estimate, compiled, stacklevel: int = 3) -> None:
                   "estimate; shown once per kind of result and mesh", DiscretisationWarning, stacklevel=stacklevel)
 
 
+def prepare(compiled) -> None:
+    """Build the companion mesh of ``compiled`` now (a compile, no solve) for an estimate made
+    later on request (a KSD-reduced solution's, a path's critical point's): the mechanism it is
+    built from may be gone by then."""
+    if _active() and hasattr(getattr(compiled.problem, "model", None), "elements"):
+        _companion(compiled)
+
+
 def check(solution, stacklevel: int = 3) -> None:
     """Estimate ``solution``'s error now (when the estimates are on) and warn if it exceeds the
     target: what `flexmb.solve` does with every converged finite-element solution."""
     if not _active() or not solution.converged or not hasattr(getattr(solution.compiled.problem, "model", None),
                                                                "elements"):
         return
+    if not type(solution).full_equilibrium:  # KSD-reduced: its estimate costs a KSD-full solve; on request
+        prepare(solution.compiled)
+        return
     est = estimate(solution)
     warn(est, solution.compiled, stacklevel + 1)
+
+
+# -- a path's critical point -------------------------------------------------------------------------
+
+#: Arc-length steps the companion path may take from the point before the critical point to meet it.
+CRITICAL_STEPS = 40
+#: Earlier points of the path tried as the companion path's start when the one before the critical
+#: point has no equilibrium on the companion mesh at its load factor (the companion's limit lies below it).
+CRITICAL_STARTS = 4
+
+
+def critical_estimate(critical, tracer) -> Estimate:
+    """The estimated discretisation error of a critical point of a `flexmb.trace` path (`flexmb.Path.snap`):
+    its load factor and its solution's reactions and displacements (`estimate`'s), against the
+    same critical point on the companion mesh, traced there from the path's point before it
+    (carried onto the companion by `transfer`, converged at its load factor, then followed by the
+    path's own arc-length control until the first critical point). Computed once per critical
+    point; warns once per mesh when above the target."""
+    kept = _ESTIMATES.get(critical)
+    if kept is not None:
+        return kept
+    if _STATE["target"] is None:
+        return _unavailable("critical", "estimates are off (flexmb.accuracy.set_target(None))")
+    comp, ratio, note = _companion_critical(critical, tracer)
+    if comp is None:
+        out = _unavailable("critical", note)
+    else:
+        full = critical.solution
+        L = float(full.compiled.problem.model_length)
+        names, q, kinds = _solve_quantities(full, L)
+        _, qc, _ = _solve_quantities(comp, L)
+        force = float(getattr(full.compiled.problem, "force_scale", 0.0) or 0.0)
+        least = {0: 1e-6 * force, 2: 1e-9 * L}
+        names, kinds = ["load factor"] + names, np.concatenate([[3], kinds])
+        q, qc = np.concatenate([[critical.load_factor], q]), np.concatenate([[comp.load_factor], qc])
+        out = Estimate("critical", tuple(names), q, qc, ratio, _scales(q, kinds, least),
+                       (_elements(full.compiled), _elements(comp.compiled)), _STATE["target"])
+    _ESTIMATES[critical] = out
+    if _active():
+        warn(out, critical.solution.compiled, stacklevel=4)
+    return out
+
+
+def _companion_critical(critical, tracer):
+    """``(Solution at the companion's critical point or None, ratio, note)`` (`critical_estimate`)."""
+    if tracer is None:
+        return None, 2.0, "the path this critical point was located on is not known (a critical point made by hand)"
+    if getattr(tracer.problem, "_offset", None) is not None:
+        return None, 2.0, ("a path traced from a start solution (trace(start=...)): its companion path is not "
+                           "estimated; flexmb.discretisation_error estimates any quantity")
+    base, ratio, note = _companion(tracer.compiled)
+    if base is None:
+        return None, ratio, note
+    arcs = np.array([p.arc for p in tracer.points])
+    before = np.flatnonzero(arcs < critical.arc_length)
+    if not len(before):
+        return None, ratio, "no point of the path before the critical point"
+    metric = attrs.evolve(tracer.metric, model=base.problem.model)  # the path's metric on the companion's DOFs
+    note = "the companion mesh had no equilibrium at the load factors of the points before the critical point"
+    for k in before[::-1][:CRITICAL_STARTS]:
+        start = _companion_start(tracer, base, metric, tracer.points[k])
+        if start is None:
+            continue
+        ds = float(arcs[k + 1] - arcs[k]) if k + 1 < len(arcs) else critical.arc_length - arcs[k]
+        p, note = _follow_to_critical(tracer.strategy, base.problem, metric, start, ds, critical)
+        if p is not None:
+            sol = tracer.solution(p, f"{critical.kind} point on the companion mesh at load factor {p.lam:.10g}")
+            return attrs.evolve(sol, compiled=base), ratio, ""
+    return None, ratio, note
+
+
+def _companion_start(tracer, base, metric, point):
+    """The path's ``point`` carried onto the companion mesh and converged there at its load factor
+    (None: no equilibrium there), running the path's way (its ``dlam/ds`` sign)."""
+    from .solvers.arclength import PathPoint
+
+    state = transfer(point.state, tracer.compiled, base)
+    n = base.problem.model.n_dofs
+    guess = PathPoint(state, point.lam, np.zeros(n), np.zeros(n), 1.0, 1.0, 0, np.zeros(0), 1.0, point.arc, 0)
+    with off(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = tracer.strategy.step(base.problem, metric, guess, 0.0, fix_lam=point.lam)
+    if a is None or a.tangent_lam == 0.0:
+        return None
+    way = 1.0 if point.dlam_ds >= 0.0 else -1.0
+    direction = way if a.tangent_lam > 0 else -way
+    return attrs.evolve(a, direction=direction, dlam_ds=direction * a.tangent_lam, arc=point.arc)
+
+
+def _follow_to_critical(strategy, problem, metric, start, ds: float, critical):
+    """The first critical point of the companion path from ``start`` (within `CRITICAL_STEPS`), or
+    None and why; one of another kind than ``critical``'s is refused."""
+    steps = 0
+    with off(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for event in strategy.follow(problem, metric, start, ds, "primary"):
+            if event[0] == "stuck":
+                return None, f"the companion path stopped: {event[1]}"
+            if event[0] == "critical":
+                if event[1] != critical.kind:
+                    return None, (f"the companion path meets a {event[1]} point first, not a {critical.kind} point: "
+                                  "the critical point is not resolved by both meshes")
+                return event[2], ""
+            steps += 1
+            if steps >= CRITICAL_STEPS:
+                break
+    return None, f"the companion path met no critical point within {CRITICAL_STEPS} steps"
 
 
 # -- the properties ---------------------------------------------------------------------------------
@@ -584,26 +751,11 @@ def attach(kind: str, result, solution, again, stacklevel: int = 3):
     objects with a ``discretisation`` field evolved; a warning when the estimate exceeds the target."""
     if not _active() or solution is None or not getattr(solution, "converged", False):
         return result
-    comp, ratio, note = companion_solution(solution)
-    if comp is None:
-        est = _unavailable(kind, note)
-    else:
-        try:
-            with off(), warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                other = again(comp)
-        except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
-            est = _unavailable(kind, f"the property failed on the companion mesh: {exc}")
-        else:
-            names, q, scale = _QUANTITIES[kind](result)
-            _, qc, _ = _QUANTITIES[kind](other)
-            if len(qc) != len(q):
-                est = _unavailable(kind, "the companion mesh gave another number of values")
-            else:
-                scale = _scales(q, least={0: 0.0}) if scale is None else np.where(scale > 0, scale, np.nan)
-                est = Estimate(kind, tuple(names), q, qc, ratio, scale,
-                               (_elements(solution.compiled), _elements(comp.compiled)), _STATE["target"])
-    warn(est, solution.compiled, stacklevel + 1)
+    if type(solution).full_equilibrium:
+        est = _property_estimate(kind, result, solution, again)
+        warn(est, solution.compiled, stacklevel + 1)
+    else:  # KSD-reduced: the pair costs a KSD-full solve and the companion's; estimated on first use
+        est = Deferred(functools.partial(_deferred_property, kind, result, solution, again))
     if isinstance(result, np.ndarray):
         out = np.array(result).view(EstimatedArray)
         out.discretisation = est
@@ -611,9 +763,72 @@ def attach(kind: str, result, solution, again, stacklevel: int = 3):
     return attrs.evolve(result, discretisation=est)
 
 
+class Deferred:
+    """An `Estimate` computed on first use (any attribute, an item, repr), then kept: a
+    KSD-reduced result's (its pair costs a KSD-full solve and the companion's; `full_solution`).
+    Pickled as the estimate it resolves to."""
+
+    def __init__(self, compute):
+        self._compute, self._value = compute, None
+
+    def resolve(self) -> Estimate:
+        """The estimate (computed now if it was not)."""
+        if self._value is None:
+            self._value, self._compute = self._compute(), None
+        return self._value
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self.resolve(), name)
+
+    def __getitem__(self, name: str) -> dict:
+        return self.resolve()[name]
+
+    def __repr__(self) -> str:
+        return repr(self.resolve())
+
+    def __reduce__(self):
+        return _resolved, (self.resolve(),)
+
+
+def _resolved(est: Estimate) -> Estimate:
+    return est
+
+
+def _deferred_property(kind: str, result, solution, again) -> Estimate:
+    est = _property_estimate(kind, result, solution, again)
+    warn(est, solution.compiled, stacklevel=5)
+    return est
+
+
+def _property_estimate(kind: str, result, solution, again) -> Estimate:
+    """The `Estimate` of ``result`` (`attach`); a KSD-reduced solution's pair is the property on
+    the full model's equilibrium on its mesh and on the companion mesh (`full_solution`)."""
+    comp, ratio, note = companion_solution(solution)
+    if comp is None:
+        return _unavailable(kind, note)
+    full = full_solution(solution)[0]
+    try:
+        with off(), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            other = again(comp)
+            fine = result if full is solution else again(full)
+    except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
+        return _unavailable(kind, f"the property failed on the companion mesh: {exc}")
+    names, q, scale = _QUANTITIES[kind](fine)
+    _, qc, _ = _QUANTITIES[kind](other)
+    if len(qc) != len(q):
+        return _unavailable(kind, "the companion mesh gave another number of values")
+    scale = _scales(q, least={0: 0.0}) if scale is None else np.where(scale > 0, scale, np.nan)
+    return Estimate(kind, tuple(names), q, qc, ratio, scale, (_elements(full.compiled), _elements(comp.compiled)),
+                    _STATE["target"], basis="" if full is solution else REDUCED_BASIS)
+
+
 def relative_worst(result) -> float:
     """The largest estimated relative error a result carries (NaN: none available)."""
     est = getattr(result, "discretisation", None)
+    est = est.resolve() if isinstance(est, Deferred) else est
     if not isinstance(est, Estimate) or not est.available:
         return math.nan
     return est.worst[1]

@@ -118,6 +118,16 @@ def off():
         _LOCAL.off = before
 
 
+@contextlib.contextmanager
+def quiet():
+    """Context manager: no estimates and no warnings from this thread inside (the companion's own
+    solves and properties): its warnings are recorded and dropped (`flexmb._warnings.recording`,
+    which other threads' warnings pass by; `warnings.catch_warnings` would swap the process's
+    warning state and silence a dask worker's other thread)."""
+    with off(), _warnings.recording():
+        yield
+
+
 def _active() -> bool:
     return _STATE["target"] is not None and not getattr(_LOCAL, "off", False)
 
@@ -286,8 +296,7 @@ def _build_companion(compiled):
             joint = attrs.evolve(joint, **{param: n // 2 if coarse else 2 * n})
         data["joint"], data["placement"] = joint, placement
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        with quiet():
             comp = out.compile("fe_model")
     except FlexmbError as exc:
         return None, ratio, f"the companion mesh could not be built: {exc}"
@@ -420,8 +429,7 @@ def _solve_full(solution):
         return None, "a closed-form model has no mesh (no discretisation error)"
     state = solution.state
     try:
-        with off(), warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        with quiet():
             full = Conventional(rtol=COMPANION_RTOL).solve(
                 attrs.evolve(compiled, problem=compiled.problem.continued_from(state)), state=state)
     except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
@@ -458,8 +466,7 @@ def _solve_companion(solution):
     start = transfer(solution.state, compiled, base)
     problem = base.problem.with_loads(fine.loads).with_motion(_prescribed_totals(fine, solution.state))
     try:
-        with off(), warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        with quiet():
             comp = Conventional(rtol=COMPANION_RTOL).solve(attrs.evolve(base, problem=problem.continued_from(start)),
                                                            state=start)
     except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
@@ -669,8 +676,7 @@ def _companion_start(tracer, base, metric, point):
     state = transfer(point.state, tracer.compiled, base)
     n = base.problem.model.n_dofs
     guess = PathPoint(state, point.lam, np.zeros(n), np.zeros(n), 1.0, 1.0, 0, np.zeros(0), 1.0, point.arc, 0)
-    with off(), warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with quiet():
         a = tracer.strategy.step(base.problem, metric, guess, 0.0, fix_lam=point.lam)
     if a is None or a.tangent_lam == 0.0:
         return None
@@ -683,8 +689,7 @@ def _follow_to_critical(strategy, problem, metric, start, ds: float, critical):
     """The first critical point of the companion path from ``start`` (within `CRITICAL_STEPS`), or
     None and why; one of another kind than ``critical``'s is refused."""
     steps = 0
-    with off(), warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with quiet():
         for event in strategy.follow(problem, metric, start, ds, "primary"):
             if event[0] == "stuck":
                 return None, f"the companion path stopped: {event[1]}"
@@ -810,8 +815,7 @@ def _property_estimate(kind: str, result, solution, again) -> Estimate:
         return _unavailable(kind, note)
     full = full_solution(solution)[0]
     try:
-        with off(), warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        with quiet():
             other = again(comp)
             fine = result if full is solution else again(full)
     except (FlexmbError, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:

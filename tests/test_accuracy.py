@@ -73,14 +73,6 @@ def test_the_default_bistable_snaps_within_1_percent():
 
 # -- the estimates -----------------------------------------------------------------------------
 
-def _snap(n):
-    m = cases.bistable(n)
-    rise = m.links["shuttle"].position[1]
-    path = flexmb.trace(m, steps=300, arc_length=0.05, progress=False,
-                        stop=lambda s: -s.displacement("shuttle")[1] > 1.2 * rise)
-    return path.snap
-
-
 def test_the_snap_load_carries_its_estimate():
     """`flexmb.Path.snap`'s load factor (and its reactions, displacements) carries its estimate:
     the same limit point traced on the companion mesh from the path's point before it. On the
@@ -92,7 +84,7 @@ def test_the_snap_load_carries_its_estimate():
     ref = REFERENCES["bistable"]["snap_force"] / 40.0  # the load factor of the 40 N reference force
     with warnings.catch_warnings(record=True) as records:
         warnings.simplefilter("always")
-        coarse = _snap(8)
+        coarse = cases.snap(cases.bistable(8))
         assert not _no_discretisation_warning(records)  # estimated on request: the trace costs nothing more
         est = coarse.discretisation
         assert coarse.discretisation is est
@@ -104,7 +96,7 @@ def test_the_snap_load_carries_its_estimate():
     assert est.elements == (16, 8)
     with warnings.catch_warnings(record=True) as records:
         warnings.simplefilter("always")
-        snap = _snap(None)
+        snap = cases.snap(cases.bistable())
         est = snap.discretisation
     assert not _no_discretisation_warning(records) and not est.exceeds
     assert est["load factor"]["error"] == pytest.approx(snap.load_factor - ref, rel=0.05)

@@ -27,7 +27,7 @@ from ..modal import modes
 from ..path import trace
 
 __all__ = ["parallel_guide", "guide_quantities", "stage", "stage_quantities", "pivot", "pivot_quantities",
-           "bistable", "snap_force", "CASES", "STEEL_MM"]
+           "bistable", "snap", "snap_force", "CASES", "STEEL_MM"]
 
 #: Steel in mm, N, MPa, tonne/mm^3.
 STEEL_MM = {"E": 210000.0, "G": 80769.0, "density": 7.85e-9}
@@ -118,15 +118,21 @@ def bistable(n: int | None = None, force: float = 40.0) -> Mechanism:
     return m
 
 
-def snap_force(mechanism, force: float = 40.0) -> tuple[float, str]:
-    """The snap force [N] of ``mechanism`` (a `bistable` under ``force``): its path's first
-    instability (`flexmb.Path.snap`, traced by `flexmb.trace` until the shuttle has crossed the
-    anchors' line) times ``force``, and that point's kind (``"limit"``: the snap-through)."""
+def snap(mechanism):
+    """The first instability (`flexmb.Path.snap`, a `flexmb.Critical`) of ``mechanism`` (a
+    `bistable`), its path traced by `flexmb.trace` until the shuttle has crossed the anchors' line;
+    its ``discretisation`` is the estimate of the snap load factor's mesh error."""
     rise = mechanism.links["shuttle"].position[1]
     path = trace(mechanism, steps=300, arc_length=0.05, progress=False,
                  stop=lambda s: -s.displacement("shuttle")[1] > 1.2 * rise)
-    snap = path.snap
-    return float(snap.load_factor * force), snap.kind
+    return path.snap
+
+
+def snap_force(mechanism, force: float = 40.0) -> tuple[float, str]:
+    """The snap force [N] of ``mechanism`` (a `bistable` under ``force``): its `snap` load factor
+    times ``force``, and that point's kind (``"limit"``: the snap-through)."""
+    point = snap(mechanism)
+    return float(point.load_factor * force), point.kind
 
 
 #: case -> (builder, quantities of a solution) for the solved cases (the bistable is traced)

@@ -1,9 +1,10 @@
 """flexmb: fast kinetostatics of flexure-based (compliant) mechanisms."""
 
-from . import export, models, plot, study, testing
+from . import accuracy, export, models, plot, study, testing
 from .errors import (
     ConvergenceError,
     ConvergenceWarning,
+    DiscretisationWarning,
     ExtrapolationWarning,
     PlausibilityWarning,
     DatabaseError,
@@ -41,12 +42,14 @@ from ._warnings import renamed as _renamed
 
 
 __all__ = [
+    "accuracy",
     "design",
     "responses",
     "value_and_grad",
     "optimize",
     "ConvergenceError",
     "ConvergenceWarning",
+    "DiscretisationWarning",
     "ExtrapolationWarning",
     "PlausibilityWarning",
     "Critical",

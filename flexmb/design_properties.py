@@ -60,11 +60,14 @@ def _entries(spec, compiled, dim):
 def _row(sol, which, n_modes, held, n_buckling, entries, axes, concentration, limit):
     """The property columns of one converged solution, as a dict of floats."""
     out = {}
+    worst = []  # the properties' largest estimated discretisation errors (flexmb.accuracy)
     if "modes" in which:
-        f = modes(sol, n_modes=n_modes, held=held).frequencies
-        out.update({f"f{k + 1}": float(x) for k, x in enumerate(f)})
+        md = modes(sol, n_modes=n_modes, held=held)
+        worst.append(_worst(md))
+        out.update({f"f{k + 1}": float(x) for k, x in enumerate(md.frequencies)})
     if "buckling" in which:
         lam = buckling(sol, n_buckling=n_buckling, held=held)
+        worst.append(_worst(lam))
         out.update({"buckling": float(lam[0])} if n_buckling == 1 else
                    {f"buckling{k + 1}": float(x) for k, x in enumerate(lam)})
     if "compliance" in which:
@@ -73,13 +76,24 @@ def _row(sol, which, n_modes, held, n_buckling, entries, axes, concentration, li
             key = (link, None if point is None else str(point) if isinstance(point, str) else tuple(np.ravel(point)))
             if key not in cache:
                 cache[key] = compliance(sol, link, point, axes=axes, held=held)
+                worst.append(_worst(cache[key]))
             out[label] = float(cache[key][i, j])
     if "stress" in which:
         s = sol.stresses(concentration=concentration, limit=limit)
+        worst.append(_worst(s))
         out.update(s.summary())
         for joint in s.joints:
             out.update({f"{joint}.{k}": v for k, v in s.joint(joint).items()})
+    worst = [w for w in worst if not np.isnan(w)]
+    if worst:
+        out["discretisation"] = max(worst)
     return out
+
+
+def _worst(result) -> float:
+    """The largest relative discretisation error a property result carries (NaN: none)."""
+    est = getattr(result, "discretisation", None)
+    return est.worst[1] if est is not None and getattr(est, "available", False) else np.nan
 
 
 def properties(solutions, which=("modes", "buckling", "stress"), *, n_modes: int = 6, held="prescribed",
@@ -101,7 +115,9 @@ def properties(solutions, which=("modes", "buckling", "stress"), *, n_modes: int
       entry; default the diagonal of every link that is not fixed;
     * ``"stress"``: the peaks ``normal``, ``shear``, ``von_mises`` [Pa] and with a ``limit``
       [Pa] the minimum ``safety``, for the mechanism and per joint (``<joint>.von_mises``, ...)
-      (`flexmb.Solution.stresses` with ``concentration``).
+      (`flexmb.Solution.stresses` with ``concentration``);
+    * ``discretisation``: the largest relative discretisation error the row's properties carry
+      as their estimates (`flexmb.accuracy`; absent when the estimates are off or unavailable).
 
     A solution that did not converge gets NaN properties (its ``converged`` column says so). The
     first converged solution is evaluated strictly: bad arguments raise there. A later one whose

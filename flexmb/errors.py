@@ -14,6 +14,7 @@ __all__ = [
     "DatabaseError",
     "MissingExtraError",
     "ConvergenceWarning",
+    "DiscretisationWarning",
     "PlausibilityWarning",
     "ExtrapolationWarning",
 ]
@@ -76,6 +77,11 @@ class PlausibilityWarning(UserWarning):
     """An input or a converged answer outside what the model represents: strains beyond the
     elastic range of a linear-elastic beam, a stress above the given yield stress, a modulus that
     looks like another unit, a parasitic motion the closed-form model does not have."""
+
+
+class DiscretisationWarning(UserWarning):
+    """A result's estimated discretisation error exceeds the accuracy target (`flexmb.accuracy`):
+    its mesh is too coarse for it; shown once per kind of result and mesh."""
 
 
 class MissingExtraError(FlexmbError, ImportError):

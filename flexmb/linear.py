@@ -101,7 +101,8 @@ def _backward_error(K, x: np.ndarray, b: np.ndarray):
     if not np.all(np.isfinite(x)):
         return None, np.inf
     r = b - K @ x
-    return r, np.abs(r).max() / (np.abs(K.data).max() * np.abs(x).max() + np.abs(b).max())
+    with np.errstate(invalid="ignore", divide="ignore"):  # 0 / 0 (b = x = 0): NaN, silently, as the compiled pass
+        return r, np.abs(r).max() / (np.abs(K.data).max() * np.abs(x).max() + np.abs(b).max())
 
 
 class TangentSolver:

@@ -17,6 +17,7 @@ from ._warnings import renamed_keyword
 from .errors import ModelError, ParameterError
 from .linearisation import DenseFactor, RESIDUAL_MAX, _consistent, linearise, material_tangent  # noqa: F401 (re-exported)
 from .modal import DENSE_BELOW, start_vector
+from .results import estimated
 
 __all__ = ["buckling", "compliance", "material_tangent", "RESIDUAL_MAX"]
 
@@ -29,6 +30,7 @@ def _solve_dense(K: np.ndarray, rhs: np.ndarray, ill_conditioned: str = "warn") 
     return DenseFactor(K, ill_conditioned).solve(rhs)
 
 
+@estimated("buckling")
 def buckling(solution, n_buckling: int = 1, held="prescribed", base=None, *, n: int | None = None) -> np.ndarray:
     """The ``n_buckling`` lowest positive buckling multipliers of the solution's loads and prescribed
     motions, linearised about its deformed state: ``(K_m + lam K_s) phi = 0`` with ``K_m`` the
@@ -107,6 +109,7 @@ def _multipliers(Ks, Km, n: int, nf: int) -> np.ndarray:
     return mu[np.isfinite(mu)]
 
 
+@estimated("compliance")
 def compliance(solution, link: str, point=None, axes: str = "global", held="prescribed") -> np.ndarray:
     """Compliance (6, 6) in 3D, (3, 3) in 2D, of a point of ``link`` at the solution's deformed
     state with the ``held`` DOFs held (as in `flexmb.modes`; default the prescribed ones): the point's displacement and rotation [m, rad] per unit

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 
+import weakref
+
 import attrs
 import networkx as nx
 import numpy as np
@@ -20,6 +22,10 @@ from .registry import joint as make_joint
 from .rotations import expm_so3, rot2
 
 __all__ = ["Link", "Mechanism", "Placement", "Compiled", "BUILDERS"]
+
+#: The mechanism each finite-element model was compiled from, held weakly (`flexmb.accuracy`
+#: builds a result's companion mesh from it)
+COMPILED_FROM: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 # The model builders by the capability a strategy asks for (`Strategy.capability`); each lives
 # beside its model and reads the mechanism's data through its public accessors.
@@ -423,6 +429,8 @@ class Mechanism:
         else:
             mech, where = joint_points.refined(self, points)
             compiled = joint_points.attach(builder(mech), self, where, loads, dict(motions))
+        if hasattr(getattr(compiled.problem, "model", None), "elements"):  # flexmb.accuracy's companion mesh
+            COMPILED_FROM[compiled.problem.model] = weakref.ref(self)
         return compiled if self.units is None else attrs.evolve(compiled, units=self.units)
 
     def __repr__(self) -> str:

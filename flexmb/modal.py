@@ -44,6 +44,7 @@ from .fe.ideal import constrained
 from .ksd.linearisation import KSD_FIXED_INTERFACE_MODES
 from .linearisation import full_tangent, held_dofs, linearise, solvable_problem, stiffness_and_mass
 from .plausibility import check_mass_units
+from .results import estimated
 
 __all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", "solvable_problem", "constrained",
            "KSD_FIXED_INTERFACE_MODES", "DENSE_BELOW",
@@ -114,6 +115,8 @@ class Modes:
     symmetric: bool
     solver: str
     solution: object = attrs.field(default=None, repr=False)
+    #: the frequencies' estimated discretisation error (`flexmb.accuracy.Estimate`), or None
+    discretisation: object = attrs.field(default=None, repr=False)
 
     @property
     def link_shapes(self) -> dict:
@@ -131,7 +134,7 @@ class Modes:
 
     def __reduce__(self):  # pickled with its shapes built (a deferred recovery is a closure)
         return Modes, (self.frequencies, self.eigenvalues, self.shapes, self.link_shapes, self.held, self.symmetric,
-                       self.solver, self.solution)
+                       self.solver, self.solution, self.discretisation)
 
 
 def _dof_name(compiled, dof: int) -> str:
@@ -150,6 +153,7 @@ def _dof_name(compiled, dof: int) -> str:
 _PLAUSIBLE_MASS = weakref.WeakKeyDictionary()  # models whose density fits E and the lengths (check_mass_units)
 
 
+@estimated("modes")
 def modes(solution, n_modes: int = 6, held="prescribed", *, n: int | None = None) -> Modes:
     """The ``n_modes`` lowest undamped natural frequencies [Hz] and mass-normalised mode shapes of a
     converged equilibrium, linearised as the module notes state (dead loads, mass at the deformed

@@ -9,6 +9,7 @@ the branch the device follows (`flexmb.solvers.branching`); the result is an `Eq
 
 from __future__ import annotations
 
+import functools
 import time
 import warnings
 
@@ -17,6 +18,7 @@ import numpy as np
 
 from . import _validate as v
 from ._warnings import renamed
+from . import accuracy
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
 from .linear import single_threaded
 from .plausibility import check
@@ -59,6 +61,19 @@ class Critical:
     switched: bool = False
     _modes: np.ndarray = attrs.field(default=None, repr=False, alias="modes")
     asymmetric: bool = False
+    _tracer: object = attrs.field(default=None, repr=False, alias="tracer")  # the path it was located on
+
+    @property
+    def discretisation(self):
+        """The estimated discretisation error of the load factor, reactions and displacements here
+        (a `flexmb.accuracy.Estimate`, computed on first use: the same critical point on the
+        companion mesh, `flexmb.accuracy.critical_estimate`; a `flexmb.DiscretisationWarning`
+        when above the accuracy target); None when the estimates are off."""
+        return None if accuracy.target() is None else accuracy.critical_estimate(self, self._tracer)
+
+    def __reduce__(self):  # pickled without the path it was located on
+        return functools.partial(Critical, modes=self._modes, asymmetric=self.asymmetric), (
+            self.kind, self.load_factor, self.solution, self.arc_length, self.multiplicity, self.switched)
 
     @property
     def modes(self) -> np.ndarray:
@@ -225,6 +240,7 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
     if arc_length is not None:
         v.positive(owner, "arc_length", arc_length)
     compiled, state = _compiled(owner, mechanism, strategy, start)
+    accuracy.prepare(compiled)  # the companion mesh of its critical points' estimates (on request)
     t0 = time.perf_counter()
     with single_threaded():  # small dense eigenproblems per point: one BLAS thread (flexmb.linear)
         tracer = _follow(strategy, compiled, state, stop, max_load_factor, arc_length, steps, branch, progress,
@@ -455,7 +471,7 @@ class _Tracer:
             text = f"{'asymmetric ' if asymmetric else ''}{kind} point at load factor {p.lam:.10g}" + (
                 "" if multiplicity == 1 else f" (multiplicity {multiplicity})")
             self.critical.append(Critical(kind, float(p.lam), self.solution(p, text), p.arc, multiplicity,
-                                          switched, modes=modes, asymmetric=asymmetric))
+                                          switched, modes=modes, asymmetric=asymmetric, tracer=self))
             self._switched = p if switched else None
             return False
         _, p, ds = event

@@ -2,17 +2,36 @@
 
 from __future__ import annotations
 
+import functools
+from typing import ClassVar
+
 import attrs
 import numpy as np
-
-from typing import ClassVar
 
 from ._validate import frozen
 from .errors import ModelError, UnsupportedStrategyError
 from .fe.model import State
 from .rotations import cross, logm_so3
 
-__all__ = ["Solution"]
+__all__ = ["Solution", "ESTIMATES", "estimated"]
+
+#: The discretisation estimates of results, set by `flexmb.accuracy` (a layer above):
+#: ``"solve"``: solution -> its estimate; ``"property"``: (kind, result, solution, again) -> the
+#: result carrying its estimate (``again(companion)`` evaluates the property on another mesh)
+ESTIMATES: dict = {}
+
+
+def estimated(kind: str):
+    """Decorator of a property function ``f(solution, *args, **kwargs)``: its result carries the
+    estimate of its discretisation error (``result.discretisation``, `flexmb.accuracy`)."""
+    def wrap(func):
+        @functools.wraps(func)
+        def inner(solution, *args, **kwargs):
+            result = func(solution, *args, **kwargs)
+            hook = ESTIMATES.get("property")
+            return result if hook is None else hook(kind, result, solution, lambda s: func(s, *args, **kwargs))
+        return inner
+    return wrap
 
 
 @attrs.frozen(eq=False)
@@ -79,6 +98,15 @@ class Solution:
         from .linearisation import FELinearisation
 
         return FELinearisation(self, held, modal=modal, owner=owner)
+
+    @property
+    def discretisation(self):
+        """The estimated discretisation error of the reactions and displacements (a
+        `flexmb.accuracy.Estimate`, computed on first use; `flexmb.solve` computes it with every
+        converged finite-element solve and warns when it exceeds the accuracy target); None
+        when the estimates are off."""
+        hook = ESTIMATES.get("solve")
+        return None if hook is None else hook(self)
 
     def _element_axial_forces(self):
         """``(elements, N)``: axial forces [N] that replace those the state's positions imply in
@@ -219,8 +247,10 @@ class Solution:
             raise UnsupportedStrategyError(
                 f"stresses need beam elements: this solution comes from method {self.method!r}, whose "
                 "closed-form model has none; solve with method='conventional' for stresses")
-        return element_stresses(model, self.state, self.compiled.joint_elements, concentration, limit,
-                                self._element_axial_forces())
+        out = element_stresses(model, self.state, self.compiled.joint_elements, concentration, limit,
+                               self._element_axial_forces())
+        hook = ESTIMATES.get("property")  # the peaks' discretisation error (flexmb.accuracy)
+        return out if hook is None else hook("stress", out, self, lambda s: s.stresses(concentration, limit))
 
     def strain_energy(self) -> float:
         """Elastic energy stored in all beam elements [J]."""

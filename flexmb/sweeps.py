@@ -10,6 +10,7 @@ import attrs
 import numpy as np
 import scipy.linalg as sla
 
+from . import accuracy
 from . import _validate as v
 from . import _warnings
 from . import jit
@@ -77,6 +78,9 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
         result = SweepResult(done, values[: len(done)], "force" if motion is None else ".".join(motion))
         result.interrupted = len(done) < len(values)
         result.warnings = caught[: len(done)]
+    last = next((s for s in reversed(result.solutions) if s.converged), None)
+    if last is not None:  # the last converged value's discretisation error estimated, a warning above the target
+        accuracy.check(last, stacklevel=2)
     if properties is not None:
         from .design_properties import property_columns
 

@@ -28,7 +28,7 @@ def test_demo_prints_the_table_and_exits_zero(tmp_path, capsys):
 def test_joints_lists_the_shipped_plugins(capsys):
     assert cli.main(["joints"]) == 0
     out = capsys.readouterr().out
-    assert "cross_flexure" in out and "leaf_spring" in out and "elements_per_leaf = 10" in out  # the default
+    assert "cross_flexure" in out and "leaf_spring" in out and "elements_per_leaf = 24" in out  # the default
 
 
 def _watch_clock(monkeypatch, module, name: str, real, size):
@@ -314,20 +314,20 @@ def test_run_prints_the_message_of_sys_exit(tmp_path, capsys):
 
 @pytest.mark.slow  # fast-set budget: >= 0.9 s measured under load
 def test_train_by_default_reproduces_the_shipped_cross_flexure_databases(tmp_path, capsys):
-    """``flexmb train`` trains the shipped meshes, 1-5 and the joint's default 10 el./leaf (its
-    default ``--elements 1..5`` missed the 10 el./leaf files the joint now looks up), in 2D and
+    """``flexmb train`` trains the shipped meshes, 1-5, 10 and the joint's default 24 el./leaf (its
+    default ``--elements 1..5`` missed the 10 el./leaf files the joint looked up), in 2D and
     3D; the fits equal the shipped ones to the training solves' convergence (measured: largest
     coefficient difference 3.6e-11, the 10 el./leaf node angles; each fit's own residual is
     ~1e-4, so 1e-10 is a millionth of it)."""
     import flexmb
     from flexmb import database
 
-    assert cli._shipped_meshes("cross_flexure", {}, 3) == [1, 2, 3, 4, 5, 10]
-    assert cli._shipped_meshes("cross_flexure", {"angle": 0.6}, 2) == [10]  # nothing shipped: the default mesh
-    assert flexmb.CrossFlexure().elements_per_leaf == 10
+    assert cli._shipped_meshes("cross_flexure", {}, 3) == [1, 2, 3, 4, 5, 10, 24]
+    assert cli._shipped_meshes("cross_flexure", {"angle": 0.6}, 2) == [24]  # nothing shipped: the default mesh
+    assert flexmb.CrossFlexure().elements_per_leaf == 24
     assert cli.main(["train", "--out", str(tmp_path)]) == 0
     shipped = sorted(p.name for p in database.data_path().glob("cross_flexure-*.json"))
-    assert sorted(p.name for p in tmp_path.iterdir()) == shipped and len(shipped) == 12
+    assert sorted(p.name for p in tmp_path.iterdir()) == shipped and len(shipped) == 14
     for name in shipped:
         new, old = database.load(tmp_path / name), database.load(database.data_path() / name)
         for fit in [*old.functions, "elements", "nodes"]:
@@ -339,10 +339,10 @@ def test_train_by_default_reproduces_the_shipped_cross_flexure_databases(tmp_pat
 def test_train_a_spatial_joint_by_default_in_3d_only(tmp_path, capsys):
     """``flexmb train three_x_infinity`` failed at once ("dim=2 must be 3": the default ``--dim``
     was 2 and 3 for every joint); now the joint's own dimensions and meshes: the shipped 3 and
-    its default 12 el./leaf."""
+    its default 24 el./leaf."""
     assert cli.main(["train", "three_x_infinity", "--range", "5", "--step", "5", "--out", str(tmp_path)]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        f"three_x_infinity-3d-angle0.785398-elements_per_leaf{n}-length_ratio0.625-stages3.json" for n in (12, 3)]
+        f"three_x_infinity-3d-angle0.785398-elements_per_leaf{n}-length_ratio0.625-stages3.json" for n in (24, 3)]
 
 
 def test_the_training_command_a_missing_database_names_builds_that_database(tmp_path):

@@ -75,7 +75,8 @@ def test_suite_rejects_a_frame_dependent_wrench(monkeypatch):
     1e-6 of the joint's forces, below the kit's solve tolerance (1e-7). The kit's allowance is 1e-7
     plus 10x the residual's roundoff floor, which grows with the elements' stiffness: 1.8e-7 /
     2.3e-7 / 3.6e-7 / 6.3e-7 (the sound element's error: 1.2e-9 at 3, 2.7e-9 at 10 el./leaf). At
-    the default 10 el./leaf the kit rejects the same term 10x stronger (1e4 N/m: 8.4e-7)."""
+    10 el./leaf (the former default, asked for by name since the default became 24) the kit rejects
+    the same term 10x stronger (1e4 N/m: 8.4e-7)."""
     from flexmb.fe import beam3d
 
     def global_term(scale):
@@ -87,8 +88,7 @@ def test_suite_rejects_a_frame_dependent_wrench(monkeypatch):
         return change
 
     place = (np.array([0.2, -0.1, 0.3]), np.array([0.3, 1.0, -0.4]))
-    coarse, default = flexmb.joint("cross_flexure", elements_per_leaf=3), flexmb.joint("cross_flexure")
-    assert default.elements_per_leaf == 10
+    coarse, default = flexmb.joint("cross_flexure", elements_per_leaf=3), flexmb.joint("cross_flexure", elements_per_leaf=10)
     for joint in (coarse, default):
         testing.check_frame_invariance(joint, 3, *place)
     for joint, scale in ((coarse, 1e3), (default, 1e4)):

@@ -78,4 +78,4 @@ def test_table_1_defaults():
     assert j.second_moment == pytest.approx((0.04 + 2 * 0.02) * 1e-9 / 12)  # Eq. (4.4)
     mesh = attrs.evolve(j, elements_per_leaf=3).mesh(3)
     assert len(mesh.elements) == 3 * 3  # three leaves, elements_per_leaf = 3
-    assert j.elements_per_leaf == 10  # flexmb's default mesh, not Table 1's: tests/test_discretisation.py
+    assert j.elements_per_leaf == 24  # flexmb's default mesh, not Table 1's: tests/test_accuracy.py

@@ -373,6 +373,8 @@ class Stresses:
     safety: np.ndarray | None
     limit: np.ndarray | None
     joints: dict
+    #: the peaks' estimated discretisation error (`flexmb.accuracy.Estimate`), or None
+    discretisation: object = attrs.field(default=None, repr=False)
 
     def joint(self, name: str) -> dict:
         """Peaks of one joint: ``{"normal", "shear", "von_mises"[, "safety"]}`` (safety: the minimum)."""

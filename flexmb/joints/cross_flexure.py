@@ -50,14 +50,15 @@ class CrossFlexure(MaterialJoint):
         The material's values one by one (see `flexmb.joints.MaterialJoint`): they complete the
         default material, or replace those of ``material``.
     elements_per_leaf
-        Beam elements per leaf, 1 or more (10). Measured evidence for the default (the pivot
-        turned 20 deg, converged-mesh reference by Richardson from 16/32/64 el./leaf,
-        ``benchmarks/bench_discretisation.py``): centre shift +5.6 / +0.79 / +0.50 % at 3 / 8 /
-        10 el./leaf (the same at 45 and 75 deg), support stiffness +2.2 / +0.16 %, moment +0.72
-        / +0.03 % at 3 / 10; 5 -> 6 Newton iterations per solve of the pivot at 20 deg (the
-        time: BENCHMARKS.md, Cost of the new defaults). Table 1 and the
-        four-bar of the paper use 1-5 (`flexmb.models` states them); the shipped database holds
-        1-5 and 10. `flexmb.discretisation_error` estimates the error of any mesh.
+        Beam elements per leaf, 1 or more (24: the accuracy target of 1 %, `flexmb.accuracy`, met
+        with a margin). Measured (converged-mesh references by Richardson from 16/32/64 or
+        32/64/128 el./leaf, ``benchmarks/bench_accuracy.py``, ``bench_discretisation.py``): a 3D
+        pivot turned 15 deg under an axial load at a quarter of its buckling load: buckling
+        multiplier +3.3 / +0.82 / +0.57 %, first frequency +1.1 / +0.29 / +0.20 % at 10 / 20 / 24
+        el./leaf; Table 1's pivot at 20 deg: buckling +3.2 / +1.25 / +0.31 %, centre shift +0.50 /
+        +0.20 / +0.05 % at 10 / 16 / 32. Table 1 and the four-bar of the paper use 1-5 (`flexmb.models`
+        states them); the shipped database holds 1-5, 10 and 24. The estimate every result
+        carries (``.discretisation``) says how far another mesh is off.
     gap
         Clearance between inner and outer leaves along z [length] (0).
     """
@@ -72,7 +73,7 @@ class CrossFlexure(MaterialJoint):
     thickness: float = 1e-3
     width_inner: float = 0.04
     width_outer: float = 0.02
-    elements_per_leaf: int = 10
+    elements_per_leaf: int = 24
     gap: float = 0.0
 
     def __attrs_post_init__(self):

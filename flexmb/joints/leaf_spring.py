@@ -37,12 +37,14 @@ class LeafSpring(MaterialJoint):
     E, G, nu, density, yield_stress
         The material's values one by one (see `flexmb.joints.MaterialJoint`).
     elements
-        Number of beam elements, 1 or more (12). Measured evidence for the default (a parallel
-        guide of two 0.1 m leaves 1 mm thick pushed 10 mm, converged-mesh reference by
-        Richardson from 16/32/64 elements, ``benchmarks/bench_discretisation.py``): parasitic
-        drop -5.0 / -0.55 %, support stiffness along the leaves +7.4 / +0.5 %, actuation force
-        +0.34 / +0.04 % at 4 / 12 elements; 5 Newton iterations either way (the time: BENCHMARKS.md, Cost of
-        the new defaults).
+        Number of beam elements, 1 or more (24: the accuracy target of 1 %, `flexmb.accuracy`, met
+        with a margin by what a designer reads). Measured (converged-mesh references by Richardson
+        from 32/64/128 or 16/32/64 elements; ``benchmarks/bench_accuracy.py``,
+        ``bench_discretisation.py``): at 12 / 24 elements the support stiffness of a
+        double-parallelogram stage at full stroke +1.1 / +0.28 %, a chevron bistable's snap force
+        +0.62 / +0.16 %, a parallel guide's buckling multiplier +2.3 / +0.57 %, its parasitic
+        drop +0.58 / +0.15 %. The estimate every result carries (``.discretisation``) says how
+        far another mesh is off.
     section
         Optional `Section` that replaces the rectangle (e.g. to switch off shear with ``ky = kz = inf``);
         its own material (``E``, ``G``, ``density``, ``yield_stress``) and sizes then apply: a
@@ -60,7 +62,7 @@ class LeafSpring(MaterialJoint):
     length: float = 0.1
     width: float = 0.02
     thickness: float = 1e-3
-    elements: int = 12
+    elements: int = 24
     section: Section | None = None
     model: str = "partial-nonlinear"
 

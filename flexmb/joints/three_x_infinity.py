@@ -69,13 +69,14 @@ class ThreeXInfinity(MaterialJoint):
     E, G, nu, density, yield_stress
         The material's values one by one (see `flexmb.joints.MaterialJoint`).
     elements_per_leaf
-        Beam elements per leaf, 1 or more (12: 108 flexible elements for 3 stages). Measured
-        evidence for the default (turned 45 deg under a 10 N axial load, converged-mesh
-        reference by Richardson from 8/16/32 el./leaf, ``benchmarks/bench_discretisation.py``):
-        drift of node B off the axis +5.6 / +0.35 %, axial support stiffness +10.4 / +0.64 %,
-        moment +0.13 / +0.01 % at 3 / 12 el./leaf; 7 -> 14 Newton iterations per solve (the
-        time: BENCHMARKS.md, Cost of the new defaults). The manipulator
-        of the paper (`flexmb.models.manipulator`) keeps 3, the mesh of the shipped database
+        Beam elements per leaf, 1 or more (24: 216 flexible elements for 3 stages; the accuracy
+        target of 1 %, `flexmb.accuracy`). Measured (turned 45 deg under a 10 N axial load,
+        converged-mesh reference by Richardson from 16/32/64 el./leaf,
+        ``benchmarks/bench_discretisation.py``): buckling multiplier +26 / +3.4 / +1.9 / +0.50 %,
+        axial support stiffness +10.4 / +0.64 / +0.36 / +0.09 %, drift of node B off the axis
+        +5.6 / +0.35 / +0.20 / +0.05 % at 3 / 12 / 16 / 32 el./leaf (24: about +0.85, +0.16,
+        +0.09 %, order 2). The manipulator of the paper (`flexmb.models.manipulator`)
+        keeps 3, the mesh of the shipped database's EOB table; the database holds 3 and 24
         (KSD on another mesh needs ``flexmb train three_x_infinity --elements N``).
 
     The rigid intermediate bodies carry no mass of their own (only the leaves' ends attached to
@@ -99,7 +100,7 @@ class ThreeXInfinity(MaterialJoint):
     gap: float = 1e-3
     stage_gap: float = 2e-3
     stages: int = 3
-    elements_per_leaf: int = 12
+    elements_per_leaf: int = 24
 
     def __attrs_post_init__(self):
         owner = "three_x_infinity"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .. import accuracy
 from ..compiled import compiled_for
 from ..errors import ModelError, ParameterError, UnsupportedStrategyError
 from ..plausibility import check
@@ -37,6 +38,7 @@ def solve(mechanism, method: str | object = "conventional", **options):
         raise ModelError(f"solve() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
     solution = strategy.solve(compiled_for(mechanism, getattr(strategy, "capability", "fe_model")))
     check(solution)  # a ConvergenceWarning or PlausibilityWarning where the answer misleads
+    accuracy.check(solution)  # its discretisation error estimated; a DiscretisationWarning above the target
     return solution
 
 

@@ -1,4 +1,4 @@
-"""Accuracy by default (issue 30 item 3): every converged finite-element result carries the
+"""Accuracy by default: every converged finite-element result carries the
 estimate of its discretisation error, and one whose estimate exceeds the accuracy target warns,
 once per kind of result and mesh (a loop or a sweep over one mesh warns once).
 

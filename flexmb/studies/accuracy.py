@@ -1,4 +1,4 @@
-"""The designer's quantities of issue 30's "accuracy by default" (item 3) on mechanisms no paper
+"""The designer's quantities of "accuracy by default" (`flexmb.accuracy`) on mechanisms no paper
 holds, each built as a user would, on the joints' default meshes unless ``n`` (elements per
 leaf) is given: tests/test_accuracy.py checks them against converged-mesh references and
 benchmarks/bench_accuracy.py times them.

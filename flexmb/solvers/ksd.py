@@ -33,6 +33,7 @@ from .. import jit
 from ..ksd.geometry import ACTIVE, LinkPoses, compose, rz
 from ..ksd.eob_table import SLACK
 from ..ksd.kinematics import _correction, _gesv, _norm, kinematics_in_range, solve_kinematics
+from ..ksd.provenance import files
 from ..ksd.reduced import ReducedMechanism, kernels, reduced_mechanism, setup_key
 from ..linear import single_threaded
 from ..fe.model import State
@@ -70,7 +71,8 @@ def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool, reached
         for j in idx:
             if not lo - 1e-9 <= theta[j] <= hi + 1e-9:  # 1e-9 rad: the kinematic solve's roundoff
                 trained = f"outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg"
-                head = f"joint {red.joint_names[j]!r} ({tpl.data.kind}): the requested motion ({_requested(red)}) turns it"
+                head = (f"joint {red.joint_names[j]!r} ({tpl.data.kind}, data {tpl.data.path}): the requested motion "
+                        f"({_requested(red)}) turns it")
                 beyond = max(lo - theta[j], theta[j] - hi)  # [rad]: at 2 decimals 45 + 1e-6 rad reads 45.00 deg
                 msg = (f"{head} to {np.degrees(theta[j]):.2f} deg, {beyond:.2g} rad {trained}" if reached >= 1.0 - 1e-14 else
                        f"{head} {trained}: step 1 stopped at {np.degrees(theta[j]):.2f} deg, {100 * reached:.3g} % of "
@@ -112,7 +114,8 @@ def _reachable(red: ReducedMechanism) -> None:
     if rot.size and rot.max() > reach + 2 * np.pi:
         raise DatabaseError(f"KSD: a prescribed rotation of {rot.max():.6g} rad is beyond the trained ranges of all the "
                             f"mechanism's joints together and a full turn ({reach:.4g} + 2 pi rad), so outside its trained "
-                            "range; use method='conventional' or retrain with `flexmb train --range`")
+                            "range; use method='conventional' or retrain with `flexmb train --range` (data: "
+                            f"{', '.join(sorted({str(tpl.data.path) for tpl, _, _ in red.groups}))})")
 
 
 _TOL_TEXT: dict = {}  # tolerances as messages print them (a float's formatting: ~10 us after other work)
@@ -223,6 +226,7 @@ class _KSD:
             return now
 
         red = reduced_mechanism(compiled, self.database)
+        stages["setup"] = {"files": files(red)}  # which database file each joint's data came from (issue 32)
         t = lap("setup", t0)
 
         if self.strict_range:
@@ -237,7 +241,7 @@ class _KSD:
         except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy
             lap("kinematics", t)
             times["total"] = time.perf_counter() - t0
-            sol = Solution.failed(self.name, compiled, f"{self.name}: {exc}", times)
+            sol = Solution.failed(self.name, compiled, f"{self.name}: {exc}", times, stages)
             if self.raise_on_failure:
                 raise ConvergenceError(sol.message, sol) from None
             return sol

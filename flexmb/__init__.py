@@ -2,6 +2,8 @@
 
 from . import export, models, plot, study, testing
 from .errors import (
+    AccuracyError,
+    AccuracyWarning,
     ConvergenceError,
     ConvergenceWarning,
     ExtrapolationWarning,
@@ -33,6 +35,8 @@ from ._version import __version__  # noqa: F401 (flexmb.__version__)
 
 
 __all__ = [
+    "AccuracyError",
+    "AccuracyWarning",
     "ConvergenceError",
     "ConvergenceWarning",
     "ExtrapolationWarning",

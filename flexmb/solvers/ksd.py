@@ -33,6 +33,7 @@ from .. import jit
 from ..ksd.geometry import ACTIVE, LinkPoses, compose, rz
 from ..ksd.eob_table import SLACK
 from ..ksd.kinematics import _correction, _gesv, _norm, kinematics_in_range, solve_kinematics
+from ..ksd.estimate import DEFAULT_TOLERANCE, check, estimate_at
 from ..ksd.provenance import files
 from ..ksd.reduced import ReducedMechanism, kernels, reduced_mechanism, setup_key
 from ..linear import single_threaded
@@ -176,6 +177,14 @@ class _KSD:
         Step control of step 5, as `Conventional`.
     raise_on_failure
         Raise `ConvergenceError` instead of returning ``converged=False``.
+    error_tol
+        KSD-reduced: the relative error above which its answer is flagged, estimated from the full
+        model at the answer (`flexmb.ksd.estimate`; ``Solution.stages["estimate"]``): an
+        `AccuracyWarning`, or with ``strict_error`` an `AccuracyError`. Default 0.01 (1 %); None:
+        no estimate (it costs one assembly and one solve of the full model). KSD-full records the
+        estimate of its step 1-4 start.
+    strict_error
+        Refuse (`AccuracyError`) a KSD-reduced answer whose estimated error is above ``error_tol``.
     """
 
     name: ClassVar[str] = ""
@@ -193,6 +202,8 @@ class _KSD:
     min_step: float = attrs.field(default=1e-5, validator=unit_interval)
     max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(positive_float))
     raise_on_failure: bool = attrs.field(default=False, validator=boolean)
+    error_tol: float | None = attrs.field(default=DEFAULT_TOLERANCE, validator=attrs.validators.optional(positive_float))
+    strict_error: bool = attrs.field(default=False, validator=boolean)
 
     def share_setup(self, base, compiled) -> None:
         """Give ``compiled`` (``base`` with other prescribed values: a motion sweep's value) the
@@ -207,9 +218,11 @@ class _KSD:
 
     def solve(self, compiled) -> Solution:
         if self._compiled_path(compiled):  # no BLAS call but the direct EOBs', which enter it themselves
-            return self._solve(compiled)  # (entering costs ~11 us, 3 % of the manipulator's solve)
-        with single_threaded():  # small dense systems throughout (flexmb.linear.single_threaded)
-            return self._solve(compiled)
+            sol = self._solve(compiled)  # (entering costs ~11 us, 3 % of the manipulator's solve)
+        else:
+            with single_threaded():  # small dense systems throughout (flexmb.linear.single_threaded)
+                sol = self._solve(compiled)
+        return sol if self.full else check(sol, self.error_tol, self.strict_error)  # issue 32: its error
 
     def _compiled_path(self, compiled) -> bool:
         """Whether steps 1-4 run as compiled stages (`flexmb.ksd.reduced_jit`): KSD-reduced with the
@@ -371,9 +384,12 @@ class _KSD:
             # computed first); the manipulator at 45 deg: KSD-full 22.6 -> 12.9 ms per solve
             problem._pattern, problem._tangent_solver  # noqa: B018 (built on first access)
             start = problem.continued_from(state)
+            geometric = self._eob_axial(red, eobs, q_nodes)
+            if self.error_tol is not None:  # the error of the step 1-4 start (issue 32)
+                stages["estimate"] = estimate_at(compiled, state, red.reaction_vector(r3), geometric, self.error_tol)
             out = newton_steps(start, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
                                min_step=self.min_step, initial_step=1.0, max_rotation=self.max_rotation,
-                               first_geometric_stress=self._eob_axial(red, eobs, q_nodes),
+                               first_geometric_stress=geometric,
                                control="paper")  # measured: the continuation's path-deviation bound
             # stops step 5 of the manipulator's location case at -45 deg (load factor 0.157), and
             # step 5 converges in its first step on every other benchmark case: Fig. 18 kept here

@@ -433,5 +433,5 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
             if dlam < min_step:
                 return finish(False, f"not converged: step halved below min_step={min_step:g} at load factor "
                                      f"{lam:.6g} (the last converged step); the residual history shows the failed "
-                                     "iterations")
+                                     "iterations" + problem.roundoff_hint())
 

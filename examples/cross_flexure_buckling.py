@@ -10,7 +10,7 @@ pre-buckling path is from linear (where it is linear the two agree). The non-lin
 critical point of a traced path (`flexmb.trace`): at 0 deg with the turn free (B not prescribed,
 the force scaled from 0 to 1.2 times the linearised estimate), its bifurcation point. (`trace`
 scales prescribed motions with the load, so a turned B is no preload for it.)
-Run: python examples/cross_flexure_buckling.py
+Run: python examples/cross_flexure_buckling.py [--quick]   (--quick: 3 el./leaf only)
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 import flexmb
+from flexmb.studies import example_arguments
 
 ANGLES_DEG = (0.0, 30.0)
 ELEMENTS = (3, 5, 10)
@@ -92,5 +93,12 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
+def main(out=None, quick: bool = False) -> dict:
+    """Print the table (`run`'s results; ``quick``: 3 el./leaf only). Writes no files."""
+    results = run(elements=(3,) if quick else ELEMENTS)
+    print(table(results))
+    return results
+
+
 if __name__ == "__main__":
-    print(table(run()))
+    main(*example_arguments(__doc__))

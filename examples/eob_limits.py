@@ -7,13 +7,15 @@ joint), and the z displacement and scaled moment under a large force along z on 
 Run: python examples/eob_limits.py [--out figures]   (writes eob_limits.png with matplotlib)
 """
 
-import argparse
 from pathlib import Path
 
 from flexmb.studies import eob as ec
+from flexmb.studies import example_arguments
 
 
-def main(out: Path | None = None) -> dict:
+def main(out: Path | None = None, quick: bool = False) -> dict:
+    """Print Figs. 7b and 8 as tables and write ``out/eob_limits.png`` (``out`` None: no figure;
+    ``quick`` changes nothing: the study is small)."""
     w = ec.outer_width_study()
     print("Fig. 7b: M / M_lin, 2 el./leaf (database trained with w2 = 0.02 m)")
     print(f"{'deg':>4s}" + "".join(f"{'FE w2=' + str(k):>13s}{'EOB':>9s}{'diff':>8s}" for k in (0.02, 0.08)))
@@ -45,6 +47,4 @@ def main(out: Path | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="figures", help="folder for eob_limits.png (default: ./figures)")
-    main(Path(ap.parse_args().out))
+    main(*example_arguments(__doc__))

@@ -11,15 +11,17 @@ Run: python examples/fourbar.py [--out docs] [--quick]
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
+from flexmb.studies import example_arguments
 from flexmb.studies import fourbar as fc
 
 
-def main(out: Path, quick: bool = False) -> dict:
+def main(out: Path | None = None, quick: bool = False) -> dict:
+    """Print Figs. 10 and 12 as tables and write ``out/fourbar.png`` (``out`` None: no figure);
+    ``quick``: fewer points."""
     res = {}
     d_over_h = np.linspace(0.1, 1.0, 4 if quick else 10)
     print("Actuation force F / F_lin (Eq. 4.7) against d/H (Fig. 10); H = 0.3 m is the rigid link length,")
@@ -43,18 +45,15 @@ def main(out: Path, quick: bool = False) -> dict:
               f"{1e3 * c['time'][k]:11.1f} {f['full_iterations'][k]:20d} {1e3 * f['time'][k]:14.1f}")
     print(f"KSD-full over the range: {c['time'].sum() / f['time'].sum():.1f}x faster than the conventional method "
           "(the paper: about 5x)")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        fc.plot(res["curve3"], study, out / "fourbar.png")
-        print(f"\nsaved {out / 'fourbar.png'}")
-    except ImportError:
-        print("\n(matplotlib not installed: no figure)")
+    if out is not None:
+        try:
+            Path(out).mkdir(parents=True, exist_ok=True)
+            fc.plot(res["curve3"], study, Path(out) / "fourbar.png")
+            print(f"\nsaved {Path(out) / 'fourbar.png'}")
+        except ImportError:
+            print("\n(matplotlib not installed: no figure)")
     return res
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs")
-    ap.add_argument("--quick", action="store_true", help="fewer points")
-    args = ap.parse_args()
-    main(args.out, args.quick)
+    main(*example_arguments(__doc__, out="docs"))

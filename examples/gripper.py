@@ -11,11 +11,11 @@ Run: python examples/gripper.py [--out figures] [--quick]
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
+from flexmb.studies import example_arguments
 from flexmb.studies import gripper as g
 
 LABELS = ("x2", "y2", "th2", "x3", "y3", "th3", "x4", "y4", "th4")
@@ -26,8 +26,12 @@ def matrix(K: np.ndarray, fmt: str = "{:10.3g}") -> str:
     return "\n".join([head] + [f"{LABELS[i]:>5s} " + "".join(fmt.format(x) for x in row) for i, row in enumerate(K)])
 
 
-def main(out: Path, quick: bool = False) -> dict:
-    out.mkdir(parents=True, exist_ok=True)
+def main(out: Path | None = None, quick: bool = False) -> dict:
+    """Print the study's tables and write its figures into ``out`` (None: no figures); ``quick``:
+    coarser sweeps and grid."""
+    if out is not None:
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
     res: dict = {}
     print("Closing force F_2y [uN] (end-effector x = 0), Cammarata et al. (2022) Sec. 5.1")
     print(f"{'material':9s} {'linear':>10s} {'partial NL':>11s} {'FE (fully NL)':>14s}")
@@ -50,8 +54,10 @@ def main(out: Path, quick: bool = False) -> dict:
                                                              points=max(points // 3, 11))
         comparison[material] = curves
     res["comparison"] = comparison
-    g.plot_workspace({m: g.opening_closing("silicon", m, points=points) for m in g.MODELS}, out / "gripper_workspace.png")
-    g.plot_comparison(comparison, out / "gripper_models.png")
+    if out is not None:
+        g.plot_workspace({m: g.opening_closing("silicon", m, points=points) for m in g.MODELS},
+                         out / "gripper_workspace.png")
+        g.plot_comparison(comparison, out / "gripper_models.png")
     print("End-effector departure of the closed forms from the FE model over the sweep (silicon)")
     fe = comparison["silicon"]["fully non-linear (FE)"]
     for m in g.MODELS:
@@ -79,7 +85,8 @@ def main(out: Path, quick: bool = False) -> dict:
     # Figs. 11-13
     study = g.strategy_study(repeat=1 if quick else 3)
     res["strategies"] = study
-    g.plot_strategies(study, out / "gripper_strategies.png")
+    if out is not None:
+        g.plot_strategies(study, out / "gripper_strategies.png")
     print(f"Newton strategies over F_2y = {study['forces'][0]:g} ... {study['forces'][-1]:g} uN "
           f"({len(study['forces'])} forces, partial non-linear, silicon, max_iter {study['max_iter']})")
     print(f"{'strategy':30s} {'converged':>9s} {'iterations':>10s} {'time [ms]':>10s}")
@@ -102,18 +109,16 @@ def main(out: Path, quick: bool = False) -> dict:
     heights = np.linspace(0.003, 0.007, 3 if quick else 5)
     grid = g.cross_section_study(widths, heights)
     res["cross_section"] = (widths, heights, grid)
-    g.plot_cross_section(widths, heights, grid, out / "gripper_cross_section.png")
+    if out is not None:
+        g.plot_cross_section(widths, heights, grid, out / "gripper_cross_section.png")
     print("\nClosing force [uN] vs cross-section (partial non-linear, silicon); rows h [um], columns b [um]")
     print("  h \\ b " + "".join(f"{1e3 * b:9.1f}" for b in widths))
     for h, row in zip(heights, grid):
         print(f"{1e3 * h:7.1f} " + "".join(f"{x:9.2f}" for x in row))
-    print(f"\nFigures written to {out}/gripper_*.png")
+    if out is not None:
+        print(f"\nFigures written to {out}/gripper_*.png")
     return res
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("figures"))
-    ap.add_argument("--quick", action="store_true", help="coarser sweeps and grid")
-    args = ap.parse_args()
-    main(args.out, args.quick)
+    main(*example_arguments(__doc__))

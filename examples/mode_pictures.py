@@ -8,8 +8,9 @@
 * ``cross_flexure_frequencies.png``: its first four frequencies over the stroke 0 ... 75 deg (the
   figure of Naves et al. 2017; `flexmb.sweep(..., properties=)`, `flexmb.plot.plot_frequencies`);
 
-and the mode as ``cross_flexure_mode.vtu`` in the current folder (ParaView: Warp By Vector on
-``mode_scaled``; `flexmb.export.write_mode`). Run: python examples/mode_pictures.py
+and the mode as ``cross_flexure_mode.vtu`` (ParaView: Warp By Vector on ``mode_scaled``;
+`flexmb.export.write_mode`), all into --out. Run: python examples/mode_pictures.py [--out docs] [--quick]
+(--quick: 3 el./leaf and three stroke points)
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ import numpy as np
 
 import flexmb
 from flexmb import export, plot
+from flexmb.studies import example_arguments
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
 STROKE_DEG = np.linspace(0.0, 75.0, 6)
 
 
@@ -45,36 +46,43 @@ def three_x_infinity(rotation_deg: float = 30.0) -> flexmb.Solution:
     return flexmb.solve(m)
 
 
-def run(docs: Path = DOCS, vtu: Path | None = Path("cross_flexure_mode.vtu")) -> dict:
-    """Write the three figures (and the mode's ``.vtu``); returns the numbers they show."""
-    out = {}
+def main(out: Path | None = None, quick: bool = False) -> dict:
+    """Write the three figures and the mode's ``.vtu`` into ``out`` (None: the numbers only);
+    returns the numbers they show; ``quick``: 3 el./leaf and three points over the stroke."""
+    docs, res = (None if out is None else Path(out)), {}
+    if docs is not None:
+        docs.mkdir(parents=True, exist_ok=True)
+    n = 3 if quick else 5
+    stroke_deg = STROKE_DEG[::2] if quick else STROKE_DEG
     sol = three_x_infinity()
-    plot.save(plot.plot_mechanism(sol, undeformed=False), docs / "three_x_infinity_plates.png")
+    if docs is not None:
+        plot.save(plot.plot_mechanism(sol, undeformed=False), docs / "three_x_infinity_plates.png")
 
-    pivot = cross_flexure()
+    pivot = cross_flexure(n)
     pivot.prescribe("B", rotation=(0.0, 0.0, np.radians(30.0)))
     at30 = flexmb.solve(pivot)
     modes = flexmb.modes(at30, n=4, held=[("B", "rz")])
-    plot.save(plot.plot_mode(modes, 0), docs / "cross_flexure_mode.png")
-    out["f_30deg"] = modes.frequencies
-    if vtu is not None:
-        export.write_mode(modes, 0, vtu)
+    res["f_30deg"] = modes.frequencies
+    if docs is not None:
+        plot.save(plot.plot_mode(modes, 0), docs / "cross_flexure_mode.png")
+        export.write_mode(modes, 0, docs / "cross_flexure_mode.vtu")
 
-    stroke = np.radians(STROKE_DEG)
-    pivot = cross_flexure()
+    stroke = np.radians(stroke_deg)
+    pivot = cross_flexure(n)
     pivot.prescribe("B", rotation=(0.0, 0.0, 0.0))
     over = flexmb.sweep(pivot, np.column_stack([0 * stroke, 0 * stroke, stroke]), motion=("B", "rotation"),
                         properties={"which": ("modes",), "n_modes": 4, "held": [("B", "rz")]})
     table = over.table()
-    ax = plot.plot_frequencies(table, "B.rotation_z", xlabel="B turned about z [deg]", degrees=True)
-    ax.set_title("Table 1 cross flexure, B's turn held (5 el./leaf)")
-    plot.save(ax, docs / "cross_flexure_frequencies.png")
-    out["stroke_f"] = {c: np.asarray(table[c]) for c in ("f1", "f2", "f3", "f4")}
-    return out
+    res["stroke_f"] = {c: np.asarray(table[c]) for c in ("f1", "f2", "f3", "f4")}
+    print("f1..f4 at 30 deg [Hz]:", res["f_30deg"].round(1))
+    for c, f in res["stroke_f"].items():
+        print(c, "over", stroke_deg, "deg [Hz]:", f.round(1))
+    if docs is not None:
+        ax = plot.plot_frequencies(table, "B.rotation_z", xlabel="B turned about z [deg]", degrees=True)
+        ax.set_title(f"Table 1 cross flexure, B's turn held ({n} el./leaf)")
+        plot.save(ax, docs / "cross_flexure_frequencies.png")
+    return res
 
 
 if __name__ == "__main__":
-    res = run()
-    print("f1..f4 at 30 deg [Hz]:", res["f_30deg"].round(1))
-    for c, f in res["stroke_f"].items():
-        print(c, "over", STROKE_DEG, "deg [Hz]:", f.round(1))
+    main(*example_arguments(__doc__, out="docs"))

@@ -11,8 +11,8 @@ state by arc length, with stability at every point and the located critical poin
 * an Euler strut with a 1e-4 lateral imperfection against the elastica;
 * half a shallow von Mises truss in mm, N, MPa against its closed form.
 
-Results stay in module-level variables (``results``); ``python examples/path_following.py``
-prints the table and writes docs/path_following.png.
+Run: python examples/path_following.py [--out docs] [--quick]   (prints the table, writes
+path_following.png into --out; --quick: the Qiu bistable and the truss only)
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import time
 import numpy as np
 
 import flexmb
+from flexmb.studies import example_arguments
 from flexmb.studies import paths as cases
 
 
@@ -173,9 +174,18 @@ def _plot_truss(results, axes, draw):
     axes[1, 2].legend(fontsize=8)
 
 
-results = None
+def main(out=None, quick: bool = False) -> dict:
+    """Trace the cases (``quick``: the Qiu bistable and the truss), print the table and write
+    ``out/path_following.png`` (``out`` None: no figure)."""
+    results = run(names=("qiu", "truss") if quick else CASES)
+    print(table(results))
+    if out is not None:
+        from pathlib import Path
+
+        Path(out).mkdir(parents=True, exist_ok=True)
+        print("wrote", plot(results, Path(out) / "path_following.png"))
+    return results
+
 
 if __name__ == "__main__":
-    results = run()
-    print(table(results))
-    print("wrote", plot(results))
+    main(*example_arguments(__doc__, out="docs"))

@@ -15,7 +15,6 @@ Writes stiffness_map.csv and stiffness_map.png to --out.
 
 from __future__ import annotations
 
-import argparse
 import functools
 import time
 from pathlib import Path
@@ -23,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from flexmb.analysis import joint_properties
+from flexmb.studies import example_arguments
 from flexmb.study import grid, parameter_study
 
 DESIGN = functools.partial(joint_properties, "cross_flexure", rotation=np.radians(20.0), elements_per_leaf=3)
@@ -33,7 +33,10 @@ def designs(quick: bool = False) -> list[dict]:
     return grid(thickness=np.linspace(0.1e-3, 0.4e-3, n), angle=np.radians(np.linspace(20.0, 70.0, n)))
 
 
-def run(out: Path, quick: bool = False, use_dask: bool = False) -> dict:
+def main(out: Path | None = None, quick: bool = False, use_dask: bool = False) -> dict:
+    """Run the study serially, in a process pool and (``use_dask``) on a dask LocalCluster, print
+    it and write ``stiffness_map.csv`` and ``.png`` into ``out`` (None: no files); ``quick``: a
+    3 x 3 grid instead of 6 x 6."""
     cases = designs(quick)
     results, times = {}, {}
     runs = [("serial", "serial"), ("process pool", None)]
@@ -62,26 +65,23 @@ def run(out: Path, quick: bool = False, use_dask: bool = False) -> dict:
     for name, seconds in times.items():
         same = all(np.array_equal(results[name][k], table[k]) for k in table)
         print(f"{name:>18s}: {seconds:6.2f} s, numbers {'identical to' if same else 'DIFFERENT from'} the serial run")
-    out.mkdir(parents=True, exist_ok=True)
-    table.to_csv(out / "stiffness_map.csv")
-    try:
-        from flexmb import plot
+    if out is not None:
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        table.to_csv(out / "stiffness_map.csv")
+        try:
+            from flexmb import plot
 
-        ax = plot.plot_map(table, "thickness", "angle", "k_rotation", label="k_rotation [N m/rad]", log=True)
-        ax.set_xlabel("leaf thickness [m]")
-        ax.set_ylabel("leaf angle [rad]")
-        ax.set_title("Cross flexure at 20 deg: rotational stiffness")
-        plot.save(ax, out / "stiffness_map.png")
-        print(f"figure: {out / 'stiffness_map.png'}; table: {out / 'stiffness_map.csv'}")
-    except ImportError:
-        print("(no figure: install the plot extra)")
+            ax = plot.plot_map(table, "thickness", "angle", "k_rotation", label="k_rotation [N m/rad]", log=True)
+            ax.set_xlabel("leaf thickness [m]")
+            ax.set_ylabel("leaf angle [rad]")
+            ax.set_title("Cross flexure at 20 deg: rotational stiffness")
+            plot.save(ax, out / "stiffness_map.png")
+            print(f"figure: {out / 'stiffness_map.png'}; table: {out / 'stiffness_map.csv'}")
+        except ImportError:
+            print("(no figure: install the plot extra)")
     return {"results": results, "times": times}
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="figures")
-    ap.add_argument("--dask", action="store_true", help="also run on a dask.distributed LocalCluster")
-    ap.add_argument("--quick", action="store_true", help="a 3 x 3 grid instead of 6 x 6")
-    args = ap.parse_args()
-    run(Path(args.out), args.quick, args.dask)
+    main(*example_arguments(__doc__, flags={"--dask": "also run on a dask.distributed LocalCluster"}))

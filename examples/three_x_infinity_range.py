@@ -13,7 +13,8 @@ cube). B's orientation is prescribed to the turn and swept with continuation
 * F_cr: the critical force along the axis from `flexmb.buckling` about the turned, unloaded
   state (``base``; the multiplier scales only a 1 N increment), B's turn held.
 
-At 3, 5 and 10 elements per leaf. Run: python examples/three_x_infinity_range.py
+At 3, 5 and 10 elements per leaf. Run: python examples/three_x_infinity_range.py [--quick]
+(--quick: 3 el./leaf at -45, 0, 45 deg)
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 import flexmb
+from flexmb.studies import example_arguments
 
 ANGLES_DEG = (-45.0, -30.0, -15.0, 0.0, 15.0, 30.0, 45.0)
 ELEMENTS = (3, 5, 10)
@@ -73,5 +75,12 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
+def main(out=None, quick: bool = False) -> dict:
+    """Print the table (`run`'s results; ``quick``: 3 el./leaf at -45, 0, 45 deg). Writes no files."""
+    results = run(angles=(-45.0, 0.0, 45.0), elements=(3,)) if quick else run()
+    print(table(results))
+    return results
+
+
 if __name__ == "__main__":
-    print(table(run()))
+    main(*example_arguments(__doc__))

@@ -110,6 +110,7 @@ _DISPLACEMENT_CONTROLLED = [c for c in _CHANGES if c not in (_new_load, _user_ar
 
 @pytest.mark.parametrize("change, method", [(c, "conventional") for c in _CHANGES]
                          + [(c, "ksd-reduced") for c in _DISPLACEMENT_CONTROLLED])
+@pytest.mark.slow
 def test_a_mechanism_changed_between_two_solves_is_solved_as_it_now_is(change, method):
     m = _pivot()
     flexmb.solve(m, method=method)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import flexmb
-from flexmb import testing
+from flexmb import registry, testing
 
 
 def _conformance(cls):
@@ -13,12 +13,21 @@ def _conformance(cls):
 
 
 CHECKS = [name for name in dir(testing.JointConformance) if name.startswith("test_")]
+#: every joint the kit runs over: flexmb's own (also when the package's entry points are not
+#: installed, e.g. tests run from a plain checkout) and whatever the entry points add
+JOINTS = {**registry._shipped(), **flexmb.available_joints()}
 
 
+def test_the_kit_has_joints_and_checks_to_run():
+    """An empty parametrisation would skip every conformance case silently: fail instead."""
+    assert set(registry._shipped()) <= set(JOINTS) and CHECKS
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("check", CHECKS)
-@pytest.mark.parametrize("kind", sorted(flexmb.available_joints()))
+@pytest.mark.parametrize("kind", sorted(JOINTS))
 def test_registered_joint_conforms(kind, check):
-    getattr(_conformance(flexmb.available_joints()[kind]), check)()
+    getattr(_conformance(JOINTS[kind]), check)()
 
 
 # -- mutants: the suite must reject a broken element/joint -----------------------------------
@@ -107,6 +116,7 @@ def test_suite_rejects_an_asymmetric_joint_stiffness(monkeypatch):
         testing.check_rest(leaf, 2)
 
 
+@pytest.mark.slow
 def test_suite_rejects_a_ksd_wrench_left_in_the_joint_frame(monkeypatch):
     """A mutant reduced mechanism that forgets to turn each joint's condensed wrench from the
     joint frame to global axes (F = I in step 3): right when the joint frame is the global one,
@@ -158,12 +168,14 @@ class TestLeafSpringInMicrometres(testing.JointConformance):
     joint_parameters = SILICON_MPA
 
 
+@pytest.mark.slow
 class TestCrossFlexureInMillimetres(testing.JointConformance):
     joint_class = flexmb.CrossFlexure
     parameter_ranges = {"length": (5.0, 20.0), "angle": (0.4, 1.2), "thickness": (0.05, 0.2)}
     joint_parameters = {**STEEL_MPA, "width_inner": 4.0, "width_outer": 2.0}
 
 
+@pytest.mark.slow
 class TestCrossFlexureInMicrometres(testing.JointConformance):
     """A MEMS cross-axis pivot: silicon leaves of 200-800 um, 5-20 um thick."""
 

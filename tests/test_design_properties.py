@@ -37,6 +37,7 @@ def swept():
     return res, kw
 
 
+@pytest.mark.slow
 def test_columns_are_the_per_configuration_properties(swept):
     """Every property column equals the function it comes from, at every configuration."""
     res, kw = swept
@@ -141,6 +142,7 @@ def test_joint_range_refuses_rotations_that_are_not_finite_numbers(rotations):
         joint_range("cross_flexure", rotations, which=("modes",), n_modes=1, elements_per_leaf=2)
 
 
+@pytest.mark.slow
 def test_joint_range_runs_in_a_process_pool_and_on_dask(serial_study):
     pooled = parameter_study(DESIGN, DESIGNS, max_workers=2)
     for name in serial_study:
@@ -149,52 +151,6 @@ def test_joint_range_runs_in_a_process_pool_and_on_dask(serial_study):
     with distributed.Client(n_workers=2, threads_per_worker=1, dashboard_address=":0") as client:
         remote = parameter_study(DESIGN, DESIGNS, executor=client.get_executor())
     assert all(np.array_equal(remote[name], serial_study[name]) for name in serial_study)
-
-
-def _example(name):
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "examples" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_cross_flexure_buckling_example_and_the_softening_pivot():
-    """examples/cross_flexure_buckling.py at 3 el./leaf: at 0 deg the pre-buckling path is
-    linear (the estimates from 0 and from F_cr/2 agree to 1e-3), the turn held raises the
-    critical force ~5x over the turn free; at 30 deg the path is not linear (the estimate from
-    F_cr/2 is higher). Independently, the pivot's rotational stiffness with B otherwise free,
-    1 / C_rz,rz from `flexmb.compliance` at 0.9 and 0.95 of the critical force, extrapolates
-    linearly to zero within 0.3 % of it (measured +0.13 %), and `flexmb.trace` of the push finds
-    its bifurcation point there (measured 1e-4 from the estimate from 0)."""
-    ex = _example("cross_flexure_buckling")
-    r = ex.run(angles=(0.0, 30.0), elements=(3,))
-    held, free = r[0.0, 3, "turn held"], r[0.0, 3, "turn free"]
-    assert held[1] == pytest.approx(held[0], rel=1e-3) and free[1] == pytest.approx(free[0], rel=1e-3)
-    assert 4 < held[0] / free[0] < 6
-    assert r[30.0, 3, "turn held"][1] > 1.2 * r[30.0, 3, "turn held"][0]
-    assert "| 30 deg | 3 |" in ex.table(r)
-    assert r[0.0, 3, "trace"] == pytest.approx(free[1], rel=1e-3)
-    F = np.array([0.9, 0.95]) * free[1]
-    k = [1.0 / flexmb.compliance(ex._solve(0.0, f, 3), "B", held="none")[5, 5] for f in F]
-    root = F[0] - k[0] * (F[1] - F[0]) / (k[1] - k[0])
-    assert root == pytest.approx(free[1], rel=3e-3)
-
-
-def test_three_x_infinity_range_example():
-    """examples/three_x_infinity_range.py at 3 el./leaf over -45, 0, 45 deg: the first parasitic
-    frequency and the critical axial force are highest unturned, the intended mode's frequency
-    nearly constant (within 2 %), and the Naves ratio f1 / intended falls with the turn."""
-    ex = _example("three_x_infinity_range")
-    t = ex.run(angles=(-45.0, 0.0, 45.0), elements=(3,))[3]
-    assert t["f1"][1] > max(t["f1"][0], t["f1"][2]) and t["F_cr"][1] > max(t["F_cr"][0], t["F_cr"][2])
-    assert np.ptp(t["intended"]) < 0.02 * t["intended"].min()
-    np.testing.assert_allclose(t["ratio"], t["f1"] / t["intended"])
-    assert t["ratio"][1] > max(t["ratio"][0], t["ratio"][2])
-    assert "| +45 deg | 3 |" in ex.table({3: t})
 
 
 def test_properties_of_a_traced_path():
@@ -217,6 +173,7 @@ def test_properties_of_a_traced_path():
     np.testing.assert_allclose(t["buckling"][before] * t["load_factor"][before], critical, rtol=1e-3)
 
 
+@pytest.mark.slow
 def test_default_properties_of_a_ksd_reduced_solution_keep_all_it_has():
     """KSD-reduced has no buckling (`flexmb.buckling` refuses it): the default ``which`` still
     returns the modes and stresses, the buckling column is NaN with the reason in
@@ -233,6 +190,7 @@ def test_default_properties_of_a_ksd_reduced_solution_keep_all_it_has():
         flexmb.buckling(sol)
 
 
+@pytest.mark.slow
 def test_a_ksd_reduced_sweep_with_properties_keeps_its_rows():
     """``sweep(..., properties=)`` on KSD-reduced (the Table 1 pivot turned 0..30 deg, buckling
     asked for explicitly): every row has its frequencies, buckling NaN with the reason."""

@@ -72,6 +72,7 @@ def test_a_table_is_used_only_for_the_joint_it_belongs_to():
 
 
 @pytest.mark.parametrize("case", ["joint", "location"])
+@pytest.mark.slow
 def test_ksd_reduced_with_the_table_equals_the_computed_condensation(case, monkeypatch):
     """The manipulator at 45 deg: same equilibrium within the tabulation error."""
     m = flexmb.models.manipulator(case, rotation=np.radians(45.0))

@@ -221,6 +221,7 @@ def test_write_series_needs_a_pvd_path(pivot2, tmp_path):
 
 
 @pytest.mark.parametrize("bad", [None, "solution", 3, np.zeros(3)])
+@pytest.mark.slow
 def test_non_solutions_are_rejected(bad, tmp_path):
     with pytest.raises(ParameterError, match="solution must be a flexmb Solution"):
         export.to_meshio(bad)

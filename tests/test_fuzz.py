@@ -68,6 +68,7 @@ FIELDS = [kf for kind in sorted(flexmb.available_joints()) for kf in _fields(kin
 @pytest.mark.parametrize("kind, name", FIELDS, ids=[f"{k}.{n}" for k, n in FIELDS])
 @FUZZ
 @given(value=junk)
+@pytest.mark.slow
 def test_joint_parameter_junk_is_refused_or_gives_a_finite_model(kind, name, value):
     """Every parameter of every registered joint: rejected with a FlexmbError that names it, or
     accepted and then meshed to finite points (or refused there, as a FlexmbError)."""

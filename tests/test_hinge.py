@@ -413,6 +413,7 @@ class TestHingeConformance(flexmb.testing.JointConformance):
 
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("top, c", [("pinned", np.pi**2), ("fixed", 20.190728556)])
+@pytest.mark.slow
 def test_hinged_euler_columns_bifurcate_at_their_closed_form_loads_through_trace(dim, top, c):
     # the same columns loaded to 1.5x their critical load (shear-corrected Euler, as above) and
     # traced by arc length: the path loses stability at a located bifurcation (no load-factor

@@ -259,6 +259,7 @@ def _ksd_cases():
 
 
 @pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.slow
 def test_ksd_constraint_kernel_equals_numpy(kernels, dim):
     # KSD step 1's constraints (Dwarshuis et al. 2020 Sec. 2.2, every kind of row: x, y, z, tilts,
     # symmetric, length) at random deformed link poses: the compiled values and Jacobian equal

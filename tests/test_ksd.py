@@ -497,6 +497,7 @@ def test_inconsistent_redundant_constraints_warn_and_ksd_full_still_converges():
     assert far.converged and far.stable  # a stable equilibrium (the conventional one is unstable)
 
 
+@pytest.mark.slow
 def test_speed_study_reports_single_and_steady_ratios_from_one_run():
     """Fig. 11 rows: both timings per method, each speed-up against the conventional time of the
     same timing (so the conventional rows read 1x)."""
@@ -513,6 +514,7 @@ def test_speed_study_reports_single_and_steady_ratios_from_one_run():
         assert r["speedup_steady"] == conv["time_steady"] / r["time_steady"]
 
 
+@pytest.mark.slow
 def test_timing_on_the_cpu_clock_excludes_waiting_for_a_core():
     """`flexmb demo` times on the process's CPU clock (flexmb.studies._timing): a solve's CPU time
     is not inflated by waits for a core, so a sleeping "solve" costs nothing on it but its wall time."""

@@ -41,6 +41,7 @@ def _pivot_with_stage(deg, mass):
     return m
 
 
+@pytest.mark.slow
 def test_tabulated_span_gives_the_per_configuration_frequencies():
     """The manipulator (Dwarshuis et al. 2020, Sec. 4.4, joint case) at 10 rotations between the
     table's grid points (four within 1 deg of 0, where its joints' 6th and 7th fixed-interface
@@ -112,6 +113,7 @@ def test_a_crossing_at_the_cut_is_detected_from_the_samples():
     assert jm.span_check(smooth) == ""
 
 
+@pytest.mark.slow
 def test_a_refused_table_falls_back_to_the_per_configuration_eigensolve(monkeypatch):
     """With the neighbour threshold raised above the manipulator's measured overlap (0.982, at
     its avoided crossing at 0 deg) its joint's table is refused, the reason recorded, and

@@ -98,6 +98,7 @@ def test_unconverged_and_unsupported():
         flexmb.buckling(flexmb.solve(fourbar(5, displacement=0.1), method="ksd-reduced"))
 
 
+@pytest.mark.slow
 def test_reduced_mass_keeps_the_mechanisms_mass():
     """The Craig-Bampton constraint modes carry every joint's rigid motion exactly, so a rigid
     translation of the whole KSD-reduced manipulator carries the full model's total mass
@@ -246,6 +247,7 @@ def test_joint_mass_is_the_consistent_mass_at_the_near_configuration(dim):
         assert np.abs(data.nodes(eob)[0] - ref).max() <= 1e-4 * np.abs(ref).max(), rotation
 
 
+@pytest.mark.slow
 def test_tabulated_condensed_mass_matches_direct_condensation():
     """The splined condensation (`flexmb.ksd.joint_mass.condensed`, table) against assembling and
     condensing at the rotation (table=False) at 12 random rotations of three_x_infinity's range:

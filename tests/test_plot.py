@@ -300,6 +300,7 @@ def test_every_plot_function_names_the_plot_extra_without_matplotlib(monkeypatch
         assert isinstance(info.value, ImportError)
 
 
+@pytest.mark.slow
 def test_plots_need_no_display_and_no_pyplot(tmp_path):
     """In a fresh interpreter without a display: importing flexmb.plot imports no matplotlib,
     drawing and saving work and never load pyplot (no backend switch, no global figures)."""
@@ -333,18 +334,3 @@ def test_map_rejects_missing_columns_and_incomplete_grids():
         plot.plot_map({"t": [1.0, 2.0, 2.0], "a": [0.1, 0.2, 0.1], "k": [1.0, 2.0, 3.0]}, "t", "a", "k")
 
 
-def test_stiffness_map_example_writes_its_table_and_figure(tmp_path, capsys):
-    """examples/stiffness_map.py: a 3 x 3 study, serial and in a process pool, identical numbers."""
-    import importlib.util
-    from pathlib import Path
-
-    spec = importlib.util.spec_from_file_location(
-        "ex_stiffness_map", Path(__file__).resolve().parents[1] / "examples" / "stiffness_map.py")
-    ex = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ex)
-    res = ex.run(tmp_path, quick=True)
-    out = capsys.readouterr().out
-    assert out.count("identical to the serial run") == 2
-    back = flexmb.read_csv(tmp_path / "stiffness_map.csv")
-    np.testing.assert_array_equal(back["k_rotation"], res["results"]["serial"]["k_rotation"])
-    assert (tmp_path / "stiffness_map.png").stat().st_size > 10_000

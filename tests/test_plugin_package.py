@@ -33,6 +33,7 @@ def installed(tmp_path_factory):
     registry.refresh()
 
 
+@pytest.mark.slow
 def test_the_installed_plugin_is_found_through_its_entry_point(installed):
     assert installed.__module__ == "flexmb_notch"
     assert "fe_model" in flexmb.joint("single_leaf").capabilities

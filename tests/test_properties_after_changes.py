@@ -12,6 +12,7 @@ import flexmb
 from flexmb.models import manipulator
 
 
+@pytest.mark.slow
 def test_modes_and_solutions_pickle_after_a_conventional_solve_of_the_same_mechanism():
     """The manipulator (Dwarshuis et al. 2020, Sec. 4.4, joint case at 20 deg) solved with the
     conventional method (its tangent factorised by qdldl, whose factorisation does not pickle),

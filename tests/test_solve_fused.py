@@ -173,6 +173,7 @@ FUSED = {  # none of them a paper case
 
 
 @pytest.mark.parametrize("case", list(FUSED))
+@pytest.mark.slow
 def test_the_tabulated_path_equals_the_general_and_the_numpy_path(kernels, tabulated_pivots, case):
     # KSD-reduced (Dwarshuis et al. 2020 Sec. 2, steps 1-4) with every joint tabulated and in range
     # runs the prepared kernels with their outputs allocated inside (flexmb.solvers.ksd._tabulated):

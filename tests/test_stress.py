@@ -94,6 +94,7 @@ def test_bending_and_transverse_shear_of_a_leaf(dim):
     np.testing.assert_allclose(s.normal, sol.peak_stress(), rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_torsion_of_a_leaf_in_another_frame():
     """Tip torque T on a 20 x 1 mm leaf turned arbitrarily in space: the peak shear k t T / I_t
     (T & G table, b/a = 20: k = 1.000 to 4 digits), von Mises sqrt(3) times it, no normal

@@ -72,11 +72,13 @@ def test_a_serial_design_over_its_timeout_is_stopped_and_the_study_goes_on():
     assert table["error"][1].startswith("TimeoutError") and list(table["y"][[0, 2]]) == [0.0, 4.0]
 
 
+@pytest.mark.slow
 def test_a_process_pool_keeps_every_finished_design_through_an_error_a_kill_and_a_timeout():
     table = parameter_study(design, DESIGNS, max_workers=2, timeout=3.0)
     _check_every_design_kept_or_named(table, killed="BrokenProcessPool")
 
 
+@pytest.mark.slow
 def test_a_dask_local_cluster_keeps_every_finished_design_through_an_error_a_kill_and_a_timeout():
     distributed = pytest.importorskip("distributed")
     import dask
@@ -107,6 +109,7 @@ def _interrupted(**kw):
     return table, elapsed
 
 
+@pytest.mark.slow
 def test_ctrl_c_in_a_process_pool_returns_what_finished_and_cancels_the_queue():
     table, elapsed = _interrupted(max_workers=2)
     assert list(table["error"][:2]) == ["", ""]
@@ -114,6 +117,7 @@ def test_ctrl_c_in_a_process_pool_returns_what_finished_and_cancels_the_queue():
     assert sum(e.startswith("cancelled") for e in table["error"]) >= 8 and elapsed < 5.0
 
 
+@pytest.mark.slow
 def test_ctrl_c_on_a_dask_cluster_returns_what_finished_and_cancels_the_queue():
     distributed = pytest.importorskip("distributed")
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",

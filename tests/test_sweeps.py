@@ -144,6 +144,7 @@ def test_study_in_a_process_pool_gives_the_serial_numbers(serial):
         np.testing.assert_array_equal(pooled[name], serial[name])
 
 
+@pytest.mark.slow
 def test_study_on_a_dask_local_cluster_gives_the_serial_numbers(serial):
     distributed = pytest.importorskip("distributed")
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0")

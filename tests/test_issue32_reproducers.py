@@ -63,6 +63,7 @@ def test_a_training_step_that_needs_terabytes_is_a_usage_error(tmp_path, capsys)
     assert not list((tmp_path / "x").glob("*.json")) if (tmp_path / "x").exists() else True
 
 
+@pytest.mark.slow
 def test_json_output_to_a_full_disk_ends_with_one_line():
     """``flexmb solve fourbar --json > /dev/full``: an OSError traceback; now exit 1 and one line."""
     if not os.path.exists("/dev/full"):
@@ -96,6 +97,7 @@ def test_text_columns_holding_numbers_or_booleans_come_back_as_text(tmp_path):
     assert back["name"].tolist() == ["a,b", 'say "x"', "ä"]
 
 
+@pytest.mark.slow
 def test_to_csv_writes_utf_8_whatever_the_locale(tmp_path):
     """``to_csv`` wrote in the locale's encoding while ``read_csv`` reads UTF-8: under the C locale
     (ASCII, UTF-8 mode and locale coercion off) writing 'ä' failed; under Latin-1 it was written

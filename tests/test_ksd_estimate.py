@@ -45,7 +45,7 @@ def test_the_issues_pivot_under_3000_n_warns_with_an_honest_estimate():
 
 
 def test_strict_error_refuses_naming_the_estimate_and_the_database_file():
-    with pytest.raises(AccuracyError, match=r"estimated error 74.* above error_tol=0.01: .*data: .*cross_flexure-3d-"
+    with pytest.raises(AccuracyError, match=r"estimated error [0-9.]+ % .* above error_tol=0.01: .*data: .*cross_flexure-3d-"
                                             r"angle0.785398-elements_per_leaf3.json") as info:
         flexmb.solve(_issue_pivot(), method="ksd-reduced", strict_error=True)
     assert info.value.solution is not None and info.value.solution.converged
@@ -55,7 +55,7 @@ def test_a_tolerance_set_by_the_user_decides_and_none_switches_the_estimate_off(
     m = _issue_pivot(dim=2)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no warning at all
-        quiet = flexmb.solve(m, method="ksd-reduced", error_tol=1.0)  # 74 % < 100 %
+        quiet = flexmb.solve(m, method="ksd-reduced", error_tol=1.0)  # 69 % < 100 %
         off = flexmb.solve(m, method="ksd-reduced", error_tol=None)
     assert not quiet.stages["estimate"].exceeded and quiet.stages["estimate"].tolerance == 1.0
     assert "estimate" not in off.stages
@@ -78,14 +78,15 @@ def test_the_paper_cases_within_their_assumptions_do_not_warn():
 SELECTED = ("pivot 3D, 0.5 rad, 0 N", "pivot 3D, 0.5 rad, 200 N", "pivot 3D, 0.5 rad, 300 N compression",
             "pivot 3D, 0.5 rad, 3000 N compression", "pivot 3D, 0.5 rad, 1000 N across", "pivot 2D, 0.5 rad, 1000 N",
             "four-bar d = 0.3 m", "four-bar d = 0.2 m, 1000 N", "manipulator joints 0.6 rad",
-            "manipulator joints 0.6 rad, 30 N")
+            "manipulator joints 0.6 rad, 30 N", "manipulator end point where joints at -45 deg")
 
 
 @pytest.mark.parametrize("label", SELECTED)
 def test_estimate_within_a_factor_3_and_the_warning_exactly_above_the_tolerance(label):
-    """Cases of `flexmb.studies.accuracy` (the whole table: benchmarks/bench_estimate.py, 27 of 27),
+    """Cases of `flexmb.studies.accuracy` (the whole table: benchmarks/bench_estimate.py, 31 of 31),
     chosen to straddle the 1 % tolerance: 0.78 % (200 N), 1.08 % (four-bar, 1000 N), 1.84 %
-    (manipulator, 30 N) among them; the estimate within a factor 3 of the true error (both below
+    (manipulator, 30 N) among them, and the manipulator's location case at -45 deg, where one
+    correction overestimated 4x; the estimate within a factor 3 of the true error (both below
     `accuracy.RESOLUTION`, the reference's round-off, agreeing) and the warning where the truth
     exceeds the tolerance, and only there."""
     build, _ = accuracy.cases()[next(k for k in accuracy.cases() if k.startswith(label))]

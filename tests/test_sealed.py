@@ -57,6 +57,7 @@ def _plant_foreign_database(home: Path) -> Path:
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="the default user folder of a POSIX home")
+@pytest.mark.slow
 def test_ksd_tests_pass_with_a_foreign_user_database_in_the_home_folder(tmp_path):
     home = tmp_path / "home"
     home.mkdir()

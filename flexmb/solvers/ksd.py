@@ -71,9 +71,9 @@ def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool, reached
         lo, hi = tpl.data.range
         for j in idx:
             if not lo - 1e-9 <= theta[j] <= hi + 1e-9:  # 1e-9 rad: the kinematic solve's roundoff
-                trained = f"outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg"
-                head = (f"joint {red.joint_names[j]!r} ({tpl.data.kind}, data {tpl.data.path}): the requested motion "
-                        f"({_requested(red)}) turns it")
+                trained = (f"outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg of "
+                           f"{tpl.data.path}")
+                head = f"joint {red.joint_names[j]!r} ({tpl.data.kind}): the requested motion ({_requested(red)}) turns it"
                 beyond = max(lo - theta[j], theta[j] - hi)  # [rad]: at 2 decimals 45 + 1e-6 rad reads 45.00 deg
                 msg = (f"{head} to {np.degrees(theta[j]):.2f} deg, {beyond:.2g} rad {trained}" if reached >= 1.0 - 1e-14 else
                        f"{head} {trained}: step 1 stopped at {np.degrees(theta[j]):.2f} deg, {100 * reached:.3g} % of "

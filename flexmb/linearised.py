@@ -173,11 +173,17 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
             lu = spla.splu(Km.tocsc())
             op = spla.LinearOperator(Km.shape, matvec=lambda x: lu.solve(-(Ks @ x)), dtype=float)
             mu = -spla.eigs(op, k=k, which="LR", return_eigenvectors=False, tol=1e-10, v0=start_vector(nf))
+    return _multipliers(mu, n)
+
+
+def _multipliers(mu, n: int) -> np.ndarray:
+    """The ``n`` smallest positive multipliers ``lam = -1/mu`` of the eigenvalues ``mu`` of
+    ``K_s phi = mu K_m phi`` (real ones; inf where fewer exist). A mu that is zero to working
+    precision (`MU_ROUNDOFF`) is none: a cantilever pulled along its axis (stress stiffening only)
+    gave mu = -3.9e-19 beside 0.012, i.e. lam = 7.8e17 instead of inf."""
     mu = np.asarray(mu)
     mu = mu[np.isfinite(mu)]
     real = mu[np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()].real if np.iscomplexobj(mu) else mu
-    # a mu that is zero to working precision is no multiplier: a cantilever pulled along its axis
-    # (stress stiffening only) gave mu = -3.9e-19 beside 0.012, i.e. lam = 7.8e17 instead of inf
     zero = MU_ROUNDOFF * (np.abs(real).max() if real.size else 0.0)
     lam = np.sort(-1.0 / real[real < -zero])
     out = np.full(n, np.inf)

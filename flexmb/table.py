@@ -18,16 +18,18 @@ from .errors import ModelError, ParameterError
 __all__ = ["Table", "read_csv", "column"]
 
 
-class Table(Mapping):
+class Table(dict):
     """Columns ``name -> 1-D array``, all of one length, in insertion order. Names are text:
     two names with the same text (``1`` and ``"1"``) are refused, never merged.
 
     A read-only mapping: ``table["force"]`` is a numpy array (a copy), ``list(table)`` the column names,
-    ``len(table)`` their number and `n_rows` the number of rows.
+    ``len(table)`` their number and `n_rows` the number of rows. A `dict` underneath, so that
+    ``pandas.DataFrame(table)`` reads it as columns (pandas 3 takes only a dict so; any other
+    mapping became one column of names); the methods that would change it raise `TypeError`.
     """
 
     def __init__(self, columns: Mapping):
-        self._columns = {}
+        super().__init__()
         n = None
         for name, values in columns.items():
             if isinstance(values, np.ndarray) or not _scalars(values):
@@ -39,29 +41,48 @@ class Table(Mapping):
             if n is not None and len(a) != n:
                 raise ParameterError(f"Table: column {name!r} has {len(a)} rows, the others {n}")
             n = len(a)
-            if str(name) in self._columns:
+            if dict.__contains__(self, str(name)):
                 raise ParameterError(f"Table: two columns are named {str(name)!r}; column names must be distinct "
                                      "as text")
-            self._columns[str(name)] = a
+            a.flags.writeable = False  # dict's own readers ({**table}, pandas) get the column itself
+            dict.__setitem__(self, str(name), a)
         self.n_rows = 0 if n is None else n
+
+    @property
+    def _columns(self) -> dict:
+        """The columns themselves (not copies), in order."""
+        return dict(dict.items(self))
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
-            return self._columns[name].copy()  # a copy: the table is not changed through it
-        except KeyError:
-            raise ModelError(f"no column {name!r}; columns: {', '.join(self._columns)}") from None
+            return dict.__getitem__(self, name).copy()  # a copy: the table is not changed through it
+        except (KeyError, TypeError):
+            raise ModelError(f"no column {name!r}; columns: {', '.join(self)}") from None
 
-    def __contains__(self, name) -> bool:
-        return name in self._columns
+    def get(self, name, default=None):
+        return self[name] if dict.__contains__(self, name) else default
 
-    def __iter__(self):
-        return iter(self._columns)
+    def values(self):
+        return [self[k] for k in self]
 
-    def __len__(self) -> int:
-        return len(self._columns)
+    def items(self):
+        return [(k, self[k]) for k in self]
 
     def __repr__(self) -> str:
-        return f"Table({self.n_rows} rows: {', '.join(self._columns)})"
+        return f"Table({self.n_rows} rows: {', '.join(self)})"
+
+    def __reduce__(self):
+        return type(self), (self._columns,)
+
+    def copy(self) -> Table:
+        return Table(self._columns)
+
+    def _read_only(self, *args, **kwargs):
+        """Refused with `TypeError`: a Table is read-only (build a new one)."""
+        raise TypeError("a flexmb Table is read-only: build a new one, e.g. Table({**table, 'name': values})")
+
+    __setitem__ = __delitem__ = __ior__ = _read_only
+    clear = pop = popitem = setdefault = update = _read_only
 
     def to_csv(self, path) -> Path:
         """Write the columns to ``path`` as UTF-8 (comma-separated, a header row of names, floats

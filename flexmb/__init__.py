@@ -21,6 +21,8 @@ from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSprin
 from .mechanism import Link, Mechanism
 from .linearised import buckling, compliance
 from .design_properties import properties
+from . import design
+from .design import responses, value_and_grad
 from .discretisation import DiscretisationEstimate, discretisation_error
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
@@ -37,6 +39,9 @@ from ._version import __version__  # noqa: F401 (flexmb.__version__)
 __all__ = [
     "AccuracyError",
     "AccuracyWarning",
+    "design",
+    "responses",
+    "value_and_grad",
     "ConvergenceError",
     "ConvergenceWarning",
     "ExtrapolationWarning",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -183,3 +184,59 @@ def hashable(obj) -> bool:
     except TypeError:
         return False
     return True
+
+
+# -- attrs validators of a strategy's options (the owner named in messages: the class's ``name``) --
+
+def _owner(instance) -> str:
+    return getattr(type(instance), "name", None) or type(instance).__name__
+
+
+def positive_option(instance, attribute, value):
+    """A finite number > 0."""
+    positive(_owner(instance), attribute.name, value)
+
+
+def count_option(instance, attribute, value):
+    """An integer >= 1."""
+    integer(_owner(instance), attribute.name, value, 1)
+
+
+def above_one_option(instance, attribute, value):
+    """A finite number > 1."""
+    if not finite(_owner(instance), attribute.name, value) > 1.0:
+        raise ParameterError(f"{_owner(instance)}: {attribute.name}={value!r} outside the valid range (1, inf)")
+
+
+def flag_option(instance, attribute, value):
+    """True or False."""
+    flag(_owner(instance), attribute.name, value)
+
+
+def unit_interval_option(instance, attribute, value):
+    """A finite number in (0, 1]."""
+    if not 0.0 < finite(_owner(instance), attribute.name, value) <= 1.0:
+        raise ParameterError(f"{_owner(instance)}: {attribute.name}={value!r} outside the valid range (0, 1]")
+
+
+def relative_tolerance_option(instance, attribute, value):
+    """A relative tolerance in (0, 1): 1 or more accepts any state (the undeformed one included)."""
+    in_open_range(_owner(instance), attribute.name, value, 0.0, 1.0)
+
+
+def choice_option(valid):
+    """A validator accepting one of the strings ``valid``."""
+    def validate(instance, attribute, value):
+        choice(_owner(instance), attribute.name, value, valid)
+    return validate
+
+
+def folder_option(instance, attribute, value):
+    """None or the path of an existing folder (a misspelt one would be passed over silently)."""
+    if value is not None and not isinstance(value, (str, os.PathLike)):
+        raise ParameterError(f"{_owner(instance)}: {attribute.name}={value!r} must be a folder path or None "
+                             "(the shipped data)")
+    if value is not None and not os.path.isdir(value):  # searched first, then the user's and the shipped data:
+        raise ParameterError(f"{_owner(instance)}: {attribute.name}={os.fspath(value)!r} is not a folder (no "
+                             "such directory); a misspelt folder would be passed over for the user folder and the "
+                             "shipped data without a word. Give the folder `flexmb train --out` wrote, or None")

@@ -21,7 +21,7 @@ import numpy as np
 
 from .design_properties import PROPERTIES, property_columns
 from .errors import ConvergenceError, ConvergenceWarning, ModelError, ParameterError, UnsupportedStrategyError
-from .solvers import solve
+from .solvers import make_strategy, solve
 from .table import Table
 
 __all__ = ["DiscretisationEstimate", "discretisation_error", "refined", "richardson"]
@@ -195,14 +195,16 @@ def discretisation_error(mechanism, quantity, *, method: str = "conventional", l
     beam elements assumed). Cost: with ``levels=3`` about 1 + 2 + 4 = 7 solves of the given mesh.
 
     Every level is solved with the same ``method`` (a KSD method needs trained data for the
-    refined meshes; ``"newton"`` has no mesh and is refused). A refined level that does not
-    converge ends the refinement with a `flexmb.ConvergenceWarning` and the estimate uses the
-    meshes that did (two: a pair with order 2); the given mesh or the first refinement not
-    converging raises `flexmb.ConvergenceError`. Returns a `DiscretisationEstimate`.
+    refined meshes; a closed-form model's strategy, ``"newton"``, has no mesh and is refused). A
+    refined level that does not converge ends the refinement with a `flexmb.ConvergenceWarning`
+    and the estimate uses the meshes that did (two: a pair with order 2); the given mesh or the
+    first refinement not converging raises `flexmb.ConvergenceError`. Returns a `DiscretisationEstimate`.
     """
-    if method == "newton":
-        raise UnsupportedStrategyError("discretisation_error: method 'newton' uses constant-stiffness closed forms "
-                                       "with no mesh to refine; compare with method='conventional' instead")
+    strategy = make_strategy(method, options)  # bad options raise before any refinement
+    if getattr(strategy, "capability", "fe_model") != "fe_model":  # no finite-element mesh to refine
+        raise UnsupportedStrategyError(f"discretisation_error: method {getattr(strategy, 'name', method)!r} solves "
+                                       f"a {strategy.capability!r} model (constant-stiffness closed forms) with no "
+                                       "mesh to refine; compare with method='conventional' instead")
     if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or not 2 <= levels <= 5:
         raise ParameterError(f"discretisation_error: levels={levels!r} must be an integer in [2, 5]")
     evaluate = _quantities(quantity, dict(property_options or {}))
@@ -210,7 +212,7 @@ def discretisation_error(mechanism, quantity, *, method: str = "conventional", l
     rows, elements, times = [], [], []
     for k, m in enumerate(meshes):
         t0 = time.perf_counter()
-        sol = solve(m, method, **options)
+        sol = solve(m, strategy)
         if not sol.converged:
             why = f"the solve on the {'given mesh' if k == 0 else f'mesh refined by {2 ** k}'} did not converge: " \
                   f"{sol.message}"

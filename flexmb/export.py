@@ -70,8 +70,8 @@ def to_meshio(solution: Solution, *, undeformed: bool = False):
     Parameters
     ----------
     solution
-        A finite-element solution (``method="conventional"``, ``"ksd-full"`` or
-        ``"ksd-reduced"``); a non-converged one gives the configuration at the load factor
+        A finite-element solution (conventional, KSD-full or KSD-reduced: any strategy whose
+        model has beam elements); a non-converged one gives the configuration at the load factor
         reached (field data ``converged`` 0, ``load_factor`` < 1).
     undeformed
         Write the undeformed configuration instead: undeformed positions [m], zero

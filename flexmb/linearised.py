@@ -7,82 +7,25 @@ Both use the full tangent of `flexmb.modal` (dead loads, prescribed DOFs held by
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import _validate as v
-from .errors import ModelError, ParameterError, UnsupportedStrategyError
-from .ksd.properties import reduced_tangent
-from .modal import DENSE_BELOW, _converged, constrained, full_tangent, held_dofs, solvable_problem, start_vector
+from .errors import ModelError, ParameterError
+from .linearisation import DenseFactor, RESIDUAL_MAX, _consistent, linearise, material_tangent  # noqa: F401 (re-exported)
+from .modal import DENSE_BELOW, start_vector
 
-__all__ = ["buckling", "compliance", "material_tangent"]
-
-_EPS = float(np.finfo(float).eps)
+__all__ = ["buckling", "compliance", "material_tangent", "RESIDUAL_MAX"]
 
 
 def _solve_dense(K: np.ndarray, rhs: np.ndarray, ill_conditioned: str = "warn") -> np.ndarray:
-    """``scipy.linalg.solve(K, rhs)``: for a non-symmetric ``K`` by the same LAPACK ``dgesv``
-    (``dgetrf`` + ``dgetrs``) called directly, with scipy's singular test (``LinAlgError`` where
-    the LU has a zero pivot) and its ill-conditioning warning (``LinAlgWarning`` where
-    ``dgecon``'s reciprocal condition number is below eps; ``ill_conditioned="raise"``: raised as the
-    exception, as an ``error`` warnings filter would): bit for bit scipy's answer, without its
-    structure detection and checks (~45 of the KSD-reduced manipulator's ~120 us
-    ``compliance``). An exactly symmetric ``K`` (scipy then takes its symmetric or Cholesky
-    path) or non-finite input goes to scipy itself."""
-    if not (np.isfinite(K).all() and np.isfinite(rhs).all()) or np.array_equal(K, K.T):
-        with warnings.catch_warnings():
-            if ill_conditioned == "raise":
-                warnings.simplefilter("error", sla.LinAlgWarning)
-            return sla.solve(K, rhs)
-    lu, piv, x, info = sla.lapack.dgesv(K, rhs)
-    if info > 0:
-        raise np.linalg.LinAlgError("A singular matrix detected: slice(s) [0] are singular.")
-    rcond, _ = sla.lapack.dgecon(lu, np.abs(K).sum(axis=0).max())
-    if rcond < _EPS:
-        message = f"An ill-conditioned matrix detected: slice 0 has rcond = {rcond}."
-        if ill_conditioned == "raise":
-            raise sla.LinAlgWarning(message)
-        warnings.warn(message, sla.LinAlgWarning, stacklevel=2)
-    return x
-
-
-#: The largest relative residual ``|K x - e| / |e|`` of a sparse compliance solve. The sparse
-#: solvers' backward-error test (`flexmb.linear`) cannot see a singular ``K``: the manipulator
-#: (Sec. 4.4, 20 deg) with nothing held (``held="floating"``, a free rigid-body motion) passed it
-#: at 1e-16 with a relative residual of 23 (its "compliance" 2.8e7 or 2.4e9 m/N by the kernels);
-#: its ill-conditioned but regular ``held="none"`` (eigenvalues down to 2e-11 of the largest)
-#: leaves 5e-8, ``"prescribed"`` 3e-12.
-RESIDUAL_MAX = 1e-4
-
-
-def _consistent(K, X, rhs) -> None:
-    """Raise ``numpy.linalg.LinAlgError`` unless ``X`` solves ``K X = rhs`` to `RESIDUAL_MAX`
-    relative to ``rhs`` (a singular ``K``: no solution)."""
-    if not np.linalg.norm(K @ X - rhs) <= RESIDUAL_MAX * np.linalg.norm(rhs):
-        raise np.linalg.LinAlgError("the sparse solve leaves a residual: the matrix is singular")
-
-
-def material_tangent(solution):
-    """The material part ``K_m`` (N ndof, N ndof) of the tangent at the solution: the beams'
-    ``T^T D^T S D T`` without their stresses' geometric part, the rigid offsets' ``d(d x f)/dphi``
-    and the loads' stiffness (`FEModel.element_response`, `FEModel.transfer`)."""
-    problem = solvable_problem(solution)
-    model, state = problem.model, solution.state
-    Fm, Ke, _, _ = model.element_response(state, tangent=True, geometric_stress=np.zeros_like)
-    # element_response adds the offsets' block d f^T - (d.f) I (2D: -(d.f)) at each end's rotation
-    # DOFs, from the point forces f (the translational part of Fm): take it off again
-    el, dim, nd = model.elements, model.dim, model.ndof
-    m = model.point_master[el.ends].ravel()
-    d = model.offsets(state, m, model.point_offset[el.ends].reshape(-1, dim))
-    _, G = model.transfer(Fm.reshape(-1, nd), d)
-    G = G.reshape(len(el.L0), 2, nd - dim, nd - dim)
-    Ke = Ke.copy()
-    Ke[:, dim:nd, dim:nd] -= G[:, 0]
-    Ke[:, nd + dim:, nd + dim:] -= G[:, 1]
-    return full_tangent(solution, element_tangent=Ke, with_loads=False)
+    """``scipy.linalg.solve(K, rhs)`` bit for bit, by the factorisation it would choose called
+    through LAPACK directly (`flexmb.linearisation.DenseFactor`): ``LinAlgError`` for an exactly
+    singular ``K``, `scipy.linalg.LinAlgWarning` where its reciprocal condition number is below
+    eps (``ill_conditioned="raise"``: raised as the exception)."""
+    return DenseFactor(K, ill_conditioned).solve(rhs)
 
 
 #: Eigenvalues ``mu`` of ``K_s phi = mu K_m phi`` below this fraction of the largest |mu| are zero
@@ -118,46 +61,32 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     turned 20 deg; the converged state's tangent on that basis still +11 % (turn free): neither
     the stress-free EOBs nor the basis carry a turned joint's buckling.
     """
-    if getattr(solution, "method", None) == "ksd-reduced":
-        raise UnsupportedStrategyError(
-            "buckling need the full FE equilibrium: solve with method='ksd-full' (the conventional equilibrium, from "
-            "the KSD start) or 'conventional'. KSD-reduced has no honest geometric stiffness of its joints' leaves: "
-            "the EOBs are stress-free and step 4's positions first-order (a cross flexure pushed along its axis, "
-            "turned 20 deg: -23 % from them)")
-    problem = solvable_problem(solution, "buckling")
-    model = problem.model
-    held_idx = held_dofs(solution, held, "buckling")
-    free = np.setdiff1d(np.arange(model.n_dofs), held_idx)
+    lin = linearise(solution, held, owner="buckling")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ParameterError(f"buckling: n={n!r} must be an integer in [1, the number of free motions]")
-    Kt = full_tangent(solution)
-    if base is None:
-        Km = material_tangent(solution)
-    else:
-        bmodel = solvable_problem(base).model
-        if bmodel.n_dofs != model.n_dofs or not np.array_equal(bmodel.x0, model.x0) or \
-                len(bmodel.elements.L0) != len(model.elements.L0):
-            raise ModelError("buckling: base is not a solution of the same mechanism (its nodes or elements differ)")
-        Km = full_tangent(base)
-    free, Z = constrained(model, free, Kt, solution.state)  # hinges: the motions they allow, multipliers out
-    Kt, Km = Kt[free][:, free], Km[free][:, free]
-    if Z is not None:
-        Kt, Km = Z.T @ Kt @ Z, Z.T @ Km @ Z
+    Km = lin.material_tangent(base)  # the solution kind's: KSD-reduced has none
+    Kt = lin.K
     nf = Kt.shape[0]
     if nf == 0:
         raise ModelError(f"buckling: no free motion to buckle: every DOF is held or fixed (held={held!r}; the "
                          "default 'prescribed' holds the prescribed motions: held='none' releases them)")
     if n > nf:
         raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf}] (the "
-                             f"{'free DOFs' if Z is None else 'motions the hinges allow'}: {nf})")
-    Ks = (Kt - Km).tocsr()
-    if Ks.nnz == 0 or abs(Ks).max() == 0.0:
+                             f"{'free DOFs' if lin.Z is None else 'motions the hinges allow'}: {nf})")
+    Ks = (Kt - Km).tocsr() if sp.issparse(Kt) else np.asarray(Kt - Km)  # a dense linearisation's: arrays
+    if (Ks.nnz == 0 if sp.issparse(Ks) else Ks.size == 0) or abs(Ks).max() == 0.0:
         return np.full(n, np.inf)  # no stress, no load: nothing to buckle
+    return _positive_multipliers(_multipliers(Ks, Km, n, nf), n)
+
+
+def _multipliers(Ks, Km, n: int, nf: int) -> np.ndarray:
+    """The finite eigenvalues ``mu`` of ``K_s phi = mu K_m phi`` (``mu = -1/lam``: the critical,
+    smallest positive ``lam`` has the most negative ``mu``): dense below `DENSE_BELOW`, else the
+    ``2 n + 8`` ARPACK finds."""
     tol = 1e-11 * abs(Km).max()
     symmetric = bool(abs(Ks - Ks.T).max() <= tol and abs(Km - Km.T).max() <= tol)
-    if nf < DENSE_BELOW or n >= nf - 2:  # ARPACK: fewer than nf - 1 eigenvalues
-        A, B = Ks.toarray(), Km.toarray()
-        # K_s phi = mu K_m phi, mu = -1/lam: the critical (smallest positive) lam has the most negative mu
+    if nf < DENSE_BELOW or n >= nf - 2 or not sp.issparse(Ks):  # ARPACK: fewer than nf - 1 eigenvalues
+        A, B = (X.toarray() if sp.issparse(X) else np.asarray(X) for X in (Ks, Km))
         try:
             mu = sla.eigh(0.5 * (A + A.T), 0.5 * (B + B.T), eigvals_only=True) if symmetric else sla.eigvals(A, B)
         except np.linalg.LinAlgError:  # K_m not positive definite (an unstable base): the general problem
@@ -173,16 +102,15 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
             lu = spla.splu(Km.tocsc())
             op = spla.LinearOperator(Km.shape, matvec=lambda x: lu.solve(-(Ks @ x)), dtype=float)
             mu = -spla.eigs(op, k=k, which="LR", return_eigenvectors=False, tol=1e-10, v0=start_vector(nf))
-    return _multipliers(mu, n)
+    mu = np.asarray(mu)
+    return mu[np.isfinite(mu)]
 
 
-def _multipliers(mu, n: int) -> np.ndarray:
+def _positive_multipliers(mu: np.ndarray, n: int) -> np.ndarray:
     """The ``n`` smallest positive multipliers ``lam = -1/mu`` of the eigenvalues ``mu`` of
     ``K_s phi = mu K_m phi`` (real ones; inf where fewer exist). A mu that is zero to working
     precision (`MU_ROUNDOFF`) is none: a cantilever pulled along its axis (stress stiffening only)
-    gave mu = -3.9e-19 beside 0.012, i.e. lam = 7.8e17 instead of inf."""
-    mu = np.asarray(mu)
-    mu = mu[np.isfinite(mu)]
+    gave mu = -3.9e-19 beside 0.012, i.e. lam = 7.8e17 instead of inf (issue 32)."""
     real = mu[np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()].real if np.iscomplexobj(mu) else mu
     zero = MU_ROUNDOFF * (np.abs(real).max() if real.size else 0.0)
     lam = np.sort(-1.0 / real[real < -zero])
@@ -208,9 +136,8 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     manipulator's end link over +-45 deg within 0.72 % (median 0.16 %), the four-bar's top link
     0.95 % at d = 0.1 m and 7.3 % at 0.3 m; the joints' stress stiffening is not in the EOB's
     material stiffness (a cross flexure turned 0.3 rad: rotation compliance +1.46 %)."""
-    reduced = getattr(solution, "method", None) == "ksd-reduced"  # not a Solution: solvable_problem names it
-    problem = _converged(solution, "compliance") if reduced else solvable_problem(solution)
-    compiled, model, state = solution.compiled, problem.model, solution.state
+    lin = linearise(solution, held, owner="compliance")
+    compiled, model, state = solution.compiled, lin.model, solution.state
     if link not in compiled.link_node:
         raise ModelError(f"compliance: no link named {link!r}; links: {', '.join(compiled.link_node)}")
     if axes not in ("global", "link"):
@@ -225,47 +152,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
             raise ModelError(f"compliance: link {link!r} has no point named {point!r}")
     else:
         offset = v.vector(f"compliance of link {link!r}", "point", point, dim) - model.x0[node]
-    free = problem.free if isinstance(held, str) and held == "prescribed" else \
-        np.setdiff1d(np.arange(model.n_dofs), held_dofs(solution, held, "compliance"))
-    Z = None
-    if reduced:  # the reduced mechanism's tangent on the links' DOFs (flexmb.ksd.properties)
-        K_links, _ = reduced_tangent(solution)
-        free = free[free < K_links.shape[0]]
-        K = K_links.take(free, 0).take(free, 1)  # small and dense: solved densely below
-    else:
-        K = full_tangent(solution)
-        # hinges: on the motions they allow (Z, the rows dropped at build included: a link whose
-        # prescribed turn `held` releases stays on its axis), C = Z (Z^T K Z)^-1 Z^T
-        free, Z = constrained(model, free, K, state)
-        K = K[free][:, free].tocsc()
-        if Z is not None:
-            K = (Z.T @ K @ Z).tocsc()
-    dofs = model.node_dofs[node]
-    cols = np.searchsorted(free, dofs)
-    is_free = (cols < len(free)) & (free[np.minimum(cols, len(free) - 1)] == dofs)
-    C_node = np.zeros((nd, nd))
-    if is_free.any():
-        rhs = np.zeros((len(free), int(is_free.sum())))
-        rhs[cols[is_free], np.arange(rhs.shape[1])] = 1.0
-        if Z is not None:
-            rhs = Z.T @ rhs
-        try:
-            if reduced or K.shape[0] < 220:  # rcond below eps: singular
-                X = _solve_dense(K if reduced else K.toarray(), rhs, ill_conditioned="raise")
-            else:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("error", sla.LinAlgWarning)
-                    X = problem.solve_linear(K, rhs)
-                _consistent(K, X, rhs)
-        except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError, ArithmeticError) as exc:
-            raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
-                             "leaves a rigid-body motion free, or the equilibrium is critical)") from exc
-        if not np.all(np.isfinite(X)):
-            raise ModelError(f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} "
-                             "leaves a rigid-body motion free, or the equilibrium is critical)")
-        if Z is not None:
-            X = Z @ X
-        C_node[np.ix_(is_free, is_free)] = X[cols[is_free]]
+    C_node = _node_compliance(lin, model.node_dofs[node], link, held)
     if offset.any():
         T = model._lever(model.offsets(state, np.array([node]), offset[None]))[0]  # point motion = T node motion
         C = T @ C_node @ T.T
@@ -279,3 +166,30 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
             B[3:, 3:] = R
         C = B.T @ C @ B
     return C
+
+
+def _node_compliance(lin, dofs: np.ndarray, link: str, held) -> np.ndarray:
+    """The compliance (nd, nd) of a link's node DOFs ``dofs`` from the linearisation: ``Z K^-1 Z^T``
+    on its free ones, zero rows and columns for the held ones (`ModelError` for a singular ``K``)."""
+    free, Z = lin.free, lin.Z
+    cols = np.searchsorted(free, dofs)
+    is_free = (cols < len(free)) & (free[np.minimum(cols, len(free) - 1)] == dofs)
+    C_node = np.zeros((len(dofs), len(dofs)))
+    if not is_free.any():
+        return C_node
+    rhs = np.zeros((len(free), int(is_free.sum())))
+    rhs[cols[is_free], np.arange(rhs.shape[1])] = 1.0
+    if Z is not None:
+        rhs = Z.T @ rhs
+    singular = (f"compliance of link {link!r}: the tangent on the free DOFs is singular (held={held!r} leaves a "
+                "rigid-body motion free, or the equilibrium is critical)")
+    try:
+        X = lin.solve(rhs)
+    except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError, ArithmeticError) as exc:
+        raise ModelError(singular) from exc
+    if not np.all(np.isfinite(X)):
+        raise ModelError(singular)
+    if Z is not None:
+        X = Z @ X
+    C_node[np.ix_(is_free, is_free)] = X[cols[is_free]]
+    return C_node

@@ -38,14 +38,14 @@ from scipy.linalg import lapack as _lapack
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
-from .fe.assembly import SparsePattern
+from .errors import ModelError, ParameterError
 from .fe.ideal import constrained
-from .fe.mass import mass_matrix
-from .ksd.properties import reduced_modal_model
+from .ksd.linearisation import KSD_FIXED_INTERFACE_MODES
+from .linearisation import full_tangent, held_dofs, linearise, solvable_problem, stiffness_and_mass
 from .plausibility import check_mass_units
 
-__all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", "solvable_problem", "constrained", "DENSE_BELOW",
+__all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", "solvable_problem", "constrained",
+           "KSD_FIXED_INTERFACE_MODES", "DENSE_BELOW",
            "DENSE_BELOW_NONSYMMETRIC"]
 
 #: Free DOFs below which `modes` solves the symmetric eigenproblem dense (LAPACK ``eigh``); at and
@@ -56,18 +56,6 @@ DENSE_BELOW = 250
 #: the Table 1 pivot at 75 deg with 77 free DOFs 12.3 / 16.5 ms, 95: 17.1 / 16.7, 131: 24.1 / 16.8.
 DENSE_BELOW_NONSYMMETRIC = 90
 
-#: Fixed-interface modes per joint in a KSD-reduced solution's `modes` (with the joints'
-#: Craig-Bampton constraint modes, `flexmb.ksd.properties.reduced_modal_model`). Measured on the
-#: manipulator at 30 deg, first three frequencies against the full model: 0 modes +5.0/+21/+24 %,
-#: 1: +0.96/+0.06/-0.27 %, 2: -0.10/-0.24/-0.28 %, 6: -0.17/-0.25/-0.28 %, 10: -0.18/-0.26/-0.28 %
-#: (at -45 deg 6: -0.39/-0.35/-0.55 %, 10: -0.41/-0.36/-0.57 %): 6 is converged (10 moves the first
-#: three by at most 0.02 %); what is left is the EOB stiffness's (no stress stiffening).
-#: Ties at the cut are kept whole (`flexmb.ksd.joint_mass.condensed_subspace`): the four-bar's
-#: cross flexures keep 7.
-KSD_FIXED_INTERFACE_MODES = 6
-
-_COMPONENTS = {2: {"x": (0,), "y": (1,), "rotation": (2,)},
-               3: {"x": (0,), "y": (1,), "z": (2,), "rx": (3,), "ry": (4,), "rz": (5,), "rotation": (3, 4, 5)}}
 
 
 def start_vector(n: int) -> np.ndarray:
@@ -145,129 +133,6 @@ class Modes:
                        self.solver, self.solution)
 
 
-def _full_pattern(model, loads):
-    ed = model.element_dofs
-    lr = model.node_dofs[loads.node][:, model.dim:]
-    blocks = (ed, lr) if model.hinges is None else (ed, lr, model.hinge_dofs)
-    rows = np.concatenate([np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel() for a in blocks])
-    cols = np.concatenate([np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel() for a in blocks])
-    return SparsePattern(rows, cols, (model.n_dofs, model.n_dofs))
-
-
-def full_tangent(solution, element_tangent=None, with_loads: bool = True) -> sp.csr_array:
-    """The tangent on *all* DOFs (n_dofs, n_dofs) at a converged FE solution: the elements' (or
-    ``element_tangent``, (E, 2 ndof, 2 ndof) in master DOFs), the hinges' saddle-point blocks
-    (without their constraint forces' part when ``element_tangent`` is given: the material tangent)
-    and, ``with_loads``, the dead loads' stiffness at the solution's load factor."""
-    problem = solvable_problem(solution)
-    model, state = problem.model, solution.state
-    Ke = model.element_response(state, tangent=True)[1] if element_tangent is None else element_tangent
-    _, G = problem.external_force(state, solution.load_factor)
-    G = -G if with_loads else np.zeros_like(G)
-    vals = [Ke.ravel(), G.ravel()]
-    if model.hinges is not None:
-        vals.append(model.hinge_response(state, problem.motor_fraction(solution.load_factor),
-                                         material=element_tangent is not None)[1].ravel())
-    return _full_pattern(model, problem.loads).matrix(np.concatenate(vals))
-
-
-def stiffness_and_mass(solution) -> tuple[sp.csr_array, sp.csr_array]:
-    """Tangent stiffness (`full_tangent`) and mass on *all* DOFs (N ndof, N ndof) at a converged
-    FE solution (see the module notes: dead loads, mass at the deformed state)."""
-    model = solvable_problem(solution).model
-    return full_tangent(solution), mass_matrix(model, solution.state, model.rigid_masses)
-
-
-def _converged(solution, owner: str = "modes"):
-    """The problem of a converged solution (`ConvergenceError` if not converged)."""
-    if not solution.converged:
-        raise ConvergenceError(f"{owner} of an unconverged solution ({solution.message}): linearise about an "
-                               "equilibrium", solution)
-    return solution.compiled.problem
-
-
-def solvable_problem(solution, owner: str = "modes"):
-    """The solution's `StaticProblem`, if the solution is a converged full FE equilibrium
-    (`UnsupportedStrategyError` for KSD-reduced and closed-form solutions, `ConvergenceError`
-    for an unconverged one); messages name the property ``owner``."""
-    if not hasattr(solution, "compiled") or not hasattr(solution, "method"):
-        raise ParameterError(f"linearisation needs a Solution (flexmb.solve, sweep or trace), got "
-                             f"{type(solution).__name__}: solve the mechanism first")
-    if solution.method == "ksd-reduced":
-        raise UnsupportedStrategyError(f"{owner} need the full FE equilibrium: solve with method='ksd-full' or "
-                                       "'conventional' (KSD-reduced's internal nodes are first-order only)")
-    problem = solution.compiled.problem
-    if not hasattr(problem.model, "elements"):
-        raise UnsupportedStrategyError(
-            f"modes need beam elements: this solution comes from method {solution.method!r}, whose closed-form "
-            "model has none; solve with method='conventional'")
-    if not solution.converged:
-        raise ConvergenceError(f"modes of an unconverged solution ({solution.message}): linearise about an "
-                               "equilibrium", solution)
-    return problem
-
-
-def held_dofs(solution, held, owner: str = "modes") -> np.ndarray:
-    """Sorted global DOF indices that ``held`` (as in `modes`) holds; errors name ``owner``."""
-    compiled = solution.compiled
-    problem, model = compiled.problem, compiled.problem.model
-    if isinstance(held, str) and held in ("prescribed", "floating"):  # the fixed links' DOFs not needed
-        return np.unique(problem.prescribed) if held == "prescribed" else np.zeros(0, dtype=np.int64)
-    fixed = [compiled.link_node[name] for name in compiled.fixed]
-    ground = model.node_dofs[fixed].ravel() if fixed else np.zeros(0, dtype=np.int64)
-    if isinstance(held, str):
-        if held == "none":
-            return np.unique(ground)
-        raise ParameterError(f"{owner}: held={held!r}; valid: 'prescribed', 'none', 'floating' or a sequence of "
-                             "links and (link, component) pairs")
-    comps = _COMPONENTS[model.dim]
-    out = [ground]
-    try:
-        items = list(held)
-    except TypeError:
-        raise ParameterError(f"{owner}: held={held!r} is not a string or a sequence") from None
-    for item in items:
-        if isinstance(item, str):
-            link, which = item, None
-        elif isinstance(item, (tuple, list)) and len(item) == 2:
-            link, which = item
-        else:
-            raise ParameterError(f"{owner}: held item {item!r} is neither a link name nor a (link, component) pair")
-        if not isinstance(link, str) or link not in compiled.link_node:
-            raise ModelError(f"{owner}: held names no link {link!r}; links: {', '.join(compiled.link_node)}")
-        dofs = model.node_dofs[compiled.link_node[link]]
-        if which is None:
-            out.append(dofs)
-        elif which in comps:
-            out.append(dofs[list(comps[which])])
-        else:
-            raise ParameterError(f"{owner}: held component {which!r} of link {link!r}; valid: {', '.join(comps)}")
-    return np.unique(np.concatenate(out).astype(np.int64))
-
-
-_HELD = weakref.WeakKeyDictionary()
-_PLAUSIBLE_MASS = weakref.WeakKeyDictionary()  # models whose density fits E and the lengths (check_mass_units)
-
-
-def _held_and_free(solution, held):
-    """`held_dofs` and the free DOFs (sorted), kept per compiled mechanism for the named ``held``
-    ("prescribed", "none", "floating": ~10 us of a KSD-reduced ``modes`` each call)."""
-    compiled = solution.compiled
-    key = held if isinstance(held, str) else None
-    per = _HELD.setdefault(compiled, {})
-    if key is None or key not in per:
-        held_idx = held_dofs(solution, held)
-        keep = np.ones(compiled.problem.model.n_dofs, dtype=bool)
-        keep[held_idx] = False
-        out = held_idx, np.flatnonzero(keep)  # np.setdiff1d's sort: 0.15 ms of the manipulator's KSD-reduced 2.2 ms
-        if key is None:
-            return out
-        for a in out:
-            a.flags.writeable = False
-        per[key] = out
-    return per[key]
-
-
 def _dof_name(compiled, dof: int) -> str:
     model = compiled.problem.model
     node, comp = divmod(int(dof), model.ndof)
@@ -281,62 +146,37 @@ def _dof_name(compiled, dof: int) -> str:
     return f"node {node} {names[comp]}"
 
 
+_PLAUSIBLE_MASS = weakref.WeakKeyDictionary()  # models whose density fits E and the lengths (check_mass_units)
+
+
 def modes(solution, n: int = 6, held="prescribed") -> Modes:
     """The ``n`` lowest undamped natural frequencies [Hz] and mass-normalised mode shapes of a
-    converged equilibrium (``method="conventional"`` or ``"ksd-full"``), linearised as the
-    module notes state (dead loads, mass at the deformed state; ``held`` as there).
+    converged equilibrium, linearised as the module notes state (dead loads, mass at the deformed
+    state; ``held`` as there), on the solution's own linearisation (`flexmb.Solution.linearisation`
+    with its mass-carrying coordinates): the full finite-element model's (``method="conventional"``,
+    ``"ksd-full"``, a path's points) or a solution kind's own.
 
     A KSD-reduced solution gives the reduced mechanism's modes
-    (`flexmb.ksd.properties.reduced_modal_model`): the links' DOFs with the reduced equilibrium's
-    tangent, each joint's mass condensed with its EOB's Craig-Bampton transformation (constraint
-    modes plus `KSD_FIXED_INTERFACE_MODES` fixed-interface modes), shapes recovered on every node.
-    Measured against the full model: the manipulator's first three parasitic frequencies over
-    +-45 deg within 0.55 % (median 0.13 %), the four-bar's 0.46 % at d = 0.1 m (6.8 % at 0.3 m).
-    The joints' kept span of fixed-interface modes is tabulated (`flexmb.ksd.joint_mass.
-    condensed_subspace`: no eigenproblem per configuration, ties at the cut kept whole; a
-    template whose kept span is not smooth over its range solves them per configuration, `flexmb.
-    ksd.joint_mass.span_check`), the joints' interior recovery read only when ``shapes`` is: modes
-    of a freshly solved manipulator configuration 0.35 ms (fastest of 40; 0.47 ms right after a
-    conventional solve and modes, whose runs evict the tables and LAPACK from cache; 0.52 ms in
-    bench_properties' interleaved runs, before 0.61-0.64), of which the 27-DOF eigenproblem
-    0.12 ms, the reduced model 0.14 ms (the tangent 0.05 ms, shared with `flexmb.compliance`).
-    Solve + modes ~22x faster than the full model's (loaded host).
+    (`flexmb.ksd.linearisation.ReducedLinearisation`): the links' DOFs with the reduced
+    equilibrium's tangent, each joint's mass condensed with its EOB's Craig-Bampton transformation
+    (constraint modes plus `KSD_FIXED_INTERFACE_MODES` fixed-interface modes), shapes recovered on
+    every node when first read. Measured against the full model: the manipulator's first three
+    parasitic frequencies over +-45 deg within 0.55 % (median 0.13 %), the four-bar's 0.46 % at
+    d = 0.1 m (6.8 % at 0.3 m). A small dense linearisation's eigenvalues are solved alone and
+    its vectors when ``shapes`` or ``link_shapes`` is first read.
 
-    Dense LAPACK below `DENSE_BELOW` free DOFs (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
-    tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises `ConvergenceError` for an unconverged
-    solution, `ParameterError` for ``n`` outside [1, free motions] (all of them: dense),
-    `ModelError` for a mechanism with no free motion (all held) or naming a free DOF without mass.
+    Dense LAPACK below `DENSE_BELOW` coordinates (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
+    tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises
+    `ConvergenceError` for an unconverged solution, `ParameterError` for ``n`` outside [1, free
+    motions] (all of them: dense), `ModelError` for a mechanism with no free motion (all held) or
+    naming a free DOF without mass.
     """
-    reduced = getattr(solution, "method", None) == "ksd-reduced"  # not a Solution: solvable_problem names it
-    problem = _converged(solution) if reduced else solvable_problem(solution)
-    compiled, model = solution.compiled, problem.model
-    held_idx, free = _held_and_free(solution, held)
-    if reduced:  # the reduced mechanism: the links' DOFs and the joints' modal coordinates
-        if model.hinges is not None:
-            raise UnsupportedStrategyError("modes of a KSD-reduced solution with hinges are not available: solve with "
-                                           "method='ksd-full' or 'conventional'")
-        K, M, to_full = reduced_modal_model(solution, KSD_FIXED_INTERFACE_MODES)
-        nl = len(compiled.link_node) * model.ndof
-        size = K.shape[0]
-        free = np.concatenate([free[free < nl], np.arange(nl, size)])
+    lin = linearise(solution, held, modal=True, owner="modes")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ParameterError(f"modes: n={n!r} must be an integer in [1, the number of free motions]")
-    if reduced:  # small and dense: no sparse bookkeeping (measured 1-2 ms of a 4 ms call)
-        K, M, Z = K.take(free, 0).take(free, 1), M.take(free, 0).take(free, 1), None
-    else:
-        K, M = stiffness_and_mass(solution)
-        free, Z = constrained(model, free, K, solution.state)  # hinges: the motions they allow (Z), multipliers out
-        K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
-    if len(model.elements.L0) and model not in _PLAUSIBLE_MASS:
-        with warnings.catch_warnings(record=True) as caught:  # a model's sections are checked once
-            warnings.simplefilter("always")
-            check_mass_units(solution, model, stacklevel=3)
-        if caught:  # warned: again, as the caller's filters take it (each call)
-            check_mass_units(solution, model, stacklevel=3)
-        else:
-            _PLAUSIBLE_MASS[model] = True
-    if Z is not None:
-        K, M = (Z.T @ K @ Z).tocsr(), (Z.T @ M @ Z).tocsr()
+    compiled, model = solution.compiled, lin.model
+    K, M, Z, free = lin.K, lin.M, lin.Z, lin.free
+    _check_mass_units(solution, model)
     nf = K.shape[0]
     what = "free DOFs" if Z is None else "motions the hinges allow"
     if nf == 0:
@@ -344,6 +184,58 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
                          "default 'prescribed' holds the prescribed motions: held='none' releases them)")
     if n > nf:
         raise ParameterError(f"modes: n={n!r} must be an integer in [1, {nf}] (the {what}: {nf})")
+    _check_massive(M, Z, compiled, free)
+    asym = abs(K - K.T).max()
+    tol = max(10.0 * solution.tolerance, 1e-11 * abs(K).max())
+    symmetric = bool(asym <= tol)
+    dense = nf < (DENSE_BELOW if symmetric else DENSE_BELOW_NONSYMMETRIC) or n >= nf - 1  # ARPACK: n < nf - 1
+    lam = _dense_eigenvalues(K, M, n) if lin.dense and dense and symmetric else None
+    nd = model.ndof
+    if lam is not None:  # the vectors (shapes, link shapes) solved when first read
+        vectors = functools.lru_cache(maxsize=None)(lambda: _normalised(_dense(K, M, n, True)[1], M, Z, free, n,
+                                                                        lin.size))
+        shapes = lambda: _node_shapes(lin.expand(vectors().T).T, model, n)  # noqa: E731
+        link_shapes = lambda: _link_rows(vectors(), compiled, nd)  # noqa: E731
+        freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
+        return Modes(freq, lam, shapes, link_shapes, lin.held, symmetric, "dense", solution)
+    if dense:
+        lam, vec = _dense(*(A.toarray() if sp.issparse(A) else A for A in (K, M)), n, symmetric)
+        solver = "dense"
+    else:
+        lam, vec = _sparse(sp.csr_array(K), sp.csr_array(M), n, symmetric)
+        solver = "sparse"
+    full = _normalised(vec, M, Z, free, n, lin.size)
+    freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
+    link_shapes = _link_rows(full, compiled, nd)
+    if lin.size == model.n_dofs:  # the generalised DOFs are the model's: the shapes as they are
+        shapes = _node_shapes(full, model, n)
+    else:  # a reduced model's: the interiors recovered when the shapes are first read
+        def shapes():
+            return _node_shapes(lin.expand(full.T).T, model, n)
+    return Modes(freq, lam, shapes, link_shapes, lin.held, symmetric, solver, solution)
+
+
+def _node_shapes(full, model, n):
+    """Shapes on the model's DOFs (n, n_dofs) per node (n, nodes, ndof) (hinge multipliers out)."""
+    nd = model.ndof
+    return full[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)
+
+
+def _check_mass_units(solution, model) -> None:
+    """`flexmb.plausibility.check_mass_units` once per model that passes it (warned: each call)."""
+    if len(model.elements.L0) and model not in _PLAUSIBLE_MASS:
+        with warnings.catch_warnings(record=True) as caught:  # a model's sections are checked once
+            warnings.simplefilter("always")
+            check_mass_units(solution, model, stacklevel=4)
+        if caught:  # warned: again, as the caller's filters take it (each call)
+            check_mass_units(solution, model, stacklevel=4)
+        else:
+            _PLAUSIBLE_MASS[model] = True
+
+
+def _check_massive(M, Z, compiled, free) -> None:
+    """`ModelError` naming the free directions (or hinge motions) that carry no mass."""
+    nf = M.shape[0]
     dM = M.diagonal()
     scale = float(dM.max(initial=0.0))
     massive = dM > 1e-14 * scale
@@ -357,44 +249,19 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
         raise ModelError(f"modes: {len(massless)} free direction(s) carry no mass: {listed}"
                          f"{' ...' if len(massless) > 6 else ''}; give the links mass (add_link(..., mass=, "
                          "inertia=)) or the joints (their sections) density, or hold those DOFs (held=...)")
-    asym = abs(K - K.T).max()
-    tol = max(10.0 * solution.tolerance, 1e-11 * abs(K).max())
-    symmetric = bool(asym <= tol)
-    dense = nf < (DENSE_BELOW if symmetric else DENSE_BELOW_NONSYMMETRIC) or n >= nf - 1  # ARPACK: n < nf - 1
-    lam = _dense_eigenvalues(K, M, n) if reduced and dense and symmetric else None
-    nd = model.ndof
-    if lam is not None:  # KSD-reduced: the vectors (shapes, link shapes) solved when first read
-        vectors = functools.lru_cache(maxsize=None)(lambda: _normalised(_dense(K, M, n, True)[1], M, Z, free, n, size))
-        shapes = lambda: to_full(vectors().T).T[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)  # noqa: E731
-        link_shapes = lambda: _link_rows(vectors(), compiled, nd)  # noqa: E731
-        freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
-        return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, "dense", solution)
-    if dense:
-        lam, vec = _dense(*(A.toarray() if sp.issparse(A) else A for A in (K, M)), n, symmetric)
-        solver = "dense"
-    else:
-        lam, vec = _sparse(sp.csr_array(K), sp.csr_array(M), n, symmetric)
-        solver = "sparse"
-    full = _normalised(vec, M, Z, free, n, size if reduced else model.n_dofs)
-    freq = np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)
-    link_shapes = _link_rows(full, compiled, nd)
-    if reduced:  # the joints' interiors recovered when the shapes are first read
-        def shapes():
-            return to_full(full.T).T[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)
-    else:
-        shapes = full[:, :model.n_nodes * nd].reshape(n, model.n_nodes, nd)
-    return Modes(freq, lam, shapes, link_shapes, held_idx, symmetric, solver, solution)
 
 
 def _normalised(vec, M, Z, free, n, size):
-    """Eigenvectors on the free DOFs (nf, n) -> mass-normalised (eigh's are already), the largest
-    component positive, on all ``size`` DOFs (n, size), held ones 0 (``Z``: the hinges' motions)."""
+    """Eigenvectors on the coordinates (nf, n) -> mass-normalised (eigh's are already), on all
+    ``size`` generalised DOFs (n, size) through ``Z`` (the coordinates' basis), held ones 0, the
+    largest component on the DOFs positive (after ``Z``: the convention does not depend on the
+    basis)."""
     norm = np.sqrt(np.einsum("ik,ik->k", vec, M @ vec))
     vec = vec / norm
-    big = np.argmax(np.abs(vec), axis=0)
-    vec = vec * np.sign(vec[big, np.arange(vec.shape[1])])
     if Z is not None:
         vec = Z @ vec
+    big = np.argmax(np.abs(vec), axis=0)
+    vec = vec * np.sign(vec[big, np.arange(vec.shape[1])])
     full = np.zeros((n, size))
     full[:, free] = vec.T
     return full

@@ -5,6 +5,8 @@ from __future__ import annotations
 import attrs
 import numpy as np
 
+from typing import ClassVar
+
 from ._validate import frozen
 from .errors import ModelError, UnsupportedStrategyError
 from .fe.model import State
@@ -59,6 +61,29 @@ class Solution:
     tolerance: float = 5e-7
     stable: bool | None = None
     stages: dict = attrs.field(factory=dict, repr=False)
+    #: whether the state is the full model's equilibrium (its tangent and mass on every DOF are
+    #: the linearisation); a reduced solution kind says False and why in ``full_equilibrium_note``
+    full_equilibrium: ClassVar[bool] = True
+    full_equilibrium_note: ClassVar[str] = ""
+
+    def linearisation(self, held="prescribed", *, modal: bool = False, owner: str = "linearisation"):
+        """The converged equilibrium linearised on its free coordinates (a
+        `flexmb.protocols.Linearisation`): tangent ``K`` and mass ``M`` on them, the map back to
+        the mechanism's DOFs, the held DOFs and a solve with a kept factorisation. ``held`` as in
+        `flexmb.modes`; ``modal``: coordinates that carry the mass (a reduced solution kind adds
+        its joints' interior modes; the full model's are the same either way); ``owner``: the
+        property named in error messages. This is the full finite-element model's
+        (`flexmb.linearisation.FELinearisation`); a solution kind with another model overrides
+        it (KSD-reduced: `flexmb.ksd.properties.ReducedSolution`). Raises `ConvergenceError` for
+        an unconverged solution, `UnsupportedStrategyError` where the model has no beam elements."""
+        from .linearisation import FELinearisation
+
+        return FELinearisation(self, held, modal=modal, owner=owner)
+
+    def _element_axial_forces(self):
+        """``(elements, N)``: axial forces [N] that replace those the state's positions imply in
+        `stresses` and `peak_stress` (a reduced solution kind's, from its own model), or None."""
+        return None
 
     @classmethod
     def failed(cls, method: str, compiled, message: str, wall_time: dict | None = None, stages: dict | None = None):
@@ -166,7 +191,7 @@ class Solution:
             raise UnsupportedStrategyError(
                 f"peak_stress needs beam elements: this solution comes from method {self.method!r}, whose "
                 "closed-form model has none; solve with method='conventional' for stresses")
-        sigma = peak_normal_stress(model, self.state, self._eob_axial())
+        sigma = peak_normal_stress(model, self.state, self._element_axial_forces())
         if joint is None:
             return sigma
         try:
@@ -182,8 +207,9 @@ class Solution:
         fatigue strength) the safety factors ``limit / von_mises`` (without it, from the sections'
         ``yield_stress`` where given: the joints' ``yield_stress``). Returns a
         `flexmb.fe.stress.Stresses`: per element arrays, ``.joint(name)`` and ``.summary()``.
-        A converged KSD-reduced solution's joint elements take their axial forces from the EOBs
-        (`flexmb.ksd.properties.eob_axial_forces`), the moments from step 4's positions."""
+        A solution kind may give its joint elements' axial forces from its own model
+        (`_element_axial_forces`: a converged KSD-reduced solution's from the EOBs,
+        `flexmb.ksd.properties.eob_axial_forces`), the moments from the state's positions."""
         from .fe.stress import element_stresses
 
         model = self.compiled.problem.model
@@ -192,17 +218,7 @@ class Solution:
                 f"stresses need beam elements: this solution comes from method {self.method!r}, whose "
                 "closed-form model has none; solve with method='conventional' for stresses")
         return element_stresses(model, self.state, self.compiled.joint_elements, concentration, limit,
-                                self._eob_axial())
-
-    def _eob_axial(self):
-        """A converged KSD-reduced solution's joint elements' axial forces from its EOBs
-        (`flexmb.ksd.properties.eob_axial_forces`: step 4's positions give them 15x off on the
-        four-bar at d = 0.3 m, so its peak von Mises stress +2.8 %; with the EOBs' +0.6 %), else None."""
-        if self.method != "ksd-reduced" or not self.converged:
-            return None
-        from .ksd.properties import eob_axial_forces
-
-        return eob_axial_forces(self)
+                                self._element_axial_forces())
 
     def strain_energy(self) -> float:
         """Elastic energy stored in all beam elements [J]."""

@@ -20,16 +20,22 @@ _SKEW = _SKEW.reshape(3, 9)
 _TRACE_AXIAL = np.concatenate([_EYE.reshape(9, 1), _SKEW.T], axis=1)
 
 
+def _real_or_complex(a) -> type:
+    """``complex`` for a complex array (the complex step of `flexmb.design`), else ``float``."""
+    return complex if np.iscomplexobj(a) else float
+
+
 def skew(w: np.ndarray) -> np.ndarray:
-    """Skew-symmetric matrix of vectors, shape (..., 3) -> (..., 3, 3): ``skew(a) @ b = a x b``."""
-    w = np.asarray(w, dtype=float)
+    """Skew-symmetric matrix of vectors, shape (..., 3) -> (..., 3, 3): ``skew(a) @ b = a x b``
+    (complex vectors stay complex: the complex step of `flexmb.design`)."""
+    w = np.asarray(w, dtype=_real_or_complex(w))
     return (w @ _SKEW).reshape(w.shape + (3,))
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a x b`` for arrays of 3-vectors (...,3), broadcast; np.cross's generic path is ~10x slower
     on the small batches of the Newton loop."""
-    return (skew(a) @ np.asarray(b, dtype=float)[..., None])[..., 0]
+    return (skew(a) @ np.asarray(b, dtype=_real_or_complex(b))[..., None])[..., 0]
 
 
 def unskew(S: np.ndarray) -> np.ndarray:
@@ -84,7 +90,7 @@ def chain_rotation(w: np.ndarray, scale: float = 1.0) -> np.ndarray:
 
 
 def rot2(theta: np.ndarray) -> np.ndarray:
-    """Planar rotation matrices, angles [rad] shape (...) -> (..., 2, 2)."""
-    theta = np.asarray(theta, dtype=float)
+    """Planar rotation matrices, angles [rad] shape (...) -> (..., 2, 2) (complex angles stay complex)."""
+    theta = np.asarray(theta, dtype=_real_or_complex(theta))
     c, s = np.cos(theta), np.sin(theta)
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)

@@ -377,7 +377,7 @@ def test_the_properties_of_a_solve_with_a_database_folder_use_that_folders_data(
     frequencies = np.sqrt(scipy.linalg.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True)[:3]) / (2 * np.pi)
     np.testing.assert_allclose(flexmb.modes(own, n=3).frequencies, frequencies, rtol=1e-9)
     assert not np.allclose(flexmb.modes(own, n=3).frequencies, flexmb.modes(shipped, n=3).frequencies, rtol=1e-6)
-    for got, expected in zip(own._eob_axial(), eob_axial_forces(own, tmp_path)):  # Solution.stresses' axial forces
+    for got, expected in zip(own._element_axial_forces(), eob_axial_forces(own, tmp_path)):  # Solution.stresses' axial forces
         np.testing.assert_array_equal(got, expected)
     assert not np.allclose(flexmb.compliance(own, "B"), flexmb.compliance(shipped, "B"), rtol=1e-6, atol=0)
 

@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1] / "flexmb"
 # layer or of a layer below. Package facades (``__init__``) sit with their highest member.
 LAYERS = [
     ("foundation", ["flexmb._version", "flexmb.jit", "flexmb.errors", "flexmb.rotations", "flexmb._validate",
-                    "flexmb.sections"]),
+                    "flexmb.sections", "flexmb.protocols"]),
     ("elements and joints", ["flexmb.fe", "flexmb.fe.beam2d", "flexmb.fe.beam3d", "flexmb.fe.beam2d_jit",
                              "flexmb.fe.beam3d_jit", "flexmb.fe.assembly", "flexmb.fe.model_jit", "flexmb.fe.model", "flexmb.fe.stress_jit", "flexmb.fe.stress",
                              "flexmb.fe.mass", "flexmb.fe.ideal", "flexmb.fe.section_geometry", "flexmb.closed_form.flexures", "flexmb.closed_form.linkage_jit",
@@ -31,9 +31,9 @@ LAYERS = [
     ("problems", ["flexmb.linear", "flexmb.linear_jit", "flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),
     ("builders", ["flexmb.boundary", "flexmb.fe.build", "flexmb.closed_form", "flexmb.closed_form.build"]),
     ("mechanism", ["flexmb.mechanism"]),
-    ("results and joint data", ["flexmb.results", "flexmb.database.eob_format", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),
+    ("results and joint data", ["flexmb.linearisation", "flexmb.results", "flexmb.database.eob_format", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),
     ("strategies and analysis", ["flexmb.plausibility_jit", "flexmb.plausibility", "flexmb.solvers", "flexmb.solvers.*", "flexmb.analysis", "flexmb.modal",
-                                 "flexmb.linearised", "flexmb.peers", "flexmb.testing", "flexmb.database", "flexmb.database.training",
+                                 "flexmb.linearised", "flexmb.peers", "flexmb.design", "flexmb.design.*", "flexmb.testing", "flexmb.database", "flexmb.database.training",
                                  "flexmb.models"]),
     ("workflows", ["flexmb.sweeps", "flexmb.study", "flexmb.table", "flexmb.design_properties", "flexmb.path",
                    "flexmb.discretisation"]),

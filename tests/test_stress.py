@@ -276,7 +276,7 @@ def test_equal_sections_share_one_perimeter_search(case):
         m = flexmb.models.manipulator("joint", np.radians(45))
         sol = flexmb.solve(m, method="ksd-reduced" if "ksd" in case else "conventional", raise_on_failure=True)
     s = sol.stresses()
-    ref = _per_element(sol, sol._eob_axial() if "ksd" in case else None)
+    ref = _per_element(sol, sol._element_axial_forces() if "ksd" in case else None)
     for got, want in zip((s.normal, s.shear, s.von_mises), ref):
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-14 * want.max())
     assert s.shear.max() > 0

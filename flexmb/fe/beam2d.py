@@ -18,7 +18,7 @@ import numpy as np
 from .. import jit
 from ..sections import properties
 
-__all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "internal_force_and_tangent"]
+__all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "internal_force_and_tangent", "hypot_atan2"]
 
 
 def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
@@ -35,7 +35,19 @@ def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
 
 
 def _wrap(a):
+    if np.iscomplexobj(a):  # complex step: the real part wrapped, the imaginary part carried
+        return a - (a.real - _wrap(a.real))
     return np.arctan2(np.sin(a), np.cos(a))
+
+
+def hypot_atan2(L):
+    """``|L|`` and the angle of ``L`` (E, 2): ``np.hypot`` and ``np.arctan2`` for floats; for a complex
+    step (`flexmb.design`) their analytic continuations, exact in the imaginary part to first order."""
+    if not np.iscomplexobj(L):
+        return np.hypot(L[:, 0], L[:, 1]), np.arctan2(L[:, 1], L[:, 0])
+    x, y = L[:, 0], L[:, 1]
+    r2 = x.real**2 + y.real**2
+    return np.sqrt(x * x + y * y), np.arctan2(y.real, x.real) + 1j * (x.real * y.imag - y.real * x.imag) / r2
 
 
 def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool = True, geometric_stress=None):
@@ -56,21 +68,22 @@ def numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent
     [rad] (E,); ``alpha0`` undeformed element angle [rad] (E,); ``L0`` [m]; ``S`` (E, 3, 3);
     ``geometric_stress``: a function of the elements' ``sigma`` (E, 3) returning the stresses of
     the geometric part of ``K`` (None: ``sigma``).
-    Returns ``F, K, e, sigma`` (``K`` None when ``tangent`` is False).
+    Returns ``F, K, e, sigma`` (``K`` None when ``tangent`` is False). Complex arguments (a complex
+    step, `flexmb.design`) give complex results; float ones the float path unchanged.
     """
     L = xq - xp
-    l = np.hypot(L[:, 0], L[:, 1])
+    l, beta = hypot_atan2(L)
     n = L / l[:, None]
     m = np.stack([-n[:, 1], n[:, 0]], axis=-1)  # n rotated by +90 degrees
-    beta = np.arctan2(L[:, 1], L[:, 0])
     psi_p = _wrap(beta - alpha0 - thp)
     psi_q = _wrap(beta - alpha0 - thq)
     e = np.stack([l - L0, L0 * psi_p, -L0 * psi_q], axis=-1)
 
     nE = len(L0)
-    gb = np.zeros((nE, 6))  # gradient of the chord angle beta
+    dt = np.result_type(e, S)
+    gb = np.zeros((nE, 6), dtype=dt)  # gradient of the chord angle beta
     gb[:, 0:2], gb[:, 3:5] = -m / l[:, None], m / l[:, None]
-    D = np.zeros((nE, 3, 6))
+    D = np.zeros((nE, 3, 6), dtype=dt)
     D[:, 0, 0:2], D[:, 0, 3:5] = -n, n
     D[:, 1] = L0[:, None] * gb
     D[:, 1, 2] -= L0

@@ -22,7 +22,7 @@ from ..rotations import cross, skew
 from ..sections import properties
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent",
-           "numpy_internal_force_and_tangent"]
+           "numpy_internal_force_and_tangent", "length"]
 
 _RP, _PP, _RQ, _PQ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 _EYE = np.eye(3)
@@ -46,9 +46,15 @@ def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     return S
 
 
+def length(L):
+    """``|L|`` of vectors (E, 3); for a complex step (`flexmb.design`) the analytic continuation
+    ``sqrt(L . L)`` (``np.linalg.norm`` would take the modulus)."""
+    return np.sqrt(np.einsum("ei,ei->e", L, L)) if np.iscomplexobj(L) else np.linalg.norm(L, axis=-1)
+
+
 def _vectors(xp, xq, Rp, Rq, ny0, nz0):
     L = xq - xp
-    l = np.linalg.norm(L, axis=-1)
+    l = length(L)
     nl = L / l[:, None]
     return (
         l,
@@ -120,7 +126,9 @@ def numpy_internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent
     F, K, e, sigma
         ``K`` is None when ``tangent`` is False. ``e`` (E, 6) deformations, ``sigma = S e``.
         Rows of elements outside the formulation's validity (a node's axis 90 degrees or more
-        from the chord, or the end sections twisted 90 degrees or more apart) are NaN.
+        from the chord, or the end sections twisted 90 degrees or more apart) are NaN. Complex
+        arguments (a complex step, `flexmb.design`) give complex results, validity judged on the
+        real parts; float ones the float path unchanged.
     """
     with np.errstate(divide="ignore", invalid="ignore"):  # invalid states come out as NaN rows
         return _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress)
@@ -129,17 +137,18 @@ def numpy_internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent
 def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress=None):
     nE = len(L0)
     l, nl, pyv, pzv, qyv, qzv = _vectors(xp, xq, Rp, Rq, ny0, nz0)
+    dt = np.result_type(l, pyv, qyv, L0, S)  # float64, or complex for a complex step (`flexmb.design`)
     P = _EYE - _outer(nl, nl)
-    Dm = np.zeros((nE, 6, 12))
+    Dm = np.zeros((nE, 6, 12), dtype=dt)
     H = [None] * 6  # per-mode second-derivative matrices, (E, 12, 12) each, built lazily
-    e = np.empty((nE, 6))
+    e = np.empty((nE, 6), dtype=dt)
 
     # -- mode 1: elongation
     e[:, 0] = l - L0
     Dm[:, 0, _RP], Dm[:, 0, _RQ] = -nl, nl
     Pl = P / l[:, None, None]
     if tangent:
-        H1 = np.zeros((nE, 12, 12))
+        H1 = np.zeros((nE, 12, 12), dtype=dt)
         H1[:, _RP, _RP] = H1[:, _RQ, _RQ] = Pl
         H1[:, _RP, _RQ] = H1[:, _RQ, _RP] = -Pl
         H[0] = H1
@@ -150,12 +159,12 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geomet
         with np.errstate(invalid="ignore"):
             B = np.sqrt(1.0 - c * c)
             e[:, row] += coef * L0 * np.arcsin(c)
-        g = np.zeros((nE, 12))
+        g = np.zeros((nE, 12), dtype=dt)
         g[:, ia], g[:, ib] = cross(a, b), cross(b, a)
         s = coef * L0 / B
         Dm[:, row] += s[:, None] * g
         if tangent:
-            Hc = np.zeros((nE, 12, 12))
+            Hc = np.zeros((nE, 12, 12), dtype=dt)
             cI = c[:, None, None] * _EYE
             Hc[:, ia, ia] = _outer(a, b) - cI
             Hc[:, ib, ib] = _outer(b, a) - cI
@@ -171,12 +180,12 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geomet
             B = np.sqrt(1.0 - c * c)
             e[:, row] = coef * L0 * np.arcsin(c)
         Pa = np.einsum("eij,ej->ei", P, a) / l[:, None]
-        g = np.zeros((nE, 12))
+        g = np.zeros((nE, 12), dtype=dt)
         g[:, ia], g[:, _RP], g[:, _RQ] = cross(a, nl), -Pa, Pa
         s = coef * L0 / B
         Dm[:, row] = s[:, None] * g
         if tangent:
-            Hc = np.zeros((nE, 12, 12))
+            Hc = np.zeros((nE, 12, 12), dtype=dt)
             Hc[:, ia, ia] = _outer(a, nl) - c[:, None, None] * _EYE
             aP = skew(a) @ P / l[:, None, None]  # d(a x nl)/d r_q
             Hc[:, ia, _RQ], Hc[:, ia, _RP] = aP, -aP
@@ -200,9 +209,9 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geomet
     # such states are marked invalid (NaN) and the solver cuts its step instead of landing there.
     nx0 = cross(ny0, nz0)
     valid = (
-        (_dot(np.einsum("eij,ej->ei", Rp, nx0), nl) > 0.0)
-        & (_dot(np.einsum("eij,ej->ei", Rq, nx0), nl) > 0.0)
-        & (_dot(pyv, qyv) + _dot(pzv, qzv) > 0.0)
+        (_dot(np.einsum("eij,ej->ei", Rp, nx0), nl).real > 0.0)
+        & (_dot(np.einsum("eij,ej->ei", Rq, nx0), nl).real > 0.0)
+        & ((_dot(pyv, qyv) + _dot(pzv, qzv)).real > 0.0)
     )
     e[~valid] = np.nan
     sigma = np.einsum("eij,ej->ei", S, e)

@@ -19,6 +19,8 @@ and moved from the element's end points to their master nodes with the rigid lev
 the co-rotational mass's configuration derivatives do not enter the linearised free vibration.
 
 Rotation DOFs are the node's spins (spatial angular velocity components, 3D; the angle rate, 2D).
+`element_mass` and `rigid_mass` carry complex numbers (the complex step of `flexmb.design`: its
+model and state complex); float ones take the float path unchanged.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ import scipy.sparse as sp
 from ..rotations import cross, rot2
 from ..sections import properties
 from .assembly import SparsePattern
+from .beam2d import hypot_atan2
+from .beam3d import length as _length
 
 __all__ = ["local_mass", "RigidMasses", "element_mass", "rigid_mass", "mass_matrix"]
 
@@ -126,10 +130,10 @@ def _frames_3d(model, state, x, R):
     """Rows: the current co-rotated element axes (E, 3, 3): chord, mean section y, their cross."""
     el = model.elements
     ex = x[:, 1] - x[:, 0]
-    ex = ex / np.linalg.norm(ex, axis=1)[:, None]
+    ex = ex / _length(ex)[:, None]
     y = np.einsum("eij,ej->ei", R[:, 0] + R[:, 1], el.ny0)
     y = y - np.einsum("ei,ei->e", y, ex)[:, None] * ex
-    y = y / np.linalg.norm(y, axis=1)[:, None]
+    y = y / _length(y)[:, None]
     return np.stack([ex, y, cross(ex, y)], axis=1)
 
 
@@ -145,14 +149,14 @@ def element_mass(model, state, local: np.ndarray | None = None) -> np.ndarray:
     nE = len(el.L0)
     if dim == 2:
         chord = x[:, 1] - x[:, 0]
-        lam = rot2(np.arctan2(chord[:, 1], chord[:, 0])).transpose(0, 2, 1)  # rows: local axes
-        blk = np.zeros((nE, 3, 3))
+        lam = rot2(hypot_atan2(chord)[1]).transpose(0, 2, 1)  # rows: local axes
+        blk = np.zeros((nE, 3, 3), dtype=lam.dtype)
         blk[:, :2, :2], blk[:, 2, 2] = lam, 1.0
     else:
         lam = _frames_3d(model, state, x, state.rotations[m])
-        blk = np.zeros((nE, 6, 6))
+        blk = np.zeros((nE, 6, 6), dtype=lam.dtype)
         blk[:, :3, :3] = blk[:, 3:, 3:] = lam
-    T = np.zeros((nE, 2 * nd, 2 * nd))
+    T = np.zeros((nE, 2 * nd, 2 * nd), dtype=np.result_type(blk, d))
     lever = model._lever(d).reshape(nE, 2, nd, nd)
     T[:, :nd, :nd] = blk @ lever[:, 0]
     T[:, nd:, nd:] = blk @ lever[:, 1]
@@ -165,7 +169,7 @@ def rigid_mass(model, state, rigid: RigidMasses) -> np.ndarray:
     dim, nd = model.dim, model.ndof
     K = len(rigid.node)
     d = model.offsets(state, rigid.node, rigid.offset)
-    Mc = np.zeros((K, nd, nd))
+    Mc = np.zeros((K, nd, nd), dtype=np.result_type(d, rigid.mass, rigid.inertia))
     Mc[:, range(dim), range(dim)] = rigid.mass[:, None]
     if dim == 2:
         Mc[:, 2, 2] = rigid.inertia

@@ -20,7 +20,7 @@ from . import beam2d, beam3d
 from .. import jit
 from .assembly import PartitionedPattern, scatter_add
 
-__all__ = ["State", "BeamElements", "FEModel"]
+__all__ = ["State", "BeamElements", "FEModel", "continued_spins"]
 
 
 @attrs.frozen(eq=False)
@@ -153,6 +153,28 @@ class FEModel:
         if self.hinges is None:
             return du.ravel()
         return np.concatenate([du.ravel(), self.multiplier_change(frm, to)])
+
+    def extrapolated_increment(self, path: list, target: float) -> np.ndarray:
+        """The increment (n_dofs,) from the last state of ``path`` [(load factor, State), ...] to
+        the Lagrange polynomial through all of them (degree len - 1) at load factor ``target``:
+        positions in R^n, rotations as spins about the last state (3D: on SO(3), each spin
+        continued from its neighbour's along the path, `continued_spins`, so a path that turns a
+        node beyond pi is not wrapped), the hinges' multipliers in R^n. The continuation's
+        predictor (`flexmb.solvers.conventional.newton_steps`)."""
+        lams = np.array([lam for lam, _ in path])
+        last = path[-1][1]
+        du = np.zeros(self.n_dofs)
+        near = np.zeros((self.n_nodes, 3))
+        for i in range(len(path) - 2, -1, -1):  # from the last state back
+            lam_i, s_i = path[i]
+            others = np.delete(lams, i)
+            weight = np.prod((target - others) / (lam_i - others))
+            d = self.increment(last, s_i)
+            if self.dim == 3:
+                nodes = d[:self.n_node_dofs].reshape(self.n_nodes, self.ndof)  # a view: hinge multipliers last
+                nodes[:, 3:] = near = continued_spins(nodes[:, 3:], near)
+            du += weight * d
+        return du
 
     def apply_increment(self, state: State, du: np.ndarray) -> State:
         """New state after increments ``du`` (n_dofs,): positions add, rotations compose (Eq. A.8),
@@ -358,3 +380,13 @@ class FEModel:
         if self.hinges is not None:
             energy += 0.5 * float(np.sum(self.hinges.k * self.hinges.relative_angle(state.rotations, state.hinge_angles) ** 2))
         return energy
+
+
+def continued_spins(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """The rotation vectors ``spin + 2 pi k spin / |spin|`` (k = -1, 0, 1) nearest to ``near``
+    (N, 3): the same rotations, continued along a path instead of wrapped to angles in [0, pi]."""
+    angle = np.linalg.norm(spin, axis=1, keepdims=True)
+    axis = np.divide(spin, angle, out=np.zeros_like(spin), where=angle > 0.0)
+    cands = spin[None] + (2.0 * np.pi * np.array([-1.0, 0.0, 1.0]))[:, None, None] * axis[None]
+    best = np.argmin(np.sum((cands - near[None]) ** 2, axis=2), axis=0)
+    return cands[best, np.arange(len(spin))]

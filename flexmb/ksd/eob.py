@@ -39,7 +39,7 @@ from ..fe import beam2d, beam3d
 from ..rotations import logm_so3, rot2, skew
 from .geometry import expm, rz
 
-__all__ = ["EOBTemplate", "EOB", "lever"]
+__all__ = ["EOBTemplate", "EOB", "lever", "block_diagonal"]
 
 _EYE = np.eye(3)
 
@@ -56,7 +56,7 @@ def lever(r: np.ndarray, dim: int) -> np.ndarray:
     return T
 
 
-def _block_diagonal(blocks: np.ndarray) -> np.ndarray:
+def block_diagonal(blocks: np.ndarray) -> np.ndarray:
     """``(..., 2, nd, nd)`` -> ``(..., 2 nd, 2 nd)``: the two blocks on the diagonal."""
     nd = blocks.shape[-1]
     out = np.zeros(blocks.shape[:-3] + (2 * nd, 2 * nd))
@@ -97,7 +97,7 @@ class EOB:
     @property
     def K_all(self) -> np.ndarray:
         """Element stiffness in the near configuration, ``T K0 T^T`` (Eqs. 3.3-3.4)."""
-        T = _block_diagonal(np.stack([self.rotation, self.rotation], axis=2))
+        T = block_diagonal(np.stack([self.rotation, self.rotation], axis=2))
         return T @ self.K0 @ np.swapaxes(T, -1, -2)
 
     @property
@@ -108,7 +108,7 @@ class EOB:
     @property
     def L(self) -> np.ndarray:
         """Node-to-marker increments per element (Eq. 3.9)."""
-        return _block_diagonal(self.lever)
+        return block_diagonal(self.lever)
 
 
 class EOBTemplate:
@@ -262,7 +262,7 @@ class EOBTemplate:
         lv = lever(arm, dim)  # (J, E, 2, nd, nd)
         # with T = diag(Tb, Tb): K_all = T K0 T^T, F_hat_all = -K_all q_hat (Eq. 3.8); the nodes see
         # L^T K_all L = M K0 M^T and L^T F_hat_all = -M K0 T^T q_hat, M = L^T T (Eq. 3.11)
-        M = _block_diagonal(np.swapaxes(lv, -1, -2) @ Tb[:, :, None])
+        M = block_diagonal(np.swapaxes(lv, -1, -2) @ Tb[:, :, None])
         Ke = M @ self.K0 @ np.swapaxes(M, 2, 3)
         local_q = np.swapaxes(Tb, 2, 3)[:, :, None] @ q_hat.reshape(J, E, 2, nd, 1)
         Fe = -(M @ (self.K0 @ local_q.reshape(J, E, 2 * nd, 1)))[..., 0]

@@ -46,7 +46,7 @@ from scipy.linalg import lapack as _lapack
 
 from ..fe.mass import element_mass, rigid_mass
 from ..fe.model import State
-from .eob import lever
+from .eob import block_diagonal, lever
 from .splined import SplinedTable
 
 __all__ = ["condensed", "condensed_subspace", "joint_mass", "span_check", "span_margins", "RITZ_SAMPLES", "TIE",
@@ -66,14 +66,6 @@ RITZ_SAMPLES = 9
 TIE = 1e-6
 
 
-def _block_diagonal(blocks):
-    """``(..., 2, nd, nd)`` -> ``(..., 2 nd, 2 nd)``."""
-    nd = blocks.shape[-1]
-    out = np.zeros(blocks.shape[:-3] + (2 * nd, 2 * nd))
-    out[..., :nd, :nd], out[..., nd:, nd:] = blocks[..., 0, :, :], blocks[..., 1, :, :]
-    return out
-
-
 class _JointMass:
     """A joint template's mass, prepared once: the elements' consistent mass at rest on their
     markers in the joint frame (``M0``, (E, 2 nd, 2 nd), marker order as the EOB's ``K0``), the
@@ -91,7 +83,7 @@ class _JointMass:
         el = model.elements
         rest = State(model.x0.copy(), np.zeros(N) if dim == 2 else np.tile(np.eye(3), (N, 1, 1)))
         Mm = element_mass(model, rest)  # on the master nodes: T^T M_points T, T the rest levers
-        Tinv = _block_diagonal(lever(-model.point_offset[el.ends], dim))
+        Tinv = block_diagonal(lever(-model.point_offset[el.ends], dim))
         M0 = np.swapaxes(Tinv, 1, 2) @ Mm @ Tinv
         flip = tpl.p_point != el.ends[:, 0]
         perm = np.r_[nd:2 * nd, 0:nd]
@@ -108,7 +100,7 @@ class _JointMass:
         a full `EOB`): beams from ``M0`` through the EOB's element rotations and levers,
         intermediate bodies (`flexmb.fe.mass.rigid_mass`) at the nodes' near poses."""
         J, n = len(eob.K_T), self.n
-        Mmap = _block_diagonal(np.swapaxes(eob.lever, -1, -2) @ eob.rotation[:, :, None])
+        Mmap = block_diagonal(np.swapaxes(eob.lever, -1, -2) @ eob.rotation[:, :, None])
         Me = Mmap @ self.M0 @ np.swapaxes(Mmap, 2, 3)
         flat = (self._kidx[None, :] + (np.arange(J) * n * n)[:, None]).ravel()
         M = np.bincount(flat, weights=Me.ravel(), minlength=J * n * n).reshape(J, n, n)

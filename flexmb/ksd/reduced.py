@@ -23,11 +23,12 @@ from ..database.store import ENVIRONMENT, candidate_names, search_path, shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
 from ..fe.ideal import row_names
 from ..fe.model import State
+from ..linear import single_threaded
 from ..rotations import cross, skew, unskew
 from . import constraints
 from .eob import EOBTemplate
 from .eob_table import lookup_for
-from .geometry import ACTIVE, JointFrames, LinkPoses, expm, intended_angle
+from .geometry import ACTIVE, JointFrames, LinkPoses, compose, expm, intended_angle
 
 __all__ = ["ReducedMechanism", "template"]
 
@@ -396,7 +397,78 @@ class ReducedMechanism:
             return vals, None, theta, p
         return vals, (jac if jacobian == "deferred" else jac()), theta, p
 
+    # -- step 2: the joints' EOBs, condensed ---------------------------------------------------
+    def condensed_joints(self, theta: np.ndarray, p_hat: np.ndarray, *, lookup: bool, compiled: bool):
+        """KSD step 2: every joint's EOB at its intended rotation ``theta`` (J,) [rad] and node B's
+        near position ``p_hat`` (J, 3), condensed on node B with node A held (Craig-Bampton,
+        Eq. 2.5). Returns ``K`` (J, 6, 6) and ``F_hat`` (J, 6) in the joint frames (inactive planar
+        rows zero), per group of joints its EOB (an `flexmb.ksd.eob.EOB`, or with ``compiled`` the
+        arrays ``[recover, internal positions, internal rotations or angles]`` the compiled step 4
+        reads) and how many joints were looked up. ``lookup``: a group whose rotations its
+        tabulated condensation covers reads it (`flexmb.ksd.eob_table`) instead of evaluating its
+        EOB (not for KSD-full, whose step 5 needs the EOBs' element fields)."""
+        dim, emb = self.dim, ACTIVE[self.dim]
+        J = len(self.joint_names)
+        K, Fh = np.zeros((J, 6, 6)), np.zeros((J, 6))
+        eobs, tabulated = [], 0
+        for tpl, _, idx in self.groups:
+            if lookup and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
+                tabulated += len(idx)
+                if compiled:  # tabulated, one compiled call (flexmb.ksd.reduced_jit.eob_lookup)
+                    eobs.append(list(tpl.lookup.compiled(theta, p_hat, idx, K, Fh)[2:]))
+                    continue
+                e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
+            elif compiled:  # outside the compiled solve's thread limit: the Craig-Bampton solves' BLAS
+                with single_threaded():
+                    e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
+            else:
+                e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
+            K[idx[:, None, None], emb[:, None], emb] = e.K_T
+            Fh[idx[:, None], emb] = e.F_hat_T
+            eobs.append([np.ascontiguousarray(a) for a in (e.recover, e.node_position[:, 2:], e.node_rotation[:, 2:]
+                         if dim == 3 else e.node_angle[:, 2:])] if compiled else e)
+        return K, Fh, eobs, tabulated
+
     # -- step 3: equilibrium with the condensed joints ----------------------------------------
+    def step3_unknowns(self) -> np.ndarray:
+        """Step 3's unknowns among the links' 6 n_links coordinates and the hinges' multipliers
+        (after them): the free link coordinates, then every multiplier."""
+        if self.hinges is None:
+            return self.free
+        return np.concatenate([self.free, 6 * self.n_links + np.arange(self.hinges.n_rows)])
+
+    def step3_residual(self, poses: LinkPoses, multipliers, hinge_angles, K, F_hat, p_hat, R_hat):
+        """Step 3's residual on the links' coordinates (and, with hinges, the saddle point of the
+        full model's hinges, `flexmb.fe.ideal`: their multipliers' forces on the links, their
+        scaled constraints on the multiplier rows) and its tangent as a function (`equilibrium`'s
+        deferred one)."""
+        if self.hinges is None:
+            return self.equilibrium(poses, K, F_hat, p_hat, R_hat, tangent="deferred")
+        n = 6 * self.n_links
+        r, Kr = self.equilibrium(poses, K, F_hat, p_hat, R_hat, tangent="deferred")
+        rh, Kh = self.hinge_response(poses, multipliers, angles=hinge_angles)
+        rh[:n] += r
+
+        def tangent():
+            out = Kh()
+            out[:n, :n] += Kr()
+            return out
+
+        return rh, tangent
+
+    def step3_moved(self, poses: LinkPoses, multipliers, hinge_angles, x: np.ndarray):
+        """The unknowns moved by a Newton correction ``x`` on `step3_unknowns`: the links' poses
+        (exponential map), the multipliers (added), the 3D hinges' angles (turns counted)."""
+        dz = np.zeros(6 * self.n_links)
+        if self.hinges is None:
+            dz[self.free] = x
+            return poses.moved(dz), multipliers, hinge_angles
+        nf = len(self.free)
+        dz[self.free] = x[:nf]
+        poses = poses.moved(dz)
+        return poses, multipliers + x[nf:], self.hinge_angles(poses, hinge_angles)
+
+
     def equilibrium(self, poses: LinkPoses, K: np.ndarray, F_hat: np.ndarray, p_hat: np.ndarray,
                     R_hat: np.ndarray, tangent: bool | str = True):
         """Residual (6 n_links,) = joint wrenches on the links minus applied loads, and its
@@ -490,6 +562,56 @@ class ReducedMechanism:
         return r, jacobian
 
     # -- step 4: back to the full model -----------------------------------------------------
+    def internal_nodes(self, poses: LinkPoses, eobs, p_hat, R_hat, multipliers=None, hinge_angles=None,
+                       displacements: bool = False):
+        """KSD step 4: every joint's internal nodes from its interface displacement (Eq. 2.6) about
+        its EOB's near configuration. Returns the full model's `State` and, with
+        ``displacements``, per group of joints the node displacements (Jg, N nd) from the EOBs'
+        near poses (`eob_axial_stress` reads them; else an empty list). ``eobs`` as
+        `condensed_joints` returns them (its compiled arrays: `fe_state_compiled`)."""
+        if eobs and isinstance(eobs[0], list):  # the compiled path's arrays
+            return self.fe_state_compiled(poses, [(idx, *e) for (_, _, idx), e in zip(self.groups, eobs)], p_hat,
+                                          R_hat), []
+        dim = self.dim
+        emb = ACTIVE[dim]
+        nd = len(emb)
+        p, Rrel, _ = self.frames.relative(poses)
+        xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
+        internal, q_nodes = [], []
+        for (tpl, _, idx), e in zip(self.groups, eobs):
+            n_int = tpl.n_nodes - 2
+            xi = -((e.recover[:, :, :nd] @ xi_B[idx][..., None])[..., 0] + e.recover[:, :, nd])
+            if displacements:
+                q_nodes.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
+            xi = xi.reshape(len(idx), n_int, nd)
+            x = e.node_position[:, 2:] + xi[..., :dim]
+            if dim == 2:
+                rot = e.node_angle[:, 2:] + xi[..., 2]
+            else:
+                rot = compose(xi[..., 3:], e.node_rotation[:, 2:])
+            internal.append((idx, x, rot))
+        return self.fe_state(poses, internal, multipliers, hinge_angles), q_nodes
+
+    def eob_axial_stress(self, eobs, q_nodes):
+        """A function replacing the joint elements' axial forces in the full model's generalised
+        stresses by the EOBs' (`EOBTemplate.axial_force` of the node displacements ``q_nodes``,
+        `internal_nodes`): KSD-full's first geometric stiffness in step 5 (step 4's positions are
+        exact to first order only; their axial forces up to 15x the converged ones)."""
+        names, elements = self.joint_names, self.compiled.joint_elements
+        at, values = [], []
+        for (tpl, _, idx), e, q in zip(self.groups, eobs, q_nodes):
+            at.append(np.concatenate([elements[names[j]] for j in idx]))
+            values.append(tpl.axial_force(e, q).ravel())
+        at, values = np.concatenate(at), np.concatenate(values)
+
+        def geometric_stress(sigma):
+            out = sigma.copy()
+            out[at, 0] = values
+            return out
+
+        return geometric_stress
+
+
     def fe_state(self, poses: LinkPoses, internal, multipliers: np.ndarray | None = None, hinge_angles=None):
         """The full model's `State`: link nodes from ``poses``; ``internal`` is a list of
         ``(idx, x, rot)`` per group of joints sharing a mesh: joint indices (Jg,), internal node

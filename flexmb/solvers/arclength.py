@@ -291,7 +291,7 @@ class ArcLength:
             du = dr + dl * dt
             if it > 0 and ok is None and _negligible(problem.model, du, metric.size):
                 break  # the round-off floor: the residual stalls and the correction moves nothing
-            if self.max_rotation is not None and _largest_rotation(problem.model, du) > self.max_rotation:
+            if self.max_rotation is not None and problem.model.largest_motion(du)[1] > self.max_rotation:
                 return None
             state = problem.model.apply_increment(state, _split(problem, du, dl, lam))
             lam += dl
@@ -460,11 +460,6 @@ def _negligible(model, du: np.ndarray, size: float) -> bool:
     whose residual stalls at 3.5e-8 of the applied load while the corrections reach 1e-16."""
     d = model.node_part(du)
     return bool(np.max(np.abs(d[:, : model.dim])) <= 1e-12 * size and np.max(np.abs(d[:, model.dim:])) <= 1e-12)
-
-
-def _largest_rotation(model, du: np.ndarray) -> float:
-    rot = model.node_part(du)[:, model.dim:]
-    return float(np.sqrt(np.max(np.sum(rot * rot, axis=1)))) if len(rot) else 0.0
 
 
 def _rate(problem, state, lam, Kff, Kfp):

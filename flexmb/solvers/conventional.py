@@ -18,7 +18,7 @@ import numpy as np
 from scipy.sparse.linalg import splu
 
 from .. import _validate as v
-from ..errors import ConvergenceError, ParameterError
+from ..errors import ConvergenceError
 from ..fe.model import State
 from ..linear import single_threaded
 from ..problem import StaticProblem
@@ -55,35 +55,9 @@ def is_stable(K) -> bool:
     return True
 
 
-def positive_float(instance, attribute, value):
-    v.positive(type(instance).name, attribute.name, value)
-
-
-def positive_int(instance, attribute, value):
-    v.integer(type(instance).name, attribute.name, value, 1)
-
-
-def above_one(instance, attribute, value):
-    if not v.finite(type(instance).name, attribute.name, value) > 1.0:
-        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} outside the valid range (1, inf)")
-
-
-def boolean(instance, attribute, value):
-    v.flag(type(instance).name, attribute.name, value)
-
-
-def step_control_choice(instance, attribute, value):
-    v.choice(type(instance).name, attribute.name, value, STEP_CONTROLS)
-
-
-def unit_interval(instance, attribute, value):
-    if not 0.0 < v.finite(type(instance).name, attribute.name, value) <= 1.0:
-        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} outside the valid range (0, 1]")
-
-
-def relative_tolerance(instance, attribute, value):
-    """A relative tolerance in (0, 1): 1 or more accepts any state (the undeformed one included)."""
-    v.in_open_range(type(instance).name, attribute.name, value, 0.0, 1.0)
+# the options' validators live in `flexmb._validate`; these names stay for `flexmb.solvers.arclength`
+positive_float, positive_int, unit_interval, relative_tolerance = (v.positive_option, v.count_option,
+                                                                    v.unit_interval_option, v.relative_tolerance_option)
 
 
 #: The adaptive step control's constants, chosen over the benchmark cases (cross flexure 5-75 deg
@@ -199,15 +173,15 @@ class Conventional:
     #: joint capabilities every joint must offer, and the mechanism dimensions handled
     needs: ClassVar[tuple[str, ...]] = ("fe_model",)
     dims: ClassVar[tuple[int, ...]] = (2, 3)
-    tol: float | None = attrs.field(default=None, validator=attrs.validators.optional(positive_float))
-    rtol: float = attrs.field(default=RTOL, validator=relative_tolerance)
-    max_iter: int = attrs.field(default=20, validator=positive_int)
-    divergence: float = attrs.field(default=1e3, validator=above_one)
-    min_step: float = attrs.field(default=1e-5, validator=unit_interval)
-    initial_step: float = attrs.field(default=1.0, validator=unit_interval)
-    max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(positive_float))
-    raise_on_failure: bool = attrs.field(default=False, validator=boolean)
-    step_control: str = attrs.field(default="adaptive", validator=step_control_choice)
+    tol: float | None = attrs.field(default=None, validator=attrs.validators.optional(v.positive_option))
+    rtol: float = attrs.field(default=RTOL, validator=v.relative_tolerance_option)
+    max_iter: int = attrs.field(default=20, validator=v.count_option)
+    divergence: float = attrs.field(default=1e3, validator=v.above_one_option)
+    min_step: float = attrs.field(default=1e-5, validator=v.unit_interval_option)
+    initial_step: float = attrs.field(default=1.0, validator=v.unit_interval_option)
+    max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(v.positive_option))
+    raise_on_failure: bool = attrs.field(default=False, validator=v.flag_option)
+    step_control: str = attrs.field(default="adaptive", validator=v.choice_option(STEP_CONTROLS))
 
     def solve(self, compiled, *, state: State | None = None) -> Solution:
         """Equilibrium of ``compiled`` (a `Compiled` FE model), stepping from ``state`` (default undeformed)."""
@@ -226,11 +200,6 @@ class Conventional:
         return sol
 
 
-def _largest_rotation(model, du: np.ndarray) -> float:
-    """Largest nodal rotation [rad] in an increment (all DOFs)."""
-    return model.largest_motion(du)[1]
-
-
 def _translation(model, du: np.ndarray, length: float) -> float:
     """The largest nodal translation of an increment over ``length``."""
     return model.largest_motion(du)[0] / length
@@ -242,37 +211,6 @@ def _size(model, du: np.ndarray, length: float) -> float:
     return max(translation / length, rotation)
 
 
-def _continued(spin: np.ndarray, near: np.ndarray) -> np.ndarray:
-    """The rotation vectors ``spin + 2 pi k spin / |spin|`` (k = -1, 0, 1) nearest to ``near``
-    (N, 3): the same rotations, continued along a path instead of wrapped to angles in [0, pi]."""
-    angle = np.linalg.norm(spin, axis=1, keepdims=True)
-    axis = np.divide(spin, angle, out=np.zeros_like(spin), where=angle > 0.0)
-    cands = spin[None] + (2.0 * np.pi * np.array([-1.0, 0.0, 1.0]))[:, None, None] * axis[None]
-    best = np.argmin(np.sum((cands - near[None]) ** 2, axis=2), axis=0)
-    return cands[best, np.arange(len(spin))]
-
-
-def _extrapolated(model, path: list, target: float) -> np.ndarray:
-    """Predicted increment from the last converged state of ``path`` [(lam, State), ...] to load
-    factor ``target``: the Lagrange polynomial through the converged states (degree len - 1),
-    positions in R^n and rotations as spins about the last state (3D: on SO(3), each continued
-    from its neighbour's along the path, so a path that turns a node beyond pi is not wrapped)."""
-    lams = np.array([lam for lam, _ in path])
-    last = path[-1][1]
-    du = np.zeros(model.n_dofs)
-    near = np.zeros((model.n_nodes, 3))
-    for i in range(len(path) - 2, -1, -1):  # from the last state back
-        lam_i, s_i = path[i]
-        others = np.delete(lams, i)
-        weight = np.prod((target - others) / (lam_i - others))
-        d = model.increment(last, s_i)
-        if model.dim == 3:
-            nodes = d[:model.n_node_dofs].reshape(model.n_nodes, model.ndof)  # a view: hinge multipliers last
-            nodes[:, 3:] = near = _continued(nodes[:, 3:], near)
-        du += weight * d
-    return du
-
-
 def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max_iter: int, divergence: float,
                  min_step: float, initial_step: float, lam0: float = 0.0, max_rotation: float | None = 1.0,
                  first_geometric_stress=None, control: str = "adaptive", rtol: float = RTOL) -> dict:
@@ -280,7 +218,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
 
     ``control="paper"``: Fig. 18 (linear predictor from the converged tangent, halving, doubling
     after easy steps); ``"adaptive"``: each step after the first starts from the polynomial
-    extrapolation of the last converged states (`_extrapolated`), a corrector that leaves the
+    extrapolation of the last converged states (`FEModel.extrapolated_increment`), a corrector that leaves the
     predicted path (`PATH_DEVIATION`) is rejected and the step cut, and the step grows or shrinks
     with the iterations it took and how far its corrector moved.
     ``tol``: absolute threshold on the free residual's 2-norm [N, N m]; None: relative, the
@@ -319,7 +257,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
         du_p = problem.prescribed_increment(dlam, lam)
         extrapolate = adaptive and len(path) > 1
         if extrapolate:
-            du_pred = _extrapolated(model, path, target)
+            du_pred = model.extrapolated_increment(path, target)
             du_pred[problem.prescribed] = du_p
             trial = model.apply_increment(state, du_pred)
             predicted, moved = _size(model, du_pred, length), np.zeros(model.n_dofs)
@@ -374,7 +312,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
                 break
             du = problem.full_increment(du_f, du_p if it == 0 else np.zeros_like(du_p))
             floor = _size(model, du, length) <= CORRECTION_FLOOR  # the predictor too: a step with nothing to do
-            if it > 0 and max_rotation is not None and _largest_rotation(model, du) > max_rotation:
+            if it > 0 and max_rotation is not None and model.largest_motion(du)[1] > max_rotation:
                 break  # a corrector that turns a node this far has left the branch: cut the step
             if adaptive:
                 if it == 0:

@@ -20,7 +20,6 @@
 
 from __future__ import annotations
 
-import os
 import time
 import warnings
 from typing import ClassVar
@@ -28,31 +27,22 @@ from typing import ClassVar
 import attrs
 import numpy as np
 
-from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning, ParameterError
+from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning
 from .. import jit
-from ..ksd.geometry import ACTIVE, LinkPoses, compose, rz
+from ..ksd.geometry import ACTIVE, LinkPoses, rz
 from ..ksd.eob_table import SLACK
-from ..ksd.kinematics import _correction, _gesv, _norm, kinematics_in_range, solve_kinematics
+from ..ksd.linearisation import ReducedSolution
+from ..ksd.kinematics import _gesv, _norm, kinematics_in_range, solve_kinematics
 from ..ksd.estimate import DEFAULT_TOLERANCE, check, estimate_at
 from ..ksd.provenance import files
 from ..ksd.reduced import ReducedMechanism, kernels, reduced_mechanism, setup_key
 from ..linear import single_threaded
 from ..fe.model import State
 from ..results import Solution
-from ..rotations import unskew
-from .conventional import above_one, boolean, newton_steps, positive_float, positive_int, unit_interval
+from .. import _validate as v
+from .conventional import newton_steps
 
 __all__ = ["KSDReduced", "KSDFull", "solve_kinematics"]  # solve_kinematics: flexmb.ksd.kinematics, re-exported
-
-def _folder_or_none(instance, attribute, value):
-    if value is not None and not isinstance(value, (str, os.PathLike)):
-        raise ParameterError(f"{type(instance).name}: {attribute.name}={value!r} must be a folder path or None "
-                             "(the shipped data)")
-    if value is not None and not os.path.isdir(value):  # searched first, then the user's and the shipped data:
-        raise ParameterError(f"{type(instance).name}: {attribute.name}={os.fspath(value)!r} is not a folder (no "
-                             "such directory); a misspelt folder would be passed over for the user folder and the "
-                             "shipped data without a word. Give the folder `flexmb train --out` wrote, or None")
-
 
 def _requested(red: ReducedMechanism) -> str:
     """The prescribed link rotations, as asked for ([rad]; 3D: rotation vectors)."""
@@ -189,21 +179,23 @@ class _KSD:
 
     name: ClassVar[str] = ""
     full: ClassVar[bool] = False
+    solution_type: ClassVar[type] = Solution
     capability: ClassVar[str] = "fe_model"
     #: joint capabilities every joint must offer, and the mechanism dimensions handled
     needs: ClassVar[tuple[str, ...]] = ("fe_model", "database")
     dims: ClassVar[tuple[int, ...]] = (2, 3)
-    tol: float = attrs.field(default=5e-7, validator=positive_float)
-    max_iter: int = attrs.field(default=20, validator=positive_int)
-    kinematic_tol: float = attrs.field(default=1e-10, validator=positive_float)
-    strict_range: bool = attrs.field(default=True, validator=boolean)
-    database: str | None = attrs.field(default=None, validator=_folder_or_none)
-    divergence: float = attrs.field(default=1e3, validator=above_one)
-    min_step: float = attrs.field(default=1e-5, validator=unit_interval)
-    max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(positive_float))
-    raise_on_failure: bool = attrs.field(default=False, validator=boolean)
-    error_tol: float | None = attrs.field(default=DEFAULT_TOLERANCE, validator=attrs.validators.optional(positive_float))
-    strict_error: bool = attrs.field(default=False, validator=boolean)
+    tol: float = attrs.field(default=5e-7, validator=v.positive_option)
+    max_iter: int = attrs.field(default=20, validator=v.count_option)
+    kinematic_tol: float = attrs.field(default=1e-10, validator=v.positive_option)
+    strict_range: bool = attrs.field(default=True, validator=v.flag_option)
+    database: str | None = attrs.field(default=None, validator=v.folder_option)
+    divergence: float = attrs.field(default=1e3, validator=v.above_one_option)
+    min_step: float = attrs.field(default=1e-5, validator=v.unit_interval_option)
+    max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(v.positive_option))
+    raise_on_failure: bool = attrs.field(default=False, validator=v.flag_option)
+    error_tol: float | None = attrs.field(default=DEFAULT_TOLERANCE,
+                                          validator=attrs.validators.optional(v.positive_option))
+    strict_error: bool = attrs.field(default=False, validator=v.flag_option)
 
     def share_setup(self, base, compiled) -> None:
         """Give ``compiled`` (``base`` with other prescribed values: a motion sweep's value) the
@@ -254,7 +246,7 @@ class _KSD:
         except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy
             lap("kinematics", t)
             times["total"] = time.perf_counter() - t0
-            sol = Solution.failed(self.name, compiled, f"{self.name}: {exc}", times, stages)
+            sol = self.solution_type.failed(self.name, compiled, f"{self.name}: {exc}", times, stages)
             if self.raise_on_failure:
                 raise ConvergenceError(sol.message, sol) from None
             return sol
@@ -262,30 +254,9 @@ class _KSD:
         stages["kinematics"] = {**info, "theta": theta.copy(), "p_hat": p_hat.copy()}  # flexmb.ksd.properties.near
         t = lap("kinematics", t)
 
-        dim = red.dim
-        emb = ACTIVE[dim]
-        J = len(red.joint_names)
-        K = np.zeros((J, 6, 6))
-        Fh = np.zeros((J, 6))
-        eobs, tabulated = [], 0
-        for tpl, _, idx in red.groups:
-            if not self.full and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
-                tabulated += len(idx)
-                if compiled_path:  # tabulated, one compiled call (flexmb.ksd.reduced_jit.eob_lookup)
-                    eobs.append(list(tpl.lookup.compiled(theta, p_hat, idx, K, Fh)[2:]))
-                    continue
-                e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
-            elif compiled_path:  # outside `solve`'s thread limit: the Craig-Bampton solves' BLAS
-                with single_threaded():
-                    e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
-            else:
-                e = tpl.evaluate(theta[idx], p_hat[idx, :dim], held_a=True)
-            K[idx[:, None, None], emb[:, None], emb] = e.K_T
-            Fh[idx[:, None], emb] = e.F_hat_T
-            eobs.append([np.ascontiguousarray(a) for a in (e.recover, e.node_position[:, 2:], e.node_rotation[:, 2:]
-                         if dim == 3 else e.node_angle[:, 2:])] if compiled_path else e)
+        K, Fh, eobs, tabulated = red.condensed_joints(theta, p_hat, lookup=not self.full, compiled=compiled_path)
         R_hat = rz(theta)
-        stages["eob"] = {"joints": J, "tabulated": tabulated}  # step 2: EOBs built, of them looked up
+        stages["eob"] = {"joints": len(theta), "tabulated": tabulated}  # step 2: EOBs built, of them looked up
         if not self.full:  # step 2's EOBs, kept for flexmb.ksd.properties.near (not rebuilt)
             stages["eob"]["near"] = (red, eobs, K, Fh)
         t = lap("eob", t)
@@ -329,7 +300,7 @@ class _KSD:
             stages.setdefault(key, {})["time"] = times[key]
         stages["setup"]["database"] = red.folder
         times["total"] = time.perf_counter() - t0
-        sol = Solution(method=self.name, converged=ok3, iterations=info["iterations"] + it, residual_history=history,
+        sol = ReducedSolution(method=self.name, converged=ok3, iterations=info["iterations"] + it, residual_history=history,
                        load_factor=1.0, steps=1, rejected_steps=0, wall_time=times, message=self._message(ok3, hist3),
                        state=State(pos, ang if red.dim == 2 else rot), residual=reaction, compiled=compiled,
                        tolerance=self.tol, stable=None, stages=stages)
@@ -362,7 +333,7 @@ class _KSD:
                              "converged": ok3, "history": hist3}
         t = lap("reduced", t)
 
-        state, q_nodes = self._internal(red, poses3, eobs, p_hat, R_hat, mu, angles)
+        state, q_nodes = red.internal_nodes(poses3, eobs, p_hat, R_hat, mu, angles, displacements=self.full)
         t = lap("internal", t)
         for key in ("setup", "kinematics", "eob", "reduced", "internal"):  # setup: kept per compiled model
             stages.setdefault(key, {})["time"] = times[key]
@@ -370,7 +341,7 @@ class _KSD:
 
         if not self.full:
             times["total"] = time.perf_counter() - t0
-            sol = Solution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
+            sol = ReducedSolution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
                            residual_history=np.array(hist3), load_factor=1.0, steps=1, rejected_steps=0,
                            wall_time=times, message=self._message(ok3, hist3), state=state,
                            residual=red.reaction_vector(r3),
@@ -384,7 +355,7 @@ class _KSD:
             # computed first); the manipulator at 45 deg: KSD-full 22.6 -> 12.9 ms per solve
             problem._pattern, problem._tangent_solver  # noqa: B018 (built on first access)
             start = problem.continued_from(state)
-            geometric = self._eob_axial(red, eobs, q_nodes)
+            geometric = red.eob_axial_stress(eobs, q_nodes)
             if self.error_tol is not None:  # the error of the step 1-4 start (issue 32)
                 stages["estimate"] = estimate_at(compiled, state, red.reaction_vector(r3), geometric, self.error_tol)
             out = newton_steps(start, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
@@ -411,31 +382,36 @@ class _KSD:
         return sol
 
     def _reduced(self, red, poses, K, Fh, p_hat, R_hat, hinge_angles=None):
-        """Step 3: Newton on the reduced mechanism; returns poses, converged, history, the links'
-        residual and the hinges' multipliers and 3D angles (None without hinges)."""
-        if red.hinges is not None:
-            return self._reduced_hinged(red, poses, K, Fh, p_hat, R_hat, hinge_angles)
-        if jit.enabled():  # the same loop in one call (flexmb.ksd.reduced_jit.reduced_newton)
+        """Step 3: Newton on the reduced mechanism's unknowns (`ReducedMechanism.step3_unknowns`:
+        the links' free coordinates; with hinges their multipliers too, which start at zero, and
+        the 3D hinges' angles ``hinge_angles`` from step 1 follow the iterates). Returns poses,
+        converged, history, the links' residual and the hinges' multipliers and angles (None
+        without hinges)."""
+        hinged = red.hinges is not None
+        if not hinged and jit.enabled():  # the same loop in one call (flexmb.ksd.reduced_jit.reduced_newton)
             return self._reduced_compiled(red, poses, K, Fh, p_hat, R_hat)
-        free = red.free
+        free = red.step3_unknowns()
         at_free = (free[:, None], free)
+        mu = np.zeros(red.hinges.n_rows) if hinged else None
+        angles = hinge_angles if hinged else None
         history, prev = [], np.inf
-        r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
+        r, Kr = red.step3_residual(poses, mu, angles, K, Fh, p_hat, R_hat)
         res = _norm(r[free])
         for _ in range(self.max_iter):
             if res < self.tol and history:
-                return poses, True, history, r, None, None
-            dz = _correction(red, Kr()[at_free], r[free])
-            if dz is None:
                 break
-            poses = poses.moved(dz)
-            r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
+            *_, x, info = _gesv(Kr()[at_free], -r[free])  # LAPACK directly (np.linalg.solve's checks cost more)
+            if info != 0:
+                break
+            poses, mu, angles = red.step3_moved(poses, mu, angles, x)
+            r, Kr = red.step3_residual(poses, mu, angles, K, Fh, p_hat, R_hat)
             prev, res = res, _norm(r[free])
             history.append(res)
             # as the conventional method: the divergence test starts after the first correction
             if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
                 break
-        return poses, res < self.tol, history, r, None, None
+        n = 6 * red.n_links
+        return poses, res < self.tol, history, r[:n] if hinged else r, mu, angles
 
     def _reduced_compiled(self, red, poses, K, Fh, p_hat, R_hat):
         """`_reduced` without hinges through `flexmb.ksd.reduced_jit.reduced_newton` (the manipulator's
@@ -450,99 +426,14 @@ class _KSD:
                                    self.tol, self.max_iter, self.divergence, history, r)
         return LinkPoses(x, R, angle), bool(ok), history[:it].tolist(), r, None, None
 
-    def _reduced_hinged(self, red, poses, K, Fh, p_hat, R_hat, angles):
-        """Step 3 with hinges: Newton on the links' free coordinates and the hinges' multipliers,
-        the saddle point of the full model's hinges (`flexmb.fe.ideal`) on the reduced mechanism.
-        Step 1 left the hinges' constraints satisfied; the multipliers start at zero; the 3D
-        hinges' angles (``angles`` from step 1) follow the iterates, turns counted."""
-        n_links = 6 * red.n_links
-        free = np.concatenate([red.free, n_links + np.arange(red.hinges.n_rows)])
-        at_free = (free[:, None], free)
-        mu = np.zeros(red.hinges.n_rows)
-
-        def evaluate(poses, mu):
-            r, Kr = red.equilibrium(poses, K, Fh, p_hat, R_hat, tangent="deferred")
-            rh, Kh = red.hinge_response(poses, mu, angles=angles)
-            rh[:n_links] += r
-
-            def tangent():
-                out = Kh()
-                out[:n_links, :n_links] += Kr()
-                return out
-
-            return rh, tangent
-
-        history, prev = [], np.inf
-        r, Kr = evaluate(poses, mu)
-        res = _norm(r[free])
-        for _ in range(self.max_iter):
-            if res < self.tol and history:
-                return poses, True, history, r[:n_links], mu, angles
-            *_, x, info = _gesv(Kr()[at_free], -r[free])
-            if info != 0:
-                break
-            dz = np.zeros(n_links)
-            dz[red.free] = x[:len(red.free)]
-            poses, mu = poses.moved(dz), mu + x[len(red.free):]
-            angles = red.hinge_angles(poses, angles)
-            r, Kr = evaluate(poses, mu)
-            prev, res = res, _norm(r[free])
-            history.append(res)
-            if not np.isfinite(res) or (len(history) > 1 and res > self.divergence * prev):
-                break
-        return poses, res < self.tol, history, r[:n_links], mu, angles
-
-    def _internal(self, red, poses, eobs, p_hat, R_hat, multipliers=None, hinge_angles=None):
-        """Step 4: internal nodes of every joint from its interface displacement (Eq. 2.6). Returns
-        the full model's `State` and, per group of joints, the node displacements (Jg, N nd) from
-        the EOBs' near poses (KSD-full only; empty for KSD-reduced)."""
-        if eobs and isinstance(eobs[0], list):  # the compiled path's arrays (`_solve`)
-            return red.fe_state_compiled(poses, [(idx, *e) for (_, _, idx), e in zip(red.groups, eobs)], p_hat,
-                                         R_hat), []
-        dim = red.dim
-        emb = ACTIVE[dim]
-        nd = len(emb)
-        p, Rrel, _ = red.frames.relative(poses)
-        xi_B = np.concatenate([p - p_hat, unskew(Rrel @ np.swapaxes(R_hat, 1, 2))], axis=1)[:, emb]
-        internal, q_nodes = [], []
-        for (tpl, _, idx), e in zip(red.groups, eobs):
-            n_int = tpl.n_nodes - 2
-            xi = -((e.recover[:, :, :nd] @ xi_B[idx][..., None])[..., 0] + e.recover[:, :, nd])
-            if self.full:  # step 5's first geometric stiffness needs them (`_eob_axial`)
-                q_nodes.append(np.concatenate([np.zeros((len(idx), nd)), xi_B[idx], xi], axis=1))
-            xi = xi.reshape(len(idx), n_int, nd)
-            x = e.node_position[:, 2:] + xi[..., :dim]
-            if dim == 2:
-                rot = e.node_angle[:, 2:] + xi[..., 2]
-            else:
-                rot = compose(xi[..., 3:], e.node_rotation[:, 2:])
-            internal.append((idx, x, rot))
-        return red.fe_state(poses, internal, multipliers, hinge_angles), q_nodes
-
-    @staticmethod
-    def _eob_axial(red, eobs, q_nodes):
-        """Step 5's first geometric stiffness: a function replacing the joint elements' axial
-        forces in the full model's generalised stresses by the EOBs' (`EOBTemplate.axial_force`)."""
-        names, elements = red.joint_names, red.compiled.joint_elements
-        at, values = [], []
-        for (tpl, _, idx), e, q in zip(red.groups, eobs, q_nodes):
-            at.append(np.concatenate([elements[names[j]] for j in idx]))
-            values.append(tpl.axial_force(e, q).ravel())
-        at, values = np.concatenate(at), np.concatenate(values)
-
-        def geometric_stress(sigma):
-            out = sigma.copy()
-            out[at, 0] = values
-            return out
-
-        return geometric_stress
-
 
 @attrs.frozen(kw_only=True)
 class KSDReduced(_KSD):
     __doc__ = "KSD steps 1-4 [``ksd-reduced``]: the reduced mechanism with EOB joints.\n" + _KSD.__doc__
     name: ClassVar[str] = "ksd-reduced"
     full: ClassVar[bool] = False
+    #: the solution kind: linearised on the reduced mechanism (`flexmb.ksd.linearisation`)
+    solution_type: ClassVar[type] = ReducedSolution
 
 
 @attrs.frozen(kw_only=True)

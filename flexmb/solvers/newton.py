@@ -29,15 +29,10 @@ from .. import jit
 from ..errors import ConvergenceError
 from ..fe.model import State
 from ..results import Solution
-from .conventional import above_one, boolean, positive_float, positive_int
 
 __all__ = ["Newton", "TANGENTS", "ForceSweep"]
 
 TANGENTS = ("full", "first-term", "constant")
-
-
-def _tangent_choice(instance, attribute, value):
-    v.choice("newton", attribute.name, value, TANGENTS)
 
 
 @attrs.frozen(kw_only=True)
@@ -63,11 +58,11 @@ class Newton:
     #: joint capabilities every joint must offer, and the mechanism dimensions handled
     needs: ClassVar[tuple[str, ...]] = ("closed_form",)
     dims: ClassVar[tuple[int, ...]] = (2,)
-    tangent: str = attrs.field(default="full", validator=_tangent_choice)
-    tol: float = attrs.field(default=5e-7, validator=positive_float)
-    max_iter: int = attrs.field(default=100, validator=positive_int)
-    divergence: float = attrs.field(default=1e8, validator=above_one)
-    raise_on_failure: bool = attrs.field(default=False, validator=boolean)
+    tangent: str = attrs.field(default="full", validator=v.choice_option(TANGENTS))
+    tol: float = attrs.field(default=5e-7, validator=v.positive_option)
+    max_iter: int = attrs.field(default=100, validator=v.count_option)
+    divergence: float = attrs.field(default=1e8, validator=v.above_one_option)
+    raise_on_failure: bool = attrs.field(default=False, validator=v.flag_option)
 
     def solve(self, compiled, *, state: State | None = None) -> Solution:
         """Equilibrium of ``compiled`` (a closed-form `Compiled`), from ``state`` (default undeformed)."""

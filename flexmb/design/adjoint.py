@@ -1,0 +1,157 @@
+"""Gradients of responses at a converged equilibrium: adjoint and direct sensitivities.
+
+The equilibrium ``r_f(u_f, u_p, N) = 0`` on the free DOFs, with the prescribed DOFs
+``u_p = g(N)`` and the model numbers ``N(p)``: for a response ``J(u, N)``
+
+    dJ/dp = dJ/dN N' + dJ/du_p g' + dJ/du_f u_f',    K_ff u_f' = -(dr_f/dN N' + K_fp g') = -b.
+
+*Adjoint* (one solve per response, any number of parameters): ``K_ff^T lam = (dJ/du_f)^T``, then
+``dJ/dp = dJ/dN N' + dJ/du_p g' - lam^T b``. *Direct* (one solve per parameter, any number of
+responses): ``u_f' = -K_ff^-1 b``. Both reuse one LU factorisation of the converged ``K_ff`` per
+configuration; the tangent is not symmetric (dead loads at offsets, dead moments in 3D,
+prescribed rotations), so the adjoint solves with its transpose (``trans="T"``), never a
+symmetrised matrix. Rotation DOFs are increments: 2D angles, 3D spatial spins.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse.linalg as spla
+
+from ..errors import ConvergenceError, ModelError, UnsupportedStrategyError
+from ..modal import full_tangent
+from ..rotations import skew
+from .partials import mass_forms, residual_rates, tangent_forms
+
+__all__ = ["Sensitivity", "left_jacobian", "DENSE_BELOW", "STRATEGIES"]
+
+#: Free DOFs below which K_ff is factorised dense (LAPACK getrf), at and above sparse (SuperLU).
+DENSE_BELOW = 200
+
+#: The strategies whose solutions are the full finite-element equilibrium (KSD-full converges to
+#: the conventional equations from its KSD start, so it shares their gradient).
+STRATEGIES = ("conventional", "ksd-full")
+
+
+def left_jacobian(w: np.ndarray) -> np.ndarray:
+    """SO(3)'s left Jacobian (3, 3) at rotation vector ``w``: ``d exp(w) = skew(J dw) exp(w)``
+    (Chirikjian 2011, Vol. 2, Eq. 10.86): ``I + (1 - cos t)/t^2 W + (t - sin t)/t^3 W^2``."""
+    w = np.asarray(w, dtype=float)
+    t = float(np.sqrt(w @ w))
+    W = skew(w)
+    if t < 1e-6:  # series: 1/2 - t^2/24, 1/6 - t^2/120
+        return np.eye(3) + (0.5 - t * t / 24.0) * W + (1.0 / 6.0 - t * t / 120.0) * W @ W
+    return np.eye(3) + (1.0 - np.cos(t)) / t**2 * W + (t - np.sin(t)) / t**3 * W @ W
+
+
+class Sensitivity:
+    """A converged solution's linearisation with respect to the design: the full tangent, one LU
+    factorisation of ``K_ff`` reused by every adjoint and direct solve, and the rates of the
+    residual and of the prescribed DOFs with the parameters (`flexmb.design.parameters.ModelRates`).
+    """
+
+    def __init__(self, solution, rates):
+        method = getattr(solution, "method", None)
+        if method not in STRATEGIES or not hasattr(solution.compiled.problem.model, "elements"):
+            kinds = ", ".join(f"{name!r} ({rates.kind(k)})" for k, name in enumerate(rates.names))
+            raise UnsupportedStrategyError(
+                f"design gradients with method {method!r} are not available for the parameters {kinds}: the "
+                f"gradients differentiate the full finite-element equilibrium (methods {', '.join(STRATEGIES)}; "
+                "'ksd-full' converges to it from the KSD start and shares its gradient)")
+        if not solution.converged:
+            raise ConvergenceError(f"design gradient of an unconverged solution ({solution.message})", solution)
+        self.solution, self.rates = solution, rates
+        self.problem = solution.compiled.problem
+        self.model, self.state = self.problem.model, solution.state
+        self.lam = float(solution.load_factor)
+        self.names = rates.names
+        self.free, self.prescribed = self.problem.free, self.problem.prescribed
+
+    @functools.cached_property
+    def K(self):
+        """The full tangent (n_dofs, n_dofs), CSR (`flexmb.modal.full_tangent`)."""
+        return full_tangent(self.solution).tocsr()
+
+    @functools.cached_property
+    def _lu(self):
+        K_ff = self.K[self.free][:, self.free]
+        if K_ff.shape[0] < DENSE_BELOW:
+            lu = sla.lu_factor(K_ff.toarray(), check_finite=True)
+            if np.any(np.diag(lu[0]) == 0.0):
+                raise ModelError("design gradient: the tangent on the free DOFs is singular (a critical equilibrium)")
+            return lambda rhs, trans: sla.lu_solve(lu, rhs, trans=1 if trans else 0)
+        try:
+            lu = spla.splu(K_ff.tocsc())
+        except RuntimeError as exc:
+            raise ModelError("design gradient: the tangent on the free DOFs is singular (a critical equilibrium)") \
+                from exc
+        return lambda rhs, trans: lu.solve(np.asarray(rhs, dtype=float), trans="T" if trans else "N")
+
+    def solve(self, rhs: np.ndarray, transpose: bool = False) -> np.ndarray:
+        """``K_ff^-1 rhs`` or ``K_ff^-T rhs`` (rhs (n_free,) or (n_free, m)) with the kept factorisation."""
+        return self._lu(rhs, transpose)
+
+    @functools.cached_property
+    def residual_rates(self) -> np.ndarray:
+        """``dr/dN N'`` (n_dofs, K) at the converged state held fixed."""
+        return residual_rates(self.problem, self.state, self.rates, lam=self.lam)
+
+    @functools.cached_property
+    def prescribed_rates(self) -> np.ndarray:
+        """``g'`` (n_p, K): the prescribed DOFs' motion per parameter (translations: the reference
+        position's and the prescribed value's rates; 3D rotations: the spin of ``exp(lam w)``)."""
+        m, lam = self.model, self.lam
+        node, comp = np.divmod(self.prescribed, m.ndof)
+        dvalues = self.rates.rate("values")  # (K, n_p)
+        dx0 = self.rates.rate("x0")  # (K, N, dim)
+        out = lam * dvalues.T.copy()
+        tr = comp < m.dim
+        out[tr] += dx0[:, node[tr], comp[tr]].T
+        if m.dim == 3 and self.problem.rotation_paths and np.any(dvalues):
+            raise UnsupportedStrategyError(
+                "design gradients of a prescribed chain of rotations (Mechanism.prescribe(rotation=[...])) that depends "
+                f"on the parameters {list(self.names)} are not available; prescribe the rotation vector instead")
+        if m.dim == 3:
+            first = np.flatnonzero(comp == 3)
+            for i in first:
+                J = left_jacobian(lam * self.problem.values[i:i + 3])
+                out[i:i + 3] = J @ out[i:i + 3]
+        return out
+
+    @functools.cached_property
+    def _b(self) -> np.ndarray:
+        """``b = dr_f/dN N' + K_fp g'`` (n_free, K)."""
+        K_fp = self.K[self.free][:, self.prescribed]
+        return self.residual_rates[self.free] + K_fp @ self.prescribed_rates
+
+    @functools.cached_property
+    def state_rates(self) -> np.ndarray:
+        """``du/dp`` (n_dofs, K) on all DOFs (direct method: one solve per parameter)."""
+        du = np.zeros((self.model.n_dofs, len(self.names)))
+        du[self.free] = -self.solve(self._b)
+        du[self.prescribed] = self.prescribed_rates
+        return du
+
+    def tangent_forms(self, V: np.ndarray, W: np.ndarray | None = None, material: bool = False) -> np.ndarray:
+        """``V^T (dK/dp_k) W`` (K, a, b): the tangent's total change with each parameter, along the
+        model numbers' rates and the state's (`state_rates`), ``dK/dN N' + dK/du u'``
+        (`flexmb.design.partials.tangent_forms`; ``material``: the material tangent's)."""
+        return tangent_forms(self.problem, self.state, self.rates, self.state_rates, V, V if W is None else W,
+                             lam=self.lam, material=material)
+
+    def mass_forms(self, V: np.ndarray, W: np.ndarray | None = None) -> np.ndarray:
+        """``V^T (dM/dp_k) W`` (K, a, b): the consistent mass's total change with each parameter."""
+        return mass_forms(self.problem, self.state, self.rates, self.state_rates, V, V if W is None else W)
+
+    def gradient(self, dJ_du: np.ndarray, dJ_dN: np.ndarray, method: str = "auto") -> np.ndarray:
+        """``dJ/dp`` (K,) of a response with partials ``dJ/du`` (n_dofs,; rotations per spin) and
+        ``dJ/dN N'`` (K,). ``method``: ``"adjoint"``, ``"direct"`` or ``"auto"`` (direct when the
+        state's rates are already known, else adjoint)."""
+        dJ_du = np.asarray(dJ_du, dtype=float)
+        if method == "direct" or (method == "auto" and "state_rates" in self.__dict__):
+            return dJ_dN + dJ_du @ self.state_rates
+        lam_adj = self.solve(dJ_du[self.free], transpose=True)
+        return dJ_dN + dJ_du[self.prescribed] @ self.prescribed_rates - lam_adj @ self._b

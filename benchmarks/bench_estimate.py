@@ -61,9 +61,10 @@ def main(quick: bool = False) -> str:
     lines = [
         "## KSD-reduced error estimate: estimated vs true error (issue 32)",
         "",
-        f"{machine()}. `flexmb.studies.accuracy`: each case solved with KSD-reduced (its estimate from one, near the",
-        "tolerance two, Newton corrections of the full model at its answer, `flexmb.ksd.estimate`) and with the conventional",
-        "method (the true answer). Relative error = the larger of the links' motion error and the reactions' error, each the",
+        f"{machine()}. `flexmb.studies.accuracy`: each case solved with KSD-reduced (its estimate from Newton corrections",
+        "of the full model at its answer, `flexmb.ksd.estimate`: one where it is clearly within the tolerance, else until",
+        "it settles, at most four) and with the conventional method (the true answer). Relative error = the larger of the",
+        "links' motion error and the reactions' error, each the",
         "largest over the links of a link's own (translations over the model's length, rotations [rad]; forces, moments over",
         f"the length). Tolerance {DEFAULT_TOLERANCE:g} (the default `error_tol`). Below {accuracy.RESOLUTION:g} both numbers",
         "are the reference's round-off (the ratio is not meaningful). Figure: `docs/ksd_error_estimate.png`.",

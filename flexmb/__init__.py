@@ -19,10 +19,14 @@ from .errors import (
 )
 from .joints import CrossFlexure, CurvedBeam, Hinge, Joint, JointMesh, LeafSpring, ThreeXInfinity
 from .mechanism import Link, Mechanism
+from .materials import Material, material
+from .files import MechanismFileError, load, save
+from .statespace import StateSpace, state_space
 from .linearised import buckling, compliance
 from .design_properties import properties
 from . import design
 from .design import responses, value_and_grad
+from .design.optimize import optimize  # issue 28 item 5 (opt's one-line hook)
 from .discretisation import DiscretisationEstimate, discretisation_error
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
@@ -42,6 +46,7 @@ __all__ = [
     "design",
     "responses",
     "value_and_grad",
+    "optimize",
     "ConvergenceError",
     "ConvergenceWarning",
     "ExtrapolationWarning",
@@ -60,6 +65,13 @@ __all__ = [
     "ThreeXInfinity",
     "Link",
     "Mechanism",
+    "Material",
+    "material",
+    "MechanismFileError",
+    "StateSpace",
+    "state_space",
+    "load",
+    "save",
     "Modes",
     "MissingExtraError",
     "ModelError",

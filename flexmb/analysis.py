@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import ConvergenceError
+from .errors import ConvergenceError, ConvergenceWarning
 from .ksd.geometry import rz
 
 __all__ = ["joint_stiffness", "support_ratios", "joint_properties"]
@@ -67,7 +67,28 @@ def support_ratios(joint, rotation: float = 0.0) -> dict:
 def joint_properties(kind: str, rotation: float = 0.0, **params) -> dict:
     """`support_ratios` of the registered joint ``kind`` built with shape ``params`` (SI units),
     at the intended rotation ``rotation`` [rad]: one design of a parameter study
-    (`flexmb.study.parameter_study`), picklable as ``functools.partial(joint_properties, kind)``."""
+    (`flexmb.study.parameter_study`), picklable as ``functools.partial(joint_properties, kind)``.
+
+    Also ``"converged"`` (False: the joint's model did not converge at that rotation; the ratios,
+    stiffness and stress are then NaN) and ``"warnings"``: the warnings the solve raised (e.g. a
+    `flexmb.PlausibilityWarning` of a strain beyond the elastic range), ``"Category: message"``
+    joined by ``" | "``, ``""`` for none; they are raised again here as well, so a direct call
+    still shows them (a study records them in its own ``warnings`` column)."""
+    import warnings
+
+    from . import _warnings
     from .registry import joint
 
-    return support_ratios(joint(kind, **params), rotation)
+    j = joint(kind, **params)
+    with _warnings.recording() as caught:  # per thread: two designs in one dask worker keep their own
+        try:
+            out = support_ratios(j, rotation)
+            out["converged"] = True
+        except ConvergenceError:
+            out = {**{name: float("nan") for name in _DIRECTIONS[:5]}, "k_rotation": float("nan"),
+                   "stress": float("nan"), "converged": False}
+            warnings.warn(f"{kind}: the finite-element model did not converge at {np.degrees(rotation):.1f} deg",
+                          ConvergenceWarning, stacklevel=2)
+    _warnings.raise_again(caught)
+    out["warnings"] = _warnings.as_text(caught)
+    return out

@@ -157,15 +157,16 @@ def _joints(args) -> int:
         doc = (inspect.getdoc(cls) or "").splitlines()[0] if inspect.getdoc(cls) else ""
         print(f"{name}: {doc}")
         if attrs.has(cls):
-            for a in attrs.fields(cls):
-                default = "" if a.default is attrs.NOTHING else f" = {a.default!r}"
-                print(f"    {a.name}{default}")
+            from .joints._base import UNSET
+
+            for a in attrs.fields(cls):  # by keyword; a material keyword has no default of its own
+                default = "" if a.default is attrs.NOTHING or a.default is UNSET else f" = {a.default!r}"
+                print(f"    {a.alias}{default}")
     return 0
 
 
 def _train(args) -> int:
     from . import database
-    from .registry import joint as make_joint
 
     out = _out_folder(args.out if args.out is not None else database.user_path())
     shipped = database.data_path()
@@ -173,12 +174,16 @@ def _train(args) -> int:
         raise _UsageError(f"--out {str(out)!r} is the shipped data, which flexmb never writes; train into a folder of "
                           f"your own (default: {database.user_path()}, or set {database.store.ENVIRONMENT})")
     params = dict(_parse_params(args.param))
-    _check_sampling(args.kind, params, args.range, args.step)
     range_deg = None if args.range is None else (-args.range, args.range)
-    dims = args.dim or [d for d in (2, 3) if d in make_joint(args.kind, **params).dims]  # a spatial joint: 3D
+    first = _trainable(args.kind, params)
+    _check_sampling(first, args.range, args.step)
+    dims = args.dim or [d for d in (2, 3) if d in first.dims]  # a spatial joint: 3D
     for dim in dims:
-        for n in args.elements or _shipped_meshes(args.kind, params, dim):
-            j = make_joint(args.kind, elements_per_leaf=n, **params)
+        for j in _training_joints(args.kind, params, args.elements, dim):
+            try:  # the joint's own settings, checked before any solve (a plugin's mistake: exit 2)
+                database.training_settings(j, range_deg=range_deg, step_deg=args.step)
+            except ParameterError as exc:
+                raise _UsageError(str(exc)) from None
             data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
             path = database.write(data, out)  # named by the design (store.design_file_name), never another's
             name = database.file_name(j.kind, dim, data.key)  # the shipped data's (key-only) name
@@ -196,35 +201,78 @@ def _train(args) -> int:
 MAX_TRAINING_RUNS = 100_000
 
 
-def _check_sampling(kind: str, params: dict, range_deg: float | None, step: float | None) -> None:
+def _check_sampling(joint, range_deg: float | None, step: float | None) -> None:
     """Refuse (`_UsageError`, exit 2) a ``--step`` so small that the sampling of ``--range`` (the
-    joint's own range and step where not given) exceeds `MAX_TRAINING_RUNS`."""
-    from .database.training import TRAINING
-    from .registry import joint as make_joint
+    joint's own range and step where not given, `flexmb.database.training_settings`) exceeds
+    `MAX_TRAINING_RUNS`."""
+    from . import database
 
-    opt = {**TRAINING, **getattr(type(make_joint(kind, **params)), "training", {})}
-    lo, hi = (-range_deg, range_deg) if range_deg is not None else opt["range_deg"]
-    step = float(opt["step_deg"] if step is None else step)
+    try:
+        opt = database.training_settings(joint, range_deg=None if range_deg is None else (-range_deg, range_deg),
+                                         step_deg=step)
+    except ParameterError as exc:
+        raise _UsageError(str(exc)) from None
+    (lo, hi), step = opt["range_deg"], opt["step_deg"]
     runs = (hi - lo) / step + 1
     if runs > MAX_TRAINING_RUNS:
         raise _UsageError(f"--step {step:g}: {runs:.3g} training runs over [{lo:g}, {hi:g}] deg, more than "
                           f"{MAX_TRAINING_RUNS}; use --step {(hi - lo) / (MAX_TRAINING_RUNS - 1):.3g} or more")
 
 
+def _trainable(kind: str, params: dict, **mesh):
+    """The registered joint ``kind`` built from ``--param`` (and ``mesh``: its mesh parameter),
+    refused as a usage error (exit 2, one line) when the kind is unknown, a parameter is unknown or
+    out of range, or the joint has no database to train (no finite-element model or no
+    `flexmb.Joint.database_key`)."""
+    from .registry import joint as make_joint
+
+    try:
+        j = make_joint(kind, **params, **mesh)
+    except FlexmbError as exc:
+        raise _UsageError(f"train: {exc}") from None
+    missing = {"fe_model", "database"} - j.capabilities
+    if missing:
+        raise _UsageError(f"train {kind}: the joint has no {' and no '.join(sorted(missing))} (it offers "
+                          f"{sorted(j.capabilities)}): nothing to train")
+    return j
+
+
+def _training_joints(kind: str, params: dict, elements, dim: int) -> list:
+    """The joints `flexmb train` trains in ``dim``: one per ``--elements`` value, set through the
+    joint class's `flexmb.Joint.mesh_parameter`; without ``--elements`` the meshes shipped for
+    these parameters and the joint's own default (`_shipped_meshes`)."""
+    from .registry import available_joints
+
+    cls = available_joints()[kind]
+    mesh = getattr(cls, "mesh_parameter", None)
+    if elements and mesh is None:
+        raise _UsageError(f"train {kind}: --elements sets a joint's mesh through its mesh_parameter, and {kind} "
+                          "names none; give its mesh with --param NAME=VALUE")
+    if mesh is not None and mesh in params:
+        if elements:
+            raise _UsageError(f"train {kind}: give the mesh once, --elements or --param {mesh}=, not both")
+        elements = [params.pop(mesh)]
+    if mesh is None:
+        return [_trainable(kind, params)]
+    return [_trainable(kind, params, **{mesh: n}) for n in (elements or _shipped_meshes(kind, params, dim))]
+
+
 def _shipped_meshes(kind: str, params: dict, dim: int) -> list[int]:
     """`flexmb train`'s default ``--elements``: the meshes shipped for this joint (these
     parameters, ``dim``) and the joint's own default mesh, so that training reproduces what
-    ships (cross flexure: 1-5 and 10 el./leaf, 10 its default since the finer mesh)."""
+    ships (cross flexure: 1-5 and 10 el./leaf, 10 its default since the finer mesh). Meshes are
+    read through the joint class's `flexmb.Joint.mesh_parameter`."""
     from . import database
-    from .registry import joint as make_joint
 
-    j = make_joint(kind, **params)
-    key = j.database_key()
-    meshes = {int(key["elements_per_leaf"])}
-    for path in database.data_path().glob(f"{kind}-{dim}d-*.json"):
-        found = re.search(r"-elements_per_leaf(\d+)", path.name)
-        if found and path.name == database.file_name(kind, dim, {**key, "elements_per_leaf": int(found[1])}):
-            meshes.add(int(found[1]))
+    j = _trainable(kind, params)
+    mesh = type(j).mesh_parameter
+    meshes = {int(getattr(j, mesh))}
+    key = database.training.checked_key(j)
+    if mesh in key:
+        for path in database.data_path().glob(f"{kind}-{dim}d-*.json"):
+            found = re.search(rf"-{re.escape(mesh)}(\d+)", path.name)
+            if found and path.name == database.file_name(kind, dim, {**key, mesh: int(found[1])}):
+                meshes.add(int(found[1]))
     return sorted(meshes)
 
 
@@ -318,6 +366,7 @@ def _cases() -> dict:
 def _build(case: str, params: dict):
     build, default = _cases()[case]
     names = [n for n, p in inspect.signature(build).parameters.items() if p.kind is not p.VAR_KEYWORD]
+    _check_model_params(case, names, params)
     try:
         return build(**params), default
     except TypeError as exc:
@@ -325,9 +374,37 @@ def _build(case: str, params: dict):
                              f"parameters where the model takes them)") from None
 
 
+#: The joint whose shape parameters a ready-made model passes on (``**joint_params``).
+_MODEL_JOINTS = {"cross_flexure": "cross_flexure", "fourbar": "cross_flexure", "cantilever": "leaf_spring",
+                 "manipulator": "three_x_infinity"}
+
+
+def _check_model_params(case: str, names: list, params: dict) -> None:
+    """A ``--param`` that is neither the model's nor its joint's: refused naming the model, with the
+    closest name (``displacment`` -> ``displacement``), before the joint blames itself."""
+    import difflib
+
+    from .registry import available_joints
+
+    cls = available_joints().get(_MODEL_JOINTS.get(case, ""))
+    joint = [a.alias for a in attrs.fields(cls) if a.init] if cls is not None and attrs.has(cls) else []
+    for key in params:
+        if key not in names and key not in joint:
+            close = difflib.get_close_matches(key, names + joint, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ParameterError(f"solve {case}: unknown parameter {key!r}{hint} The model's parameters: "
+                                 f"{', '.join(names)}" + (f"; its joint's ({_MODEL_JOINTS[case]}): {', '.join(joint)}"
+                                                          if joint else ""))
+
+
 def _solve(args) -> int:
     from .solvers import solve
 
+    if args.case not in _cases():  # a mechanism file (checked to exist by `_case_or_file`)
+        return _solve_file(args)
+    if args.sweep or args.properties or args.trace or args.csv:
+        raise _UsageError(f"solve {args.case}: --sweep, --properties, --trace and --csv take a mechanism file "
+                          "(flexmb.save(mechanism, 'm.json')); the ready-made models take --param and --json")
     params = dict(_parse_params(args.param))
     mechanism, default = _build(args.case, params)
     method = args.method or default
@@ -346,9 +423,12 @@ def _solve(args) -> int:
     else:
         print(f"{args.case} ({method}): {sol.message}; {sol.iterations} iterations, "
               f"{sol.wall_time.get('total', float('nan')) * 1e3:.1f} ms")
+        from .units import label
+
+        lab = {q: label(mechanism.units, q) for q in ("length", "force", "moment")}  # the model's declared units
         for link, d in report["links"].items():
-            print(f"  {link}: position {np.array(d['position'])} m, rotation {np.array(d['rotation'])} rad, "
-                  f"reaction {np.array(d['reaction'])}")
+            print(f"  {link}: position {np.array(d['position'])} {lab['length']}, rotation "
+                  f"{np.array(d['rotation'])} rad, reaction {np.array(d['reaction'])} [{lab['force']}, {lab['moment']}]")
     if not sol.converged:
         print(f"flexmb: error: {args.case} did not converge: {sol.message}", file=sys.stderr)
         return 1
@@ -394,15 +474,186 @@ def strict_json(value):
     return value
 
 
+# -- flexmb solve FILE (issue 30): a mechanism file, a sweep, properties, a traced path ----------
+
+def _case_or_file(text: str) -> str:
+    """argparse type of ``solve``'s first argument: a ready-made model's name or an existing file."""
+    if text in _cases() or Path(text).is_file():
+        return text
+    raise argparse.ArgumentTypeError(f"{text!r} is neither a ready-made model ({', '.join(sorted(_cases()))}) nor a "
+                                     "mechanism file")
+
+
+def _file_options(p) -> None:
+    """The options of ``flexmb solve FILE``."""
+    p.add_argument("--sweep", default=None, metavar="LINK.COMPONENT=START:STOP:N",
+                   help="FILE only: solve over a prescribed motion (e.g. block.x=0:0.002:11, or a list "
+                        "block.x=0,1e-3,2e-3; 3D rotations rx, ry, rz) or the actuation force (force=0:5:11)")
+    p.add_argument("--properties", default=None, metavar="NAMES",
+                   help="FILE only: design properties of every solution, comma-separated: modes, buckling, "
+                        "compliance, stress")
+    p.add_argument("--n-modes", type=_positive_int, default=6, help="FILE only: frequencies with --properties modes")
+    p.add_argument("--trace", action="store_true",
+                   help="FILE only: follow the equilibrium path (flexmb.trace) of the loads and motions")
+    p.add_argument("--steps", type=_positive_int, default=40, help="FILE only: arc-length steps of --trace (40)")
+    p.add_argument("--csv", action="store_true", help="FILE only: print the result table as CSV")
+
+
+def _solve_file(args) -> int:
+    """`flexmb solve FILE [--sweep ...] [--properties ...] [--trace]`: exit 2 for a file flexmb
+    refuses (one line naming the place in it), 1 for a solve that does not converge."""
+    from . import files
+    from .errors import ConvergenceWarning
+    from .solvers import solve
+
+    try:
+        mechanism = files.load(args.case)
+    except files.MechanismFileError as exc:
+        raise _UsageError(str(exc)) from None
+    if args.param:
+        raise _UsageError("solve FILE: --param sets a ready-made model's parameters; edit the file instead")
+    if args.sweep and args.trace:
+        raise _UsageError("solve FILE: --sweep and --trace are two different paths; give one")
+    method = args.method or "conventional"
+    options = dict(_parse_params(args.option, "--option"))
+    if {"mechanism", "method"} & set(options):
+        raise _UsageError("--option method=...: not a solver option (choose the method with --method)")
+    with warnings.catch_warnings():  # a solve that does not converge is the exit code and its column
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        if args.sweep:
+            solutions = _file_sweep(mechanism, args.sweep, method, options)
+        elif args.trace:
+            from .path import trace
+
+            solutions = trace(mechanism, steps=args.steps, max_load_factor=1.0, method=method, progress=False,
+                              **options)
+        else:
+            solutions = [solve(mechanism, method=method, **options)]
+    units = mechanism.units
+    if len(solutions) == 1 and not args.sweep and not args.properties and not args.csv:
+        _print_solution(args, solutions[0], units)
+    else:
+        table = _file_table(solutions, args)
+        _print_table(args, table, units)
+    failed = sum(not s.converged for s in solutions)
+    if failed:
+        print(f"flexmb: error: {args.case}: {failed} of {len(solutions)} solve(s) did not converge", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _file_sweep(mechanism, spec: str, method: str, options: dict):
+    """`flexmb.sweep` over ``spec`` = ``LINK.COMPONENT=VALUES`` or ``force=VALUES``."""
+    from .sweeps import sweep
+
+    target, sep, text = spec.partition("=")
+    values = _sweep_values(text) if sep else None
+    if values is None:
+        raise _UsageError(f"--sweep {spec!r}: expected LINK.COMPONENT=START:STOP:N (e.g. block.x=0:0.002:11), a "
+                          "comma-separated list, or force=START:STOP:N for the actuation")
+    if target == "force":
+        return sweep(mechanism, values, method=method, progress=False, **options)
+    link, _, comp = target.rpartition(".")
+    if mechanism.dim == 3 and comp in ("rx", "ry", "rz"):
+        base = np.asarray(mechanism.prescribed(link).get("rotation", np.zeros(3)), dtype=float)
+        if base.shape != (3,):
+            raise _UsageError(f"--sweep {spec!r}: link {link!r} has no rotation vector prescribed")
+        rows = np.tile(base, (len(values), 1))
+        rows[:, "xyz".index(comp[1])] = values
+        return sweep(mechanism, rows, motion=(link, "rotation"), method=method, progress=False, **options)
+    return sweep(mechanism, values, motion=(link, comp), method=method, progress=False, **options)
+
+
+def _sweep_values(text: str):
+    """``START:STOP:N`` (N values, ends included) or ``a,b,c`` as a float array; None if malformed."""
+    try:
+        if ":" in text:
+            start, stop, n = text.split(":")
+            n = int(n)
+            return np.linspace(float(start), float(stop), n) if n >= 1 else None
+        values = np.array([float(x) for x in text.split(",")])
+    except ValueError:
+        return None
+    return values if len(values) and np.all(np.isfinite(values)) else None
+
+
+def _file_table(solutions, args):
+    """The results as a `flexmb.Table`: the sequence's own columns, and the properties asked for."""
+    from .design_properties import properties
+    from .table import Table
+
+    which = tuple(w.strip() for w in args.properties.split(",") if w.strip()) if args.properties else ()
+    unknown = sorted(set(which) - {"modes", "buckling", "compliance", "stress"})
+    if unknown:
+        raise _UsageError(f"--properties {args.properties!r}: unknown {', '.join(unknown)}; valid: modes, buckling, "
+                          "compliance, stress")
+    if which:
+        return properties(solutions, which, n_modes=args.n_modes)
+    if callable(getattr(solutions, "table", None)):
+        return solutions.table()
+    sol = solutions[0]
+    cols = {"converged": [sol.converged], "iterations": [sol.iterations]}
+    for link in sol.compiled.link_node:
+        for k, x in enumerate(sol.pose(link)[0]):
+            cols[f"{link}.{'xyz'[k]}"] = [x]
+    return Table(cols)
+
+
+def _print_table(args, table, units) -> None:
+    from .units import column_unit
+
+    names = list(table)
+    labels = {n: column_unit(n, units) for n in names}
+    if args.json:
+        out = {"file": str(args.case), "units": None if units is None else units.name, "column_units": labels,
+               "columns": {n: table[n].tolist() for n in names}}
+        print(json.dumps(strict_json(out), indent=2, allow_nan=False))
+        return
+    header = [f"{n} [{labels[n]}]" if labels[n] not in ("", "-") else n for n in names]
+    cols = [table[n].tolist() for n in names]
+    if args.csv:
+        import csv
+
+        w = csv.writer(sys.stdout, lineterminator="\n")
+        w.writerow(header)
+        for row in zip(*cols):
+            w.writerow([repr(x) if isinstance(x, float) else x for x in row])
+        return
+    width = [max(12, len(h)) for h in header]
+    print("  ".join(h.rjust(k) for h, k in zip(header, width)))
+    for row in zip(*cols):
+        print("  ".join((f"{x:.6g}" if isinstance(x, float) else str(x)).rjust(k) for x, k in zip(row, width)))
+
+
+def _print_solution(args, sol, units) -> None:
+    """One solve of a file: as the ready-made models' (`solution_report`), with its unit labels."""
+    from .units import label
+
+    lab = {q: label(units, q) for q in ("length", "angle", "force", "moment")}
+    if args.json:
+        report = solution_report(sol, file=str(args.case), units=None if units is None else units.name,
+                                 unit_labels=lab)
+        print(json.dumps(strict_json(report), indent=2, allow_nan=False))
+        return
+    print(f"{args.case} ({sol.method}, units {units.name if units else 'undeclared (SI)'}): {sol.message}; "
+          f"{sol.iterations} iterations, {sol.wall_time.get('total', float('nan')) * 1e3:.1f} ms")
+    for link in sol.compiled.link_node:
+        print(f"  {link}: position {sol.pose(link)[0]} {lab['length']}, rotation {sol.rotation_vector(link)} "
+              f"{lab['angle']}, reaction {sol.reaction(link)} [{lab['force']}, {lab['moment']}]")
+
+
 def _run(args) -> int:
+    """`flexmb run SCRIPT`: the script as ``python SCRIPT`` runs it, its folder first on the import
+    path (a sibling module imports), ``sys.argv`` its arguments; both restored afterwards."""
     path = Path(args.script)
     if not path.suffix and not path.exists():  # a case name: examples/<name>.py in this folder
         path = Path("examples") / f"{args.script}.py"
     if not path.is_file():
         raise ParameterError(f"run: no script {str(path)!r} (give a path, or an example name with an examples/ "
                              f"folder in the current directory)")
-    argv = sys.argv
+    argv, sys_path = sys.argv, list(sys.path)
     sys.argv = [str(path), *args.args]
+    sys.path.insert(0, str(path.resolve().parent))
     try:
         runpy.run_path(str(path), run_name="__main__")
     except SystemExit as exc:  # as the interpreter does: an int is the code, anything else is printed
@@ -412,6 +663,7 @@ def _run(args) -> int:
         return 1
     finally:
         sys.argv = argv
+        sys.path[:] = sys_path
     return 0
 
 
@@ -463,8 +715,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--dim", type=int, nargs="+", default=None, choices=(2, 3),
                    help="2, 3 or both (default: those the joint supports; three_x_infinity: 3)")
     p.add_argument("--elements", type=_positive_int, nargs="+", default=None,
-                   help="elements per leaf, at least 1 (default: the meshes shipped for this joint and "
-                        "parameters, and the joint's own default mesh: 1 2 3 4 5 10 for cross_flexure)")
+                   help="the joint's mesh (its mesh_parameter: elements per leaf of cross_flexure, elements of a "
+                        "plugin's notch ...), at least 1 (default: the meshes shipped for this joint and parameters, "
+                        "and the joint's own default mesh: 1 2 3 4 5 10 for cross_flexure)")
     p.add_argument("--range", type=_angle(180.0), default=None,
                    help="intended rotation range +- [deg], in (0, 180] (default: the joint's own, 75 for "
                         "cross_flexure)")
@@ -485,13 +738,15 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("solve", help="solve a ready-made model and print (or --json) the result",
                        description="Solve one of the ready-made models of flexmb.models. Exit code 1 when it does not "
                                    "converge (the result is still printed).")
-    p.add_argument("case", choices=sorted(_cases()), help="the model (flexmb.models)")
+    p.add_argument("case", type=_case_or_file, metavar="MODEL|FILE",
+                   help=f"a ready-made model ({', '.join(sorted(_cases()))}) or a mechanism file (flexmb.save)")
     p.add_argument("--method", default=None, help="solver strategy (default: conventional; newton for the gripper)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="model parameter, repeatable (e.g. --param rotation=0.5 --param elements_per_leaf=4)")
     p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
                    help="solver option, repeatable (e.g. --option tol=1e-9)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
+    _file_options(p)
     p.set_defaults(func=_solve)
     p = sub.add_parser("run", help="run an example script (a path, or a name from ./examples)")
     p.add_argument("script", help="e.g. examples/fourbar.py or fourbar")

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._validate import hashable
 
-__all__ = ["Compiled", "compiled_for", "fingerprint"]
+__all__ = ["Compiled", "compiled_for", "fingerprint", "adopt", "structure_key"]
 
 
 @attrs.frozen(eq=False)
@@ -30,6 +30,7 @@ class Compiled:
     joint_nodes: dict = attrs.field(factory=dict)  # joint name -> FE node indices of its internal nodes
     joints: tuple = ()  # (name, joint, placement, side A link, side B link) at compile time
     fixed: tuple = ()  # names of the fixed links (the ground)
+    units: object = None  # the mechanism's declared flexmb.units.UnitSystem (None: undeclared), for labels
     #: what strategies derive from this problem alone and keep with it (KSD's set-up, by database
     #: folder); a new dict in every copy (`attrs.evolve` with another problem starts empty)
     derived: dict = attrs.field(init=False, factory=dict, repr=False)
@@ -155,7 +156,90 @@ def compiled_for(mechanism, capability: str = "fe_model") -> Compiled:
     if not _values_only(mechanism):
         return compiled
     _read_only(compiled)
+    _reuse_structure(compiled)
     built = entry[2] if same else {}
     built[capability] = compiled
     cache[mechanism] = (counts, pins, built)
     return compiled
+
+
+#: The structures kept per thread for `_reuse_structure`: the last few distinct topologies (a
+#: design loop alternating a few mechanisms keeps all of theirs), together at most
+#: `STRUCTURE_ELEMENTS` beam elements (each keeps its compiled problem alive: a few kB per element)
+STRUCTURES_KEPT = 8
+STRUCTURE_ELEMENTS = 20_000
+
+
+def structure_key(compiled: Compiled) -> tuple | None:
+    """What identifies the structure of a compiled finite-element problem cheaply: its problem
+    type, dimension, DOF and element counts, link and joint names and sides, prescribed DOFs and
+    loaded nodes; None for another kind of problem (the closed-form linkage: nothing to keep).
+    `adopt` checks the element connectivity itself before sharing anything."""
+    problem = compiled.problem
+    model = getattr(problem, "model", None)
+    if model is None or not hasattr(model, "element_dofs"):
+        return None
+    return (type(problem), model.dim, model.n_dofs, len(model.element_dofs), tuple(compiled.link_node),
+            tuple((k, a, b) for k, _, _, a, b in compiled.joints), problem.prescribed.tobytes(),
+            problem.loads.node.tobytes(), model.hinges is None)
+
+
+def adopt(compiled: Compiled, previous: Compiled) -> bool:
+    """Give ``compiled`` what ``previous``, a problem of the same structure, derived from its
+    structure alone (issue 31 item 1): the tangent's sparsity pattern, the linear solver with its
+    ordering and symbolic factorisation, and KSD's set-up moved to ``compiled``'s numbers (`rebind`
+    of what ``previous.derived`` holds). Only when both have the same element connectivity (the
+    elements' DOFs), hinges' DOFs, prescribed DOFs and loaded nodes; returns whether it adopted.
+    A solve of ``compiled`` then gives the same numbers as without: the pattern and the analysis
+    are the ones its own first evaluation would build (tests/test_structure_reuse.py)."""
+    new, old = compiled.problem, previous.problem
+    m, m0 = new.model, old.model
+    if not (m.n_dofs == m0.n_dofs and np.array_equal(m.element_dofs, m0.element_dofs)
+            and np.array_equal(new.prescribed, old.prescribed) and np.array_equal(new.loads.node, old.loads.node)
+            and (m.hinges is None) == (m0.hinges is None)
+            and (m.hinges is None or np.array_equal(m.hinge_dofs, m0.hinge_dofs))):
+        return False
+    kept = vars(old)
+    for name in ("_pattern", "_tangent_solver"):  # functools.cached_property values, once built
+        if name in kept:
+            vars(new).setdefault(name, kept[name])
+    _share_section_table(m.elements, m0.elements)
+    for key, setup in previous.derived.items():
+        rebind = getattr(setup, "rebind", None)
+        moved = rebind(compiled) if rebind is not None else None
+        if moved is not None:
+            compiled.derived.setdefault(key, moved)
+    return True
+
+
+def _share_section_table(elements, previous) -> None:
+    """``previous``'s `flexmb.fe.stress.section_table` for ``elements`` too when both batches hold
+    the same section objects on the same joints with the same lengths (the table reads nothing
+    else): a design that moves joints, not their meshes (the manipulator's 81 sections: ~0.1 ms)."""
+    from .fe import stress
+
+    table = stress._TABLES.get(previous)
+    if (table is not None and len(elements.sections) == len(previous.sections)
+            and all(map(operator.is_, elements.sections, previous.sections))
+            and np.array_equal(elements.owner, previous.owner) and np.array_equal(elements.L0, previous.L0)):
+        stress._TABLES[elements] = table
+
+
+def _reuse_structure(compiled: Compiled) -> None:
+    """`adopt` from the last compiled problem of the same `structure_key` in this thread (a design
+    loop's previous mechanism, found by its structure, not its identity), then keep ``compiled``
+    in its place."""
+    key = structure_key(compiled)
+    if key is None:
+        return
+    try:
+        kept = _LOCAL.structures
+    except AttributeError:
+        kept = _LOCAL.structures = {}
+    previous = kept.pop(key, None)
+    if previous is not None:
+        adopt(compiled, previous)
+    kept[key] = compiled
+    size = lambda c: len(c.problem.model.element_dofs)  # noqa: E731
+    while len(kept) > STRUCTURES_KEPT or sum(map(size, kept.values())) > STRUCTURE_ELEMENTS:
+        del kept[next(iter(kept))]  # the least recently used first (a model too large is not kept)

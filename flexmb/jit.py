@@ -4,10 +4,13 @@
 import failure is an error) or ``numpy`` (never compile). The choice is read once, at import;
 `use` switches it in a running session (tests compare both paths on every kernel).
 
-numba is an optional extra (``pip install "flexmb[fast]"``): it compiles the element loops to
-machine code, and its ~40 MB with llvmlite are not forced on a user who solves a few small
-mechanisms. Compiled code is cached on disk (``cache=True``): the first import on a machine
-compiles, later sessions load.
+numba is a core dependency where it publishes wheels (CPython on 64-bit x86 and ARM; elsewhere
+``pip install "flexmb[fast]"``, or the numpy code runs): the default install is the fast one
+(issue 31). A kernel compiles on its first call, one type specialisation each (the 3D beam
+model's first solve: ~8 s of CPU), and numba caches it on disk (``cache=True``): beside the
+installed module where that folder is writable, else in the user's cache folder (numba's
+``user_cache_dir``, e.g. ``~/.cache/numba``), or in ``NUMBA_CACHE_DIR`` when set (the test suite
+sets it to a temporary folder: it never writes the user's cache). Later sessions load it (~1 s).
 """
 
 from __future__ import annotations

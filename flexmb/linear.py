@@ -62,6 +62,9 @@ _STALL = 0.1
 #: fallbacks), 1e-8: 9 / 12 / 67, 1e-10: 16 / 15 / 75, 1e-12: 53 / 48 / 161 with 7 / 4 / 6 fallbacks
 #: (cancellation). A solve then takes 0.15 / 0.29 / 0.19 ms against SuperLU's 0.43 / 0.77 / 0.45.
 SADDLE_SHIFT = 1e-8
+#: Patterns with at least this many entries are analysed by the compiled pass
+#: (`flexmb.linear_jit.upper_maps`; smaller ones by numpy: no compilation for them)
+COMPILED_ANALYSIS_FROM = 200_000
 
 _HAVE_QDLDL = importlib.util.find_spec("qdldl") is not None
 
@@ -153,8 +156,9 @@ class TangentSolver:
     def positive_definite(self, K) -> bool | None:
         """Whether the symmetric part of ``K`` is positive definite, from the signs of the pivots
         of its ``L D L^T`` on this solver's analysis (Sylvester's law of inertia; no pivoting, as
-        `flexmb.solvers.conventional.is_stable`'s SuperLU in symmetric mode): the compiled
-        factorisation, else qdldl's. None where this cannot tell (below the dense limit, no
+        `flexmb.solvers.conventional.is_stable`'s SuperLU in symmetric mode): qdldl's when installed
+        and the compiled L D U not analysed yet (its analysis costs ~0.2 s at 1e5 unknowns), else
+        the compiled factorisation. None where this cannot tell (below the dense limit, no
         sparse path, a pattern not structurally symmetric, a zero diagonal or pivot): the caller
         decides another way. Measured: chain of 64 cross flexures (4988 unknowns) 1.3 ms against
         is_stable's 15 ms; four-bar (305) 0.06 against 0.65 ms."""
@@ -170,7 +174,7 @@ class TangentSolver:
         sym[self._ia] = sym[self._ib] = 0.5 * (data[self._ia] + data[self._ib])
         if np.any(sym[self._ia[self._diag]] == 0.0):
             return None
-        if compiled:
+        if compiled and (self._ldu is not None or self._ldl is None):  # qdldl's when the L D U is not analysed
             from . import linear_jit
 
             if self._ldu is None:
@@ -205,33 +209,21 @@ class TangentSolver:
 
     def _analyse(self, K) -> None:
         """Gather maps from K's CSR data to the upper triangle of (K + K^T)/2, the symbolic LDL^T;
-        the L D U's analysis (`_ldu_analyse`) waits for its first use."""
-        n = K.shape[0]
+        the L D U's analysis (`_ldu_analyse`) waits for its first use. O(nnz), no global sort
+        (`_maps`; `_maps_compiled` for large patterns); the pattern must be symmetric in structure
+        and sorted (the assembled blocks are), else the sparse paths of this pattern go to SuperLU."""
         self._pattern = (K.indptr.copy(), K.indices.copy())
         self._seen = (K.indptr, K.indices)
         self._upper = self._ldl = self._ldu = None
-        coo = sp.csr_matrix((np.arange(K.nnz) + 1.0, K.indices, K.indptr), shape=K.shape).tocoo()
-        pos = (coo.data - 1.0).astype(np.int64)  # position of each entry in K.data
-        rows, cols = coo.row.astype(np.int64), coo.col.astype(np.int64)
-        # every stored (i, j) and its mirror (j, i) must be in the pattern: the assembled blocks are
-        # symmetric in structure; if not, the sparse paths of this pattern go to SuperLU
-        key = rows * n + cols
-        order = np.argsort(key)
-        mirror_key = cols * n + rows
-        where = np.searchsorted(key[order], mirror_key)
-        found = (where < len(key)) & (key[order][np.minimum(where, len(key) - 1)] == mirror_key)
-        if not found.all():
+        if not K.has_sorted_indices:  # flexmb's patterns are sorted; another matrix: SuperLU
             return
-        mirror = pos[order][where]
-        upper = rows <= cols
-        # upper triangle in CSC order (column-major), as qdldl wants
-        u_rows, u_cols = rows[upper], cols[upper]
-        csc = np.lexsort((u_rows, u_cols))
-        self._ia, self._ib = pos[upper][csc], mirror[upper][csc]
-        indptr = np.zeros(n + 1, dtype=np.int64)
-        np.add.at(indptr, u_cols[csc] + 1, 1)
-        self._upper = sp.csc_matrix((np.zeros(len(csc)), u_rows[csc], np.cumsum(indptr)), shape=(n, n))
-        self._diag = np.flatnonzero(u_rows[csc] == u_cols[csc])
+        maps = self._maps_compiled(K) if jit.enabled() and K.nnz >= COMPILED_ANALYSIS_FROM else self._maps(K)
+        if maps is None:
+            return
+        n = K.shape[0]
+        self._ia, self._ib, u_rows, u_indptr = maps
+        self._upper = sp.csc_matrix((np.zeros(len(u_rows)), u_rows, u_indptr), shape=(n, n))
+        self._diag = np.flatnonzero(self._ia == self._ib)
         if not self.use_ldl:
             return
         import qdldl
@@ -242,6 +234,39 @@ class TangentSolver:
             self._fresh = True
         except (ValueError, RuntimeError):  # a zero pivot already at the first matrix
             self._ldl = None
+
+    @staticmethod
+    def _maps(K):
+        """``(ia, ib, u_rows, u_indptr)``: the upper triangle of ``(K + K^T)/2`` in CSC order, as qdldl
+        wants it (by the symmetric structure, column j's rows i <= j are row j's columns i <= j of K
+        in CSR order), each entry's position ``ib`` in K's data and its mirror's ``ia``, from the
+        transpose by scipy's counting sort; None when the structure is not symmetric."""
+        n = K.shape[0]
+        T = sp.csr_matrix((np.arange(K.nnz, dtype=np.int64), K.indices, K.indptr), shape=K.shape).T.tocsr()
+        T.has_sorted_indices = True  # the CSC conversion writes each column's rows in order
+        if not (np.array_equal(T.indptr, K.indptr) and np.array_equal(T.indices, K.indices)):
+            return None
+        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(K.indptr))
+        cols = np.asarray(K.indices, dtype=np.int64)
+        lower = np.flatnonzero(cols <= rows)
+        u_rows = cols[lower]
+        return T.data[lower], lower, u_rows, np.searchsorted(rows[lower], np.arange(n + 1))
+
+    @staticmethod
+    def _maps_compiled(K):
+        """`_maps` by one compiled pass (`flexmb.linear_jit.upper_maps`): the same arrays, ~5x
+        faster on large patterns (1e5 beam elements: ~11 million entries)."""
+        from . import linear_jit
+
+        n = K.shape[0]
+        m = (K.nnz + n) // 2 + 1  # at most: the diagonal and one of each mirrored pair
+        ia, ib, u_rows, u_indptr = (np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
+                                    np.empty(m, dtype=np.int64), np.empty(n + 1, dtype=np.int64))
+        k = linear_jit.upper_maps(n, np.asarray(K.indptr, dtype=np.int64), np.asarray(K.indices, dtype=np.int64),
+                                  ia, ib, u_rows, u_indptr)
+        if k < 0:
+            return None
+        return ia[:k], ib[:k], u_rows[:k], u_indptr
 
     def _fill(self, K) -> None:
         """The factorised matrix's numbers: the upper triangle of ``(K + K^T)/2``, its exactly zero
@@ -322,9 +347,13 @@ class TangentSolver:
         ia, ib = self._ia[~diag], self._ib[~diag]
         swap = pi > pj  # entry (i, j) of K lands below the permuted diagonal: its mirror is above
         ur, uc = np.where(swap, pj, pi), np.where(swap, pi, pj)
-        order = np.lexsort((ur, uc))
-        Up = np.searchsorted(uc[order], np.arange(n + 1)).astype(np.int64)
-        Ui = np.ascontiguousarray(ur[order])
+        # column-major order of the permuted upper triangle by scipy's counting sort (O(nnz); the
+        # entries are distinct): the CSC conversion of a COO whose data are the entries' numbers
+        M = sp.coo_matrix((np.arange(1, len(ur) + 1, dtype=np.int64), (ur, uc)), shape=(n, n)).tocsc()
+        M.sort_indices()
+        order = M.data - 1
+        Up = M.indptr.astype(np.int64)
+        Ui = np.ascontiguousarray(M.indices, dtype=np.int64)
         upper_at = np.ascontiguousarray(np.where(swap, ib, ia)[order])
         lower_at = np.ascontiguousarray(np.where(swap, ia, ib)[order])
         diag_at = np.empty(n, dtype=np.int64)

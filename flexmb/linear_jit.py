@@ -151,3 +151,44 @@ def symmetric_upper(data, ia, ib, diag, shift, out):
     for p in diag:
         if out[p] == 0.0:
             out[p] = -shift * big
+
+
+@njit
+def upper_maps(n, indptr, indices, ia, ib, u_rows, u_indptr):
+    """`flexmb.linear.TangentSolver`'s analysis maps in one O(nnz) pass over a CSR pattern with
+    sorted indices: for every entry (j, i), i <= j, in CSR order (row j's columns i <= j: column
+    j of the upper triangle in CSC order, the pattern being structurally symmetric) its position
+    ``ib`` and its mirror (i, j)'s position ``ia`` in the data, its row ``u_rows`` = i, and the
+    upper triangle's column pointers ``u_indptr`` (n + 1,). The mirrors come from a cursor per
+    row: row i's entries right of the diagonal are met in order as the rows below reach column i.
+    Returns the entries written, or -1 when an entry's mirror is missing (not symmetric)."""
+    cursor = np.empty(n, dtype=np.int64)
+    for i in range(n):  # the first entry right of the diagonal of every row
+        p = indptr[i]
+        while p < indptr[i + 1] and indices[p] <= i:
+            p += 1
+        cursor[i] = p
+    k = 0
+    u_indptr[0] = 0
+    for j in range(n):
+        for p in range(indptr[j], indptr[j + 1]):
+            i = indices[p]
+            if i > j:
+                break
+            if i == j:
+                ia[k] = p
+            else:
+                q = cursor[i]
+                if q >= indptr[i + 1] or indices[q] != j:
+                    return -1
+                ia[k] = q
+                cursor[i] = q + 1
+            ib[k] = p
+            u_rows[k] = i
+            k += 1
+        u_indptr[j + 1] = k
+    for i in range(n):  # every entry right of the diagonal was some entry's mirror
+        if cursor[i] != indptr[i + 1]:
+            return -1
+    return k
+

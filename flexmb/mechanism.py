@@ -8,6 +8,8 @@ import networkx as nx
 import numpy as np
 
 from . import _validate as v
+from . import units as _units
+from .materials import check_joint, params_in_units
 from .closed_form import build as closed_form_build
 from .compiled import Compiled
 from .errors import ModelError, ParameterError, TopologyError, UnsupportedStrategyError
@@ -33,10 +35,10 @@ def _frozen_unless_scalar(a):
 
 @attrs.frozen(eq=False)
 class Link:
-    """A rigid link: a graph node. ``position`` [m] is its reference point in the undeformed state.
+    """A rigid link: a graph node. ``position`` [length] is its reference point in the undeformed state.
 
-    ``mass`` [kg], ``inertia`` about the centre of mass [kg m^2] ((3, 3) in 3D, a scalar about z
-    in 2D) and ``center`` [m] (the centre of mass's offset from the reference point), all in the
+    ``mass`` [mass], ``inertia`` about the centre of mass [inertia] ((3, 3) in 3D, a scalar about z
+    in 2D) and ``center`` [length] (the centre of mass's offset from the reference point), all in the
     link's frame: global axes in the undeformed configuration, turning with the link.
     """
 
@@ -50,13 +52,13 @@ class Link:
 
 @attrs.frozen(eq=False)
 class Placement:
-    """Where a joint sits: its frame's origin [m] and rotation (matrix (dim, dim)) in global axes."""
+    """Where a joint sits: its frame's origin [length] and rotation (matrix (dim, dim)) in global axes."""
 
     origin: np.ndarray = attrs.field(converter=v.frozen)  # read-only copies
     rotation: np.ndarray = attrs.field(converter=v.frozen)
 
     def to_global(self, local: np.ndarray) -> np.ndarray:
-        """Points (..., dim) [m] of the joint frame in global coordinates."""
+        """Points (..., dim) [length] of the joint frame in global coordinates."""
         return self.origin + local @ self.rotation.T
 
 
@@ -65,7 +67,10 @@ class Mechanism:
 
     The topology lives in one ``networkx.MultiGraph`` (`graph`): nodes are link names with a
     ``link`` attribute, edges carry the ``joint`` instance and its `Placement`, keyed by the
-    joint name. Solving never modifies the mechanism.
+    joint name. Solving never modifies the mechanism. ``units``: the declared unit system (a name of
+    `flexmb.units.SYSTEMS`, e.g. ``"mm-N-MPa"``; None: undeclared, SI assumed), in which named
+    materials resolve and numbers are checked (``docs/units.md``); brackets such as [length] name
+    the quantity, in those units.
 
     Examples
     --------
@@ -77,10 +82,13 @@ class Mechanism:
     >>> m.prescribe("B", rotation=0.1)
     """
 
-    def __init__(self, dim: int = 3):
+    def __init__(self, dim: int = 3, units: str | None = None):
         if isinstance(dim, bool) or dim not in (2, 3) or not isinstance(dim, (int, np.integer)):
             raise ParameterError(f"Mechanism: dim={dim!r} must be 2 (planar) or 3 (spatial)")
         self.dim = dim
+        #: The declared `flexmb.units.UnitSystem` (``units``: a name of `flexmb.units.SYSTEMS`), or
+        #: None: undeclared, SI assumed for labels and named materials (``docs/units.md``).
+        self.units = _units.system(units)
         self.graph = nx.MultiGraph()
         self._loads: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = []
         self._prescribed: dict[str, dict[str, float | np.ndarray]] = {}
@@ -107,11 +115,11 @@ class Mechanism:
 
     def add_link(self, name: str, position=None, *, fixed: bool = False, mass: float = 0.0, inertia=None,
                  center=None) -> Link:
-        """Add a rigid link with reference point ``position`` [m] (default: the origin).
+        """Add a rigid link with reference point ``position`` [length] (default: the origin).
 
-        ``mass`` [kg] >= 0, ``inertia`` [kg m^2] about the centre of mass (3D: a symmetric positive
+        ``mass`` [mass] >= 0, ``inertia`` [inertia] about the centre of mass (3D: a symmetric positive
         semi-definite (3, 3) tensor whose principal moments satisfy the triangle inequality; 2D:
-        a scalar >= 0 about z; default 0) and ``center`` [m], the centre of mass relative to
+        a scalar >= 0 about z; default 0) and ``center`` [length], the centre of mass relative to
         ``position`` (default: ``position``), in the link's frame (global axes, undeformed).
         """
         if not isinstance(name, str) or not name:
@@ -136,7 +144,7 @@ class Mechanism:
         """Join links ``a`` (the joint's side A) and ``b`` (side B) with a flexure joint.
 
         ``joint`` is a `Joint` instance or a registered name (then ``params`` go to its constructor).
-        The joint frame is placed at ``origin`` [m] (default: link ``a``'s reference point) with
+        The joint frame is placed at ``origin`` [length] (default: link ``a``'s reference point) with
         ``rotation`` (2D: angle [rad]; 3D: rotation vector [rad] or a 3x3 matrix; default none).
         ``name``: a non-empty string, or None for ``"<kind>_<k>"`` with the first k from the number
         of joints that no joint has taken.
@@ -145,7 +153,7 @@ class Mechanism:
         if a == b:
             raise TopologyError(f"joint between link {a!r} and itself: a joint must connect two different links")
         if isinstance(joint, str):
-            joint = make_joint(joint, **params)
+            joint = make_joint(joint, **params_in_units(params, self.units))
         elif params:
             raise ModelError("joint parameters are given with a joint name, not with a Joint instance")
         if not isinstance(joint, Joint):
@@ -153,16 +161,19 @@ class Mechanism:
         if self.dim not in type(joint).dims:
             raise UnsupportedStrategyError(
                 f"joint kind {joint.kind!r} supports dim in {type(joint).dims}, not a dim={self.dim} mechanism")
+        names = [k for _, _, k in self.graph.edges(keys=True)]  # the joints' names (not a dict of their objects)
+        taken = set(names)
         if name is None:  # the first free "<kind>_<k>", k from the joint count: never a user's name
-            k = self.graph.number_of_edges()
-            while f"{joint.kind}_{k}" in self.joints:
+            k = len(names)
+            while f"{joint.kind}_{k}" in taken:
                 k += 1
             name = f"{joint.kind}_{k}"
         elif not isinstance(name, str) or not name:
             raise ModelError(f"joint name must be a non-empty string (or None for an automatic one), got {name!r}")
-        if name in self.joints:
+        if name in taken:
             raise ModelError(f"a joint named {name!r} exists already")
         where = f"joint {name!r}"
+        check_joint(joint, self.units, where, self.dim)  # its material in the declared units, plausible sizes
         org = self.link(a).position if origin is None else v.vector(where, "origin", origin, self.dim)
         self.graph.add_edge(a, b, key=name, joint=joint, placement=Placement(org, self._rotation(where, rotation)),
                             sides=(a, b))
@@ -171,6 +182,7 @@ class Mechanism:
     def _rotation(self, where: str, rotation) -> np.ndarray:
         if rotation is None:
             return np.eye(self.dim)
+        _units.check_angle(where, "rotation", rotation, stacklevel=4)
         if self.dim == 2:
             return rot2(v.finite(where, "rotation", rotation))
         try:
@@ -187,7 +199,7 @@ class Mechanism:
     def prescribe(self, name: str, **motion) -> None:
         """Prescribe displacements/rotations of a link (displacement control).
 
-        Keywords: ``x``, ``y`` (and ``z`` in 3D) displacements [m]; ``rotation`` [rad]: an angle in
+        Keywords: ``x``, ``y`` (and ``z`` in 3D) displacements [length]; ``rotation`` [rad]: an angle in
         2D, a rotation vector (3,) in 3D (all three rotation components are then prescribed), or
         in 3D a sequence (k, 3) of rotation vectors ``w_i`` whose product ``exp(w_1) ... exp(w_k)``
         is the link's orientation: a serial chain of joint rotations about axes fixed in the
@@ -204,6 +216,8 @@ class Mechanism:
         for key, val in motion.items():
             if key not in allowed:
                 raise ModelError(f"{where}: cannot prescribe {key!r}; valid components: {', '.join(allowed)}")
+            if key == "rotation" and val is not None:
+                _units.check_angle(where, "rotation", val)
             if val is None:
                 current.pop(key, None)
             elif key == "rotation" and self.dim == 3:
@@ -223,7 +237,7 @@ class Mechanism:
         return dict(self._prescribed.get(name, {}))
 
     def apply_force(self, name: str, force, point=None) -> None:
-        """Dead force [N] (global axes) at ``point`` [m] (undeformed global position; default the link's reference)."""
+        """Dead force [force] (global axes) at ``point`` [length] (undeformed global position; default the link's reference)."""
         lk = self.link(name)
         where = f"link {name!r}"
         f = v.vector(where, "force", force, self.dim)
@@ -231,7 +245,7 @@ class Mechanism:
         self._loads.append((name, p - lk.position, f, np.zeros(1 if self.dim == 2 else 3)))
 
     def apply_moment(self, name: str, moment) -> None:
-        """Dead moment [N m]: a scalar (about z) in 2D, a vector (3,) in global axes in 3D."""
+        """Dead moment [moment]: a scalar (about z) in 2D, a vector (3,) in global axes in 3D."""
         self.link(name)
         where = f"link {name!r}"
         m = np.array([v.finite(where, "moment", moment)]) if self.dim == 2 else v.vector(where, "moment", moment, 3)
@@ -242,8 +256,8 @@ class Mechanism:
         self._loads.clear()
 
     def set_actuation(self, link: str, direction, value: float = 0.0, point=None) -> None:
-        """Declare the actuation force: ``value`` [N] along the unit vector ``direction`` (global,
-        dead load) at ``point`` [m] of ``link`` (undeformed position; default its reference point).
+        """Declare the actuation force: ``value`` [force] along the unit vector ``direction`` (global,
+        dead load) at ``point`` [length] of ``link`` (undeformed position; default its reference point).
 
         It acts with the other loads; `flexmb.sweep` varies ``value``. Replaces an earlier actuation.
         """
@@ -261,7 +275,7 @@ class Mechanism:
 
     @property
     def actuation(self) -> dict | None:
-        """The declared actuation (link, point offset [m], unit direction, value [N]) or None."""
+        """The declared actuation (link, point offset [length], unit direction, value [force]) or None."""
         if self._actuation is None:
             return None
         link, offset, d, val = self._actuation
@@ -269,17 +283,17 @@ class Mechanism:
 
     @property
     def points(self) -> dict:
-        """The named points: name -> (link, offset [m] from the link's reference point, a copy)."""
+        """The named points: name -> (link, offset [length] from the link's reference point, a copy)."""
         return {name: (link, offset.copy()) for name, (link, offset) in self._points.items()}
 
     @property
     def loads(self) -> tuple:
-        """The applied dead loads in the order given: (link, offset [m] of the point from the
-        link's reference point, force [N], moment [N m]), global axes, copies."""
+        """The applied dead loads in the order given: (link, offset [length] of the point from the
+        link's reference point, force [force], moment [moment]), global axes, copies."""
         return tuple((link, o.copy(), f.copy(), m.copy()) for link, o, f, m in self._loads)
 
     def add_point(self, link: str, name: str, position) -> None:
-        """Name a point of a link (undeformed global position [m]), e.g. an end-effector. A name
+        """Name a point of a link (undeformed global position [length]), e.g. an end-effector. A name
         already given to a point is refused (`ModelError`), never replaced."""
         lk = self.link(link)
         if not isinstance(name, str) or not name:
@@ -326,7 +340,8 @@ class Mechanism:
         except (KeyError, TypeError):
             raise UnsupportedStrategyError(
                 f"no model builder for capability {capability!r}; builders: {', '.join(BUILDERS)}") from None
-        return builder(self)
+        compiled = builder(self)
+        return compiled if self.units is None else attrs.evolve(compiled, units=self.units)
 
     def __repr__(self) -> str:
         return (f"Mechanism(dim={self.dim}, links={list(self.graph.nodes)}, "

@@ -12,7 +12,8 @@ from .joints.curved_beam import CurvedBeam
 from .joints.leaf_spring import LeafSpring
 from .joints.three_x_infinity import ThreeXInfinity
 from .ksd.kinematics import solve_kinematics
-from .ksd.reduced import ReducedMechanism
+from .compiled import compiled_for
+from .ksd.reduced import reduced_mechanism
 from .mechanism import Mechanism
 from .registry import joint_from_params
 from .rotations import expm_so3
@@ -97,7 +98,8 @@ def manipulator_rotations(rotation: float) -> tuple[np.ndarray, np.ndarray, np.n
     return Rz, Rz @ Ry, Rz @ Ry @ Ry
 
 
-def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None = None, **joint_params) -> Mechanism:
+def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None = None, *, geometry: dict | None = None,
+                **joint_params) -> Mechanism:
     """The spatial three-link manipulator of Dwarshuis et al. (2020), Sec. 4.4, Fig. 13, with
     three `ThreeXInfinity` joints (``joint_params``; ``elements`` per leaf, default 3).
 
@@ -116,7 +118,9 @@ def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None
     ``case="location"``: the x, y, z position of the end point is prescribed to where the joint
     case puts it (as Sec. 4.4; from the joints' trained kinematics, which the joint case's
     equilibrium follows exactly), and its reactions are three forces.
-    ``rotation`` must lie in the joints' trained range, +-45 deg.
+    ``rotation`` must lie in the joints' trained range, +-45 deg. ``geometry`` overrides entries of
+    `MANIPULATOR` (``post``, ``arm2``, ``arm3`` [m] > 0, ``angle2``, ``angle3`` [rad]): other joint
+    placements of the same mechanism, as a design loop varies them.
     """
     if case not in MANIPULATOR_CASES:
         raise ParameterError(f"manipulator: case={case!r}; valid: {', '.join(MANIPULATOR_CASES)}")
@@ -130,7 +134,7 @@ def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None
     joint_params.setdefault("elements_per_leaf", 3)  # the mesh of the shipped database (not the joint's default)
     joint = joint_from_params(ThreeXInfinity, **joint_params)
     D0 = float(joint.interface_b(3)[2])
-    g = MANIPULATOR
+    g = _manipulator_geometry(geometry)
     ex, ey, ez = np.eye(3)
     a2 = (D0 + g["post"]) * ez
     b2 = a2 + D0 * ey
@@ -154,18 +158,32 @@ def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None
         m.prescribe("link2", rotation=[z, y])
         m.prescribe("link3", rotation=[z, 2 * y])
     else:
-        m.prescribe("link3", **dict(zip("xyz", _joint_case_end_point(rotation, joint_params, R, (a2, a3), end) - end)))
+        point = _joint_case_end_point(rotation, joint_params, geometry, R, (a2, a3), end)
+        m.prescribe("link3", **dict(zip("xyz", point - end)))
     return m
 
 
-def _joint_case_end_point(rotation, joint_params, R, origins, end) -> np.ndarray:
+def _manipulator_geometry(geometry: dict | None) -> dict:
+    """`MANIPULATOR` with ``geometry``'s entries (checked: known names, finite, lengths > 0)."""
+    if not geometry:
+        return MANIPULATOR
+    unknown = sorted(set(geometry) - set(MANIPULATOR))
+    if unknown:
+        raise ParameterError(f"manipulator: unknown geometry {unknown}; valid: {sorted(MANIPULATOR)}")
+    g = dict(MANIPULATOR)
+    for name, value in geometry.items():
+        g[name] = (v.positive if name in ("post", "arm2", "arm3") else v.finite)("manipulator", name, value)
+    return g
+
+
+def _joint_case_end_point(rotation, joint_params, geometry, R, origins, end) -> np.ndarray:
     """Where the joint case puts the end point [m]: its KSD kinematics (joints turned by
     ``rotation`` with their trained offsets, Sec. 2.1), which the joint case's equilibrium keeps
     (no unintended load); rigid-link kinematics about the joint axes if the joint is untrained."""
-    m = manipulator("joint", rotation, **joint_params)
-    try:
-        compiled = m.compile()
-        poses = solve_kinematics(ReducedMechanism(compiled))[0]
+    m = manipulator("joint", rotation, geometry=geometry, **joint_params)
+    try:  # the joint case's compiled structure and KSD set-up kept from the last call (flexmb.compiled)
+        compiled = compiled_for(m)
+        poses = solve_kinematics(reduced_mechanism(compiled))[0]
     except DatabaseError:
         return _end_point(R, origins, end)
     return poses.x[compiled.link_node["link3"]]
@@ -241,7 +259,7 @@ def gripper(material: str = "silicon", model: str = "partial-nonlinear", force: 
         raise ParameterError(f"gripper: material={material!r}; valid: {sorted(GRIPPER_MATERIALS)}")
     t = {k: np.asarray(x, dtype=float) if not isinstance(x, (float, int)) else x for k, x in GRIPPER_TABLE_1.items()}
     origin = {"body1": np.zeros(2), "body2": t["G2"], "body3": t["G3"], "body4": t["G4"]}
-    m = Mechanism(dim=2)
+    m = Mechanism(dim=2, units="mm-uN-Pa")
     m.add_link("body1", fixed=True)
     for name in ("body2", "body3", "body4"):
         m.add_link(name, position=origin[name])

@@ -164,8 +164,7 @@ def _strains(solution, model, stacklevel: int) -> None:
         kernel, args = plan[:2]
         state = solution.state
         sigma = np.empty(len(tab.E))
-        ks, ky, s, o = kernel(np.ascontiguousarray(state.positions, dtype=float),
-                              np.ascontiguousarray(state.rotations, dtype=float), *args, sigma)
+        ks, ky, s, o = kernel(model, state, *args, sigma)
         strain, over = {ks: s}, {ky: o}
     if strain[ks] > STRAIN_LIMIT:
         warnings.warn(f"{solution.method}: peak strain {strain[ks]:.3g} ({_where(solution, ks)}) is beyond the elastic "
@@ -198,10 +197,8 @@ def _plan(model, tab):
 def _build_plan(model, tab):
     from . import plausibility_jit
 
-    c = np.ascontiguousarray
-    args = (*model._ends, *model._element_data, c(model.element_dofs, dtype=np.int64), int(model.n_dofs),
-            *_factors(model, tab)[1:], tab.E, tab.yield_stress)
-    return (plausibility_jit.strains3d if model.dim == 3 else plausibility_jit.strains2d), args, tab, _suspect(tab)
+    args = (*_factors(model, tab), tab.E, tab.yield_stress)
+    return plausibility_jit.strains, args, tab, _suspect(tab)
 
 
 _PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

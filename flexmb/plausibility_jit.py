@@ -1,4 +1,4 @@
-"""The plausibility check's strains in one compiled call (`flexmb.plausibility`): the elements'
+"""The plausibility check's strains by compiled kernels (`flexmb.plausibility`): the elements'
 generalised stresses (`flexmb.fe.model_jit.assemble3d` / ``assemble2d`` without a tangent, the
 kernels `flexmb.fe.model.FEModel.stresses` runs), their peak normal stress
 (`flexmb.fe.stress_jit.peak_normal_stress`) and the elements of the largest strain and of the
@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fe.model_jit import assemble2d, assemble3d
 from .fe.stress_jit import peak_normal_stress
 from .jit import njit
 
-__all__ = ["strains3d", "strains2d"]
+__all__ = ["strains"]
 
 
 @njit
@@ -41,27 +40,14 @@ def _largest(sigma, E, ys):
     return best_s, best_y, sigma[best_s] / E[best_s], sigma[best_y] / ys[best_y]
 
 
-@njit
-def strains3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, dofs, n_dofs, A, ymax, Iz, zmax_Iy, ymax_Iz, circle,
-              E, ys, sigma):
-    """3D: fills ``sigma`` (E,) with the elements' peak normal stress in the state ``pos`` (N, 3),
-    ``rot`` (N, 3, 3); returns the elements of the largest strain and stress over yield stress and
-    those ratios (`_largest`); model arrays as `assemble3d`, section factors as `peak_normal_stress`."""
-    nE, nm = len(L0), S.shape[2]
-    sig, e, Fm = np.empty((nE, nm)), np.empty((nE, nm)), np.empty((nE, 12))
-    assemble3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, False, False, np.zeros((1, nm)), dofs,
-               np.zeros((1, 1), dtype=np.int64), np.zeros(n_dofs), np.zeros(0), np.zeros(0), Fm, e, sig, np.empty(2))
-    peak_normal_stress(sig, L0, A, ymax, Iz, zmax_Iy, ymax_Iz, circle, 3, sigma)
-    return _largest(sigma, E, ys)
-
-
-@njit
-def strains2d(pos, rot, master, offset, moved, alpha0, L0, S, dofs, n_dofs, A, ymax, Iz, zmax_Iy, ymax_Iz, circle,
-              E, ys, sigma):
-    """2D: as `strains3d` with ``rot`` (N,) angles and `assemble2d`'s element data."""
-    nE, nm = len(L0), S.shape[2]
-    sig, e, Fm = np.empty((nE, nm)), np.empty((nE, nm)), np.empty((nE, 6))
-    assemble2d(pos, rot, master, offset, moved, alpha0, L0, S, False, False, np.zeros((1, nm)), dofs,
-               np.zeros((1, 1), dtype=np.int64), np.zeros(n_dofs), np.zeros(0), np.zeros(0), Fm, e, sig, np.empty(2))
-    peak_normal_stress(sig, L0, A, ymax, Iz, zmax_Iy, ymax_Iz, circle, 2, sigma)
+def strains(model, state, L0, A, ymax, Iz, zmax_Iy, ymax_Iz, circle, E, ys, sigma):
+    """Fills ``sigma`` (E,) with the elements' peak normal stress in ``state`` and returns the
+    elements of the largest strain and stress over yield stress and those ratios (`_largest`):
+    the generalised stresses by ``model.stresses`` (`flexmb.fe.model_jit.assemble3d` /
+    ``assemble2d`` without a tangent: the specialisation every solve compiles anyway), then
+    `flexmb.fe.stress_jit.peak_normal_stress` with the section factors. Three calls instead of one
+    fused kernel: a fused one compiled its own copy of the element kernel (issue 31: ~1/3 of the
+    first solve's compilation) to save ~5 us per check."""
+    sig = np.ascontiguousarray(model.stresses(state)[1], dtype=float)
+    peak_normal_stress(sig, L0, A, ymax, Iz, zmax_Iy, ymax_Iz, circle, model.dim, sigma)
     return _largest(sigma, E, ys)

@@ -274,7 +274,14 @@ def _draw_states(ax, compiled, configs, labels: bool, plates: bool, unit: str, l
     return ax
 
 
-def _unit(owner: str, unit) -> str:
+def _unit(owner: str, unit, source=None) -> str:
+    """The length unit written on the axes: ``unit``, or with None the declared units' of
+    ``source`` (a `Solution`, a `Mechanism`: `flexmb.units`; undeclared: m)."""
+    if unit is None:
+        from .units import label
+
+        units = getattr(source, "units", None) or getattr(getattr(source, "compiled", None), "units", None)
+        return label(units, "length")
     if not isinstance(unit, str):
         raise ParameterError(f"{owner}: unit={unit!r} must be a string (the model's length unit, e.g. 'm', 'mm')")
     return unit
@@ -292,7 +299,7 @@ def _magnified(model, state0, state, scale: float):
 
 
 def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool = True, labels: bool = True,
-                   plates: bool = True, unit: str = "m", scale: float = 1.0):
+                   plates: bool = True, unit: str | None = None, scale: float = 1.0):
     """Draw the undeformed and deformed shape of a mechanism.
 
     Beam elements are lines between their end points; every rigid link is shaded as the convex
@@ -322,7 +329,8 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
         Draw rectangle- and circle-section elements as plates and tubes (3D only; planar figures
         show lines).
     unit
-        The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none.
+        The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none; None
+        (default): the mechanism's declared units' (``docs/units.md``; undeclared: ``"m"``).
     scale
         Deformation scale: the deformed shape is drawn with every node's displacement and
         rotation (rotation vector) from the undeformed state times ``scale`` (> 0), to magnify
@@ -338,7 +346,7 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
     deformed = v.flag(owner, "deformed", deformed)
     labels = v.flag(owner, "labels", labels)
     plates = v.flag(owner, "plates", plates)
-    unit = _unit(owner, unit)
+    unit = _unit(owner, unit, solution)
     compiled, state0, state = _geometry(owner, solution)
     if state is None:
         deformed = False
@@ -355,7 +363,7 @@ def plot_mechanism(solution, ax=None, *, undeformed: bool = True, deformed: bool
 
 
 def plot_mode(modes, k: int, ax=None, scale: float | None = None, *, solution=None, labels: bool = False,
-              plates: bool = True, unit: str = "m"):
+              plates: bool = True, unit: str | None = None):
     """Draw mode ``k`` of ``modes`` (`flexmb.modes`): the equilibrium (grey, dashed) and the
     configuration displaced by ``scale`` times the mode shape (colour), 2D or 3D.
 
@@ -407,7 +415,7 @@ def plot_mode(modes, k: int, ax=None, scale: float | None = None, *, solution=No
                              f"({model.n_nodes} nodes x {model.ndof} DOFs)")
     labels = v.flag(owner, "labels", labels)
     plates = v.flag(owner, "plates", plates)
-    unit = _unit(owner, unit)
+    unit = _unit(owner, unit, sol)
     scale = mode_scale(model, state, shape) if scale is None else v.finite(owner, "scale", scale)
     du = np.zeros(model.n_dofs)
     du[:model.n_node_dofs] = scale * shape.ravel()
@@ -578,7 +586,8 @@ def plot_force_curve(displacement, force, *, reference: np.ndarray | Callable | 
     return ax
 
 
-def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, *, unit: str = "m", **line_kw):
+def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, *, unit: str | None = None,
+                    **line_kw):
     """Path of a link's reference point, or of its named ``point``, over a sequence of solutions.
 
     Parameters
@@ -590,7 +599,8 @@ def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, *, 
     ax
         2D axes for planar mechanisms (an x-y line), 3D axes for spatial ones; None: new figure.
     unit
-        The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none.
+        The model's length unit, written on the axes (``"x [m]"``); ``""`` writes none; None
+        (default): the mechanism's declared units' (``docs/units.md``; undeclared: ``"m"``).
     line_kw
         Passed to ``ax.plot`` (default: markers ``"o"``, the label ``point`` or ``link``).
 
@@ -612,7 +622,7 @@ def plot_trajectory(solutions, link: str, point: str | None = None, ax=None, *, 
     if len(dims) != 1:
         raise ParameterError(f"{owner}: solutions mix planar and spatial mechanisms (dim {sorted(dims)})")
     dim = dims.pop()
-    unit = _unit(owner, unit)
+    unit = _unit(owner, unit, sols[0])
     suffix = f" [{unit}]" if unit else ""
     X = np.array([s.pose(link)[0] if point is None else s.point(link, point) for s in sols])
     ax = _axes(owner, mfig, ax, dim, (6.0, 6.0) if dim == 3 else (5.0, 5.0))

@@ -14,7 +14,7 @@ import attrs
 import numpy as np
 import scipy.sparse as sp
 
-from .fe.assembly import PartitionedPattern, scatter_add
+from .fe.assembly import PartitionedPattern, node_pattern, scatter_add
 from .fe.model import FEModel, State
 from .linear import TangentSolver
 from .rotations import chain_rotation, expm_so3, logm_so3
@@ -102,6 +102,12 @@ class StaticProblem(BoundaryConditions):
         hinges'), built once on the first tangent evaluation and shared by `with_loads` copies
         made after it."""
         slot_f, slot_p = self._slots[:2]
+        m = self.model
+        if m.hinges is None:  # element blocks on whole nodes: the pattern from the connectivity, O(E)
+            blocks = self._blocks
+            fast = node_pattern(m.point_master[m.elements.ends], m.n_nodes, m.ndof, slot_f, slot_p, blocks[1:])
+            if fast is not None:
+                return fast
         rows, cols = zip(*[(np.broadcast_to(a[:, :, None], a.shape + a.shape[1:]).ravel(),
                             np.broadcast_to(a[:, None, :], a.shape + a.shape[1:]).ravel()) for a in self._blocks])
         return PartitionedPattern(np.concatenate(rows), np.concatenate(cols), slot_f, slot_p)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 
@@ -19,7 +20,7 @@ SHAPES = ("rectangle", "circle")
 
 
 def torsion_constant_rectangle(width: float, thickness: float, terms: int = 50) -> float:
-    """Saint-Venant torsion constant I_t [m^4] of a solid rectangle.
+    """Saint-Venant torsion constant I_t [length^4] of a solid rectangle.
 
     Exact series (Timoshenko & Goodier, *Theory of Elasticity*, 3rd ed., Sec. 109), the form
     SPACAR uses: ``I_t = (1/3)(2a)^3(2b)[1 - (192/pi^5)(a/b) sum_{n odd} tanh(n pi b / 2a)/n^5]``
@@ -48,20 +49,20 @@ class Section:
     Parameters
     ----------
     E, G
-        Young's and shear modulus [Pa].
+        Young's and shear modulus [stress].
     A
-        Area [m^2].
+        Area [area].
     Iy, Iz
-        Second moments of area about the local y and z axes [m^4].
+        Second moments of area about the local y and z axes [length^4].
     It
-        Torsion constant [m^4].
+        Torsion constant [length^4].
     ky, kz
         Shear coefficients for shear along local y and z [-] (``inf`` = no shear deformation).
     ymax, zmax
-        Distances of the extreme fibres from the centroid along local y and z [m], for bending
+        Distances of the extreme fibres from the centroid along local y and z [length], for bending
         stresses (``None``: unknown, `flexmb.fe.stress` refuses).
     density
-        Mass density [kg/m^3] (in another consistent unit system: mass per length cubed, e.g.
+        Mass density [density] (in another consistent unit system: mass per length cubed, e.g.
         g/mm^3 with mm, uN and s), >= 0; 0 (default): a massless section, for statics only.
         The beam elements' mass (`flexmb.fe.mass`) uses ``density A`` per length and the rotary
         inertias ``density Iy``, ``density Iz`` and ``density (Iy + Iz)`` (about the axis).
@@ -71,7 +72,7 @@ class Section:
         the perimeter; None (default): unknown, normal stress at the corners ``(+-ymax, +-zmax)``
         only.
     yield_stress
-        The material's yield stress [Pa], optional: a solve whose peak normal stress exceeds it
+        The material's yield stress [stress], optional: a solve whose peak normal stress exceeds it
         warns (`flexmb.PlausibilityWarning`); None (default): not checked.
     """
 
@@ -107,8 +108,8 @@ class Section:
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
 
 
-#: The section builders' default density [kg/m^3]: steel, as the shipped joints' (issue 22: "a
-#: ``density`` parameter [kg/m^3] on the shipped joints (steel default 7800)"), so a leaf given
+#: The section builders' default density [density]: steel, as the shipped joints' (issue 22: "a
+#: ``density`` parameter [density] on the shipped joints (steel default 7800)"), so a leaf given
 #: ``section=rectangle(...)`` weighs what the same leaf without it does. In other units give
 #: ``density`` (mass per length cubed); 0 makes a massless section, which `flexmb.modes` refuses
 #: by name where it leaves a free direction without mass.
@@ -117,14 +118,31 @@ STEEL_DENSITY = 7800.0
 
 def rectangle(width: float, thickness: float, E: float, G: float | None = None, density: float = STEEL_DENSITY, *,
               nu: float | None = None, yield_stress: float | None = None) -> Section:
-    """Rectangular section ``width x thickness`` [m]; local z along the width, local y along the thickness.
+    """Rectangular section ``width x thickness`` [length]; local z along the width, local y along the thickness.
 
     So ``Iz = width thickness^3 / 12`` is the compliant (leaf-spring) bending stiffness and
     ``Iy = thickness width^3 / 12`` the stiff one, as in SPACAR's leaf-spring data.
     Poisson's ratio for the shear coefficient is ``E / (2G) - 1``; give ``G`` or ``nu`` (then
-    ``G = E / (2 (1 + nu))``). ``density`` [kg/m^3] >= 0 (`STEEL_DENSITY`; 0: massless; see `Section`);
-    ``yield_stress`` [Pa] optional (see `Section`).
+    ``G = E / (2 (1 + nu))``). ``density`` [density] >= 0 (`STEEL_DENSITY`; 0: massless; see `Section`);
+    ``yield_stress`` [stress] optional (see `Section`).
     """
+    args = (width, thickness, E, G, density, nu, yield_stress)
+    if all(type(a) in _PLAIN for a in args):  # a frozen value of plain numbers: built once (joint meshing)
+        return _rectangle_cached(*args)
+    return _rectangle(width, thickness, E, G, density, nu=nu, yield_stress=yield_stress)
+
+
+_PLAIN = (float, int, type(None))
+
+
+@functools.lru_cache(maxsize=1024, typed=True)
+def _rectangle_cached(width, thickness, E, G, density, nu, yield_stress) -> Section:
+    return _rectangle(width, thickness, E, G, density, nu=nu, yield_stress=yield_stress)
+
+
+def _rectangle(width: float, thickness: float, E: float, G: float | None = None, density: float = STEEL_DENSITY, *,
+               nu: float | None = None, yield_stress: float | None = None) -> Section:
+    """`rectangle` itself."""
     width = v.positive("rectangle", "width", width)
     thickness = v.positive("rectangle", "thickness", thickness)
     E = v.positive("rectangle", "E", E)
@@ -148,11 +166,11 @@ def rectangle(width: float, thickness: float, E: float, G: float | None = None, 
 
 def circle(diameter: float, E: float, G: float | None = None, density: float = STEEL_DENSITY, *,
            nu: float | None = None, yield_stress: float | None = None) -> Section:
-    """Solid circular section of ``diameter`` [m] (a wire flexure): ``A = pi r^2``,
+    """Solid circular section of ``diameter`` [length] (a wire flexure): ``A = pi r^2``,
     ``Iy = Iz = pi r^4 / 4``, torsion constant ``It = pi r^4 / 2`` (exact, the polar moment),
     Cowper's shear coefficient (`shear_coefficient_circle`), Poisson's ratio ``E / (2G) - 1`` (or
-    give ``nu``: ``G = E / (2 (1 + nu))``); ``density`` [kg/m^3] >= 0 (`STEEL_DENSITY`) and
-    ``yield_stress`` [Pa] (optional) as in `Section`."""
+    give ``nu``: ``G = E / (2 (1 + nu))``); ``density`` [density] >= 0 (`STEEL_DENSITY`) and
+    ``yield_stress`` [stress] (optional) as in `Section`."""
     diameter = v.positive("circle", "diameter", diameter)
     E = v.positive("circle", "E", E)
     G = v.positive("circle", "G", v.shear_modulus("circle", E, G, nu))

@@ -20,15 +20,25 @@ from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
+from . import _warnings
 from ._validate import positive
 from .errors import FlexmbError, ParameterError
 from .table import Table, column
 
-__all__ = ["grid", "parameter_study", "StudyError", "StudyInterrupted", "ON_ERROR", "ERROR_COLUMN", "joint_range"]
+__all__ = ["grid", "parameter_study", "StudyError", "StudyInterrupted", "ON_ERROR", "ERROR_COLUMN", "joint_range",
+           "CONVERGED_COLUMN", "WARNINGS_COLUMN"]
 
 ON_ERROR = ("record", "raise")
 #: The column holding each design's error record, ``""`` when the design finished
 ERROR_COLUMN = "error"
+#: The column saying whether each design finished and converged: False for a design with an
+#: error, else its output ``converged`` where it returns one (e.g. `joint_range`), else True
+CONVERGED_COLUMN = "converged"
+#: The column of the warnings each design raised in its worker, ``"Category: message"`` joined by
+#: ``" | "`` (``""``: none); recorded there, not printed
+WARNINGS_COLUMN = "warnings"
+#: Joins a design's warnings in `WARNINGS_COLUMN`
+WARNING_SEPARATOR = _warnings.SEPARATOR
 
 
 class StudyError(FlexmbError):
@@ -77,6 +87,12 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
     an input or ``"error"`` are refused (`ParameterError`, carrying the whole table as
     ``exc.table`` with those outputs as ``"output.<name>"``).
 
+    Two more columns: ``"converged"`` (`CONVERGED_COLUMN`: False for a design with an error, else
+    the design's own ``converged`` output where it returns one, else True) and ``"warnings"``
+    (`WARNINGS_COLUMN`): every warning the design raised in its worker (a `PlausibilityWarning` of
+    an implausible strain, a `ConvergenceWarning` ...), recorded there instead of printed, with
+    the design's own ``warnings`` output where it returns one; ``""`` when none.
+
     ``executor``: None runs an embedded ``ProcessPoolExecutor`` (``max_workers`` >= 1, default
     the CPU count) and shuts it down; ``"serial"`` runs in this process; any other
     `concurrent.futures.Executor` is used as given and left running, e.g. a dask cluster's
@@ -99,17 +115,7 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
 
     if not callable(function):
         raise ParameterError(f"parameter_study: function must be callable, got {function!r}")
-    if isinstance(designs, (Mapping, str, bytes)) or not isinstance(designs, Iterable):
-        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
-    designs = list(designs)  # a generator is read once, here
-    if not all(isinstance(d, Mapping) for d in designs):
-        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
-    designs = [dict(d) for d in designs]
-    if not designs:
-        raise ParameterError("parameter_study: designs is empty")
-    bad = [k for d in designs for k in d if not isinstance(k, str)]
-    if bad:
-        raise ParameterError(f"parameter_study: design keys must be parameter names (text), got {bad[0]!r}")
+    designs = _checked_designs(designs)
     if on_error not in ON_ERROR:
         raise ParameterError(f"parameter_study: on_error={on_error!r}; valid: {', '.join(ON_ERROR)}")
     if timeout is not None:
@@ -124,7 +130,7 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
     if executor is None or isinstance(executor, ProcessPoolExecutor):
         _check_picklable(function)
 
-    outcomes: list = [None] * len(designs)  # per design: ("ok", outputs) or ("error", record)
+    outcomes: list = [None] * len(designs)  # per design: ("ok", outputs[, warnings]) or ("error", record[, warnings])
     bar = tqdm(total=len(designs), desc="designs", unit="design", leave=False,
                disable=None if progress is None else not progress)
     run = _Run(function, designs, outcomes, timeout, on_error == "raise", bar)
@@ -150,6 +156,27 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
     return _table(designs, outcomes, "cancelled")
 
 
+def _checked_designs(designs) -> list[dict]:
+    """``designs`` as a new list of dicts, refused (`ParameterError`) unless a non-empty sequence of
+    keyword dicts whose names are text and not those of the table's own columns."""
+    if isinstance(designs, (Mapping, str, bytes)) or not isinstance(designs, Iterable):
+        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
+    designs = list(designs)  # a generator is read once, here
+    if not all(isinstance(d, Mapping) for d in designs):
+        raise ParameterError("parameter_study: designs must be a sequence of keyword dicts, e.g. flexmb.study.grid(...)")
+    designs = [dict(d) for d in designs]
+    if not designs:
+        raise ParameterError("parameter_study: designs is empty")
+    bad = [k for d in designs for k in d if not isinstance(k, str)]
+    if bad:
+        raise ParameterError(f"parameter_study: design keys must be parameter names (text), got {bad[0]!r}")
+    taken = sorted({k for d in designs for k in d} & {ERROR_COLUMN, CONVERGED_COLUMN, WARNINGS_COLUMN})
+    if taken:
+        raise ParameterError(f"parameter_study: design parameters {taken} have the names of the table's own "
+                             f"columns ({ERROR_COLUMN}, {CONVERGED_COLUMN}, {WARNINGS_COLUMN}); rename them")
+    return designs
+
+
 def _check_picklable(function) -> None:
     """Refuse, before any design runs, a function a process pool cannot send to its workers."""
     try:
@@ -168,23 +195,26 @@ class _Timeout(BaseException):
 
 
 def _call(function, design: dict, timeout: float | None):
-    """``("ok", outputs)`` or ``("error", "Type: message")``: plain data that always pickles.
+    """``("ok", outputs, warnings)`` or ``("error", "Type: message", warnings)``: plain data that
+    always pickles; ``warnings`` the design's warnings as text (`flexmb._warnings.recording`).
 
     ``timeout`` stops the design with SIGALRM where this runs in a main thread (this process,
     a process-pool worker); elsewhere (a dask worker thread) the design runs in a thread that is
     abandoned when it overruns."""
-    try:
-        if timeout is None:
-            out = function(**design)
-        elif threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer"):
-            out = _with_alarm(function, design, timeout)
-        else:
-            out = _with_thread(function, design, timeout)
-        return "ok", _outputs(out)
-    except _Timeout:
-        return "error", f"TimeoutError: the design ran longer than its timeout of {timeout:g} s and was stopped"
-    except (Exception, SystemExit) as exc:
-        return "error", _record(exc)
+    with _warnings.recording() as caught:
+        try:
+            if timeout is None:
+                out = function(**design)
+            elif threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer"):
+                out = _with_alarm(function, design, timeout)
+            else:
+                out = _with_thread(function, design, timeout)
+            outcome = "ok", _outputs(out)
+        except _Timeout:
+            outcome = "error", f"TimeoutError: the design ran longer than its timeout of {timeout:g} s and was stopped"
+        except (Exception, SystemExit) as exc:
+            outcome = "error", _record(exc)
+    return (*outcome, _warnings.as_text(caught))
 
 
 def _record(exc: BaseException) -> str:
@@ -206,8 +236,10 @@ def _with_alarm(function, design, timeout):
 
 def _with_thread(function, design, timeout):
     box = {}
+    records = _warnings.current()  # the design's warnings, raised in its own thread
 
     def target():
+        _warnings.adopt(records)
         try:
             box["out"] = function(**design)
         except BaseException as exc:  # handed to the calling thread
@@ -347,17 +379,21 @@ def _stop(pool: ProcessPoolExecutor) -> None:
 # -- the table -------------------------------------------------------------------------------
 
 def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
-    """One row per design: inputs, outputs (NaN where a design has none) and the error record.
-    Outputs named like an input or the error column are refused, with the table attached."""
+    """One row per design: inputs, outputs (NaN where a design has none), the error record, whether
+    it converged and its warnings (`_status`). Outputs named like an input or the error column are
+    refused, with the table attached."""
     inputs = list(dict.fromkeys(k for d in designs for k in d))
-    rows = [o[1] if o is not None and o[0] == "ok" else {} for o in outcomes]
+    rows = [dict(o[1]) if o is not None and o[0] == "ok" else {} for o in outcomes]
     errors = ["" if o is not None and o[0] == "ok" else (o[1] if o is not None else unfinished) for o in outcomes]
+    converged, warned = _status(rows, errors, outcomes)
     outputs = list(dict.fromkeys(k for r in rows for k in r))
-    clash = [k for k in outputs if k in inputs or k == ERROR_COLUMN]
+    clash = [k for k in outputs if k in inputs or k == ERROR_COLUMN]  # (converged, warnings: merged above)
     names = {k: (f"output.{k}" if k in clash else k) for k in outputs}
     cols = {n: column([d.get(n, np.nan) for d in designs]) for n in inputs}
     cols.update({names[k]: column([r.get(k, np.nan) for r in rows]) for k in outputs})
     cols[ERROR_COLUMN] = column(errors)
+    cols[CONVERGED_COLUMN] = np.array(converged, dtype=bool)
+    cols[WARNINGS_COLUMN] = column(warned)
     table = Table(cols)
     if clash:
         exc = ParameterError(f"parameter_study: outputs {sorted(clash)} have the names of inputs or of the "
@@ -366,6 +402,18 @@ def _table(designs: list[dict], outcomes: list, unfinished: str) -> Table:
         exc.table = table
         raise exc
     return table
+
+
+def _status(rows: list[dict], errors: list[str], outcomes: list) -> tuple[list, list]:
+    """Each design's `CONVERGED_COLUMN` and `WARNINGS_COLUMN` cells: its own ``converged`` and
+    ``warnings`` outputs (taken out of ``rows``) joined with its error and the warnings recorded
+    in its worker (an outcome's third item)."""
+    converged, warned = [], []
+    for row, error, outcome in zip(rows, errors, outcomes):
+        converged.append(not error and bool(row.pop(CONVERGED_COLUMN, True)))
+        texts = [str(row.pop(WARNINGS_COLUMN, "") or ""), outcome[2] if outcome is not None and len(outcome) > 2 else ""]
+        warned.append(WARNING_SEPARATOR.join(dict.fromkeys(w for t in texts for w in t.split(WARNING_SEPARATOR) if w)))
+    return converged, warned
 
 
 def joint_range(kind: str, rotations, *, which=("modes", "stress"), n_modes: int = 3, held=(("B", "rz"),),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Mapping, Sequence
 
@@ -10,8 +11,10 @@ import numpy as np
 import scipy.linalg as sla
 
 from . import _validate as v
+from . import _warnings
 from . import jit
 from .closed_form.problem import TERMS, LinkageProblem
+from .units import check_angle
 from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
 from .plausibility import check
 from .problem import PointLoads
@@ -60,13 +63,16 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
 
     if progress is not None:  # "no" would be taken as True
         v.flag("sweep", "progress", progress)
-    values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress)
+    caught = []  # each value's warnings (`_checked`), for the table's "warnings" column
+    values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress,
+                              record=caught)
     if isinstance(solutions, Sequence):  # run already, as compiled loops
         result = SweepResult(solutions, values, "force")
     else:
         bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
                    disable=None if progress is None else not progress)
         result = SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
+        result.warnings = caught
     if properties is not None:
         from .design_properties import property_columns
 
@@ -82,7 +88,7 @@ def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, meth
     return _plan(mechanism, values, motion, method, start, options)[1]
 
 
-def _plan(mechanism, values, motion, method, start, options, compiled_loop=False):
+def _plan(mechanism, values, motion, method, start, options, compiled_loop=False, record=None):
     """Checked sweep values (n,) or (n, width) and the generator of their solutions (or, with
     ``compiled_loop``, the solutions of `_compiled_force_sweep` when it applies)."""
     v.choice("sweep", "start", start, STARTS)
@@ -131,13 +137,24 @@ def _plan(mechanism, values, motion, method, start, options, compiled_loop=False
                 last, last_values = sol, (None if slots is None else vals)
             yield sol
 
-    return (values if slots is None or len(slots) > 1 else values[:, 0]), _checked(solutions())
+    return (values if slots is None or len(slots) > 1 else values[:, 0]), _checked(solutions(), record)
 
 
-def _checked(solutions):
-    """The solutions, each checked as `flexmb.solve` checks (ConvergenceWarning, PlausibilityWarning)."""
-    for sol in solutions:
-        check(sol, stacklevel=4)
+def _checked(solutions, record=None):
+    """The solutions, each checked as `flexmb.solve` checks (ConvergenceWarning, PlausibilityWarning);
+    with a list ``record``, each value's warnings (its solve's and its check's) are appended to
+    it as text (``"Category: message"`` joined by ``" | "``) and raised again."""
+    it = iter(solutions)
+    while True:
+        with _warnings.recording() if record is not None else contextlib.nullcontext([]) as caught:
+            try:
+                sol = next(it)
+            except StopIteration:
+                return
+            check(sol, stacklevel=4)
+        if record is not None:
+            _warnings.raise_again(caught)
+            record.append(_warnings.as_text(caught))
         yield sol
 
 
@@ -187,6 +204,8 @@ def _motions(values, motion, width: int) -> np.ndarray:
     if a is None or a.ndim != 2 or a.shape[1] != width or len(a) == 0 or not np.all(np.isfinite(a)):
         raise ParameterError(f"sweep: values of motion {motion!r} must be finite numbers of shape {shape}, got "
                              f"{values!r}")
+    if motion[1] == "rotation":  # radians meant: a value above 2 pi is likely degrees
+        check_angle(f"sweep of link {motion[0]!r}", "rotation", a if width == 3 else a[:, 0], stacklevel=5)
     return a
 
 
@@ -283,6 +302,8 @@ class SweepResult(Sequence):
 
         #: the `properties` columns requested from `sweep`, a `Table` (None: none)
         self.property_table = None
+        #: each value's warnings as text (`sweep`; None: not recorded, a compiled force sweep's)
+        self.warnings = None
 
     @property
     def values(self) -> np.ndarray:
@@ -312,12 +333,13 @@ class SweepResult(Sequence):
         """Results as a `flexmb.table.Table` of 1-D arrays, one row per value.
 
         Columns: the swept value(s) (``"force"`` [N], or e.g. ``"B.x"``, ``"B.rotation"``, 3D
-        rotations as ``"B.rotation_x"`` ...), ``converged``, ``iterations``, ``time`` [s]; for every
+        rotations as ``"B.rotation_x"`` ...), ``converged``, ``warnings`` (each value's warnings as text,
+        ``""`` for none; not in a compiled force sweep's table), ``iterations``, ``time`` [s]; for every
         link in ``links`` (default: all) its position ``"<link>.x"`` ... [m], rotation
         ``"<link>.rotation"`` (2D) or rotation vector ``"<link>.rotation_x"`` ... [rad], and for
         links with a fixed or prescribed DOF the reaction ``"<link>.Fx"`` ... [N],
         ``"<link>.Mz"`` ... [N m]; for every named point in ``points`` its position [m]. Write it
-        with ``.to_csv(path)``; ``pandas.DataFrame(result.table())`` makes a data frame.
+        with ``.to_csv(path)``; ``result.table().to_pandas()`` makes a data frame.
 
         Nothing is overwritten: a column keeps the first name it takes, in the order above, and
         a later column whose name is taken gets the first free ``"<name>#2"``, ``"<name>#3"`` ...
@@ -334,6 +356,8 @@ class SweepResult(Sequence):
         names = [self.quantity] if vals.shape[1] == 1 else [f"{self.quantity}_{a}" for a in "xyz"]
         cols.update({n: vals[:, i] for i, n in enumerate(names)})
         cols["converged"] = self.converged
+        if self.warnings is not None and len(self.warnings) == len(sols):
+            cols["warnings"] = np.array(self.warnings, dtype=str)
         cols["iterations"] = np.array([s.iterations for s in sols])
         cols["time"] = np.array([s.wall_time.get("total", np.nan) for s in sols])
         links = list(compiled.link_node) if links is None else list(links)

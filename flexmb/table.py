@@ -1,5 +1,5 @@
 """`Table`: named columns of equal length (1-D numpy arrays), the result format of sweeps and
-parameter studies; drops into numpy (``table["force"]``) and pandas (``pandas.DataFrame(table)``)
+parameter studies; drops into numpy (``table["force"]``) and pandas (``table.to_pandas()``)
 and round-trips through CSV."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ModelError, ParameterError
+from .errors import ModelError, ParameterError, require
 
 __all__ = ["Table", "read_csv", "column"]
 
@@ -83,6 +83,14 @@ class Table(dict):
 
     __setitem__ = __delitem__ = __ior__ = _read_only
     clear = pop = popitem = setdefault = update = _read_only
+
+    def to_pandas(self):
+        """The table as a `pandas.DataFrame` (columns in order, each a copy; text stays text, so an
+        empty ``error`` or ``warnings`` cell is ``""``, not NaN as a CSV read by pandas gives).
+        pandas is optional: ``pip install "flexmb[pandas]"``; without it `flexmb.errors.MissingExtraError`
+        (a `FlexmbError`) says so."""
+        pandas = require("pandas", "pandas", "Table.to_pandas")
+        return pandas.DataFrame({name: values.copy() for name, values in self._columns.items()})
 
     def to_csv(self, path) -> Path:
         """Write the columns to ``path`` as UTF-8 (comma-separated, a header row of names, floats

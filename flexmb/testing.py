@@ -10,11 +10,16 @@ import scipy.sparse as sp
 
 from .fe.model import State
 from .problem import StaticProblem
+from .solvers.ksd import KSDFull, KSDReduced
+from .testing_ksd import (KSD_FULL_TOLERANCE, KSD_REDUCED_REACTION, KSD_REDUCED_TOLERANCE, KSDShape, check_ksd_database,
+                          trained_shape)
 
 __all__ = ["finite_difference_tangent", "perturbed_state", "scaled_error", "joint_mechanism", "check_rest",
            "check_tangent", "check_rigid_motion", "check_frame_invariance", "check_reciprocity", "check_energy",
            "check_strategies", "check_mass", "check_modes_rigid_move", "check_floating_modes", "check_rayleigh",
-           "joints", "placements", "JointConformance", "joint_size", "force_scale", "solver_tolerance"]
+           "joints", "placements", "JointConformance", "joint_size", "force_scale", "solver_tolerance",
+           "CheckSkipped", "ConformanceReport", "conformance_report", "strategy_skips", "KSDShape", "check_ksd",
+           "check_ksd_database", "trained_shape", "KSD_FULL_TOLERANCE", "KSD_REDUCED_TOLERANCE", "KSD_REDUCED_REACTION"]
 
 
 def scaled_error(K: np.ndarray, Kfd: np.ndarray, diag_rows: np.ndarray, diag_cols: np.ndarray) -> float:
@@ -24,28 +29,88 @@ def scaled_error(K: np.ndarray, Kfd: np.ndarray, diag_rows: np.ndarray, diag_col
     return float(np.max(np.abs(K - Kfd) / scale))
 
 
-def finite_difference_tangent(problem: StaticProblem, state: State, lam: float = 1.0, step: float | None = None):
+def finite_difference_tangent(problem: StaticProblem, state: State, lam: float = 1.0, step: float | None = None,
+                              size: float | None = None, rotation_step: float = 1e-6):
     """Analytic ``[K_ff | K_fp]`` and its central finite-difference counterpart at ``state``.
 
     Columns are ``(r(u + h e_j) - r(u - h e_j)) / 2h`` with the increment applied exactly as the
     solver does (positions add, rotations compose by the exponential map), so the comparison
-    checks the tangent Newton actually uses. ``step`` defaults to ``1e-6`` times the model size
-    for positions and ``1e-6`` rad for rotations. Returns ``(K_analytic, K_fd)`` as dense arrays of
+    checks the tangent Newton actually uses. ``step`` defaults to ``1e-6`` times ``size`` (default:
+    the model's extent along its longest axis) for positions and ``rotation_step`` [rad] for rotations. Returns ``(K_analytic, K_fd)`` as dense arrays of
     shape (n_free, n_free + n_prescribed): the free DOFs' columns first, then the prescribed ones.
     """
     model = problem.model
-    size = float(np.ptp(model.x0, axis=0).max()) or 1.0
+    size = size or float(np.ptp(model.x0, axis=0).max()) or 1.0
     _, Kff, Kfp, _ = problem.evaluate(state, lam)
     K = np.hstack([Kff.toarray(), Kfp.toarray()])
     Kfd = np.empty_like(K)
     for col, dof in enumerate(np.concatenate([problem.free, problem.prescribed])):
-        h = step if step is not None else (1e-6 * size if dof % model.ndof < model.dim else 1e-6)
+        h = step if step is not None else (1e-6 * size if dof % model.ndof < model.dim else rotation_step)
         du = np.zeros(model.n_dofs)
         du[dof] = h
         rp = problem.residual(model.apply_increment(state, du), lam)[problem.free]
         rm = problem.residual(model.apply_increment(state, -du), lam)[problem.free]
         Kfd[:, col] = (rp - rm) / (2.0 * h)
     return K, Kfd
+
+
+class CheckSkipped(Exception):
+    """A check with nothing to check for this joint (no mass, no database, one compliant
+    direction ...): its message says why. Never a pass: `JointConformance` reports it as a skipped
+    test with the reason, and `conformance_report` lists it."""
+
+
+def _finite(joint, dim: int, compiled, state, values, what: str) -> None:
+    """AssertionError naming the elements when ``values`` (a residual on all DOFs or the free ones,
+    or a tangent: free rows, then free and prescribed columns) hold NaN or inf: the elements whose
+    own generalised stresses are not finite, else those at the first bad entry's nodes."""
+    a = np.asarray(values)
+    bad = ~np.isfinite(a)
+    if not bad.any():
+        return
+    problem = compiled.problem
+    model = problem.model
+    spaces = [np.arange(model.n_dofs) if a.shape[0] == model.n_dofs else problem.free,
+              np.concatenate([problem.free, problem.prescribed])]
+    entries = [[int(spaces[k][i]) for k, i in enumerate(e)] for e in np.argwhere(bad)]
+    # a tangent entry between two nodes belongs to the elements joining them: take one if any
+    coupling = [e for e in entries if len(e) == 2 and e[0] // model.ndof != e[1] // model.ndof]
+    dofs = (coupling or entries)[0]
+    raise AssertionError(f"{joint.kind} {dim}D: the {what} holds {int(bad.sum())} NaN/inf entries (the first at "
+                         f"{', column '.join(_dof_name(model, d) for d in dofs)}): {_culprits(compiled, state, dofs)}")
+
+
+def _dof_name(model, dof: int) -> str:
+    if dof >= model.n_node_dofs:
+        return f"hinge multiplier {dof - model.n_node_dofs}"
+    names = ("x", "y", "rotation") if model.dim == 2 else ("x", "y", "z", "rx", "ry", "rz")
+    return f"node {dof // model.ndof} {names[dof % model.ndof]}"
+
+
+def _culprits(compiled, state, dofs) -> str:
+    """The elements that make a residual or tangent non-finite, named by joint and mesh index."""
+    model = compiled.problem.model
+    try:
+        with np.errstate(all="ignore"):
+            sig = model.stresses(state)[1]
+        own = np.flatnonzero(~np.all(np.isfinite(sig), axis=1))
+    except Exception:  # an element that cannot even be evaluated: fall back on the nodes
+        own = np.zeros(0, dtype=np.int64)
+    if len(own):
+        how = "elements whose own forces are not finite"
+    else:
+        nodes = {d // model.ndof for d in dofs if d < model.n_node_dofs}
+        ends = model.point_master[model.elements.ends]
+        if nodes:  # the elements that touch every node of the entry
+            own = np.flatnonzero(np.all([(ends == n).any(axis=1) for n in nodes], axis=0))
+        how = "elements joining those nodes" if len(nodes) > 1 else "elements at that node"
+    names = []
+    for e in own[:6]:
+        where = [f"joint {k!r} element {int(np.flatnonzero(idx == e)[0])}"
+                 for k, idx in compiled.joint_elements.items() if e in idx]
+        names.append(where[0] if where else f"element {int(e)}")
+    more = f" and {len(own) - 6} more" if len(own) > 6 else ""
+    return f"{how}: {', '.join(names) or 'none'}{more}"
 
 
 def perturbed_state(problem: StaticProblem, state: State, rng: np.random.Generator, *, displacement: float,
@@ -144,8 +209,25 @@ def _solve(mechanism, joint, dim: int, origin=None, **options):
             if sol.converged or factor * floor > 0.5 * SOLVE_TOLERANCE * _scales(joint, dim)[0]:
                 break
             sol = solve(mechanism, **{**options, "tol": factor * floor})
-    assert sol.converged, f"conformance: the joint mechanism did not converge: {sol.message}"
+    if not sol.converged:
+        _diagnose(sol, joint, dim)
+    assert sol.converged, f"{joint.kind} {dim}D: the joint mechanism did not converge: {sol.message}"
     return sol
+
+
+def _diagnose(sol, joint, dim: int) -> None:
+    """A solve that failed: a NaN or inf in the residual or tangent at rest or where it stopped
+    (a broken element), named with its element, is the likelier cause."""
+    compiled = sol.compiled
+    problem = compiled.problem
+    states = [problem.model.initial_state()]
+    if sol.state is not None and np.all(np.isfinite(sol.state.positions)):
+        states.append(sol.state)
+    for state in states:
+        with np.errstate(all="ignore"):
+            r, Kff, Kfp, _ = problem.evaluate(state, 0.0)
+        _finite(joint, dim, compiled, state, r, "residual (internal force)")
+        _finite(joint, dim, compiled, state, np.hstack([Kff.toarray(), Kfp.toarray()]), "analytic tangent")
 
 
 def _relative(method: str) -> bool:
@@ -176,8 +258,10 @@ def _at_rest(joint, dim: int) -> _Rest:
     problem = compiled.problem
     model = problem.model
     r, K, _, _ = problem.evaluate(model.initial_state(), 0.0)
+    _finite(joint, dim, compiled, model.initial_state(), r, "residual at rest")
     K = K.toarray()
-    size = float(np.ptp(model.x0)) or 1.0
+    _finite(joint, dim, compiled, model.initial_state(), K, "tangent at rest")
+    size = joint_size(joint, dim)
     t = (problem.free % model.ndof) < model.dim  # translation rows/columns, the rest rotations
 
     def most(rows, cols):
@@ -250,10 +334,22 @@ def check_tangent(joint, dim: int, origin=None, rotation=None, *, motion: float 
     ``options`` go to the solve (default: see `_solve`)."""
     sol = _solve(joint_mechanism(joint, dim, origin, rotation, motion=motion), joint, dim, origin, **options)
     problem = sol.compiled.problem
-    size = float(np.ptp(problem.model.x0)) or 1.0
+    # perturbations and steps relative to the joint's own size, wherever it is placed (the spread
+    # of its global coordinates grows with the placement: 100 sizes away it broke the elements)
+    size = joint_size(joint, dim)
     state = perturbed_state(problem, sol.state, np.random.default_rng(seed), displacement=1e-3 * size,
                             rotation=0.05)
-    K, Kfd = finite_difference_tangent(problem, state)
+    _finite(joint, dim, sol.compiled, state, problem.residual(state, 1.0), "residual (internal force)")
+    # Richardson's extrapolation of central differences at steps h and 2h, (4 D(h) - D(2h)) / 3:
+    # truncation O(h^4), so h can be 1e-5 of the joint's size (1e-5 rad) and the roundoff of
+    # coordinates 100 sizes away (~1e-16 |x| / h) stays small. Plain differences at 1e-6 of the size
+    # failed both ways: 1.2e-6 on a 799 um leaf (L/t 150) 100 sizes away, 1.0e-6 on an 8 mm one at
+    # the origin (truncation ~ 12 (h / t)^2); extrapolated 1.6e-8 and 3e-10, the notch 1.3e-8.
+    _, D1 = finite_difference_tangent(problem, state, size=10.0 * size, rotation_step=1e-5)
+    K, D2 = finite_difference_tangent(problem, state, size=20.0 * size, rotation_step=2e-5)
+    Kfd = (4.0 * D1 - D2) / 3.0
+    _finite(joint, dim, sol.compiled, state, K, "analytic tangent")
+    _finite(joint, dim, sol.compiled, state, Kfd, "central differences of the residual")
     nf = problem.n_free
     d = np.abs(np.diag(K[:, :nf]))
     d = np.where(d > 0, d, np.abs(K[:, :nf]).max(axis=1))  # an ideal joint's multiplier rows: zero diagonal
@@ -276,6 +372,7 @@ def check_rigid_motion(joint, dim: int, translation, rotation) -> None:
     else:
         rot = np.broadcast_to(Q, (model.n_nodes, 3, 3)).copy()
     f = model.internal_force(State(x, rot))
+    _finite(joint, dim, rest.compiled, State(x, rot), f, "internal force after a rigid motion")
     # roundoff of rotated and moved coordinates: ~1e-15 x their magnitude, times the stiffness
     scale = 1e-12 * rest.internal * (1.0 + float(np.linalg.norm(translation)) / rest.size)
     assert np.abs(f).max() <= scale, (f"{joint.kind} {dim}D: a rigid motion gives internal forces "
@@ -344,35 +441,112 @@ def check_frame_invariance(joint, dim: int, origin, rotation, *, motion: float =
             f"{joint.kind} {dim}D {method}: strain energy {e_ref:.12g} vs {e_mov:.12g} after moving the frame")
 
 
-def check_strategy_frame_invariance(joint, dim: int, origin, rotation, *, motion: float = 0.2, **options) -> list:
+def strategy_skips(joint, dim: int) -> dict:
+    """Why each registered strategy other than the conventional one does not apply to ``joint``
+    in ``dim`` (it needs a model the joint does not offer, or supports other dimensions):
+    ``{name: reason}``; the strategies that apply are absent."""
+    from .solvers import STRATEGIES
+
+    out = {}
+    for name, cls in STRATEGIES.items():
+        if name == "conventional":
+            continue
+        missing = sorted(set(getattr(cls, "needs", ())) - joint.capabilities)
+        if missing:
+            out[name] = f"{joint.kind} offers no {' and no '.join(missing)} (it offers {sorted(joint.capabilities)})"
+        elif dim not in getattr(cls, "dims", (dim,)):
+            out[name] = f"{name} solves {' and '.join(f'{d}D' for d in cls.dims)} mechanisms only"
+    return out
+
+
+def check_strategy_frame_invariance(joint, dim: int, origin, rotation, *, motion: float = 0.2, shape=None,
+                                    **options) -> list:
     """`check_frame_invariance` with every registered strategy other than the conventional one
     that applies to the joint (it offers what the strategy ``needs``, in this dimension).
 
-    KSD is displacement controlled, so the intended rotation is at least 0.05 rad; strategies
-    that need a joint database use the joint class's defaults and are skipped when no data for
-    them is installed (`flexmb.database.shipped`). Returns the strategies checked.
-    """
-    from .database import shipped
-    from .errors import DatabaseError
+    KSD is displacement controlled, so the intended rotation is at least 0.05 rad (and inside the
+    trained range). Strategies that need a joint database run on ``shape`` (a
+    `flexmb.testing_ksd.KSDShape`: a joint and its database folder; default: the joint itself
+    with the user's and the shipped data), and a missing database fails the check. Returns the
+    strategies checked; `CheckSkipped` naming why when none applies."""
     from .solvers import STRATEGIES
+    from .testing_ksd import KSDShape
 
-    motion = motion if abs(motion) >= 0.05 else math.copysign(0.05, motion)
+    skips = strategy_skips(joint, dim)
     checked = []
-    for name, cls in STRATEGIES.items():
-        needs = set(getattr(cls, "needs", ()))
-        if name == "conventional" or not needs <= joint.capabilities or dim not in getattr(cls, "dims", (dim,)):
+    for name in STRATEGIES:
+        if name == "conventional" or name in skips:
             continue
-        j = type(joint)() if "database" in needs else joint
-        if "database" in needs:
-            try:
-                shipped(j, dim)
-            except DatabaseError:
-                continue
-        # the default joint has its own scale: the kit's tolerance for it, not the one given
-        opts = options if j is joint else {k: v for k, v in options.items() if k != "tol"}
-        check_frame_invariance(j, dim, origin, rotation, motion=motion, method=name, **opts)
+        j, opts, mo = joint, options, (motion if abs(motion) >= 0.05 else math.copysign(0.05, motion))
+        if "database" in getattr(STRATEGIES[name], "needs", ()):
+            sh = shape or KSDShape(joint)
+            j, mo = sh.joint, _in_trained_range(sh, dim, motion)
+            # the shape has its own scale: the kit's tolerance for it, not the one given
+            opts = {**({k: v for k, v in options.items() if k != "tol"} if j is not joint else options),
+                    "database": sh.folder}
+        check_frame_invariance(j, dim, origin, rotation, motion=mo, method=name, **opts)
         checked.append(name)
+    if not checked:
+        raise CheckSkipped("; ".join(f"{k}: {v}" for k, v in skips.items()) or "no strategy besides the conventional")
     return checked
+
+
+def _in_trained_range(shape, dim: int, motion: float) -> float:
+    from .errors import DatabaseError
+    from .testing_ksd import ksd_motion
+
+    try:
+        return ksd_motion(shape, dim, motion)
+    except DatabaseError as exc:  # the kit trained it or the author named it: a failure, not a skip
+        raise AssertionError(f"{shape.joint.kind} {dim}D: the KSD checks' database: {exc}") from None
+
+
+def check_ksd(shape: KSDShape, dim: int, origin=None, rotation=None, *, motion: float = 0.05,
+              load: float = 0.01, seed: int = 11) -> dict:
+    """KSD-full and KSD-reduced against the conventional method on the shape's joint placed at
+    ``origin`` with ``rotation``, B turned by ``motion`` (moved into the trained range:
+    `ksd_motion`) and loaded by a wrench that moves it ``load`` times its size (linear theory,
+    kept below half its buckling load). Returns the errors ``{method name: (position, reaction)}``
+    of KSD-full and KSD-reduced as fractions of the joint's size and of the load scale."""
+    from .errors import FlexmbError
+
+    joint = shape.joint
+    motion = _in_trained_range(shape, dim, motion)
+    Q = _rotation(dim, rotation)
+    o = np.zeros(dim) if origin is None else np.asarray(origin, dtype=float)
+    C0, _ = _rest_compliance(joint, dim)
+    size = joint_size(joint, dim)
+    # a random wrench in the joint's own units (forces over its force scale, moments over that
+    # times its size), so it is the same load in any unit system
+    w = np.random.default_rng(seed).standard_normal(len(C0))
+    w[dim:] *= size
+    w *= load * size / (np.linalg.norm((C0 @ w)[:dim]) or size * np.linalg.norm((C0 @ w)[dim:]))
+    w *= _below_buckling(joint, dim, motion, w)
+    f, mom = w[:dim], (w[dim] if dim == 2 else w[dim:])
+    m = joint_mechanism(joint, dim, o, rotation, motion=motion, force=Q @ f, moment=mom if dim == 2 else Q @ mom)
+    ref = _solve(m, joint, dim, o)
+    units = np.r_[np.ones(dim), np.full(len(w) - dim, size)]  # a force, a moment over the size: comparable
+    wscale = max(np.abs(ref.reaction("A") / units).max(), np.abs(w / units).max())
+    floor = 10.0 * _scales(joint, dim)[1] * (1.0 + float(np.linalg.norm(o)) / size) / wscale  # roundoff
+    out = {}
+    for method, tol, tol_reaction in ((KSDFull.name, KSD_FULL_TOLERANCE, KSD_FULL_TOLERANCE),
+                                      (KSDReduced.name, KSD_REDUCED_TOLERANCE, KSD_REDUCED_REACTION)):
+        try:
+            sol = _solve(m, joint, dim, o, method=method, database=shape.folder)
+        except FlexmbError as exc:  # the kit trained the data or the author named them: a failure
+            raise AssertionError(f"{joint.kind} {dim}D {method}: {type(exc).__name__}: {exc}") from None
+        if method == KSDFull.name:
+            pos = np.abs(sol.node_positions() - ref.node_positions()).max() / size
+        else:
+            pos = np.abs(sol.pose("B")[0] - ref.pose("B")[0]).max() / size
+        reac = np.abs((sol.reaction("A") - ref.reaction("A")) / units).max() / wscale
+        out[method] = (float(pos), float(reac))
+        assert pos <= tol, (f"{joint.kind} {dim}D {method}: positions differ from the conventional method's by "
+                            f"{pos:.3g} of the joint's size (allowed {tol:.3g})")
+        assert reac <= tol_reaction + floor, (f"{joint.kind} {dim}D {method}: the reaction on A differs from the "
+                                              f"conventional method's by {reac:.3g} of the load scale (allowed "
+                                              f"{tol_reaction + floor:.3g})")
+    return out
 
 
 def _b_displacement(sol, dim):
@@ -400,7 +574,8 @@ def check_reciprocity(joint, dim: int, rotation=None, **options) -> None:
         T[3:, 3:] = Q
     live = np.flatnonzero(np.diag(C0) > 0)  # an ideal joint's constrained directions do not comply
     if len(live) < 2:
-        return  # Maxwell-Betti relates two compliant directions; a hinge has one
+        raise CheckSkipped(f"Maxwell-Betti relates two compliant directions of node B; {joint.kind} has "
+                           f"{len(live)} (an ideal joint)")
     C0 = C0[np.ix_(live, live)]
     T = T[:, live]
     n = len(live)
@@ -496,10 +671,10 @@ MODES_TOLERANCE = 1e-6
 
 
 def _massive_solution(joint, dim: int, origin=None, rotation=None, motion: float = 0.0):
-    """The solved joint mechanism, or None when the joint's sections carry no mass."""
+    """The solved joint mechanism; `CheckSkipped` when the joint's sections carry no mass."""
     m = joint_mechanism(joint, dim, origin, rotation, motion=motion)
     if all(getattr(s, "density", 0.0) == 0.0 for s in m.compile().problem.model.elements.sections):
-        return None
+        raise CheckSkipped(f"{joint.kind}: its sections carry no mass (density 0): no vibration to check")
     return _solve(m, joint, dim, origin)
 
 
@@ -522,12 +697,10 @@ def _rigid_velocities(model) -> np.ndarray:
 def check_mass(joint, dim: int, rotation=None, *, motion: float = 0.2):
     """The consistent mass on every DOF at a deformed configuration is symmetric (to 1e-14 of its
     largest entry) and positive definite (Cholesky), and its rigid-body part is the joint's
-    total mass on each translation. Returns the mass matrix (dense) or None (massless joint)."""
+    total mass on each translation. Returns the mass matrix (dense); `CheckSkipped` for a massless joint."""
     from .fe.mass import mass_matrix
 
     sol = _massive_solution(joint, dim, rotation=rotation, motion=motion)
-    if sol is None:
-        return None
     model = sol.compiled.problem.model
     M = mass_matrix(model, sol.state, model.rigid_masses).toarray()
     scale = np.abs(M).max()
@@ -549,8 +722,6 @@ def check_modes_rigid_move(joint, dim: int, origin, rotation, *, motion: float =
     from .modal import modes
 
     a = _massive_solution(joint, dim, motion=motion)
-    if a is None:
-        return None
     b = _massive_solution(joint, dim, origin, rotation, motion=motion)
     n = min(n, len(a.compiled.problem.free) - 1)
     fa, fb = modes(a, n=n).frequencies, modes(b, n=n).frequencies
@@ -566,8 +737,6 @@ def check_floating_modes(joint, dim: int, rotation=None):
     from .modal import modes
 
     sol = _massive_solution(joint, dim, rotation=rotation)
-    if sol is None:
-        return None
     k = 3 if dim == 2 else 6
     md = modes(sol, n=k + 1, held="floating")
     lam = md.eigenvalues
@@ -590,8 +759,6 @@ def check_rayleigh(joint, dim: int, rotation=None, *, motion: float = 0.2, n: in
     from .modal import modes, stiffness_and_mass
 
     sol = _massive_solution(joint, dim, rotation=rotation, motion=motion)
-    if sol is None:
-        return None
     n = min(n, len(sol.compiled.problem.free) - 1)
     md = modes(sol, n=n)
     K, M = stiffness_and_mass(sol)
@@ -646,7 +813,14 @@ class JointConformance:
     test is a fifth of the active hypothesis profile's ``max_examples`` (at least 2).
 
     Every check is relative to the joint's own size and stiffness, so any consistent unit system
-    and scale works. Hooks for other scales or unit systems (class attributes and methods)::
+    and scale works, and the joint is placed anywhere within ``placement_range`` joint sizes of
+    the global origin (default 100), turned any way. A joint that offers a database
+    (``database_key``) also gets the KSD checks on `ksd_shape`: by default the kit trains a
+    representative joint (the middle of the drawn ranges) with its own ``training`` settings into
+    a temporary folder. A check with nothing to check (a massless joint's vibration, the KSD
+    checks of a joint without a database, a strategy for another dimension) is reported as a
+    skipped test with the reason (``pytest -ra`` lists them), never as a pass; `conformance_report`
+    gives the same outcome without pytest. Hooks (class attributes and methods)::
 
         class TestMyMemsJoint(flexmb.testing.JointConformance):   # um, uN, MPa
             joint_class = MyJoint
@@ -656,6 +830,9 @@ class JointConformance:
 
             def solver_options(self, joint, dim):                   # options of every solve
                 return {"tol": 1e-9 * flexmb.testing.force_scale(joint, dim)}
+
+            def ksd_shape(self, dim):                               # KSD on data you ship
+                return flexmb.testing.KSDShape(MyJoint(), folder="mypackage/data")
     """
 
     joint_class: type | None = None
@@ -663,9 +840,8 @@ class JointConformance:
     parameter_ranges: dict | None = None
     #: Parameters given to every drawn joint (e.g. moduli in the ranges' unit system).
     joint_parameters: dict = {}
-    #: Joint origins are drawn within this many joint sizes (`joint_size`) of the global origin
-    #: (main placed the shipped joints, 0.03-0.2 m, within 1 m: 5-30 sizes, and a 4 mm joint 250).
-    placement_range: float = 3.0
+    #: Joint origins are drawn within this many joint sizes (`joint_size`) of the global origin.
+    placement_range: float = 100.0
 
     def joint_size(self, joint, dim: int) -> float:
         """The length that scales the placements (default: `joint_size`)."""
@@ -676,6 +852,21 @@ class JointConformance:
         criterion, `solver_tolerance` for strategies with an absolute ``tol``)."""
         return {}
 
+    def representative(self):
+        """The joint of the KSD checks' trained shape: ``joint_parameters`` and the middle of each
+        drawn range (`parameter_ranges`), the class's defaults otherwise."""
+        ranges = self.parameter_ranges if self.parameter_ranges is not None else \
+            getattr(self.joint_class, "parameter_ranges", {})
+        return self.joint_class(**self.joint_parameters, **{k: 0.5 * (lo + hi) for k, (lo, hi) in ranges.items()})
+
+    def ksd_shape(self, dim: int):
+        """The `KSDShape` the KSD checks run on in ``dim`` (default: `representative`, trained by
+        `flexmb.testing_ksd.trained_shape` into a temporary folder). Override it to name a shape
+        and the folder of its database (None: the user's and the shipped data)."""
+        from .testing_ksd import trained_shape
+
+        return trained_shape(self.representative(), dim)
+
     @staticmethod
     def _settings():
         from hypothesis import HealthCheck, settings
@@ -683,23 +874,38 @@ class JointConformance:
         return settings(max_examples=max(2, settings.default.max_examples // 5), deadline=None,
                         suppress_health_check=[HealthCheck.too_slow, HealthCheck.differing_executors])
 
-    def _run(self, body, *extra):
-        """Run ``body(joint, dim, (origin, rotation), motion, *extra, **solver_options)`` on drawn cases."""
+    def _run(self, body, *extra, skip=None):
+        """Run ``body(joint, dim, (origin, rotation), motion, *extra, **solver_options)`` on drawn
+        cases in every dimension the joint supports. ``skip(joint, dim)``: a reason not to run in
+        that dimension, or None. A body that raises `CheckSkipped` is recorded too; the check is
+        then reported skipped with every reason (`_skipped`), after the dimensions that ran."""
         from hypothesis import given
         from hypothesis import strategies as st
 
         cls = self.joint_class
+        reasons, ran = {}, []
         for dim in cls.dims:
+            why = None if skip is None else skip(self.representative(), dim)
+            if why:
+                reasons[dim] = why
+                continue
             motion = st.floats(-getattr(cls, "motion_range", 0.3), getattr(cls, "motion_range", 0.3))
 
             def check(case):
                 j, d, (origin, rotation), *rest = case
                 origin = origin * self.placement_range * self.joint_size(j, d)
-                body(j, d, (origin, rotation), *rest, **self.solver_options(j, d))
+                try:
+                    body(j, d, (origin, rotation), *rest, **self.solver_options(j, d))
+                except CheckSkipped as exc:
+                    reasons[d] = str(exc)
 
             drawn = joints(cls, self.parameter_ranges, self.joint_parameters)
             cases = st.tuples(drawn, st.just(dim), placements(dim), motion, *extra)
             given(cases)(self._settings()(check))()
+            if dim not in reasons:
+                ran.append(dim)
+        if reasons:
+            _skipped(reasons, ran)
 
     def test_rest(self):
         """`check_rest`: zero residual, symmetric positive definite tangent at rest."""
@@ -721,9 +927,39 @@ class JointConformance:
         self._run(lambda j, dim, pl, mo, **o: check_frame_invariance(j, dim, pl[0], pl[1], motion=mo, **o))
 
     def test_frame_invariance_of_every_strategy(self):
-        """`check_strategy_frame_invariance`: KSD and the closed-form Newton are frame invariant too."""
-        self._run(lambda j, dim, pl, mo, **o: check_strategy_frame_invariance(j, dim, pl[0], pl[1], motion=mo,
-                                                                              **o))
+        """`check_strategy_frame_invariance`: KSD (on `ksd_shape`) and the closed-form Newton are
+        frame invariant too."""
+        def body(j, dim, pl, mo, **o):
+            shape = self.ksd_shape(dim) if _ksd_applies(j, dim) else None
+            check_strategy_frame_invariance(j, dim, pl[0], pl[1], motion=mo, shape=shape, **o)
+
+        self._run(body)
+
+    def test_ksd_database_matches_the_joint(self):
+        """`flexmb.testing_ksd.check_ksd_database`: the KSD shape's database is found, valid and
+        matches the joint's finite-element model (`flexmb.database.verify`)."""
+        from .testing_ksd import check_ksd_database
+
+        reasons, ran = {}, []
+        for dim in self.joint_class.dims:
+            why = _ksd_skip(self.representative(), dim)
+            if why:
+                reasons[dim] = why
+                continue
+            check_ksd_database(self.ksd_shape(dim), dim)
+            ran.append(dim)
+        if reasons:
+            _skipped(reasons, ran)
+
+    def test_ksd_matches_the_conventional_method(self):
+        """`check_ksd`: on `ksd_shape`, placed anywhere and loaded, KSD-full is
+        the conventional solution and KSD-reduced within its stated tolerance of it."""
+        def body(j, dim, pl, mo, **o):
+            shape = self.ksd_shape(dim)
+            size = joint_size(shape.joint, dim)  # the shape's own placement
+            check_ksd(shape, dim, pl[0] / self.joint_size(j, dim) * size, pl[1], motion=mo)
+
+        self._run(body, skip=_ksd_skip)
 
     def test_maxwell_betti_reciprocity(self):
         """`check_reciprocity`: the small-load compliance is symmetric (Maxwell-Betti)."""
@@ -755,6 +991,75 @@ class JointConformance:
     def test_rayleigh_quotients_are_the_eigenvalues(self):
         """`check_rayleigh`: each mode's Rayleigh quotient is its omega^2."""
         self._run(lambda j, dim, pl, mo, **o: check_rayleigh(j, dim, pl[1], motion=mo))
+
+
+def _ksd_applies(joint, dim: int) -> bool:
+    return not _ksd_skip(joint, dim)
+
+
+def _ksd_skip(joint, dim: int) -> str | None:
+    """Why the KSD checks do not apply to ``joint`` in ``dim`` (None: they do)."""
+    from .solvers import STRATEGIES
+
+    reasons = strategy_skips(joint, dim)
+    ksd = [n for n, c in STRATEGIES.items() if "database" in getattr(c, "needs", ())]
+    if ksd and all(n in reasons for n in ksd):
+        return "; ".join(f"{n}: {reasons[n]}" for n in ksd)
+    return None if ksd else "no KSD strategy is registered"
+
+
+def _skipped(reasons: dict, ran: list) -> None:
+    """Report a check skipped in the dimensions of ``reasons`` ({dim: why}): pytest's skip under
+    pytest (the test shows as skipped with the reasons, never as passed), else `CheckSkipped`."""
+    text = "; ".join(f"skipped in {d}D: {r}" for d, r in sorted(reasons.items()))
+    if ran:
+        text += f" (passed in {', '.join(f'{d}D' for d in ran)})"
+    try:
+        import pytest
+    except ImportError:
+        raise CheckSkipped(text) from None
+    pytest.skip(text)
+
+
+@attrs.frozen
+class ConformanceReport:
+    """The outcome of every check of `JointConformance` on one joint class: ``outcomes`` a tuple
+    of ``(check, status, detail)`` with status ``"passed"``, ``"failed"`` or ``"skipped"`` and the
+    failure's message or the skip's reason."""
+
+    outcomes: tuple
+
+    @property
+    def passed(self) -> bool:
+        """True when no check failed (skipped checks are listed, not counted as passes)."""
+        return all(status != "failed" for _, status, _ in self.outcomes)
+
+    def __str__(self) -> str:
+        return "\n".join(f"{status:7s} {check}" + (f": {detail}" if detail else "")
+                         for check, status, detail in self.outcomes)
+
+
+def conformance_report(suite) -> ConformanceReport:
+    """Run every check of ``suite`` (a `JointConformance` subclass or instance: its joint class
+    and hooks) and report each as passed, failed (with the message) or skipped (with the reason);
+    what pytest shows for the same class, for a script or a notebook."""
+    instance = suite() if isinstance(suite, type) else suite
+    try:
+        import pytest
+
+        skip = (CheckSkipped, pytest.skip.Exception)
+    except ImportError:
+        skip = (CheckSkipped,)
+    out = []
+    for name in sorted(n for n in dir(type(instance)) if n.startswith("test_")):
+        try:
+            getattr(instance, name)()
+            out.append((name, "passed", ""))
+        except skip as exc:
+            out.append((name, "skipped", str(getattr(exc, "msg", exc))))
+        except AssertionError as exc:
+            out.append((name, "failed", " ".join(str(exc).split())[:2000]))
+    return ConformanceReport(tuple(out))
 
 
 from .design.check import check_gradient, central_differences, taylor_test  # noqa: E402 (issue 28's checker)

@@ -24,7 +24,8 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 # test module imports flexmb: numba picks a kernel's cache folder when the kernel is decorated,
 # at import. numba's cache goes to one folder per user under the system's temporary folder, kept
 # between runs (compiling every kernel again costs ~40 s of CPU per run; numba keys its cache on
-# the source file's path and time stamp, so checkouts do not mix); everything else is new per run.
+# the source file's path and time stamp, so checkouts do not mix; issue 31 had set it so too, when
+# not set); everything else is new per run.
 _RUN = Path(tempfile.mkdtemp(prefix="flexmb-tests-"))
 _UID = os.getuid() if hasattr(os, "getuid") else "user"
 

@@ -7,13 +7,13 @@ from __future__ import annotations
 import attrs
 import numpy as np
 import pytest
+from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
 
 import flexmb
-from flexmb.design import DesignPoint, evaluate, responses as R
+from flexmb.design import DesignPoint, evaluate
+from flexmb.design import responses as R
 from flexmb.design.check import check_gradient, taylor_test
 from flexmb.errors import FlexmbError, ParameterError, TopologyError, UnsupportedStrategyError
-
-from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
 
 TIGHT = dict(rtol=1e-12)  # solves converged far below the Taylor remainders
 
@@ -176,13 +176,15 @@ def test_unknown_non_finite_and_ignored_parameters_are_refused():
         evaluate(_pivot(2), {**PIVOT, "unused": 1.0}, R.mass())
 
 
-def test_ksd_reduced_is_refused_naming_it_and_each_parameter_s_kind():
+def test_ksd_reduced_refuses_all_but_loads_naming_each_parameter_s_kind():
+    # KSD-reduced's gradients follow the loads only (tests/test_design_reduced.py)
     with pytest.raises(UnsupportedStrategyError, match="ksd-reduced") as info:
         evaluate(_pivot(2), PIVOT, R.reaction("B", "rotation"), bounds=PIVOT_BOUNDS, method="ksd-reduced")
     text = str(info.value)
     for name, kind in (("t", "joint dimension or material"), ("E", "joint dimension or material"),
-                       ("x", "placement"), ("m", "mass"), ("F", "load")):
+                       ("x", "placement"), ("m", "mass")):
         assert f"'{name}' ({kind})" in text, text
+    assert "'F'" not in text
 
 
 def test_the_closed_form_strategy_is_refused_naming_it():
@@ -193,3 +195,104 @@ def test_the_closed_form_strategy_is_refused_naming_it():
 def test_reaction_at_a_free_dof_is_refused():
     with pytest.raises(FlexmbError, match="free DOF"):
         evaluate(_pivot(2), PIVOT, R.reaction("B", "x"))
+
+
+def test_a_configuration_shares_the_design_rates_and_gives_the_same_gradient():
+    # one DesignPoint, configurations changed by configure(mechanism) (a stroke): the same values and
+    # gradients as designs built in that configuration, the builds' rates computed once
+    calls = []
+
+    def counted(p):
+        calls.append(1)
+        return pivot(p, 2)
+
+    point = DesignPoint(counted, PIVOT, PIVOT_BOUNDS)
+    resp = [R.reaction("B", "rotation"), R.displacement("B", "x"), R.frequency(1)]
+    for turn in (0.1, 0.3):
+        before = len(calls)
+        ev = point.evaluate(resp, configure=lambda m, turn=turn: m.prescribe("B", rotation=turn), **TIGHT)
+        builds = len(calls) - before
+
+        def turned(p, turn=turn):
+            m = pivot(p, 2)
+            m.prescribe("B", rotation=turn)
+            return m
+
+        ref = evaluate(turned, PIVOT, resp, bounds=PIVOT_BOUNDS, **TIGHT)
+        np.testing.assert_allclose(ev.values, ref.values, rtol=1e-12)
+        np.testing.assert_allclose(ev.jacobian, ref.jacobian, rtol=1e-8, atol=1e-12 * np.abs(ref.jacobian).max())
+    assert builds == 2  # the second configuration: its solve and its fresh compile, not 2 per parameter again
+
+
+def test_ideal_hinges_are_refused_by_name():
+    def build(p):
+        m = flexmb.Mechanism(dim=2)
+        m.add_link("A", fixed=True)
+        m.add_link("B", position=(0.1, 0.0))
+        m.add_link("C", position=(0.2, 0.0))
+        m.add_joint("A", "B", "leaf_spring", length=p["L"], elements=4)
+        m.add_joint("B", "C", flexmb.Hinge(k=1.0), name="pin", origin=(0.1, 0.0))
+        m.apply_force("C", (0.0, 1.0))
+        return m
+
+    with pytest.raises(UnsupportedStrategyError, match="'?pin'?"):
+        evaluate(build, {"L": 0.1}, R.displacement("C", "y"))
+
+
+def test_warm_started_sweep_solutions_give_the_fresh_gradient():
+    # a stroke solved warm-started (flexmb.sweep: the problem holds increments of the prescribed
+    # values) gives the same gradients as fresh solves, with configure= and for the design's own
+    # configuration (whose prescribed rotation vector depends on the parameter 'ry')
+    point = DesignPoint(spatial, SPATIAL)
+    resp = [R.reaction("C", "rz"), R.displacement("B", "z"), R.frequency(1)]
+    turns = [(0.1, SPATIAL["ry"], 0.2), (0.1, SPATIAL["ry"], 0.4)]
+    sw = flexmb.sweep(point.mechanism(), np.array(turns), motion=("C", "rotation"), **TIGHT)
+    for w, sol in zip(turns, sw):
+        cfg = lambda m, w=w: m.prescribe("C", rotation=w)
+        warm, fresh = point.evaluate(resp, configure=cfg, solution=sol), point.evaluate(resp, configure=cfg, **TIGHT)
+        np.testing.assert_allclose(warm.jacobian, fresh.jacobian, rtol=1e-8, atol=1e-9 * np.abs(fresh.jacobian).max())
+    own = point.evaluate(resp, solution=sw[-1])  # turns[-1] is the design's own configuration
+    fresh = point.evaluate(resp, **TIGHT)
+    assert abs(fresh.gradient(0)["ry"]) > 1e-3 * np.abs(fresh.jacobian[0]).max()
+    np.testing.assert_allclose(own.jacobian, fresh.jacobian, rtol=1e-8, atol=1e-9 * np.abs(fresh.jacobian).max())
+
+
+def test_a_solution_of_another_design_is_refused():
+    other = flexmb.solve(pivot({**PIVOT, "t": 1.1e-3}, 2))
+    with pytest.raises(ParameterError, match="not one of the design"):
+        DesignPoint(_pivot(2), PIVOT, PIVOT_BOUNDS).evaluate(R.reaction("B", "rotation"), solution=other)
+
+
+def test_a_user_gradient_is_checked_and_a_wrong_one_fails():
+    # flexmb.testing.check_gradient on a gradient given by its user (a plugin author's own)
+    right = evaluate(spatial, SPATIAL, R.displacement("B", "z"), **TIGHT).gradient(0)
+    assert check_gradient(spatial, SPATIAL, R.displacement("B", "z"), gradient=right, **TIGHT).ok
+    wrong = {**right, "t": 1.01 * right["t"]}  # one component 1 % off
+    c = check_gradient(spatial, SPATIAL, R.displacement("B", "z"), gradient=lambda p: wrong, **TIGHT)
+    assert not c.ok and c.errors["t"] > 1e-4 and max(v for k, v in c.errors.items() if k != "t") < 1e-6
+
+
+def test_configurations_that_add_loads_do_not_accumulate():
+    # configure may add a load (not only replace values): each configuration starts from the builds
+    point = DesignPoint(_pivot(2), PIVOT, PIVOT_BOUNDS)
+    jac = [point.evaluate(R.displacement("B", "x"), configure=lambda m, f=force: m.apply_force("B", (f, 0.0)),
+                          **TIGHT).jacobian for force in (1.0, 2.0, 1.0)]
+    np.testing.assert_allclose(jac[2], jac[0], rtol=1e-10)
+    assert np.abs(jac[1] - jac[0]).max() > 1e-6 * np.abs(jac[0]).max()
+
+
+def _chained(p):
+    """A leaf turned by a chain of two rotations (a manipulator's prescribed joint angles)."""
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    m.add_link("B", position=(0.1, 0.0, 0.0))
+    m.add_joint("A", "B", "leaf_spring", length=0.1, thickness=p["t"], elements=6)
+    m.prescribe("B", rotation=[(0.0, 0.0, p["a"]), (0.1, 0.0, 0.0)])
+    return m
+
+
+def test_a_prescribed_chain_of_rotations_serves_other_parameters_and_refuses_its_own():
+    c = check_gradient(lambda q: _chained({**q, "a": 0.35}), {"t": 1e-3}, R.reaction("B", "rz"), **TIGHT)
+    assert c.ok, str(c)
+    with pytest.raises(UnsupportedStrategyError, match=r"\['a'\].*chain"):
+        evaluate(_chained, {"t": 1e-3, "a": 0.35}, R.reaction("B", "rz"))

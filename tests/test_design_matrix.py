@@ -7,11 +7,10 @@ scaled per parameter)."""
 from __future__ import annotations
 
 import pytest
+from design_cases import PIVOT, PIVOT_BOUNDS, pivot
 
 from flexmb.design import responses as R
 from flexmb.design.check import check_gradient
-
-from design_cases import PIVOT, PIVOT_BOUNDS, pivot
 
 RESPONSES = {
     "reaction": lambda rz: R.reaction("B", rz),
@@ -28,6 +27,7 @@ RESPONSES = {
 KSD_FIXED = ("L", "a")
 
 
+@pytest.mark.slow  # 21 cases, ~10 s: the must-show matrix; tests/test_design_gradients.py keeps fast ones
 @pytest.mark.parametrize("case", ["2d-conventional", "3d-conventional", "3d-ksd-full"])
 @pytest.mark.parametrize("response", list(RESPONSES))
 def test_every_response_and_parameter_kind(case, response):
@@ -37,7 +37,7 @@ def test_every_response_and_parameter_kind(case, response):
     if method == "ksd-full":
         fixed = {k: PIVOT[k] for k in KSD_FIXED}
         p = {k: v for k, v in PIVOT.items() if k not in KSD_FIXED}
-        build = lambda q: pivot({**fixed, **q}, dim)  # noqa: E731
+        build = lambda q: pivot({**fixed, **q}, dim)
         options = dict(method=method, tol=1e-8)  # absolute [N, N m]: KSD-full's round-off ~4e-9
     else:
         p, build, options = PIVOT, (lambda q: pivot(q, dim)), dict(rtol=1e-12)

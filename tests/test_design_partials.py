@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
+from test_kernels import _batch2d, _batch3d
 
 import flexmb
 from flexmb.design import DesignPoint
@@ -13,9 +15,6 @@ from flexmb.design.partials import H, mass_forms, residual_rates, tangent_forms
 from flexmb.fe import beam2d, beam3d
 from flexmb.fe.mass import mass_matrix
 from flexmb.problem import StaticProblem
-
-from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
-from test_kernels import _batch2d, _batch3d
 
 
 def _directions(args, rng):

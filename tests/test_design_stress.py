@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
+from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
 
-import flexmb
-from flexmb.design import evaluate, responses as R
+from flexmb.design import evaluate
+from flexmb.design import responses as R
 from flexmb.design.check import check_gradient
 from flexmb.errors import ModelError, ParameterError
-
-from design_cases import PIVOT, PIVOT_BOUNDS, SPATIAL, pivot, spatial
 
 TIGHT = dict(rtol=1e-12)
 

@@ -18,7 +18,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: the examples that take more than 3 s with --quick or start a process pool (the fast set,
 #: ``-m "not slow"``, skips them; measured with the compiled kernels cached)
 SLOW = {"cross_flexure", "cross_flexure_buckling", "eob_limits", "fourbar", "gripper", "manipulator",
-        "manipulator_modes", "mode_pictures", "stiffness_map"}
+        "manipulator_modes", "mode_pictures", "stiffness_map", "optimize_hinge", "optimize_manipulator"}
 CHECKS = {}
 
 
@@ -218,3 +218,61 @@ def three_x_infinity_range(res, printed, out, ex):
 
 def _has_matplotlib() -> bool:
     return importlib.util.find_spec("matplotlib") is not None
+
+
+@check
+def state_space(res, printed, out, ex):
+    """The static gain is the compliance at the tip (to 1e-9), the poles the modes times i 2 pi
+    with 1 % damping (to 1e-9), and the Bode plot is written."""
+    ss, C, f = res["state_space"], res["compliance"], res["frequencies"]
+    np.testing.assert_allclose(ss.static_gain()[0, 0], C[1, 1], rtol=1e-9)
+    np.testing.assert_allclose(np.sort(ss.poles().imag[ss.poles().imag > 0]),
+                               2 * np.pi * f * np.sqrt(1 - 0.01**2), rtol=1e-9)
+    assert "static gain tip y / force y" in printed
+    if _has_matplotlib():
+        _png(out / "state_space_bode.png")
+def _optimised(res, printed, out, name: str) -> None:
+    """An optimisation example: SLSQP on design gradients reaches the derivative-free optimum or
+    better (within 0.5 %, the issue's bar), both feasible, with fewer solves; the table printed
+    and each run's history written."""
+    result, baseline = res["result"], res["baseline"]
+    assert result.feasible and baseline.feasible and result.success
+    assert result.objective >= baseline.objective * (1 - 5e-3)
+    assert result.solves < baseline.solves
+    assert "SLSQP, adjoint gradients" in printed and "COBYLA" in printed
+    for tag in ("gradients", "cobyla"):
+        table = flexmb.read_csv(out / f"{name}_{tag}.csv")
+        assert table.n_rows >= 2 and "objective" in table
+
+
+@check
+def optimize_hinge(res, printed, out, ex):
+    """The hinge (4 el./leaf): the parasitic frequency rises above the start's (measured 43.9 ->
+    58.1 Hz) with the stress and the moment at their limits (the KS stress is 300 MPa at most, the
+    exact peak beside it lower)."""
+    _optimised(res, printed, out, "optimize_hinge")
+    r = res["result"]
+    assert r.objective > 1.2 * r.history["objective"][0]
+    assert r.constraints["stress <= 300 MPa"] == pytest.approx(300e6, rel=1e-4)
+    assert r.constraints["moment <= 2.5 N m"] <= 2.5 * (1 + 1e-6)
+
+
+@check
+def optimize_stage(res, printed, out, ex):
+    """The stage (+-5 mm): the minimum support stiffness more than doubles (measured 428 -> 969
+    N/mm) with the stroke force at its 5 N ceiling."""
+    _optimised(res, printed, out, "optimize_stage")
+    r = res["result"]
+    assert r.objective > 2 * r.history["objective"][0]
+    assert r.constraints["stroke force <= 5 N"] == pytest.approx(5.0, rel=1e-4)
+
+
+@check
+def optimize_manipulator(res, printed, out, ex):
+    """The manipulator (0, +-30 deg): the end link's minimum rotational support stiffness rises
+    (measured 20.7 -> 55.9 N m/rad), the reach at rest at least 0.45 m."""
+    _optimised(res, printed, out, "optimize_manipulator")
+    r = res["result"]
+    assert r.objective > 2 * r.history["objective"][0]
+    assert r.constraints["reach >= 0.45 m"] >= 0.45 * (1 - 1e-6)
+

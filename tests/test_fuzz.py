@@ -17,7 +17,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import flexmb
-from flexmb import FlexmbError, models
+from flexmb import FlexmbError
+from flexmb.joints._base import UNSET
+from flexmb import models
 
 FUZZ = settings(deadline=None, database=None,  # examples and derandomisation: the active profile
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
@@ -54,12 +56,13 @@ def _snapshot(m) -> bytes:
 
 def _fields(kind):
     cls = flexmb.available_joints()[kind]
-    return [(kind, f.name) for f in attrs.fields(cls)] if attrs.has(cls) else []
+    return [(kind, f.alias) for f in attrs.fields(cls)] if attrs.has(cls) else []
 
 
 def _required(cls) -> dict:
     """Valid values of the parameters without a default: the middle of ``parameter_ranges``."""
-    return {f.name: sum(cls.parameter_ranges[f.name]) / 2 for f in attrs.fields(cls) if f.default is attrs.NOTHING}
+    return {f.alias: sum(cls.parameter_ranges[f.alias]) / 2 for f in attrs.fields(cls)
+            if f.default is attrs.NOTHING or (f.default is UNSET and f.alias in cls.parameter_ranges)}
 
 
 FIELDS = [kf for kind in sorted(flexmb.available_joints()) for kf in _fields(kind)]

@@ -21,22 +21,22 @@ ROOT = Path(__file__).resolve().parents[1] / "flexmb"
 # The allowed order, bottom up (written down once, here). A module may import modules of its own
 # layer or of a layer below. Package facades (``__init__``) sit with their highest member.
 LAYERS = [
-    ("foundation", ["flexmb._version", "flexmb.jit", "flexmb.errors", "flexmb.rotations", "flexmb._validate",
-                    "flexmb.sections", "flexmb.protocols"]),
+    ("foundation", ["flexmb._version", "flexmb._warnings", "flexmb.jit", "flexmb.errors", "flexmb.rotations", "flexmb._validate",
+                    "flexmb.units", "flexmb.materials", "flexmb.sections", "flexmb.protocols"]),
     ("elements and joints", ["flexmb.fe", "flexmb.fe.beam2d", "flexmb.fe.beam3d", "flexmb.fe.beam2d_jit",
-                             "flexmb.fe.beam3d_jit", "flexmb.fe.assembly", "flexmb.fe.model_jit", "flexmb.fe.model", "flexmb.fe.stress_jit", "flexmb.fe.stress",
+                             "flexmb.fe.beam3d_jit", "flexmb.fe.assembly_jit", "flexmb.fe.assembly", "flexmb.fe.model_jit", "flexmb.fe.model", "flexmb.fe.stress_jit", "flexmb.fe.stress",
                              "flexmb.fe.mass", "flexmb.fe.ideal", "flexmb.fe.section_geometry", "flexmb.closed_form.flexures", "flexmb.closed_form.linkage_jit",
                              "flexmb.joints",
                              "flexmb.joints.*", "flexmb.registry", "flexmb.reference"]),
     ("problems", ["flexmb.linear", "flexmb.linear_jit", "flexmb.problem", "flexmb.closed_form.problem", "flexmb.compiled"]),
     ("builders", ["flexmb.boundary", "flexmb.fe.build", "flexmb.closed_form", "flexmb.closed_form.build"]),
-    ("mechanism", ["flexmb.mechanism"]),
+    ("mechanism", ["flexmb.mechanism", "flexmb.files"]),
     ("results and joint data", ["flexmb.linearisation", "flexmb.results", "flexmb.database.eob_format", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),
     ("strategies and analysis", ["flexmb.plausibility_jit", "flexmb.plausibility", "flexmb.solvers", "flexmb.solvers.*", "flexmb.analysis", "flexmb.modal",
-                                 "flexmb.linearised", "flexmb.peers", "flexmb.design", "flexmb.design.*", "flexmb.testing", "flexmb.database", "flexmb.database.training",
+                                 "flexmb.linearised", "flexmb.statespace", "flexmb.peers", "flexmb.design", "flexmb.design.*", "flexmb.testing_ksd", "flexmb.testing", "flexmb.database", "flexmb.database.training",
                                  "flexmb.models"]),
     ("workflows", ["flexmb.sweeps", "flexmb.study", "flexmb.table", "flexmb.design_properties", "flexmb.path",
-                   "flexmb.discretisation"]),
+                   "flexmb.discretisation", "flexmb.design.stroke", "flexmb.design.optimize"]),
     ("faces", ["flexmb.plot", "flexmb.export"]),
     ("studies", ["flexmb.studies", "flexmb.studies.*"]),
     ("command line and package", ["flexmb.cli", "flexmb"]),
@@ -77,6 +77,9 @@ def imports(module: str) -> set[str]:
 
 
 def layer(module: str) -> int:
+    for k, (_, members) in enumerate(LAYERS):  # a module named exactly wins over a pattern
+        if module in members:
+            return k
     for k, (_, members) in enumerate(LAYERS):
         for pattern in members:
             if module == pattern or (pattern.endswith(".*") and module.startswith(pattern[:-1])):

@@ -79,8 +79,9 @@ def test_force_sweep_table_names_the_force_column():
 def test_sweep_results_drop_into_pandas():
     pd = pytest.importorskip("pandas")
     result = flexmb.sweep(_pivot(2), ANGLES[:2], motion=("B", "rotation"))
-    frame = pd.DataFrame(result.table())
+    frame = result.table().to_pandas()  # pandas 3 builds a frame from a dict, not any mapping
     assert frame.shape[0] == 2 and frame["B.rotation"].tolist() == ANGLES[:2].tolist()
+    assert pd.DataFrame(dict(result.table())).equals(frame)
 
 
 @pytest.mark.parametrize("call, match", [

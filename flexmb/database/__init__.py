@@ -2,8 +2,8 @@
 
 from .store import (FORMAT, FORMAT_VERSION, JointData, Polynomial, data_path, design_file_name, file_name, load,
                     locate, save, search_path, shipped, source, user_path, write)
-from .training import TrainingRun, simulate, train, verify
+from .training import TRAINING, TRAINING_SCHEMA, TrainingRun, simulate, train, training_settings, verify
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "JointData", "Polynomial", "TrainingRun", "data_path", "design_file_name",
-           "file_name", "load", "locate", "save", "search_path", "shipped", "simulate", "source", "train", "user_path",
-           "verify", "write"]
+           "file_name", "load", "locate", "save", "search_path", "shipped", "simulate", "source", "train",
+           "training_settings", "user_path", "verify", "write", "TRAINING", "TRAINING_SCHEMA"]

@@ -18,10 +18,10 @@ from ..errors import ConvergenceError, DatabaseError, ParameterError
 from ..mechanism import Mechanism
 from ..rotations import logm_so3
 from .eob_format import plain_parameters
-from .store import JointData, Polynomial, load, mesh_hash, save, shipped
+from .store import MAX_POWER, JointData, Polynomial, load, mesh_hash, save, shipped
 
 __all__ = ["TrainingRun", "simulate", "train", "verify", "DEFAULT_RANGE_DEG", "ELEMENT_POWERS", "CONSTRAINT_POWERS",
-           "TRAINING", "element_rotations"]
+           "TRAINING", "TRAINING_SCHEMA", "training_settings", "element_rotations"]
 
 DEFAULT_RANGE_DEG = (-75.0, 75.0)
 #: Element (and node) rotations as polynomials without constant term, Eq. (4.2) taken to fifth
@@ -34,6 +34,16 @@ LENGTH_POWERS = (2, 4, 6)
 #: Default training settings; a joint overrides any of them in its ``training`` class attribute.
 TRAINING = {"range_deg": DEFAULT_RANGE_DEG, "step_deg": 5.0, "element_powers": ELEMENT_POWERS,
             "constraint_powers": CONSTRAINT_POWERS, "length_powers": LENGTH_POWERS}
+#: The schema of a joint's ``training`` settings (`training_settings` checks it; unknown keys are
+#: refused): what each key holds, its unit and its valid range.
+TRAINING_SCHEMA = {
+    "range_deg": "(lo, hi): the intended rotations sampled [deg], -180 <= lo < hi <= 180",
+    "step_deg": "the sampling step [deg], in (0, hi - lo]",
+    "element_powers": "powers of the element and node rotation fits (Eq. 4.2), distinct integers in [1, 30] "
+                      "(no constant: nothing turns at rest)",
+    "constraint_powers": "powers of the fits of B's position over D0 (Eq. 4.1), distinct integers in [0, 30]",
+    "length_powers": "powers of the fit of D/D0 - 1 (Eq. 4.1), distinct integers in [1, 30]",
+}
 
 
 @attrs.frozen(eq=False)
@@ -106,22 +116,14 @@ def train(joint, dim: int, range_deg=None, step_deg: float | None = None, eob_ta
     """Train the database of ``joint`` (a `Joint` with a FE model and a `database_key`) in ``dim``.
 
     The sampling (``range_deg``, ``step_deg``) and the polynomial orders default to the joint's
-    ``training`` settings (`TRAINING` where it sets none). ``eob_table``: also tabulate the EOB
+    ``training`` settings (`TRAINING` where it sets none), checked against `TRAINING_SCHEMA`
+    (`training_settings`); the database key is `checked_key`. ``eob_table``: also tabulate the EOB
     condensation of this joint against theta (`flexmb.ksd.eob_table`; KSD-reduced then looks it
     up instead of condensing per solve, for joints with these parameters)."""
-    opt = {**TRAINING, **getattr(joint, "training", {})}
-    try:
-        lo, hi = (float(x) for x in (opt["range_deg"] if range_deg is None else range_deg))
-        step_deg = float(opt["step_deg"] if step_deg is None else step_deg)
-    except (TypeError, ValueError):
-        raise ParameterError(f"train: range_deg={range_deg!r} must be (lo, hi) and step_deg={step_deg!r} a number "
-                             "[deg]") from None
-    if not -180.0 <= lo < hi <= 180.0:
-        raise ParameterError(f"train: range_deg=({lo}, {hi}) must satisfy -180 <= lo < hi <= 180 [deg]")
-    if not 0.0 < step_deg <= hi - lo:
-        raise ParameterError(f"train: step_deg={step_deg} must lie in (0, {hi - lo:g}] deg (the range's width)")
-    key = joint.database_key()
-    theta = np.radians(np.arange(lo, hi + 0.5 * step_deg, step_deg))
+    opt = training_settings(joint, range_deg=range_deg, step_deg=step_deg)
+    lo, hi = opt["range_deg"]
+    key = checked_key(joint)
+    theta = np.radians(np.arange(lo, hi + 0.5 * opt["step_deg"], opt["step_deg"]))
     run = simulate(joint, dim, theta)
     D0 = float(np.linalg.norm(joint.interface_b(dim)))
     pos = run.b_position / D0
@@ -135,6 +137,62 @@ def train(joint, dim: int, range_deg=None, step_deg: float | None = None, eob_ta
                      elements=Polynomial.fit(theta, run.element_rotation.reshape(S, -1), opt["element_powers"]),
                      nodes=Polynomial.fit(theta, run.node_rotation.reshape(S, -1), opt["element_powers"]))
     return with_eob_table(joint, data) if eob_table else data
+
+
+def training_settings(joint, *, range_deg=None, step_deg=None) -> dict:
+    """The training settings of ``joint``: `TRAINING` updated by the joint class's ``training``
+    (checked against `TRAINING_SCHEMA`: an unknown key or a value outside its range is refused
+    with a `ParameterError` naming the joint, the key and the valid keys or range), then by
+    ``range_deg`` and ``step_deg`` when given (`flexmb train --range/--step`)."""
+    owner = f"{getattr(joint, 'kind', type(joint).__name__)} training"
+    own = getattr(joint, "training", {})
+    if not isinstance(own, dict):
+        raise ParameterError(f"{owner}: the class attribute training must be a dict of the keys "
+                             f"{', '.join(TRAINING_SCHEMA)}, got {type(own).__name__}")
+    unknown = sorted(str(k) for k in own if k not in TRAINING_SCHEMA)
+    if unknown:
+        raise ParameterError(f"{owner}: unknown setting {', '.join(map(repr, unknown))}; valid: "
+                             f"{', '.join(TRAINING_SCHEMA)} (see flexmb.database.TRAINING_SCHEMA)")
+    given = {"range_deg": range_deg, "step_deg": step_deg}
+    opt = {**TRAINING, **own, **{k: x for k, x in given.items() if x is not None}}
+    try:
+        lo, hi = (float(x) for x in opt["range_deg"])
+    except (TypeError, ValueError):
+        raise ParameterError(f"{owner}: range_deg={opt['range_deg']!r} must be {TRAINING_SCHEMA['range_deg']}") \
+            from None
+    if not -180.0 <= lo < hi <= 180.0:
+        raise ParameterError(f"{owner}: range_deg=({lo:g}, {hi:g}) must be {TRAINING_SCHEMA['range_deg']}")
+    step = opt["step_deg"]
+    if isinstance(step, (bool, str, bytes)) or not isinstance(step, (int, float, np.integer, np.floating)) \
+            or not 0.0 < float(step) <= hi - lo:
+        raise ParameterError(f"{owner}: step_deg={step!r} must be a number in (0, {hi - lo:g}] deg (the range's width)")
+    out = {"range_deg": (lo, hi), "step_deg": float(step)}
+    for name, least in (("element_powers", 1), ("constraint_powers", 0), ("length_powers", 1)):
+        out[name] = _powers(owner, name, opt[name], least)
+    return out
+
+
+def checked_key(joint) -> dict:
+    """``joint.database_key()``, checked: a non-empty dict of parameter names (text) to numbers,
+    booleans or text (it names the database file and is stored in it as JSON); else a
+    `ParameterError` naming the joint. Holding the mesh parameter (`flexmb.Joint.mesh_parameter`)
+    is the joint's choice: data trained on another mesh are refused either way (mesh hash)."""
+    key = joint.database_key()
+    ok = isinstance(key, dict) and key and all(
+        isinstance(k, str) and k and isinstance(x, (bool, int, float, str, np.integer, np.floating))
+        and (not isinstance(x, (float, np.floating)) or np.isfinite(x)) for k, x in key.items())
+    if not ok:
+        raise ParameterError(f"{joint.kind}: database_key() must return a non-empty dict of parameter names to "
+                             f"finite numbers or text, got {key!r}")
+    return {k: (x.item() if isinstance(x, np.generic) else x) for k, x in key.items()}
+
+
+def _powers(owner: str, name: str, value, least: int) -> tuple:
+    ok = isinstance(value, (tuple, list)) and len(value) > 0 and all(
+        isinstance(p, (int, np.integer)) and not isinstance(p, bool) and least <= p <= MAX_POWER for p in value)
+    if not ok or len(set(value)) != len(value):
+        raise ParameterError(f"{owner}: {name}={value!r} must be {TRAINING_SCHEMA[name]}")
+    return tuple(int(p) for p in value)
 
 
 def migrate(path) -> JointData:

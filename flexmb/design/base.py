@@ -25,13 +25,14 @@ class Response:
 
     name = "response"
 
-    def value(self, solution) -> float:  # pragma: no cover - every subclass defines it
-        """The response's value at the converged ``solution``."""
+    def value(self, solution) -> float:
+        """The response's value at a converged `flexmb.Solution` (a subclass defines it)."""
         raise ModelError(f"{type(self).__name__} defines no value")
 
-    def partials(self, sens):  # pragma: no cover - every subclass defines it
-        """``(dJ/du (n_dofs,), dJ/dN . dN/dp (K,))`` at the state of ``sens`` (a
-        `flexmb.design.adjoint.Sensitivity`): the explicit partial derivatives the adjoint combines."""
+    def partials(self, sens):
+        """``(dJ/du (n_dofs,), dJ/dN N' (K,))`` at the sensitivity's state: the derivative with respect
+        to the state (rotations per spin) and the model numbers' part per parameter (a subclass
+        defines it)."""
         raise ModelError(f"{type(self).__name__} defines no partials")
 
     def gradient(self, sens, method: str = "auto") -> np.ndarray:

@@ -29,8 +29,9 @@ ROUND_OFF = 1e-10
 @attrs.frozen(eq=False)
 class TaylorResult:
     """A Taylor test's steps ``eps``, ``remainders``, ``rates`` (len(eps) - 1) and its ``rate``
-    (the smallest, as pyadjoint reports; NaN where every remainder is round-off); ``ok`` when
-    every rate is within ``tolerance`` of 2 (or all remainders are round-off); ``first`` the
+    (the smallest, as pyadjoint reports; NaN where the rates miss 2 but every remainder is
+    round-off: a response linear in the direction); ``ok`` when every rate is within ``tolerance``
+    of 2, or all remainders are round-off; ``first`` the
     first-order differences ``|J(p + eps dp) - J(p)|``, which fall as ``eps``."""
 
     eps: np.ndarray = attrs.field(converter=_read_only)
@@ -128,10 +129,10 @@ def taylor_test(build, p, response, direction=None, *, h0: float = 1e-2, halving
     rates = np.log(rem[1:] / rem[:-1]) / np.log(eps[1:] / eps[:-1]) if np.all(rem > 0) else \
         np.full(halvings, np.nan)
     floor = ROUND_OFF * max(abs(value), float(np.max(first)), 1e-300)
-    exact = bool(np.all(rem <= floor))
-    ok = exact or bool(np.all(np.abs(rates - 2.0) <= tolerance))
-    return TaylorResult(eps, rem, first, rates, float(np.nanmin(rates)) if not exact else math.nan, ok, value, slope,
-                        tolerance)
+    converging = bool(np.all(np.abs(rates - 2.0) <= tolerance))
+    exact = not converging and bool(np.all(rem <= floor))  # round-off only: a linear response, no rate
+    return TaylorResult(eps, rem, first, rates, math.nan if exact else float(np.nanmin(rates)), converging or exact,
+                        value, slope, tolerance)
 
 
 def central_differences(build, p, response, *, relative_step: float = 1e-4, bounds=None, **options) -> dict:

@@ -18,14 +18,20 @@ the cluster's mean, `frequency(..., cluster="mean")`, for a differentiable respo
 
 from __future__ import annotations
 
+import weakref
+
 import attrs
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import ModelError, ParameterError
-from ..linearised import buckling as _buckling, compliance as _compliance, material_tangent
+from ..linearised import buckling as _buckling
+from ..linearised import compliance as _compliance
+from ..linearised import material_tangent
 from ..modal import held_dofs, modes
+from ..rotations import skew
 from .base import component_index
 
 __all__ = ["frequency", "buckling", "compliance", "CLUSTER"]
@@ -34,6 +40,8 @@ __all__ = ["frequency", "buckling", "compliance", "CLUSTER"]
 #: eigensolvers' relative accuracy at the lowest modes (~1e-10, `flexmb.modal`), far below the
 #: splitting of modes that are merely close.
 CLUSTER = 1e-7
+
+_MODES = weakref.WeakKeyDictionary()  # solution -> {(k, held): (Modes, cluster)}
 
 
 def _cluster(values: np.ndarray, k: int) -> np.ndarray:
@@ -55,10 +63,10 @@ def _left_vectors(A, B, Phi: np.ndarray, lam: float) -> np.ndarray:
     Ash = (A - s * B).tocsc() if hasattr(A, "tocsc") else A - s * B
     if hasattr(Ash, "tocsc"):
         lu = spla.splu(Ash)
-        solve = lambda r: lu.solve(r, trans="T")  # noqa: E731
+        solve = lambda r: lu.solve(r, trans="T")
     else:
         lu = sla.lu_factor(Ash)
-        solve = lambda r: sla.lu_solve(lu, r, trans=1)  # noqa: E731
+        solve = lambda r: sla.lu_solve(lu, r, trans=1)
     Psi = B.T @ Phi
     for _ in range(2):
         Psi = solve(Psi)
@@ -104,7 +112,15 @@ class _Frequency:
         return float(np.sign(lam) * np.sqrt(abs(lam)) / (2 * np.pi))
 
     def _modes(self, solution):
-        """`flexmb.modes` with enough modes to hold the k-th's whole cluster, and the free DOFs."""
+        """`flexmb.modes` with enough modes to hold the k-th's whole cluster, and the cluster's indices
+        (kept per solution: `value` and `gradient` read the same)."""
+        key = (self.k, repr(self.held))
+        per = _MODES.setdefault(solution, {})
+        if key not in per:
+            per[key] = self._solve_modes(solution)
+        return per[key]
+
+    def _solve_modes(self, solution):
         nf = solution.compiled.problem.model.n_dofs - len(held_dofs(solution, self.held, "frequency"))
         n = min(self.k + 2, nf)
         while True:
@@ -134,7 +150,7 @@ class _Frequency:
         from ..fe.mass import mass_matrix
 
         free = np.setdiff1d(np.arange(sens.model.n_dofs), m.held)
-        K = sens.K[free][:, free]
+        K = _restricted(sens, free)
         M = mass_matrix(sens.model, sens.state, sens.model.rigid_masses)[free][:, free]
         Psi = np.zeros_like(Phi)
         Psi[free] = _left_vectors(K, M, Phi[free], lam)
@@ -150,7 +166,9 @@ def frequency(k: int, held="prescribed", cluster: str = "rank"):
 
 
 def _restricted(A, free):
-    return A[free][:, free].tocsc()
+    """``A[free][:, free]`` as CSC (``A``: a sparse matrix or a `Sensitivity`'s tangent block reader)."""
+    block = A.block(free, free) if hasattr(A, "block") else A[free][:, free]
+    return sp.csc_array(block)
 
 
 def _inverse_iteration(A, B, shift: float, c: int, seed: int = 0, transpose: bool = False) -> np.ndarray:
@@ -192,7 +210,7 @@ class _Buckling:
             raise ModelError(f"buckling({self.k}): no {self.k}-th positive multiplier (inf): no derivative")
         idx = _cluster(mu, self.k)
         lam = float(np.mean(mu[idx]))
-        Kt, Km = _restricted(sens.K, free), _restricted(material_tangent(sol), free)
+        Kt, Km = _restricted(sens, free), _restricted(material_tangent(sol), free)
         Ks = (Kt - Km).tocsc()
         shift = lam * (1.0 + 1e-8)
         Phi = np.zeros((sens.model.n_dofs, len(idx)))
@@ -263,7 +281,7 @@ class _Compliance:
         if held is sens.prescribed:
             X[free], Y[free] = sens.solve(E[free]), sens.solve(E[free], transpose=True)
         else:
-            lu = spla.splu(_restricted(sens.K, free))
+            lu = spla.splu(_restricted(sens, free))
             X[free], Y[free] = lu.solve(E[free]), lu.solve(E[free], trans="T")
         for Z in (X, Y):
             Z[:, np.isin(dofs, held)] = 0.0  # held components of the node: zero rows and columns
@@ -274,7 +292,7 @@ class _Compliance:
         d = R @ s
         w = sens.state_rates[dofs[dim:]].T  # (K, nrot): the node's spin (2D: angle) per parameter
         dd = (np.cross(w, d) if dim == 3 else w * np.array([-d[1], d[0]])) + ds @ R.T
-        T, dT = _lever(d, dim), np.array([_lever(x, dim) - np.eye(nd) for x in dd])
+        T, dT = model._lever(d[None])[0], model._lever(dd) - np.eye(nd)  # the lever is affine in the offset
         C = T @ C_node @ T.T
         dC = dT @ C_node @ T.T + T @ dC_node @ T.T + T @ C_node @ np.swapaxes(dT, 1, 2)
         if self.axes == "link":
@@ -284,7 +302,7 @@ class _Compliance:
                 B[3:, 3:] = R
             dB = np.zeros((len(w), nd, nd))
             for k, wk in enumerate(w):
-                dR = (np.array([[0.0, -1.0], [1.0, 0.0]]) * wk[0]) @ R if dim == 2 else _skew(wk) @ R
+                dR = (np.array([[0.0, -1.0], [1.0, 0.0]]) * wk[0]) @ R if dim == 2 else skew(wk) @ R
                 dB[k, :dim, :dim] = dR
                 if dim == 3:
                     dB[k, 3:, 3:] = dR
@@ -292,21 +310,6 @@ class _Compliance:
         elif self.axes != "global":
             raise ParameterError(f"compliance: axes={self.axes!r}; valid: 'global', 'link'")
         return dC[:, i, j]
-
-
-def _skew(w):
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
-def _lever(d: np.ndarray, dim: int) -> np.ndarray:
-    """``T`` with ``point motion = T node motion`` for the rigid offset ``d`` (`FEModel._lever`)."""
-    nd = 3 if dim == 2 else 6
-    T = np.eye(nd)
-    if dim == 2:
-        T[0, 2], T[1, 2] = -d[1], d[0]
-    else:
-        T[:3, 3:] = -_skew(d)
-    return T
 
 
 def compliance(link: str, row: str, column: str, point=None, axes: str = "global", held="prescribed"):

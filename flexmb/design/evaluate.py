@@ -9,6 +9,7 @@ gradient is read from it.
 
 from __future__ import annotations
 
+import copy
 import time
 
 import attrs
@@ -16,6 +17,8 @@ import numpy as np
 
 from ..boundary import boundary
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
+from ..ksd.linearisation import ReducedSolution
+from ..linear import single_threaded
 from .adjoint import STRATEGIES, Sensitivity
 from .parameters import ModelRates, as_design, model_numbers, model_rates
 
@@ -36,8 +39,8 @@ class Evaluation:
 
     ``names``: the parameters (K,); ``responses``: the responses' names (R,); ``values`` (R,);
     ``jacobian`` (R, K) (None without gradients); ``solution``: the converged `flexmb.Solution`;
-    ``times`` [s]: ``"solve"``, ``"rates"`` (the build's differences, shared by a design's
-    configurations), ``"gradient"``."""
+    ``times`` [s]: ``"solve"``, ``"rates"`` (this call's part of the model numbers' rates: the
+    builds' differences on a design's first gradient, shared by its configurations), ``"gradient"``."""
 
     names: tuple
     responses: tuple
@@ -73,7 +76,11 @@ class _Configured(ModelRates):
     def __init__(self, base: ModelRates, configure, compiled):
         super().__init__(base.design, compiled, base._builds)
         self._base, self._configure = base, configure
-        self._cache = {k: v for k, v in base._cache.items() if k not in self.BOUNDARY}
+
+    @property
+    def shared(self) -> dict:
+        """The base's cache: what does not depend on the configuration is kept once per design."""
+        return self._base.shared
 
     def rate(self, field: str) -> np.ndarray:
         if field not in self.BOUNDARY:
@@ -81,6 +88,11 @@ class _Configured(ModelRates):
         if field not in self._cache:
             self._boundary_rates()
         return self._cache[field]
+
+    def compiled_numbers(self, field: str) -> np.ndarray:
+        if field not in self.BOUNDARY:
+            return self._base.compiled_numbers(field)
+        return super().compiled_numbers(field)
 
     def _boundary_rates(self) -> None:
         link_node = self.compiled.link_node
@@ -94,7 +106,8 @@ class _Configured(ModelRates):
         out = {f: np.zeros((len(self.names),) + np.shape(base[f])) for f in self.BOUNDARY}
         for k, (_, h) in enumerate(self._builds):
             for w, mech in self._base._mechanisms[k]:
-                if mech is not None:
+                if mech is not None:  # a copy: configure may add loads, and the builds serve every configuration
+                    mech = _copy_mechanism(mech)
                     self._configure(mech)
                 nums = base if mech is None else numbers(mech)
                 for f in self.BOUNDARY:
@@ -102,6 +115,22 @@ class _Configured(ModelRates):
         for f in self.BOUNDARY:
             out[f].flags.writeable = False
             self._cache[f] = out[f]
+
+
+def _copy_mechanism(mech):
+    """A copy of a `flexmb.Mechanism` that its methods can change without touching ``mech``: its
+    graph (links, joints, placements: `Mechanism.add_link`, `add_joint`, `fix`), loads (`apply_force`,
+    `apply_moment`, `clear_loads`), prescribed motions (`prescribe`) and points (`add_point`) in new
+    containers, their immutable items shared (~10 us; ``copy.deepcopy`` took 1-4 ms on the 3D hinge's
+    builds). Another class of mechanism is deep-copied."""
+    if not all(hasattr(mech, k) for k in ("graph", "_loads", "_prescribed", "_points")):
+        return copy.deepcopy(mech)
+    out = copy.copy(mech)
+    out.graph = mech.graph.copy()
+    out._loads = list(mech._loads)
+    out._prescribed = {k: dict(v) for k, v in mech._prescribed.items()}
+    out._points = dict(mech._points)
+    return out
 
 
 class DesignPoint:
@@ -147,26 +176,63 @@ class DesignPoint:
         if not solution.converged:
             raise ConvergenceError(f"the design at {self.design.values} did not converge ({solution.message}); "
                                    "no responses or gradients of an unconverged state", solution)
-        if solution.method not in STRATEGIES:  # refused naming the method (and, with gradients, each parameter's kind)
+        if not isinstance(solution, ReducedSolution) and solution.method not in STRATEGIES:  # refused naming the method
             if gradient:
                 Sensitivity(solution, self.rates(None))
             raise UnsupportedStrategyError(f"design responses with method {solution.method!r}: available for "
                                            f"{', '.join(STRATEGIES)} (the full finite-element equilibrium)")
+        with single_threaded():  # small dense LAPACK (modes, factorisations): threads only wait for a busy core
+            return self._evaluate(items, solution, configure, gradient, mode, t1 - t0)
+
+    def _evaluate(self, items, solution, configure, gradient, mode, t_solve) -> Evaluation:
         values = np.array([r.value(solution) for r in items], dtype=float)
-        times = {"solve": t1 - t0}
+        times = {"solve": t_solve}
         if not gradient:
             return Evaluation(self.names, tuple(r.name for r in items), values, None, solution, times)
         t2 = time.perf_counter()
-        rates = self.rates(None if configure is not None else solution.compiled)
+        # the rates are taken about fresh compiles (totals from the undeformed state: a warm-started
+        # solution's problem holds increments of its prescribed values)
+        rates = self.rates(None)
         if configure is not None:
-            rates = _Configured(rates, configure, solution.compiled)
+            rates = _Configured(rates, configure, self.mechanism(configure).compile("fe_model"))
         t3 = time.perf_counter()
-        sens = Sensitivity(solution, rates)
+        _same_model(rates.compiled, solution, self.design.values)
+        sens = _sensitivity(solution, rates, items)
         if mode == "auto":
             mode = "direct" if len(items) > len(self.names) else "auto"
         jac = np.array([r.gradient(sens, mode) for r in items], dtype=float).reshape(len(items), len(self.names))
-        times.update(rates=self.rates_time + (t3 - t2), gradient=time.perf_counter() - t3)
+        times.update(rates=t3 - t2, gradient=time.perf_counter() - t3)
         return Evaluation(self.names, tuple(r.name for r in items), values, jac, solution, times)
+
+
+def _same_model(compiled, solution, values) -> None:
+    """Refuse a ``solution`` that is not of the design's (configured) mechanism: another structure or
+    other reference numbers (another design, or the same one at other parameters)."""
+    from .parameters import structure
+
+    mine, theirs = compiled.problem.model, solution.compiled.problem.model
+    a, b = structure(compiled), structure(solution.compiled)
+    same = all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray) else a[k] == b[k]
+               for k in a if k != "prescribed DOFs")
+    same = same and mine.x0.shape == theirs.x0.shape and np.array_equal(mine.x0, theirs.x0) and \
+        np.array_equal(mine.elements.L0, theirs.elements.L0) and np.array_equal(mine.elements.S, theirs.elements.S)
+    if not same:
+        raise ParameterError(f"the solution given is not one of the design at {values} (its model's structure or "
+                             "reference numbers differ): pass a solve of DesignPoint.mechanism(configure)")
+
+
+def _sensitivity(solution, rates, items):
+    """The linearisation of ``solution`` for the responses ``items``: `Sensitivity` of the full
+    model; a KSD-reduced solution's (its kind, `ReducedSolution`)
+    `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
+    if not isinstance(solution, ReducedSolution):
+        return Sensitivity(solution, rates)
+    from .reduced import ReducedSensitivity
+
+    sens = ReducedSensitivity(solution, rates)
+    for r in items:
+        sens.check_response(r)
+    return sens
 
 
 def evaluate(build, p, responses, *, bounds=None, **options) -> Evaluation:

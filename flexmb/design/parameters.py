@@ -269,6 +269,12 @@ class ModelRates:
             self._cache[field] = out
         return self._cache[field]
 
+    @property
+    def shared(self) -> dict:
+        """Where derived data that do not depend on the configuration are kept (the responses'
+        own model fields, e.g. `flexmb.design.stress`'s stress fields)."""
+        return self._cache
+
     def compiled_numbers(self, field: str) -> np.ndarray:
         """The field's value in the compiled model the rates are taken about (`model_numbers`)."""
         key = ("value", field)

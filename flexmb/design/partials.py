@@ -20,16 +20,17 @@ import numpy as np
 from ..fe import beam2d, beam3d
 from ..rotations import rot2, skew
 
-__all__ = ["H", "residual_rates", "tangent_forms", "mass_forms"]
+__all__ = ["H", "residual_rates", "tangent_blocks", "mass_blocks", "contract", "tangent_forms", "mass_forms"]
 
 #: The complex step: far below the round-off of any model number, far above underflow.
 H = 1e-30
 
 
 def _changed(rate: np.ndarray) -> np.ndarray:
-    """(K, n) whether row n of a field changes with parameter k."""
-    return np.any(rate.reshape(rate.shape[0], rate.shape[1], -1) != 0.0, axis=2) if rate.ndim > 1 and \
-        rate.shape[1] else np.zeros((rate.shape[0], rate.shape[1] if rate.ndim > 1 else 0), dtype=bool)
+    """(K, n) whether row n of a field (rows (n, ...)) changes with parameter k."""
+    if rate.ndim < 2 or rate.shape[1] == 0:  # an empty field (no loads, no rigid masses)
+        return np.zeros((rate.shape[0], rate.shape[1] if rate.ndim > 1 else 0), dtype=bool)
+    return np.any(rate.reshape(rate.shape[0], rate.shape[1], -1) != 0.0, axis=2)
 
 
 def _element_rows(model, rates, du) -> tuple[np.ndarray, np.ndarray]:
@@ -185,28 +186,42 @@ def residual_rates(problem, state, rates, du: np.ndarray | None = None, lam: flo
     return out
 
 
-def tangent_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarray, lam: float = 1.0,
-                  material: bool = False) -> np.ndarray:
-    """``V^T dK_k W`` (K, a, b) for the directional derivatives ``dK_k`` of the full tangent on all
-    DOFs (elements and dead loads' stiffness, as `flexmb.modal.full_tangent`) along the model
-    numbers' ``rates`` and the state directions ``du`` (n_dofs, K); ``V`` (n_dofs, a), ``W`` (n_dofs,
-    b) (the identity gives ``dK_k`` itself). ``material``: of the material tangent instead
-    (`flexmb.linearised.material_tangent`: no stresses' geometric part, no offsets' ``d(d x f)/dphi``,
-    no load stiffness). Contracted element by element: no matrix of the model's size is formed."""
+def tangent_blocks(problem, state, rates, du: np.ndarray, lam: float = 1.0, material: bool = False) -> list:
+    """The directional derivatives ``dK_k`` of the full tangent on all DOFs (elements and dead loads'
+    stiffness, as `flexmb.modal.full_tangent`) along the model numbers' ``rates`` and the state
+    directions ``du`` (n_dofs, K), as element blocks: ``[(directions (B,), DOFs (B, n), blocks (B, n,
+    n)), ...]`` (`contract` forms ``V^T dK_k W`` from them). ``material``: of the material tangent
+    instead (`flexmb.linearised.material_tangent`: no stresses' geometric part, no offsets'
+    ``d(d x f)/dphi``, no load stiffness)."""
     m = problem.model
-    K = du.shape[1]
-    out = np.zeros((K, V.shape[1], W.shape[1]))
+    parts = []
     cols, rows = _element_rows(m, rates, du)
     if len(rows):
         _, Ke = _elements(m, state, rates, cols, rows, du, tangent=True, material=material)
-        _contract(out, cols, m.element_dofs[rows], Ke.imag / H, V, W)
+        parts.append((cols, m.element_dofs[rows], Ke.imag / H))
     if material:  # the material tangent has no load stiffness
-        return out
+        return parts
     cols, rows = _load_rows(problem, rates, du)
     if len(rows):
         _, G = _loads(problem, state, rates, cols, rows, du, lam)
-        _contract(out, cols, m.node_dofs[problem.loads.node[rows]][:, m.dim:], -G.imag / H, V, W)
+        parts.append((cols, m.node_dofs[problem.loads.node[rows]][:, m.dim:], -G.imag / H))
+    return parts
+
+
+def contract(parts: list, K: int, V: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """``V^T dA_k W`` (K, a, b) from the element blocks ``parts`` of `tangent_blocks` / `mass_blocks`
+    (``V`` (n_dofs, a), ``W`` (n_dofs, b); the identity gives ``dA_k`` itself): no matrix of the
+    model's size is formed."""
+    out = np.zeros((K, V.shape[1], W.shape[1]))
+    for cols, dofs, blocks in parts:
+        _contract(out, cols, dofs, blocks, V, W)
     return out
+
+
+def tangent_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarray, lam: float = 1.0,
+                  material: bool = False) -> np.ndarray:
+    """``V^T dK_k W`` (K, a, b) (`tangent_blocks` contracted)."""
+    return contract(tangent_blocks(problem, state, rates, du, lam, material), du.shape[1], V, W)
 
 
 class _RowModel:
@@ -242,17 +257,22 @@ def _row_state(model, state, nodes, du_rows):
 
 
 def mass_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarray) -> np.ndarray:
-    """``V^T dM_k W`` (K, a, b) for the directional derivatives ``dM_k`` of the consistent mass at
-    the configuration (`flexmb.fe.mass.mass_matrix`: beams in their co-rotated frames, the links'
-    rigid bodies) along the model numbers' ``rates`` (local mass, offsets, frames, rigid masses) and
-    the state's directions ``du`` (n_dofs, K); contracted as in `tangent_forms`."""
+    """``V^T dM_k W`` (K, a, b) (`mass_blocks` contracted)."""
+    return contract(mass_blocks(problem, state, rates, du), du.shape[1], V, W)
+
+
+def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
+    """The directional derivatives ``dM_k`` of the consistent mass at the configuration
+    (`flexmb.fe.mass.mass_matrix`: beams in their co-rotated frames, the links' rigid bodies) along
+    the model numbers' ``rates`` (local mass, offsets, frames, rigid masses) and the state's
+    directions ``du`` (n_dofs, K), as element blocks (`tangent_blocks`)."""
     import attrs
 
     from ..fe.mass import RigidMasses, element_mass, rigid_mass
 
     m = problem.model
     K, nd = du.shape[1], m.ndof
-    out = np.zeros((K, V.shape[1], W.shape[1]))
+    out = []
     el = m.elements
     hit = _changed(rates.rate("local_mass"))
     cols, rows = np.nonzero(hit | _element_hits(m, rates, du))
@@ -266,8 +286,7 @@ def mass_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarr
                          attrs.evolve(el, ends=np.arange(2 * len(rows)).reshape(-1, 2), ny0=ny0, L0=el.L0[rows]))
         st = _row_state(m, state, masters.ravel(), nodal[masters.ravel(), :, np.repeat(cols, 2)])
         local = _complex(rates.compiled_numbers("local_mass")[rows], rates.rate("local_mass")[cols, rows])
-        Me = element_mass(view, st, local).imag / H
-        _contract(out, cols, m.element_dofs[rows], Me, V, W)
+        out.append((cols, m.element_dofs[rows], element_mass(view, st, local).imag / H))
     rigid = m.rigid_masses
     if rigid is not None and len(rigid.node):
         hit = np.zeros((K, len(rigid.node)), dtype=bool)
@@ -281,7 +300,7 @@ def mass_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarr
                                _complex(rigid.inertia[rows], rates.rate("rigid_inertia")[cols, rows]))
             st = _row_state(m, state, rigid.node[rows], nodal[rigid.node[rows], :, cols])
             Mr = rigid_mass(_RowModel(m.dim, np.zeros((len(rows), m.dim), dtype=complex)), st, body).imag / H
-            _contract(out, cols, m.node_dofs[rigid.node[rows]], Mr, V, W)
+            out.append((cols, m.node_dofs[rigid.node[rows]], Mr))
     return out
 
 

@@ -16,8 +16,8 @@ import attrs
 import numpy as np
 
 from ..errors import ModelError, ParameterError
-from .base import Response, component_index
 from .adjoint import left_jacobian
+from .base import Response, component_index
 from .eigen import buckling, compliance, frequency
 from .stress import stress
 
@@ -67,7 +67,7 @@ class _Reaction(Response):
 
     def partials(self, sens):
         dof = self._dof(sens.solution)
-        return sens.K[[dof]].toarray()[0], sens.residual_rates[dof]
+        return sens.row(dof), sens.residual_rates[dof]
 
 
 def reaction(link: str, component: str) -> Response:
@@ -159,7 +159,7 @@ class _Rotation(Response):
         return model, _node(solution, self.link, "rotation"), c
 
     def value(self, solution) -> float:
-        model, n, c = self._where(solution)
+        model, _, c = self._where(solution)
         return float(solution.rotation_vector(self.link)[c - model.dim])
 
     def partials(self, sens):

@@ -5,7 +5,16 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SparsePattern", "PartitionedPattern", "scatter_add"]
+from .. import jit
+
+__all__ = ["SparsePattern", "PartitionedPattern", "node_pattern", "scatter_add"]
+
+#: Patterns with at least this many entries expand their rows by a compiled pass
+#: (`flexmb.fe.assembly_jit.repeat_rows`; smaller ones by numpy: no compilation for them)
+COMPILED_FROM = 200_000
+#: Elements per pass of `node_pattern`'s slot computation: its temporaries stay at ~40 MB (3D)
+#: whatever the model's size (1e5 elements: ~1.2 GB in one pass)
+_CHUNK = 8192
 
 
 class SparsePattern:
@@ -65,6 +74,14 @@ class PartitionedPattern:
             self._templates.append(M)
             del keep, inv, uniq, i, j
 
+    @classmethod
+    def _of(cls, slots: np.ndarray, templates: list) -> PartitionedPattern:
+        """A pattern from its parts (`node_pattern`)."""
+        out = object.__new__(cls)
+        out.slots, out._templates = slots, templates
+        out.nnz = [M.nnz for M in templates]
+        return out
+
     def split(self, values: np.ndarray, first: int = 0, out=None):
         """The data arrays ``(ff, fp)`` with ``values`` (the entries from ``first`` on, in the order
         given at construction) summed in; added to ``out`` if given."""
@@ -89,6 +106,134 @@ class PartitionedPattern:
             new.data = data
             out.append(new)
         return tuple(out)
+
+
+def _ragged(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """``concatenate([arange(s, s + n) for s, n in zip(starts, lengths)])`` in O(total)."""
+    lengths = np.asarray(lengths, dtype=np.int64)
+    total = int(lengths.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    first = np.cumsum(lengths) - lengths
+    return np.repeat(np.asarray(starts, dtype=np.int64) - first, lengths) + np.arange(total, dtype=np.int64)
+
+
+def _node_graph(master: np.ndarray, n_nodes: int) -> sp.csr_array:
+    """The nodes' coupling (N, N), sorted CSR: node ``a`` with ``b`` when an element joins them
+    (and every element end with itself). scipy's counting sort, O(E + N) (no global sort)."""
+    a, b = master[:, 0], master[:, 1]
+    rows, cols = np.concatenate([a, a, b, b]), np.concatenate([a, b, a, b])
+    G = sp.csr_array((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(n_nodes, n_nodes))
+    G.sum_duplicates()  # canonical: sorted column indices, no duplicates
+    return G
+
+
+def _block_template(G: sp.csr_array, count: np.ndarray, start: np.ndarray, row_count: np.ndarray):
+    """One partition's CSR structure (K_ff or K_fp) from the node graph ``G``: ``count`` (N,) the
+    partition's columns per node (free or prescribed DOFs), ``start`` (N,) the first column of each
+    node, ``row_count`` (N,) the free rows per node. Returns the template matrix, the position of
+    each node pair's columns within its rows (nnz(G),), every node's row length and the first data
+    slot of every node's rows."""
+    n_nodes = G.shape[0]
+    width = count[G.indices]  # columns each node pair contributes to a row
+    row_len = _segment_sums(width, G.indptr)
+    seg_start = np.cumsum(row_len) - row_len  # where each node's row pattern starts in `seg`
+    within = np.cumsum(width) - width - np.repeat(seg_start, np.diff(G.indptr))
+    first_slot = np.cumsum(row_count * row_len) - row_count * row_len
+    # one node's row: the columns of its neighbours in order, the same for each of its free rows
+    seg = _ragged(start[G.indices], width)  # every node's row pattern, concatenated
+    n_rows, n_cols = int(row_count.sum()), int(count.sum())
+    nnz = int(np.dot(row_len, row_count))
+    if jit.enabled() and nnz >= COMPILED_FROM:  # one compiled pass instead of four over every entry
+        from . import assembly_jit
+
+        indices, indptr = np.empty(nnz, dtype=np.int64), np.empty(n_rows + 1, dtype=np.int64)
+        i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)  # noqa: E731 - one specialisation
+        assembly_jit.repeat_rows(i64(seg), i64(seg_start), i64(row_len), i64(row_count), indices, indptr)
+    else:
+        per_row = np.repeat(np.arange(n_nodes), row_count)
+        indices = seg[_ragged(seg_start[per_row], row_len[per_row])] if len(seg) else np.zeros(0, dtype=np.int64)
+        indptr = np.concatenate([[0], np.cumsum(row_len[per_row])]).astype(np.int64)
+    M = sp.csr_array((np.zeros(len(indices)), indices, indptr), shape=(n_rows, n_cols))
+    M.has_sorted_indices = True
+    return M, within, row_len, first_slot
+
+
+def _segment_sums(values: np.ndarray, indptr: np.ndarray) -> np.ndarray:
+    """Sums of ``values`` over the CSR rows ``indptr`` (empty rows: 0)."""
+    c = np.concatenate([[0], np.cumsum(values)])
+    return (c[indptr[1:]] - c[indptr[:-1]]).astype(np.int64)
+
+
+def node_pattern(master: np.ndarray, n_nodes: int, ndof: int, slot_f: np.ndarray, slot_p: np.ndarray,
+                 extra: tuple = ()) -> PartitionedPattern | None:
+    """The `PartitionedPattern` of element blocks on all DOFs of their two end nodes (``master``
+    (E, 2), DOFs ``node * ndof + 0..ndof-1``), then the ``extra`` blocks (arrays (K, d) of DOFs,
+    each within the node pairs the elements couple), built from the connectivity in O(E): the
+    nodes' coupling graph (`_node_graph`), every node's row pattern once, each element's slots
+    by index arithmetic in chunks (no global sort of the E (2 ndof)^2 entries; the memory of a
+    chunk). The same pattern as ``PartitionedPattern(rows, cols, slot_f, slot_p)`` of those
+    entries: the same structure, slots and data order (tests/test_assembly_pattern.py). None when
+    an extra block leaves the elements' node pairs (the caller builds it the general way)."""
+    master = np.ascontiguousarray(master, dtype=np.int64).reshape(-1, 2)
+    G = _node_graph(master, n_nodes)
+    keys = np.repeat(np.arange(n_nodes, dtype=np.int64), np.diff(G.indptr)) * n_nodes + G.indices
+    isf, isp = (slot_f >= 0).reshape(n_nodes, ndof), (slot_p >= 0).reshape(n_nodes, ndof)
+    fcount, pcount = isf.sum(axis=1), isp.sum(axis=1)
+    fstart, pstart = np.cumsum(fcount) - fcount, np.cumsum(pcount) - pcount
+    Mf, within_f, len_f, first_f = _block_template(G, fcount, fstart, fcount)
+    Mp, within_p, len_p, first_p = _block_template(G, pcount, pstart, fcount)
+    node = np.arange(n_nodes * ndof) // ndof
+    frank = np.where(slot_f >= 0, slot_f - fstart[node], -1)  # a free DOF's rank within its node
+    prank = np.where(slot_p >= 0, slot_p - pstart[node], -1)
+    row_f = np.where(slot_f >= 0, first_f[node] + frank * len_f[node], -1)  # first slot of a free row
+    row_p = np.where(slot_f >= 0, first_p[node] + frank * len_p[node], -1)
+
+    def pairs(gr: np.ndarray, gc: np.ndarray) -> np.ndarray | None:
+        """Positions in G of the node pairs (gr, gc); None if one is not in G."""
+        want = gr * n_nodes + gc
+        k = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
+        return k if np.array_equal(keys[k], want) else None
+
+    def combine(rows, cols, wf, wp):
+        """Slots from the rows' and columns' parts (broadcast) and the node pairs' offsets."""
+        free_row = slot_f[rows] >= 0
+        ff = row_f[rows] + wf + frank[cols]
+        fp = row_p[rows] + wp + prank[cols]
+        return np.where(free_row & (slot_f[cols] >= 0), ff, np.where(free_row & (slot_p[cols] >= 0), -2 - fp, -1))
+
+    n2 = 2 * ndof
+    E = len(master)
+    extra = [np.asarray(b, dtype=np.int64) for b in extra]
+    slots = np.empty(E * n2 * n2 + sum(b.shape[0] * b.shape[1] ** 2 for b in extra), dtype=np.int64)
+    k = np.arange(ndof)
+    for lo in range(0, E, _CHUNK):
+        mc = master[lo:lo + _CHUNK]
+        C = len(mc)
+        dofs = (mc[:, :, None] * ndof + k).reshape(C, n2)
+        kk = pairs(mc[:, :, None], mc[:, None, :])  # (C, 2, 2): the elements' node pairs are in G
+        out = slots[lo * n2 * n2:(lo + C) * n2 * n2].reshape(C, 2, ndof, 2, ndof)
+        # K_ff's slots, broadcast without expanding the node pairs' offsets (2 passes over the chunk)
+        np.add(row_f[dofs].reshape(C, 2, ndof, 1, 1), within_f[kk][:, :, None, :, None], out=out)
+        out += frank[dofs].reshape(C, 1, 1, 2, ndof)
+        # elements with a prescribed DOF (few: at the supports) again, the general way
+        odd = np.flatnonzero(~np.all(slot_f[dofs] >= 0, axis=1))
+        if len(odd):
+            d = dofs[odd]
+            out[odd] = combine(d[:, :, None], d[:, None, :], within_f[kk[odd]].repeat(ndof, 1).repeat(ndof, 2),
+                               within_p[kk[odd]].repeat(ndof, 1).repeat(ndof, 2)).reshape(len(odd), 2, ndof, 2, ndof)
+    at = E * n2 * n2
+    for b in extra:
+        if b.size == 0:
+            continue
+        rows, cols = b[:, :, None], b[:, None, :]
+        kk = pairs(rows // ndof, cols // ndof)
+        if kk is None:
+            return None
+        block = combine(rows, cols, within_f[kk], within_p[kk])
+        slots[at:at + block.size] = block.ravel()
+        at += block.size
+    return PartitionedPattern._of(slots, [Mf, Mp])
 
 
 def scatter_add(index: np.ndarray, values: np.ndarray, size: int) -> np.ndarray:

@@ -18,7 +18,8 @@ import numpy as np
 from .. import jit
 from ..sections import properties
 
-__all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "internal_force_and_tangent", "hypot_atan2"]
+__all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "numpy_deformation_gradient",
+           "internal_force_and_tangent", "hypot_atan2"]
 
 
 def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
@@ -61,7 +62,15 @@ def internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool
     return numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, tangent=tangent, geometric_stress=geometric_stress)
 
 
-def numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool = True, geometric_stress=None):
+def numpy_deformation_gradient(xp, xq, thp, thq, alpha0, L0):
+    """Deformations ``e`` (E, 3) and their gradient ``D = de/dq`` (E, 3, 6) with respect to the nodal
+    displacements and rotations (the ``D`` of `numpy_internal_force_and_tangent`, ``F = D^T sigma``)."""
+    return numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, np.zeros((len(L0), 3, 3)), tangent=False,
+                                            gradient=True)
+
+
+def numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent: bool = True, geometric_stress=None,
+                                     gradient: bool = False):
     """Internal forces ``F`` (E, 6) and tangent ``K`` (E, 6, 6) of planar co-rotational beams.
 
     ``xp, xq`` node positions [m] (E, 2); ``thp, thq`` node rotations since the undeformed state
@@ -90,6 +99,8 @@ def numpy_internal_force_and_tangent(xp, xq, thp, thq, alpha0, L0, S, *, tangent
     D[:, 2] = -L0[:, None] * gb
     D[:, 2, 5] += L0
 
+    if gradient:  # numpy_deformation_gradient
+        return e, D
     sigma = np.einsum("eij,ej->ei", S, e)
     F = np.einsum("eij,ei->ej", D, sigma)
     if not tangent:

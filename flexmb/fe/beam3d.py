@@ -22,7 +22,7 @@ from ..rotations import cross, skew
 from ..sections import properties
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent",
-           "numpy_internal_force_and_tangent", "length"]
+           "numpy_internal_force_and_tangent", "numpy_deformation_gradient", "length"]
 
 _RP, _PP, _RQ, _PQ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 _EYE = np.eye(3)
@@ -134,7 +134,35 @@ def numpy_internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, *, tangent
         return _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress)
 
 
-def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress=None):
+def numpy_deformation_gradient(xp, xq, Rp, Rq, ny0, nz0, L0):
+    """Deformations ``e`` (E, 6) of Eq. (A.4) and their gradient ``D = de/dq`` (E, 6, 12) with respect
+    to the nodal displacements and spins (Eq. A.6; the ``D`` of `numpy_internal_force_and_tangent`,
+    ``F = D^T sigma``); rows of invalid elements NaN in ``e``."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, np.zeros((len(L0), 6, 6)), False,
+                                           gradient=True)
+
+
+def _elongation_hessian(Pl: np.ndarray, dt) -> np.ndarray:
+    """Second derivative (E, 12, 12) of the elongation ``|L|`` in the element's DOFs, from ``(I - nl nl^T) / l``."""
+    H1 = np.zeros((len(Pl), 12, 12), dtype=dt)
+    H1[:, _RP, _RP] = H1[:, _RQ, _RQ] = Pl
+    H1[:, _RP, _RQ] = H1[:, _RQ, _RP] = -Pl
+    return H1
+
+
+def _valid(Rp, Rq, ny0, nz0, nl, pyv, pzv, qyv, qzv) -> np.ndarray:
+    """Which elements (E,) are within Eq. (A.4)'s validity: asin(c) cannot tell a rotation x from
+    pi - x, so beyond 90 degrees between a node's axis and the chord (or between the two nodes'
+    cross-sections) it has spurious equilibria; such states are marked invalid (NaN) and the
+    solver cuts its step instead of landing there (complex arguments: judged on the real parts)."""
+    nx0 = cross(ny0, nz0)
+    return ((_dot(np.einsum("eij,ej->ei", Rp, nx0), nl).real > 0.0)
+            & (_dot(np.einsum("eij,ej->ei", Rq, nx0), nl).real > 0.0)
+            & ((_dot(pyv, qyv) + _dot(pzv, qzv)).real > 0.0))
+
+
+def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geometric_stress=None, gradient=False):
     nE = len(L0)
     l, nl, pyv, pzv, qyv, qzv = _vectors(xp, xq, Rp, Rq, ny0, nz0)
     dt = np.result_type(l, pyv, qyv, L0, S)  # float64, or complex for a complex step (`flexmb.design`)
@@ -148,10 +176,7 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geomet
     Dm[:, 0, _RP], Dm[:, 0, _RQ] = -nl, nl
     Pl = P / l[:, None, None]
     if tangent:
-        H1 = np.zeros((nE, 12, 12), dtype=dt)
-        H1[:, _RP, _RP] = H1[:, _RQ, _RQ] = Pl
-        H1[:, _RP, _RQ] = H1[:, _RQ, _RP] = -Pl
-        H[0] = H1
+        H[0] = _elongation_hessian(Pl, dt)
 
     def asin_rot_rot(row, coef, a, ia, b, ib):
         """Add coef * L0 * asin(a . b), a rotating with node block ia, b with block ib."""
@@ -204,16 +229,9 @@ def _internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, geomet
     asin_rot_chord(4, 1.0, pyv, _PP)
     asin_rot_chord(5, -1.0, qyv, _PQ)
 
-    # asin(c) cannot tell a rotation x from pi - x: beyond 90 degrees between a node's axis and
-    # the chord (or between the two nodes' cross-sections) Eq. (A.4) has spurious equilibria, so
-    # such states are marked invalid (NaN) and the solver cuts its step instead of landing there.
-    nx0 = cross(ny0, nz0)
-    valid = (
-        (_dot(np.einsum("eij,ej->ei", Rp, nx0), nl).real > 0.0)
-        & (_dot(np.einsum("eij,ej->ei", Rq, nx0), nl).real > 0.0)
-        & ((_dot(pyv, qyv) + _dot(pzv, qzv)).real > 0.0)
-    )
-    e[~valid] = np.nan
+    e[~_valid(Rp, Rq, ny0, nz0, nl, pyv, pzv, qyv, qzv)] = np.nan
+    if gradient:
+        return e, Dm
     sigma = np.einsum("eij,ej->ei", S, e)
     F = np.einsum("eij,ei->ej", Dm, sigma)
     if not tangent:

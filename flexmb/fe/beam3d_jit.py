@@ -108,10 +108,15 @@ def _kernel(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, sg_given, sg_in, F, K, e_o
     Dm = np.zeros((6, 12))
     e = np.zeros(6)
     nl = np.empty(3)
-    py = np.empty(3)
-    pz = np.empty(3)
-    qy = np.empty(3)
-    qz = np.empty(3)
+    # the sections' axes at both ends, rows in the order of the four chord terms below (pz, qz, py, qy)
+    V = np.empty((4, 3))
+    pz, qz, py, qy = V[0], V[1], V[2], V[3]
+    # the helpers' integer and flag arguments read from arrays, not written as constants: numba
+    # compiles a helper once per combination of literal arguments (issue 31: _rot_chord 8 times)
+    # (the torsion row 1 with blocks 3 and 9; the chord rows 2-5 with their signs and blocks; pass 2)
+    lay = np.array([1, 3, 9, 0])
+    rows, coefs, blocks = np.array([2, 3, 4, 5]), np.array([-1.0, 1.0, 1.0, -1.0]), np.array([3, 9, 3, 9])
+    second = np.array([False, True])
     P = np.empty((3, 3))
     SD = np.empty((6, 12))
     sg = np.empty(6)
@@ -142,14 +147,12 @@ def _kernel(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, sg_given, sg_in, F, K, e_o
         for i in range(3):
             Dm[0, i] = -nl[i]
             Dm[0, 6 + i] = nl[i]
-        _rot_rot(Dm, e, Kk, 0.0, 1, 0.5, lk, pz, 3, qy, 9, False, g)
-        _rot_rot(Dm, e, Kk, 0.0, 1, -0.5, lk, py, 3, qz, 9, False, g)
-        _rot_chord(Dm, e, Kk, 0.0, 2, -1.0, lk, pz, 3, nl, P, l, False, g, Pa, aP)
-        _rot_chord(Dm, e, Kk, 0.0, 3, 1.0, lk, qz, 9, nl, P, l, False, g, Pa, aP)
-        _rot_chord(Dm, e, Kk, 0.0, 4, 1.0, lk, py, 3, nl, P, l, False, g, Pa, aP)
-        _rot_chord(Dm, e, Kk, 0.0, 5, -1.0, lk, qy, 9, nl, P, l, False, g, Pa, aP)
+        _rot_rot(Dm, e, Kk, 0.0, lay[0], 0.5, lk, pz, lay[1], qy, lay[2], second[0], g)
+        _rot_rot(Dm, e, Kk, 0.0, lay[0], -0.5, lk, py, lay[1], qz, lay[2], second[0], g)
+        for m in range(4):  # rows 2-5: -asin(pz.n), asin(qz.n), asin(py.n), -asin(qy.n), times L0
+            _rot_chord(Dm, e, Kk, 0.0, rows[m], coefs[m], lk, V[m], blocks[m], nl, P, l, second[0], g, Pa, aP)
         # validity (see beam3d): both nodes' axes within 90 degrees of the chord, sections too
-        _cross(ny0[k], nz0[k], nx0, 0)
+        _cross(ny0[k], nz0[k], nx0, lay[3])
         cp = 0.0
         cq = 0.0
         for i in range(3):
@@ -198,12 +201,10 @@ def _kernel(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, sg_given, sg_in, F, K, e_o
                 Kk[6 + i, 6 + j] += v
                 Kk[i, 6 + j] -= v
                 Kk[6 + i, j] -= v
-        _rot_rot(Dm, e, Kk, sg[1], 1, 0.5, lk, pz, 3, qy, 9, True, g)
-        _rot_rot(Dm, e, Kk, sg[1], 1, -0.5, lk, py, 3, qz, 9, True, g)
-        _rot_chord(Dm, e, Kk, sg[2], 2, -1.0, lk, pz, 3, nl, P, l, True, g, Pa, aP)
-        _rot_chord(Dm, e, Kk, sg[3], 3, 1.0, lk, qz, 9, nl, P, l, True, g, Pa, aP)
-        _rot_chord(Dm, e, Kk, sg[4], 4, 1.0, lk, py, 3, nl, P, l, True, g, Pa, aP)
-        _rot_chord(Dm, e, Kk, sg[5], 5, -1.0, lk, qy, 9, nl, P, l, True, g, Pa, aP)
+        _rot_rot(Dm, e, Kk, sg[1], lay[0], 0.5, lk, pz, lay[1], qy, lay[2], second[1], g)
+        _rot_rot(Dm, e, Kk, sg[1], lay[0], -0.5, lk, py, lay[1], qz, lay[2], second[1], g)
+        for m in range(4):
+            _rot_chord(Dm, e, Kk, sg[rows[m]], rows[m], coefs[m], lk, V[m], blocks[m], nl, P, l, second[1], g, Pa, aP)
 
 
 def internal_force_and_tangent(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent=True, geometric_stress=None):

@@ -71,7 +71,7 @@ def build(mechanism) -> Compiled:
     pt_master = [np.arange(n_nodes)]
     pt_x0 = list(node_x0)
     n_points = n_nodes
-    ends, sections, L0, S, ny, nz, owner = [], [], [], [], [], [], []
+    ends, sections, L0, S, ny, nz, owner, recovery = [], [], [], [], [], [], [], []
     joint_elements, joint_nodes = {}, {}
     n_elements = 0
     counts = [_element_count(d["joint"], dim) for _, _, d in mechanism.graph.edges(data=True)]
@@ -101,6 +101,7 @@ def build(mechanism) -> Compiled:
         n_nodes += n_int
         n_points += len(gx)
         sections.extend(mesh.sections)
+        recovery.extend(mesh.stress_sections)
         L0.append(mesh.L0)
         S.append(mesh.S)
         n_el = len(mesh.elements)
@@ -111,6 +112,8 @@ def build(mechanism) -> Compiled:
         joint_elements[key] = n_elements + np.arange(n_el)
         n_elements += n_el
         check_size(n_elements, "the mechanism's finite-element model")  # joints that cannot count ahead
+    # the sections stresses are recovered at (JointMesh.stress_sections), None where they are the elements' own
+    recovery = tuple(recovery) if any(r is not s for r, s in zip(recovery, sections)) else None
     if n_elements == 0 and not hinges:
         raise TopologyError("the mechanism has no joints with beam elements")
     if n_elements == 0:  # links and hinges only
@@ -123,10 +126,12 @@ def build(mechanism) -> Compiled:
     owner = np.concatenate(owner)
     L0, S = np.concatenate(L0), np.concatenate(S)
     if dim == 3:
-        elements = BeamElements(ends, L0, S, tuple(sections), owner, ny0=np.concatenate(ny), nz0=np.concatenate(nz))
+        elements = BeamElements(ends, L0, S, tuple(sections), owner, ny0=np.concatenate(ny), nz0=np.concatenate(nz),
+                                stress_sections=recovery)
     else:
         chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
-        elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]))
+        elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]),
+                                stress_sections=recovery)
     rigid = RigidMasses.of_bodies([(link_node[n], lk.mass, lk.inertia, lk.center) for n, lk in links.items()], dim)
     pres, vals, loads, paths = boundary(mechanism, link_node, links)
     ideal = None
@@ -158,6 +163,7 @@ class _Mesh:
     points: np.ndarray  # (n, dim) float
     elements: np.ndarray  # (E, 2) int64
     sections: tuple
+    stress_sections: tuple  # where each element's stresses are recovered (JointMesh.stress_sections)
     ny0: np.ndarray | None  # (E, 3) float in 3D: the cross-section's y axis, perpendicular to the element
     nz0: np.ndarray | None  # (E, 3) float in 3D: element axis x ny0
     L0: np.ndarray  # (E,) element lengths [m]
@@ -213,6 +219,9 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
         raise ModelError(f"{where}: mesh elements must be (E, 2) indices into its {len(pts)} points")
     if len(mesh.sections) != len(el):
         raise ModelError(f"{where}: {len(mesh.sections)} sections for {len(el)} elements")
+    recovery = tuple(mesh.sections) if getattr(mesh, "stress_sections", None) is None else tuple(mesh.stress_sections)
+    if len(recovery) != len(el):
+        raise ModelError(f"{where}: {len(recovery)} stress_sections for {len(el)} elements")
     if dim == 3 and (mesh.ny0 is None or np.shape(mesh.ny0) != (len(el), 3)):
         raise ModelError(f"{where}: a 3D mesh needs ny0 of shape ({len(el)}, 3)")
     first, node_of = _internal_nodes(side, mesh.body)
@@ -242,7 +251,7 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
         ny = ny / norm[:, None]
         nz = cross(ex, ny)
     S = (local_stiffness_3d if dim == 3 else local_stiffness_2d)(mesh.sections, L0)
-    return _Mesh(pts, el.astype(np.int64), tuple(mesh.sections), ny, nz, L0, S, side == SIDE_A, side == INTERNAL,
+    return _Mesh(pts, el.astype(np.int64), tuple(mesh.sections), recovery, ny, nz, L0, S, side == SIDE_A, side == INTERNAL,
                  first, node_of)
 
 

@@ -52,7 +52,8 @@ class BeamElements:
 
     ``ends`` (E, 2) point indices; ``L0`` [m] (E,); ``S`` local stiffness (E, 6, 6) or (E, 3, 3);
     ``ny0`` (E, 3) undeformed local y axis (3D only); ``alpha0`` [rad] undeformed angle (2D only);
-    ``sections`` one `Section` per element; ``owner`` the joint index of each element.
+    ``sections`` one `Section` per element; ``owner`` the joint index of each element;
+    ``stress_sections`` the sections where stresses are recovered (`flexmb.JointMesh`; None: ``sections``).
     """
 
     ends: np.ndarray
@@ -63,6 +64,7 @@ class BeamElements:
     ny0: np.ndarray | None = None
     nz0: np.ndarray | None = None
     alpha0: np.ndarray | None = None
+    stress_sections: tuple | None = None
 
 
 class FEModel:

@@ -108,7 +108,8 @@ def assemble3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, tangent, sg_giv
                 for j in range(3):
                     Kk[o + 3 + i, o + 3 + j] += dv[i] * fv[j] - (df if i == j else 0.0)
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
-    largest_by_kind(Fm.ravel(), 6, 3, largest)
+    nd = Fm.shape[1] // 2  # ndof 6, dim 3 read from the array: literal constants would make numba
+    _largest_rows(Fm, nd, nd // 2, largest)  # compile a second specialisation (issue 31)
 
 
 @njit
@@ -156,7 +157,8 @@ def assemble2d(pos, rot, master, offset, moved, alpha0, L0, S, tangent, sg_given
                 Kk[o + 2, col] += -d1 * Kk[o, col] + d0 * Kk[o + 1, col]
             Kk[o + 2, o + 2] -= d0 * f0 + d1 * f1
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
-    largest_by_kind(Fm.ravel(), 3, 2, largest)
+    nd = Fm.shape[1] // 2  # ndof 3, dim 2 from the array: not literals (one specialisation, issue 31)
+    _largest_rows(Fm, nd, nd - 1, largest)
 
 
 @njit
@@ -222,6 +224,20 @@ def largest_by_kind(v, ndof, dim, out):
         a = abs(v[i])
         if a > out[k] or a != a:  # NaN wins, as in numpy's max
             out[k] = a
+
+
+@njit
+def _largest_rows(F, ndof, dim, out):
+    """`largest_by_kind` of ``F.ravel()`` (F (E, n), rows of whole nodes) without the ravel, whose
+    numba implementation (a reshape with its error messages) costs ~3 s of a first compilation."""
+    out[0] = 0.0
+    out[1] = 0.0
+    for e in range(F.shape[0]):
+        for c in range(F.shape[1]):
+            k = 0 if c % ndof < dim else 1
+            a = abs(F[e, c])
+            if a > out[k] or a != a:  # NaN wins, as in numpy's max
+                out[k] = a
 
 
 @njit

@@ -9,8 +9,9 @@ import attrs
 import numpy as np
 
 from ..errors import UnsupportedStrategyError
+from ..materials import STEEL, resolve
 
-__all__ = ["Joint", "JointMesh", "ClosedForm", "INTERNAL", "SIDE_A", "SIDE_B", "FLEXURE_MODELS"]
+__all__ = ["Joint", "JointMesh", "ClosedForm", "MaterialJoint", "UNSET", "INTERNAL", "SIDE_A", "SIDE_B", "FLEXURE_MODELS"]
 
 INTERNAL, SIDE_A, SIDE_B = 0, 1, 2
 
@@ -22,7 +23,7 @@ class JointMesh:
     Attributes
     ----------
     points
-        Point coordinates [m], shape (n, dim), in the joint frame.
+        Point coordinates [length], shape (n, dim), in the joint frame.
     side
         (n,) ints: `INTERNAL` (a free FE node), `SIDE_A` / `SIDE_B` (rigidly attached to the
         link on the joint's A / B side: connector blocks are exact rigid constraints).
@@ -36,6 +37,11 @@ class JointMesh:
         (n,) ints or ``None``: `INTERNAL` points with the same ``body >= 0`` form one rigid
         intermediate body (exact rigid constraints, one FE node at the body's first point);
         ``-1`` marks a point that is a node of its own. ``None``: every internal point is a node.
+    stress_sections
+        One `flexmb.sections.Section` per element, or ``None`` (default: the element's own
+        section): the section where the element's stresses are recovered (`flexmb.fe.stress`,
+        the plausibility checks), e.g. its thinnest in a variable section, whose stiffness
+        ``sections`` averages over the element (see docs/plugins.md).
     """
 
     points: np.ndarray
@@ -44,6 +50,7 @@ class JointMesh:
     sections: tuple
     ny0: np.ndarray | None = None
     body: np.ndarray | None = None
+    stress_sections: tuple | None = None
 
 
 #: Wrench models of a constant-stiffness flexure (Cammarata et al. 2022): balance of the flexure in the
@@ -56,7 +63,7 @@ class ClosedForm:
     """A planar flexure as a constant end stiffness (Cammarata et al. 2022, Secs. 2-3).
 
     The flexure is clamped at node A (joint frame origin, the *first* section S_if) and its
-    end section S_fj sits at ``end`` [m] in the joint frame, rotated by ``end_angle`` [rad]
+    end section S_fj sits at ``end`` [length] in the joint frame, rotated by ``end_angle`` [rad]
     (A_f of Eq. 16). ``stiffness`` K_f (3, 3) maps the end's displacement and rotation
     psi_f = [x', phi] to the end wrench [F_x, F_y, M], both in the undeformed end frame (Eq. 1).
     ``model`` is one of `FLEXURE_MODELS`.
@@ -116,7 +123,7 @@ class Joint(abc.ABC):
 
     @abc.abstractmethod
     def interface_b(self, dim: int) -> np.ndarray:
-        """Position of interface node B in the joint frame [m], shape (dim,); node A is the origin."""
+        """Position of interface node B in the joint frame [length], shape (dim,); node A is the origin."""
 
     def mesh(self, dim: int) -> JointMesh:
         """The joint's finite-element model in its own frame (see `JointMesh`)."""
@@ -150,3 +157,96 @@ class Joint(abc.ABC):
     def describe(self) -> dict:
         """Parameters as a plain dict (for tables, JSON and error messages)."""
         return attrs.asdict(self) if attrs.has(type(self)) else {}
+
+
+class _Unset:
+    """The default of a material keyword: not given (None is a value: ``yield_stress=None``)."""
+
+    def __repr__(self) -> str:
+        return "UNSET"
+
+    def __reduce__(self):
+        return "UNSET"
+
+
+#: A material keyword not given.
+UNSET = _Unset()
+
+
+def _material_keyword(name: str):
+    """An init-only material keyword (``E``, ``G``, ``nu``, ``density``, ``yield_stress``): folded
+    into ``material`` when the joint is made, then `UNSET` (reads go to the `Material`)."""
+    return attrs.field(default=UNSET, alias=name, eq=False, repr=False)
+
+
+@attrs.frozen(kw_only=True, cache_hash=True)
+class MaterialJoint(Joint):
+    """A joint made of one `flexmb.Material` (issue 27 item 4): the base of the shipped flexures.
+
+    ``material``: a `flexmb.Material` or a catalogue name (`flexmb.materials.CATALOGUE`, SI; in a
+    mechanism with declared units give it to `flexmb.Mechanism.add_joint`, which resolves it in
+    them). The keywords ``E``, ``G``, ``nu``, ``density``, ``yield_stress`` still work: alone they
+    complete the joint's default material (`default_material`), beside ``material`` they replace
+    its values (so ``attrs.evolve(joint, E=...)`` works). The checks are the `Material`'s, once.
+    ``joint.E``, ``.G``, ``.density``, ``.yield_stress`` read the material.
+    """
+
+    #: The material of a joint given none (None: ``E`` is required, ``G`` from `default_shear`).
+    default_material: ClassVar = STEEL
+
+    material: object = STEEL
+    _E: object = _material_keyword("E")
+    _G: object = _material_keyword("G")
+    _nu: object = _material_keyword("nu")
+    _density: object = _material_keyword("density")
+    _yield_stress: object = _material_keyword("yield_stress")
+
+    def __attrs_post_init__(self):
+        given = {k: getattr(self, f"_{k}") for k in ("E", "G", "nu", "density", "yield_stress")}
+        material = resolve(self.kind, self.material, {k: x for k, x in given.items() if x is not UNSET},
+                           self.default_material, self.default_shear)
+        object.__setattr__(self, "material", material)
+        for k in given:
+            object.__setattr__(self, f"_{k}", UNSET)
+
+    @staticmethod
+    def default_shear(E: float) -> float | None:
+        """The shear modulus of a joint given only ``E`` and no material (None: ``G`` or ``nu`` required)."""
+        return None
+
+    @property
+    def E(self) -> float:
+        """Young's modulus of the material."""
+        return self.material.E
+
+    @property
+    def G(self) -> float:
+        """Shear modulus of the material."""
+        return self.material.G
+
+    @property
+    def nu(self) -> None:
+        """None: Poisson's ratio is stored as ``G`` (``joint.material.nu`` reads it)."""
+        return None
+
+    @property
+    def density(self) -> float:
+        """Mass density of the material."""
+        return self.material.density
+
+    @property
+    def yield_stress(self) -> float | None:
+        """Yield stress of the material, or None."""
+        return self.material.yield_stress
+
+    def describe(self) -> dict:
+        """The shape parameters and the material's numbers as one flat dict (``E``, ``G``,
+        ``density``, ``yield_stress``; ``nu`` None), as the joints' separate fields gave it."""
+        out = {}
+        for a in attrs.fields(type(self)):
+            if a.init and not a.name.startswith("_") and a.name != "material":
+                value = getattr(self, a.name)
+                out[a.name] = attrs.asdict(value) if attrs.has(type(value)) else value
+        out.update(E=self.E, G=self.G, nu=None, density=self.density, yield_stress=self.yield_stress)
+        return out
+

@@ -7,6 +7,7 @@ import math
 from .. import _validate as v
 from ..errors import ParameterError
 from ..sections import rectangle
+from ..units import check_size
 
 __all__ = ["check_leaves"]
 
@@ -18,7 +19,7 @@ def check_leaves(owner: str, joint, names, widths=("width_inner", "width_outer")
     for name in names:
         v.positive(owner, name, getattr(joint, name))
     v.in_open_range(owner, "angle", joint.angle, 0.0, math.pi / 2, " rad")
-    v.modulus_units(owner, joint.E, joint.length, stacklevel=5)
+    check_size(owner, joint.E, joint.length, stacklevel=5, rules=("GPa",))  # "mm": at add_joint, in its units
     v.integer(owner, "elements_per_leaf", joint.elements_per_leaf, 1, v.MAX_ELEMENTS)
     if not joint.thickness < joint.length / 10:
         raise ParameterError(f"{owner}: thickness={joint.thickness!r} m is not slender for length={joint.length!r} m "

@@ -11,13 +11,14 @@ import numpy as np
 from .. import _validate as v
 from ..errors import ParameterError
 from ..sections import rectangle
-from ._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint, JointMesh
+from ..units import check_size
+from ._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, UNSET, ClosedForm, JointMesh, MaterialJoint
 
 __all__ = ["CurvedBeam"]
 
 
 @attrs.frozen(kw_only=True, cache_hash=True)
-class CurvedBeam(Joint):
+class CurvedBeam(MaterialJoint):
     """Circular curved-beam flexure [``curved_beam``], planar mechanisms only.
 
     An arc of radius ``radius`` and characteristic (arc) angle ``angle`` from node A (origin of
@@ -31,27 +32,24 @@ class CurvedBeam(Joint):
         Arc radius r_f (> 0).
     angle
         Arc angle theta_f [rad], in (0, 2 pi).
-    E
-        Young's modulus.
+    material, E
+        A `flexmb.Material` (or a named one), or Young's modulus ``E``: one is required.
     width, height
         Cross-section: ``width`` (b, out of plane) x ``height`` (h, in-plane), so EI = E b h^3 / 12.
-    G
-        Shear modulus for the finite-element model (default ``E / 2.6``, Poisson 0.3).
-    nu
-        Poisson's ratio in (-1, 0.5) instead of ``G``: ``G = E / (2 (1 + nu))`` is stored (``nu``
-        then reads None).
-    yield_stress
-        Yield stress of the material [Pa], optional: a solve whose peak normal stress exceeds it
-        warns (`flexmb.PlausibilityWarning`).
+    G, nu
+        Shear modulus for the finite-element model, or Poisson's ratio (default with ``E`` alone:
+        ``G = E / 2.6``, Poisson 0.3).
+    density, yield_stress
+        The material's density (7800 with ``E`` alone: steel in kg/m^3; in the model's units:
+        mass per length cubed, e.g. g/mm^3 with mm and uN, where 1 uN s^2/mm = 1 g), >= 0, and
+        yield stress (optional: a solve whose peak normal stress exceeds it warns,
+        `flexmb.PlausibilityWarning`). See `flexmb.joints.MaterialJoint`.
     elements
         Straight co-rotational beam elements along the arc in the finite-element model (16).
         Measured evidence for the default (a 90 deg steel arc, r = 30 mm, end turned 10 deg
         under a 1 N side load, converged-mesh reference by Richardson from 64/128/256 elements,
         ``benchmarks/bench_discretisation.py``): end drift -0.04 %, support stiffness +0.23 %,
         moment +0.08 %, first frequency +0.11 %, buckling +0.45 % at 16 elements.
-    density
-        Mass density (7800: steel in kg/m^3; in the model's units: mass per length cubed, e.g.
-        g/mm^3 with mm and uN, where 1 uN s^2/mm = 1 g), >= 0.
     model
         Wrench model of the closed form (``method="newton"``): ``"linear"`` (Eq. 15, balance in
         the undeformed configuration) or ``"partial-nonlinear"`` (Eq. 17, the end displacement
@@ -80,31 +78,26 @@ class CurvedBeam(Joint):
     motion_range: ClassVar[float] = 0.3
     mesh_parameter: ClassVar[str] = "elements"
 
+    default_material: ClassVar = None
+
     radius: float
     angle: float
-    E: float
     width: float
     height: float
-    G: float | None = None
+    material: object = None
     elements: int = 16
-    density: float = 7800.0
     model: str = "partial-nonlinear"
-    nu: float | None = None
-    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         owner = "curved_beam"
-        if self.nu is not None:  # Poisson's ratio instead of G: stored as G
-            object.__setattr__(self, "G", v.shear_modulus(owner, self.E, self.G, self.nu, None))
-            object.__setattr__(self, "nu", None)
-        for name in ("radius", "E", "width", "height"):
+        if self.material is None and self._density is UNSET:
+            object.__setattr__(self, "_density", 7800.0)  # E alone: steel's density, as before
+        super().__attrs_post_init__()
+        for name in ("radius", "width", "height"):
             v.positive(owner, name, getattr(self, name))
         v.in_open_range(owner, "angle", self.angle, 0.0, 2 * math.pi, " rad")
-        v.modulus_units(owner, self.E, self.radius, "radius")
-        if self.G is not None:
-            v.positive(owner, "G", self.G)
+        check_size(owner, self.E, self.radius, what="radius", stacklevel=4, rules=("GPa",))
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
-        v.nonnegative(owner, "density", self.density)
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
         if not self.height < self.radius:
             raise ParameterError(f"{owner}: height={self.height!r} must be < radius={self.radius!r} (a slender arc)")
@@ -113,10 +106,15 @@ class CurvedBeam(Joint):
         except ParameterError as exc:
             raise ParameterError(f"{owner}: width={self.width!r}, height={self.height!r}, E={self.E!r}: {exc}") from None
 
+    @staticmethod
+    def default_shear(E: float) -> float:
+        """G with ``E`` alone: E / 2.6 (Poisson's ratio 0.3)."""
+        return E / 2.6
+
     @property
     def shear_modulus(self) -> float:
-        """G in the model's units: ``G`` if given, else E / 2.6 (Poisson's ratio 0.3)."""
-        return self.G if self.G is not None else self.E / 2.6
+        """G in the model's units (the material's)."""
+        return self.G
 
     @property
     def bending_stiffness(self) -> float:

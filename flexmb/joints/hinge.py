@@ -28,7 +28,7 @@ class Hinge(Joint):
     Parameters
     ----------
     k
-        Torsional stiffness [N m/rad] (0: a free pin), >= 0: the moment ``k theta`` of the relative
+        Torsional stiffness [moment/rad] (0: a free pin), >= 0: the moment ``k theta`` of the relative
         rotation ``theta`` of B from A (pseudo-rigid-body models); ``theta`` counts turns past pi in
         3D as in 2D (the solution tracks it along its increments).
     angle

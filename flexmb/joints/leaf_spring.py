@@ -9,14 +9,16 @@ import numpy as np
 
 from .. import _validate as v
 from ..errors import ParameterError, UnsupportedStrategyError
+from ..materials import KEYWORDS, STEEL
 from ..sections import Section, rectangle
-from ._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, ClosedForm, Joint, JointMesh
+from ..units import check_size
+from ._base import FLEXURE_MODELS, INTERNAL, SIDE_A, SIDE_B, UNSET, ClosedForm, JointMesh, MaterialJoint
 
 __all__ = ["LeafSpring"]
 
 
 @attrs.frozen(kw_only=True, cache_hash=True)
-class LeafSpring(Joint):
+class LeafSpring(MaterialJoint):
     """Straight leaf spring [``leaf_spring``] from node A (origin) to node B at ``(length, 0[, 0])``.
 
     Clamped in the links at both ends; the width lies along the joint frame's z axis, so its
@@ -25,25 +27,21 @@ class LeafSpring(Joint):
     Parameters
     ----------
     length
-        Length [m] (0.1).
+        Length [length] (0.1).
     width, thickness
-        Cross-section [m] (0.02, 1e-3); ``thickness < length``.
-    E, G
-        Young's and shear modulus [Pa] (200e9, 76.9e9); Poisson's ratio ``E/(2G) - 1`` in (-1, 0.5).
-    nu
-        Poisson's ratio in (-1, 0.5) instead of ``G``: ``G = E / (2 (1 + nu))`` is stored (``nu``
-        then reads None).
-    yield_stress
-        Yield stress of the material [Pa], optional: a solve whose peak normal stress exceeds it
-        warns (`flexmb.PlausibilityWarning`).
+        Cross-section [length] (0.02, 1e-3); ``thickness < length``.
+    material
+        A `flexmb.Material` or a named one (default: steel, E = 200e9, G = 76.9e9, density 7800,
+        SI); its ``yield_stress``, when given, makes a solve whose peak normal stress exceeds it
+        warn (`flexmb.PlausibilityWarning`).
+    E, G, nu, density, yield_stress
+        The material's values one by one (see `flexmb.joints.MaterialJoint`).
     elements
         Number of beam elements, 1 or more (12). Measured evidence for the default (a parallel
         guide of two 0.1 m leaves 1 mm thick pushed 10 mm, converged-mesh reference by
         Richardson from 16/32/64 elements, ``benchmarks/bench_discretisation.py``): parasitic
         drop -5.0 / -0.55 %, support stiffness along the leaves +7.4 / +0.5 %, actuation force
         +0.34 / +0.04 % at 4 / 12 elements; 6.1 -> 6.0 ms per solve (5 Newton iterations).
-    density
-        Mass density [kg/m^3] (7800, steel), >= 0 (0: a massless leaf).
     section
         Optional `Section` that replaces the rectangle (e.g. to switch off shear with ``ky = kz = inf``);
         its own material (``E``, ``G``, ``density``, ``yield_stress``) and sizes then apply: a
@@ -61,55 +59,55 @@ class LeafSpring(Joint):
     length: float = 0.1
     width: float = 0.02
     thickness: float = 1e-3
-    E: float = 200e9
-    G: float = 76.9e9
     elements: int = 12
-    density: float = 7800.0
     section: Section | None = None
     model: str = "partial-nonlinear"
-    nu: float | None = None
-    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         owner = "leaf_spring"
-        if self.nu is not None:  # Poisson's ratio instead of G: stored as G
-            object.__setattr__(self, "G", v.shear_modulus(owner, self.E, self.G, self.nu, 76.9e9))
-            object.__setattr__(self, "nu", None)
-        for name in ("length", "width", "thickness", "E", "G"):
+        given = {"E", "G", "density", "yield_stress"} if self.material is not STEEL else \
+            {"G" if k == "nu" else k for k in KEYWORDS if getattr(self, f"_{k}") is not UNSET}
+        super().__attrs_post_init__()
+        for name in ("length", "width", "thickness"):
             v.positive(owner, name, getattr(self, name))
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
-        v.nonnegative(owner, "density", self.density)
-        v.modulus_units(owner, self.E, self.length)
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
         if self.section is not None and not isinstance(self.section, Section):
             raise ParameterError(f"{owner}: section must be a flexmb.Section, got {type(self.section).__name__}")
+        check_size(owner, self.E if self.section is None else self.section.E, self.length, stacklevel=4,
+                   rules=("GPa",))  # "mm" at add_joint, where the units are known
         thickness = self.thickness if self.section is None else \
             None if self.section.ymax is None else 2 * self.section.ymax  # the section's, where it has one
         if thickness is not None and thickness >= self.length:
             raise ParameterError(f"{owner}: thickness={thickness!r} m{'' if self.section is None else ' (section)'} "
                                  f"must be < length={self.length!r} m")
         if self.section is not None:  # the section's material and shape apply: different ones given here are lost
-            default = {f.name: f.default for f in attrs.fields(type(self))}
-            clash = [f"{n}={getattr(self, n)!r} (section: {getattr(self.section, n)!r})"
-                     for n in ("E", "G", "density", "yield_stress")
-                     if getattr(self, n) != default[n] and getattr(self, n) != getattr(self.section, n)]
-            if clash:
-                raise ParameterError(f"{owner}: {', '.join(clash)}: the section's material applies; give it in the "
-                                     "section (e.g. flexmb.rectangle(..., density=)) or leave it out here")
-            s = self.section  # a rectangle's half-sizes: ymax = thickness / 2, zmax = width / 2
-            sizes = {"width": 2 * s.zmax, "thickness": 2 * s.ymax} if s.shape == "rectangle" else {}
-            clash = [f"{n}={getattr(self, n)!r} (section: {sizes[n]!r})" if n in sizes else
-                     f"{n}={getattr(self, n)!r} (section: a {s.shape or 'general'} section, A={s.A!r})"
-                     for n in ("width", "thickness") if getattr(self, n) != default[n]
-                     and not (n in sizes and np.isclose(getattr(self, n), sizes[n], rtol=1e-12, atol=0.0))]
-            if clash:
-                raise ParameterError(f"{owner}: {', '.join(clash)}: the section's shape applies; give the sizes in "
-                                     "the section (flexmb.rectangle(width, thickness, ...)) or leave them out here")
+            self._check_section(owner, given)
         try:
             self.cross_section()  # overflow/underflow or inconsistent moduli raise here
         except ParameterError as exc:
             raise ParameterError(f"{owner}: width={self.width!r} m, thickness={self.thickness!r} m, E={self.E!r} Pa, "
                                  f"G={self.G!r} Pa: {exc}") from None
+
+    def _check_section(self, owner: str, given: set) -> None:
+        """Refuse material values (``given``: those passed, other than the default steel's) and sizes
+        beside ``section`` that differ from the section's: they would be ignored."""
+        default = {f.name: f.default for f in attrs.fields(type(self))}
+        clash = [f"{n}={getattr(self, n)!r} (section: {getattr(self.section, n)!r})"
+                 for n in ("E", "G", "density", "yield_stress")
+                 if n in given and getattr(self, n) not in (getattr(STEEL, n), getattr(self.section, n))]
+        if clash:
+            raise ParameterError(f"{owner}: {', '.join(clash)}: the section's material applies; give it in the "
+                                 "section (e.g. flexmb.rectangle(..., density=)) or leave it out here")
+        s = self.section  # a rectangle's half-sizes: ymax = thickness / 2, zmax = width / 2
+        sizes = {"width": 2 * s.zmax, "thickness": 2 * s.ymax} if s.shape == "rectangle" else {}
+        clash = [f"{n}={getattr(self, n)!r} (section: {sizes[n]!r})" if n in sizes else
+                 f"{n}={getattr(self, n)!r} (section: a {s.shape or 'general'} section, A={s.A!r})"
+                 for n in ("width", "thickness") if getattr(self, n) != default[n]
+                 and not (n in sizes and np.isclose(getattr(self, n), sizes[n], rtol=1e-12, atol=0.0))]
+        if clash:
+            raise ParameterError(f"{owner}: {', '.join(clash)}: the section's shape applies; give the sizes in "
+                                 "the section (flexmb.rectangle(width, thickness, ...)) or leave them out here")
 
     def interface_b(self, dim: int) -> np.ndarray:
         b = np.zeros(dim)
@@ -117,7 +115,7 @@ class LeafSpring(Joint):
         return b
 
     def cross_section(self) -> Section:
-        """The leaf's `Section`: ``section`` if given, else the ``width`` x ``thickness`` rectangle [m]."""
+        """The leaf's `Section`: ``section`` if given, else the ``width`` x ``thickness`` rectangle [length]."""
         return self.section or rectangle(self.width, self.thickness, self.E, self.G, self.density,
                                          yield_stress=self.yield_stress)
 

@@ -22,13 +22,13 @@ from .. import _validate as v
 from ..errors import ParameterError
 from ..sections import rectangle
 from ._leaves import check_leaves
-from ._base import INTERNAL, SIDE_A, SIDE_B, Joint, JointMesh
+from ._base import INTERNAL, SIDE_A, SIDE_B, JointMesh, MaterialJoint
 
 __all__ = ["ThreeXInfinity"]
 
 
 @attrs.frozen(kw_only=True, cache_hash=True)
-class ThreeXInfinity(Joint):
+class ThreeXInfinity(MaterialJoint):
     """Stacked cross-flexure hinge [``three_x_infinity``] for +-45 deg about its z axis.
 
     Geometry, in the joint frame (interface node A at the origin, rotation about z):
@@ -49,27 +49,25 @@ class ThreeXInfinity(Joint):
     Parameters (defaults: the flexmb design of the README, steel as in Sec. 4.4)
     --------------------------------------------------------------------------
     length
-        Leaf length [m] (0.03).
+        Leaf length [length] (0.03).
     angle
         Leaf angle to the joint's x axis [rad], in (0, pi/2) (pi/4).
     thickness
-        Leaf thickness [m] (0.45e-3, Sec. 4.4), less than ``length / 10``.
+        Leaf thickness [length] (0.45e-3, Sec. 4.4), less than ``length / 10``.
     width_inner, width_outer
-        Leaf widths [m] (0.010, 0.005).
+        Leaf widths [length] (0.010, 0.005).
     gap
-        Clearance between the inner and outer leaves along z [m] (1e-3).
+        Clearance between the inner and outer leaves along z [length] (1e-3).
     stage_gap
-        Clearance between successive stages along z [m] (2e-3).
+        Clearance between successive stages along z [length] (2e-3).
     stages
         Number of stages in series, 2 to 100 (3).
-    E, G
-        Young's and shear modulus [Pa] (200e9, 76.9e9).
-    nu
-        Poisson's ratio in (-1, 0.5) instead of ``G``: ``G = E / (2 (1 + nu))`` is stored (``nu``
-        then reads None).
-    yield_stress
-        Yield stress of the material [Pa], optional: a solve whose peak normal stress exceeds it
-        warns (`flexmb.PlausibilityWarning`).
+    material
+        A `flexmb.Material` or a named one (default: steel, E = 200e9, G = 76.9e9, density 7800,
+        SI, as Sec. 4.4); its ``yield_stress``, when given, makes a solve whose peak normal stress
+        exceeds it warn (`flexmb.PlausibilityWarning`).
+    E, G, nu, density, yield_stress
+        The material's values one by one (see `flexmb.joints.MaterialJoint`).
     elements_per_leaf
         Beam elements per leaf, 1 or more (12: 108 flexible elements for 3 stages). Measured
         evidence for the default (turned 45 deg under a 10 N axial load, converged-mesh
@@ -79,8 +77,6 @@ class ThreeXInfinity(Joint):
         iterations; host at load 6). The manipulator
         of the paper (`flexmb.models.manipulator`) keeps 3, the mesh of the shipped database
         (KSD on another mesh needs ``flexmb train three_x_infinity --elements N``).
-    density
-        Mass density of the leaves [kg/m^3] (7800, steel), >= 0 (0: massless leaves).
 
     The rigid intermediate bodies carry no mass of their own (only the leaves' ends attached to
     them); give a mechanism's links their mass with `flexmb.Mechanism.add_link`.
@@ -103,21 +99,13 @@ class ThreeXInfinity(Joint):
     gap: float = 1e-3
     stage_gap: float = 2e-3
     stages: int = 3
-    E: float = 200e9
-    G: float = 76.9e9
     elements_per_leaf: int = 12
-    density: float = 7800.0
-    nu: float | None = None
-    yield_stress: float | None = None
 
     def __attrs_post_init__(self):
         owner = "three_x_infinity"
-        if self.nu is not None:  # Poisson's ratio instead of G: stored as G
-            object.__setattr__(self, "G", v.shear_modulus(owner, self.E, self.G, self.nu, 76.9e9))
-            object.__setattr__(self, "nu", None)
-        check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer", "E", "G"))
+        super().__attrs_post_init__()
+        check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer"))
         v.integer(owner, "stages", self.stages, 2, 100)
-        v.nonnegative(owner, "density", self.density)
         for name in ("gap", "stage_gap"):
             if v.finite(owner, name, getattr(self, name)) < 0:
                 raise ParameterError(f"{owner}: {name}={getattr(self, name)!r} m must be >= 0")
@@ -126,7 +114,7 @@ class ThreeXInfinity(Joint):
 
     @property
     def pitch(self) -> float:
-        """Distance between successive stages along z [m]."""
+        """Distance between successive stages along z [length]."""
         return self.width_inner + 2 * (self.width_outer + self.gap) + self.stage_gap
 
     @property

@@ -33,6 +33,7 @@ from .geometry import ACTIVE, JointFrames, LinkPoses, compose, expm, intended_an
 __all__ = ["ReducedMechanism", "template"]
 
 _EYE = np.eye(3)
+_BUILT: set = set()  # the attribute names `ReducedMechanism.__init__` sets
 #: ``Q.reshape(9) @ _DUNSKEW`` = ``0.5 (trace(Q) I - Q)`` flattened, d unskew(Q) / d omega (dQ = skew(omega) Q)
 _DUNSKEW = 0.5 * (np.outer(_EYE.ravel(), _EYE.ravel()) - np.eye(9))
 
@@ -228,12 +229,8 @@ class ReducedMechanism:
         self.joint_names = names
         self.folder = folder
         self._templates = used  # (joint, template, database file signature) per distinct joint value
-        a, b = np.array(a), np.array(b)
-        P = np.repeat(_EYE[None], len(names), axis=0)
-        P[:, :dim, :dim] = rot
         self.b0 = _embed(np.array(b0), dim)
-        origin = _embed(np.array(origin), dim)
-        self.frames = JointFrames(a, b, origin - self.X0[a], origin + (P @ self.b0[..., None])[..., 0] - self.X0[b], P)
+        self.frames = self._frames(np.array(a), np.array(b), rot, origin)
         self.D0 = np.sqrt((self.b0 * self.b0).sum(axis=1))
         self.groups = [(tpl, cons, np.array(idx)) for tpl, cons, idx in groups.values()]
         # how to take a group's joints from per-joint arrays (all of them: a view, not a copy)
@@ -279,12 +276,8 @@ class ReducedMechanism:
         else:
             self.lam_rate = np.zeros(r0)
         self.n_equations = r0
-        loads = problem.loads
-        self.load_node = loads.node
-        self.load_offset = _embed(loads.offset, dim)
-        self.load_force = _embed(loads.force, dim)
-        self.load_moment = loads.moment if dim == 3 else np.concatenate(
-            [np.zeros((len(loads.node), 2)), loads.moment], axis=1)
+        self.load_node = problem.loads.node
+        self._set_loads(problem.loads)
         # step 3: where the joints' wrenches on links b and a and the loads go in the residual, and
         # each joint's 12 x 12 block and each offset load's 3 x 3 block in the flattened tangent
         ld = self.load_node[:, None] * 6
@@ -293,6 +286,24 @@ class ReducedMechanism:
         lr = ld + np.arange(3, 6)
         self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
                                      (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])
+        _BUILT.update(vars(self))  # the attributes a set-up has when built (`rebind` keeps only these)
+
+    def _frames(self, a: np.ndarray, b: np.ndarray, rot: list, origin: list) -> JointFrames:
+        """The joints' `JointFrames` from their links ``a``, ``b`` (J,), placements' rotations and
+        origins (global, undeformed), with `X0` and `b0` set."""
+        dim = self.dim
+        P = np.repeat(_EYE[None], len(a), axis=0)
+        P[:, :dim, :dim] = rot
+        origin = _embed(np.array(origin), dim)
+        return JointFrames(a, b, origin - self.X0[a], origin + (P @ self.b0[..., None])[..., 0] - self.X0[b], P)
+
+    def _set_loads(self, loads) -> None:
+        """The dead loads' offsets, forces and moments in 3D form (`load_node` fixed)."""
+        dim = self.dim
+        self.load_offset = _embed(loads.offset, dim)
+        self.load_force = _embed(loads.force, dim)
+        self.load_moment = loads.moment if dim == 3 else np.concatenate(
+            [np.zeros((len(loads.node), 2)), loads.moment], axis=1)
 
     def _set_values(self, values: np.ndarray) -> None:
         """The prescribed values (on `prescribed`) and the moves of step 1 they give."""
@@ -323,6 +334,33 @@ class ReducedMechanism:
         start = vars(self).get("_kinematic_start")
         if start is not None:  # at rest (lam = 0) the same; the turn rate follows the values
             out._kinematic_start = start[:-1] + (None,)
+        return out
+
+    def rebind(self, compiled) -> ReducedMechanism | None:
+        """This set-up for ``compiled``, another mechanism of the same structure (issue 31: a design
+        loop's new mechanism): the same links, joints (equal values, on the same sides), prescribed
+        DOFs and loaded links, no hinges, with other link positions, joint placements, prescribed
+        values and loads. Templates, constraint sets, groups and index maps are shared; the numbers
+        (links' reference positions, joint frames, loads, moves) are recomputed and what steps 1-4
+        derived from them is dropped, so the result is the set-up `ReducedMechanism(compiled)`
+        builds. None when ``compiled`` is not such a mechanism."""
+        new, old = compiled.problem, self.compiled.problem
+        if (self.hinges is not None or getattr(new.model, "hinges", None) is not None
+                or compiled.link_node != self.compiled.link_node or len(compiled.joints) != len(self.joint_names)
+                or any(k != name or (jt is not j0 and not (hashable(jt) and jt == j0)) or (sa, sb) != (a0, b0)
+                       for (k, jt, _, sa, sb), (name, j0, _, a0, b0) in zip(compiled.joints, self.compiled.joints))
+                or new.model.dim != self.dim or not np.array_equal(new.prescribed, old.prescribed)
+                or not np.array_equal(new.loads.node, old.loads.node)):
+            return None
+        out = copy.copy(self)
+        for derived in set(vars(out)) - _BUILT:  # what steps 1-4 derived from the numbers on first use
+            del vars(out)[derived]
+        out.compiled = compiled
+        out.X0 = _embed(new.model.x0[:self.n_links], self.dim)
+        out.frames = out._frames(self.frames.a, self.frames.b, [pl.rotation for _, _, pl, _, _ in compiled.joints],
+                                 [pl.origin for _, _, pl, _, _ in compiled.joints])
+        out._set_values(np.asarray(new.values, dtype=float))
+        out._set_loads(new.loads)
         return out
 
     def current(self) -> bool:

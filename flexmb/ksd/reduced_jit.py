@@ -590,6 +590,7 @@ def eob_lookup(t, c, k, theta_all, b_all, at, root, powers, ocoef, emb, K, Fh, r
     v = np.empty((J, c.shape[1]))
     bspline(t, c, k, theta, v)
     eye = np.zeros((ni, 3, 3))
+    w = np.empty((ni, 3))  # a joint's internal rotation vectors (a copy: numba's reshape would compile ~3 s)
     tp = np.empty(len(powers))
     for i in range(ni):
         eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0
@@ -630,7 +631,10 @@ def eob_lookup(t, c, k, theta_all, b_all, at, root, powers, ocoef, emb, K, Fh, r
             for i in range(ni):
                 a_int[j, i] = v[j, i]
         else:
-            compose3d(eye, v[j, :3 * ni].reshape(ni, 3), R_int[j])
+            for i in range(ni):
+                for q in range(3):
+                    w[i, q] = v[j, 3 * i + q]
+            compose3d(eye, w, R_int[j])
 
 
 @njit

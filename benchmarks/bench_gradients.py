@@ -1,0 +1,136 @@
+"""Design-gradient benchmark (issue 28): what a gradient costs against the solve it belongs to.
+
+A 3D cross-flexure hinge (10 el./leaf, 30 elements) carrying a 1 kg block, turned 0.5 rad, with
+20 parameters of every kind (leaf length, angle, thickness, widths, gap, E, G, density; the block's
+mass, inertia, centre; the joint's placement and turn; a dead load's components):
+
+(1) one response (the actuation moment) w.r.t. the 20 parameters: the plain solve (build + solve),
+    the design's model-number rates (2 builds per parameter, once per design), the configuration's
+    linearisation and adjoint solve, and the central differences of plain solves (40 solves) for
+    perspective;
+(2) five responses (actuation moment, first frequency, support compliance, KS stress, a
+    displacement) at 10 configurations along the stroke (0.05 ... 0.5 rad) w.r.t. the 20 parameters
+    against the 10 solves.
+Medians of repeated runs, ratios within one run. Writes the "gradients" section of BENCHMARKS.md.
+Run: python benchmarks/bench_gradients.py [--quick]
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import numpy as np
+from _report import machine, run
+
+import flexmb
+from flexmb.design import DesignPoint
+from flexmb.design import responses as R
+from flexmb.design.adjoint import Sensitivity
+from flexmb.linear import single_threaded
+
+
+def hinge(p: dict, turn: float = 0.5) -> flexmb.Mechanism:
+    m = flexmb.Mechanism(dim=3)
+    m.add_link("A", fixed=True)
+    L, a = p["L"], p["a"]
+    m.add_link("B", position=(0.0, L * np.sin(a), 0.0), mass=p["m"], inertia=np.diag([p["Jx"], p["Jx"], p["Jz"]]),
+               center=(p["cx"], p["cy"], 0.0))
+    m.add_joint("A", "B", "cross_flexure", length=L, angle=a, thickness=p["t"], width_inner=p["wi"],
+                width_outer=p["wo"], gap=p["gap"], E=p["E"], G=p["G"], density=p["rho"], elements_per_leaf=10,
+                origin=(p["x"], p["y"], 0.0), rotation=(0.0, 0.0, p["phi"]), yield_stress=1e9)
+    m.prescribe("B", rotation=(0.0, 0.0, turn))
+    m.apply_force("B", (p["Fx"], p["Fy"], p["Fz"]), point=(0.0, L * np.sin(a) + 0.02, 0.0))
+    return m
+
+
+P = dict(L=0.1, a=np.pi / 4, t=1e-3, wi=0.04, wo=0.02, gap=1e-3, E=200e9, G=76.9e9, rho=7800.0, m=1.0, Jx=1e-3,
+         Jz=1e-3, cx=0.0, cy=0.01, x=0.0, y=0.0, phi=0.0, Fx=1.0, Fy=-9.81, Fz=0.5)
+BOUNDS = {"x": (-0.01, 0.01), "y": (-0.01, 0.01), "phi": (-0.1, 0.1), "cx": (-0.02, 0.02), "gap": (0.0, 0.005)}
+FIVE = (R.reaction("B", "rz"), R.frequency(1), R.compliance("B", "x", "x"), R.stress(scale=300e6),
+        R.displacement("B", "x"))
+
+
+def _median(fn, repeat):
+    out, times = None, []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return out, float(np.median(times))
+
+
+def _gradient(point, solution, responses):
+    with single_threaded():
+        sens = Sensitivity(solution, point.rates(solution.compiled))
+        return [r.gradient(sens) for r in responses]
+
+
+def one_response(repeat: int) -> dict:
+    point = DesignPoint(hinge, P, BOUNDS)
+    sol, t_solve = _median(lambda: flexmb.solve(hinge(P)), repeat)
+    _, t_rates = _median(lambda: DesignPoint(hinge, P, BOUNDS).rates(sol.compiled), repeat)
+    point.rates(sol.compiled)
+    _, t_adj = _median(lambda: _gradient(point, sol, [FIVE[0]]), repeat)
+    t_cd = None
+    if repeat > 1:
+        _, t_cd = _median(lambda: [flexmb.solve(hinge({**P, k: P[k] * (1 + s * 1e-4) if P[k] else s * 1e-6}))
+                                    for k in P for s in (1, -1)], 1)
+    return {"solve": t_solve, "rates": t_rates, "adjoint": t_adj, "cd": t_cd, "iterations": sol.iterations,
+            "elements": len(sol.compiled.problem.model.elements.L0), "dofs": sol.compiled.problem.model.n_dofs}
+
+
+def stroke(repeat: int, n_config: int = 10) -> dict:
+    turns = np.linspace(0.05, 0.5, n_config)
+    sols, t_solves = _median(lambda: [flexmb.solve(hinge(P, th)) for th in turns], repeat)
+
+    def gradients():
+        point = DesignPoint(hinge, P, BOUNDS)
+        t = time.perf_counter()
+        point.rates(sols[-1].compiled)
+        t_rates = time.perf_counter() - t
+        for th, sol in zip(turns, sols):
+            point.evaluate(FIVE, configure=lambda m, th=th: m.prescribe("B", rotation=(0.0, 0.0, th)), solution=sol)
+        return t_rates
+
+    t_rates, t_all = _median(gradients, repeat)
+    return {"solves": t_solves, "rates": t_rates, "all": t_all, "configs": n_config}
+
+
+def main(quick: bool = False) -> str:
+    repeat = 3 if quick else 7
+    a = one_response(repeat)
+    b = stroke(1 if quick else 3)
+    g = a["rates"] + a["adjoint"]
+    lines = [
+        "## Design gradients (issue 28)", "",
+        f"3D cross-flexure hinge, {a['elements']} beam elements ({a['dofs']} DOFs), a 1 kg block, turned 0.5 rad "
+        f"({a['iterations']} Newton iterations); 20 parameters of every kind. {machine()}.", "",
+        "| what | time [ms] | / plain solve |", "| --- | ---: | ---: |",
+        f"| plain solve (build + solve) | {a['solve'] * 1e3:.1f} | 1 |",
+        f"| model-number rates: 40 builds of the design (once per design) | {a['rates'] * 1e3:.1f} | "
+        f"{a['rates'] / a['solve']:.1f} |",
+        f"| linearisation + adjoint of one response (per configuration) | {a['adjoint'] * 1e3:.1f} | "
+        f"{a['adjoint'] / a['solve']:.2f} |",
+        f"| gradient of one response w.r.t. 20 parameters (both) | {g * 1e3:.1f} | {g / a['solve']:.1f} |",
+    ]
+    if a["cd"] is not None:
+        lines.append(f"| central differences of plain solves (40 solves, for scale) | {a['cd'] * 1e3:.1f} | "
+                     f"{a['cd'] / a['solve']:.1f} |")
+    lines += ["",
+              f"Five responses (actuation moment, first frequency, support compliance, KS stress, displacement) at "
+              f"{b['configs']} configurations (0.05 ... 0.5 rad) w.r.t. 20 parameters:", "",
+              "| what | time [ms] | / the 10 solves |", "| --- | ---: | ---: |",
+              f"| the {b['configs']} solves | {b['solves'] * 1e3:.1f} | 1 |",
+              f"| rates (once) | {b['rates'] * 1e3:.1f} | {b['rates'] / b['solves']:.2f} |",
+              f"| all gradients (rates + 10 linearisations, 5 responses each) | {b['all'] * 1e3:.1f} | "
+              f"{b['all'] / b['solves']:.2f} |",
+              f"| of which per configuration | {(b['all'] - b['rates']) / b['configs'] * 1e3:.1f} | "
+              f"{(b['all'] - b['rates']) / b['solves']:.2f} (all 10) |", ""]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    run("gradients", main, __doc__, "fewer repeats")

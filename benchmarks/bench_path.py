@@ -1,4 +1,6 @@
-"""Path-following benchmark (issue 19): steps, corrector iterations and time per traced path.
+"""Path-following benchmark (issues 19, 29): points, corrector iterations and time per traced path,
+each path traced as the device goes (``branch="stable"``: switching at bifurcations) and on its
+primary branch only (``branch="primary"``, the trace before issue 29).
 
 Writes the "path" section of BENCHMARKS.md. Run: python benchmarks/bench_path.py [--quick]
 """
@@ -19,17 +21,25 @@ from flexmb.studies import paths as cases  # noqa: E402
 
 F_TOP, _ = cases.qiu_switching_forces()
 
+
+def _imperfect_pair():
+    """The bistable pair pushed by 100 N with 0.1 N across the middle of one leaf (a point inside
+    the joint)."""
+    m = cases.bistable_pair(12, "load")
+    m.add_joint_point("leaf_spring_0", "mid", 0.5)
+    m.apply_force("mid", (0.0, 0.1))
+    return m
+
+
 #: (name, mechanism builder, trace options, what the path covers)
 CASES = [
     ("Lee's frame, 10 el./member", lambda: cases.lee_frame(elements=10),
-     dict(steps=200, arc_length=1.0, stop=lambda s: -s.displacement("P")[1] > 95.0), "both limit points, snap-back"),
-    ("Lee's frame, 40 el./member", lambda: cases.lee_frame(elements=40),
      dict(steps=200, arc_length=1.0, stop=lambda s: -s.displacement("P")[1] > 95.0), "both limit points, snap-back"),
     ("Lee's frame, 150 el./member (899 DOFs, sparse)", lambda: cases.lee_frame(elements=150),
      dict(steps=200, arc_length=1.0, stop=lambda s: -s.displacement("P")[1] > 95.0), "both limit points, snap-back"),
     ("215 deg arch, 40 chords", cases.deep_arch,
      dict(steps=400, arc_length=0.25, stop=lambda s: -s.displacement("apex")[1] > 150.0), "limit, snap-back, 2nd limit"),
-    ("Qiu bistable, 20 el. (half)", lambda: cases.qiu_bistable(load=F_TOP),
+    ("Qiu bistable, 20 el. (half), 1e-3 imp.", lambda: cases.qiu_bistable(load=F_TOP),
      dict(steps=200, arc_length=0.05, stop=lambda s: -s.displacement("C")[1] > 2.45e-4), "snap-through, 2 limits"),
     ("Euler strut, 20 el., 1e-4 imp.", lambda: cases.euler_strut(load=math.pi**2 / 4, imperfection=1e-4),
      dict(steps=300, arc_length=0.05, stop=lambda s: s.rotation_vector("B")[0] > 2.5), "post-buckling to 2.5 rad"),
@@ -37,38 +47,79 @@ CASES = [
      dict(arc_length=0.05, max_load_factor=1.5), "bifurcation, to 1.5 P_E"),
     ("von Mises truss (mm), 4 el.", cases.von_mises_truss,
      dict(steps=100, arc_length=0.05, stop=lambda s: -s.displacement("T")[1] > 120.0), "both limit points"),
+    ("bistable pair, 12 el./leaf, stroke", lambda: cases.bistable_pair(12),
+     dict(steps=200, max_load_factor=1.0), "to twice the rise"),
+    ("bistable pair, 48 el./leaf, stroke", lambda: cases.bistable_pair(48),
+     dict(steps=200, max_load_factor=1.0), "to twice the rise"),
+    ("bistable pair, 12 el./leaf, 100 N", lambda: cases.bistable_pair(12, "load"),
+     dict(steps=40, stop=lambda s: -s.displacement("S")[1] > 1.0), "1 mm of push"),
+    ("bistable pair, 0.1 % load inside a leaf", _imperfect_pair,
+     dict(steps=40, stop=lambda s: -s.displacement("S")[1] > 1.0), "1 mm of push"),
+    ("sine arch e = 6, 40 el.", lambda: cases.sine_arch(40), dict(steps=40, max_load_factor=30.0), "to Q = 30"),
+    ("sine arch, 0.01 r imperfection", lambda: cases.sine_arch(40, imperfection=0.01),
+     dict(steps=40, stop=lambda s: s.load_factor < 0), "through the limit to Q < 0"),
+    ("Qiu double beam + shuttle, 20 el./half", lambda: cases.qiu_beam(20, True),
+     dict(steps=300, max_load_factor=1.0), "to twice the rise"),
+    ("Qiu single beam, 20 el./half", lambda: cases.qiu_beam(20, False),
+     dict(steps=300, max_load_factor=1.0), "to twice the rise"),
+    ("motor four-bar, cross-flexure rocker, 2D", lambda: cases.motor_fourbar(2),
+     dict(steps=200, max_load_factor=1.0), "a full crank turn"),
+    ("motor four-bar, cross-flexure rocker, 3D", lambda: cases.motor_fourbar(3),
+     dict(steps=200, max_load_factor=1.0), "a full crank turn"),
 ]
 
 
-def measure(build, options, repeat: int):
-    """(points, steps, iterations, critical points, median seconds) of one traced path."""
+def measure(build, options, repeat: int, branch: str):
+    """(points, iterations, path, median seconds) of one traced path."""
     times, path = [], None
     for _ in range(repeat):
         m = build()
         t = time.perf_counter()
-        path = flexmb.trace(m, progress=False, **options)
+        path = flexmb.trace(m, progress=False, branch=branch, **options)
         times.append(time.perf_counter() - t)
-    iterations = sum(s.iterations for s in path)
-    return len(path), len(path) - 1, iterations, path, float(np.median(times))
+    return len(path), sum(s.iterations for s in path), path, float(np.median(times))
+
+
+def _critical(path) -> str:
+    return ", ".join(f"{c.kind[0]}{'' if c.multiplicity == 1 else f'x{c.multiplicity}'}"
+                     f"{'*' if c.switched else ''} {c.load_factor:.4g}" for c in path.critical) or "none"
 
 
 def main(quick: bool = False) -> str:
+    import warnings
+
     repeat = 1 if quick else 3
+    with warnings.catch_warnings():  # compile the kernels first: not in the first case's time
+        warnings.simplefilter("ignore")
+        flexmb.trace(cases.von_mises_truss(), steps=3, progress=False)
     lines = [
-        "## Path following: flexmb.trace (issue 19)",
+        "## Path following: flexmb.trace (issues 19, 29)",
         "",
-        f"Arc-length paths from the undeformed state (`flexmb.studies.paths`), default options; {machine()}; "
-        f"median of {repeat} run(s), one BLAS thread. Iterations: corrector iterations of the path's points "
-        "(the located critical points and rejected steps come on top and are in the time).",
+        f"Arc-length paths from the undeformed state (`flexmb.studies.paths`); {machine()}; median of {repeat} "
+        "run(s), one BLAS thread. Each path traced as the device goes (`branch=\"stable\"`, the default since issue "
+        "29: at a bifurcation the branch with the fewest negative eigenvalues, then a growing load factor) and on its "
+        "primary branch only (`branch=\"primary\"`, the trace before). Iterations: corrector iterations of the path's "
+        "points (the located critical points, the branch-switching trials and rejected steps come on top and are in "
+        "the time).",
         "",
-        "| path | covers | steps | iterations | iterations/step | critical points (load factor) | time [s] |",
-        "|---|---|---|---|---|---|---|",
+        "| path | covers | branch | points | iterations | iterations/point | time [s] | ms/point | critical points "
+        "(load factor) | Path.snap |",
+        "|---|---|---|---:|---:|---:|---:|---:|---|---|",
     ]
     for name, build, options, covers in CASES:
-        _, steps, its, path, sec = measure(build, options, repeat)
-        crit = ", ".join(f"{c.kind[0]} {c.load_factor:.4g}" for c in path.critical) or "none"
-        lines.append(f"| {name} | {covers} | {steps} | {its} | {its / max(steps, 1):.1f} | {crit} | {sec:.2f} |")
-    lines += ["", "l: limit point, b: bifurcation point. The host runs other jobs: times are indicative."]
+        rows = {}
+        for branch in ("stable", "primary"):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                rows[branch] = measure(build, options, repeat, branch)
+        for branch, (n, its, path, sec) in rows.items():
+            snap = path.snap
+            snap = "none" if snap is None else f"{snap.kind[0]} {snap.load_factor:.4g}"
+            lines.append(f"| {name if branch == 'stable' else ''} | {covers if branch == 'stable' else ''} | {branch} | "
+                         f"{n} | {its} | {its / max(n - 1, 1):.1f} | {sec:.2f} | {1e3 * sec / max(n - 1, 1):.0f} | "
+                         f"{_critical(path)} | {snap} |")
+    lines += ["", "l: limit point, b: bifurcation point, x2: its multiplicity, *: the path switched branch there. "
+              "The host runs other jobs: times are indicative, the ratio of a case's two rows is what to read."]
     return "\n".join(lines)
 
 

@@ -36,6 +36,7 @@ from .solvers import solve
 from .study import grid, parameter_study
 from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
 from .path import Critical, Path, trace
+from .imperfection import imperfect
 from .table import Table, read_csv
 from ._version import __version__  # noqa: F401 (flexmb.__version__)
 
@@ -55,6 +56,7 @@ __all__ = [
     "DiscretisationEstimate",
     "Path",
     "trace",
+    "imperfect",
     "CrossFlexure",
     "CurvedBeam",
     "FlexmbError",

@@ -30,6 +30,7 @@ class Compiled:
     joint_nodes: dict = attrs.field(factory=dict)  # joint name -> FE node indices of its internal nodes
     joints: tuple = ()  # (name, joint, placement, side A link, side B link) at compile time
     fixed: tuple = ()  # names of the fixed links (the ground)
+    joint_points: dict = attrs.field(factory=dict)  # points inside joints: name -> FE node (`flexmb.fe.joint_points`)
     units: object = None  # the mechanism's declared flexmb.units.UnitSystem (None: undeclared), for labels
     #: what strategies derive from this problem alone and keep with it (KSD's set-up, by database
     #: folder); a new dict in every copy (`attrs.evolve` with another problem starts empty)
@@ -83,6 +84,7 @@ def _reads(mechanism) -> tuple:
     extend(points)
     extend(points.values())
     add(state.get("_actuation"))
+    add(state.get("_inside"))  # points inside joints: a new tuple at every change
     counts += (edges, len(loads), len(prescribed), len(points))
     return tuple(counts), objs
 

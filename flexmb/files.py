@@ -51,6 +51,9 @@ def to_dict(mechanism: Mechanism) -> dict:
     """The mechanism as the JSON-ready document `save` writes (see ``docs/files.md``)."""
     if not isinstance(mechanism, Mechanism):
         raise MechanismFileError(f"save: {type(mechanism).__name__} is not a flexmb.Mechanism")
+    if mechanism.joint_points:  # not in the format yet: refused, never dropped (issue 29's add_joint_point)
+        raise MechanismFileError(f"save: points inside joints ({', '.join(mechanism.joint_points)}) are not in the file "
+                                 "format yet; add them (Mechanism.add_joint_point) after loading")
     materials: dict = {}
     doc = {"format": FORMAT, "version": VERSION, "dim": mechanism.dim,
            "units": None if mechanism.units is None else mechanism.units.name, "materials": materials}

@@ -332,7 +332,7 @@ class FELinearisation(LinearisationBase):
         self.model = model = problem.model
         self.held, free = held_and_free(solution, held, owner)
         self.size = model.n_dofs
-        K = full_tangent(solution)
+        K = self.full = full_tangent(solution)  # all DOFs: the design gradients read its prescribed rows too
         self.free, self.Z = constrained(model, free, K, solution.state)  # hinges: their motions, multipliers out
         self._K = self._restricted(K)
         self._factor = None

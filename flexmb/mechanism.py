@@ -14,6 +14,7 @@ from .closed_form import build as closed_form_build
 from .compiled import Compiled
 from .errors import ModelError, ParameterError, TopologyError, UnsupportedStrategyError
 from .fe import build as fe_build
+from .fe import joint_points
 from .joints._base import Joint
 from .registry import joint as make_joint
 from .rotations import expm_so3, rot2
@@ -94,6 +95,8 @@ class Mechanism:
         self._prescribed: dict[str, dict[str, float | np.ndarray]] = {}
         self._points: dict[str, tuple[str, np.ndarray]] = {}
         self._actuation: tuple[str, np.ndarray, np.ndarray, float] | None = None
+        #: points inside joints (`add_joint_point`): (points, loads, motions), a new tuple at every change
+        self._inside: tuple = ((), (), ())
 
     # -- building ----------------------------------------------------------------------------
     @property
@@ -196,6 +199,59 @@ class Mechanism:
             return u @ vt
         return expm_so3(v.vector(where, "rotation", rotation, 3))
 
+    # -- points inside a joint ----------------------------------------------------------------
+    def add_joint_point(self, joint: str, name: str, fraction: float, *, leaf: int = 0) -> None:
+        """Name a point inside ``joint``: at ``fraction`` (0 ... 1) of the length of its leaf
+        ``leaf`` from side A (a cross flexure's leaves as `CrossFlexure.leaves` lists them; a joint
+        without ``leaves``: its beam from A to B), without splitting the joint. The point then
+        takes `apply_force`, `apply_moment` and `prescribe` like a link, and a `Solution`'s
+        `displacement`, `reaction` and `pose` (finite-element model only: ``method="conventional"``
+        and `flexmb.trace`). Its mesh gets a node there (the element split in two)."""
+        if joint not in self.joints:
+            raise ModelError(f"no joint named {joint!r}; joints: {', '.join(map(repr, self.joints)) or 'none'}")
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"joint point name must be a non-empty string, got {name!r}")
+        if name in self.graph or self._is_joint_point(name):
+            raise ModelError(f"a link or joint point named {name!r} exists already")
+        where = f"joint point {name!r}"
+        fraction = v.finite(where, "fraction", fraction)
+        if not 0.0 < fraction < 1.0:
+            raise ParameterError(f"{where}: fraction={fraction!r} must be in (0, 1) (its ends are the links)")
+        leaf = v.integer(where, "leaf", leaf, 0)
+        points, loads, motions = self._inside
+        self._inside = (points + ((name, joint, leaf, fraction),), loads, motions)
+
+    @property
+    def joint_points(self) -> dict:
+        """The points inside joints: name -> (joint, leaf, fraction)."""
+        return {n: (j, leaf, f) for n, j, leaf, f in self._inside[0]}
+
+    def _joint_point_names(self) -> set:
+        return {p[0] for p in self._inside[0]}
+
+    def _is_joint_point(self, name) -> bool:
+        return isinstance(name, str) and any(p[0] == name for p in self._inside[0])
+
+    def _inside_load(self, name: str, force, moment) -> None:
+        points, loads, motions = self._inside
+        self._inside = (points, loads + ((name, force, moment),), motions)
+
+    def _inside_motion(self, name: str, motion: dict) -> None:
+        where = f"joint point {name!r}"
+        allowed = ("x", "y", "rotation") if self.dim == 2 else ("x", "y", "z", "rotation")
+        points, loads, motions = self._inside
+        current = dict(dict(motions).get(name, {}))
+        for key, val in motion.items():
+            if key not in allowed:
+                raise ModelError(f"{where}: cannot prescribe {key!r}; valid components: {', '.join(allowed)}")
+            if val is None:
+                current.pop(key, None)
+            elif key == "rotation" and self.dim == 3:
+                current[key] = v.frozen(v.vector(where, "rotation", val, 3))
+            else:
+                current[key] = v.finite(where, key, val)
+        self._inside = (points, loads, tuple((n, m) for n, m in motions if n != name) + ((name, current),))
+
     def prescribe(self, name: str, **motion) -> None:
         """Prescribe displacements/rotations of a link (displacement control).
 
@@ -205,8 +261,11 @@ class Mechanism:
         is the link's orientation: a serial chain of joint rotations about axes fixed in the
         undeformed configuration (a manipulator link), which the load steps of the conventional
         method follow as ``exp(lam w_1) ... exp(lam w_k)``. Unprescribed components are free.
-        Repeated calls update the given components.
+        Repeated calls update the given components. A point inside a joint (`add_joint_point`)
+        takes ``x``, ``y`` (``z``) and ``rotation`` (a vector in 3D) the same way.
         """
+        if self._is_joint_point(name):
+            return self._inside_motion(name, motion)
         lk = self.link(name)
         if lk.fixed:
             raise ModelError(f"link {name!r} is fixed; a prescribed motion on a fixed link is contradictory")
@@ -237,7 +296,11 @@ class Mechanism:
         return dict(self._prescribed.get(name, {}))
 
     def apply_force(self, name: str, force, point=None) -> None:
-        """Dead force [force] (global axes) at ``point`` [length] (undeformed global position; default the link's reference)."""
+        """Dead force [force] (global axes) at ``point`` [length] (undeformed global position; default the
+        link's reference), or at a point inside a joint (`add_joint_point`, no ``point``)."""
+        if self._is_joint_point(name):
+            f = v.vector(f"joint point {name!r}", "force", force, self.dim)
+            return self._inside_load(name, f, np.zeros(1 if self.dim == 2 else 3))
         lk = self.link(name)
         where = f"link {name!r}"
         f = v.vector(where, "force", force, self.dim)
@@ -245,15 +308,22 @@ class Mechanism:
         self._loads.append((name, p - lk.position, f, np.zeros(1 if self.dim == 2 else 3)))
 
     def apply_moment(self, name: str, moment) -> None:
-        """Dead moment [moment]: a scalar (about z) in 2D, a vector (3,) in global axes in 3D."""
-        self.link(name)
-        where = f"link {name!r}"
+        """Dead moment [moment]: a scalar (about z) in 2D, a vector (3,) in global axes in 3D (at a link
+        or a point inside a joint)."""
+        inside = self._is_joint_point(name)
+        if not inside:
+            self.link(name)
+        where = f"{'joint point' if inside else 'link'} {name!r}"
         m = np.array([v.finite(where, "moment", moment)]) if self.dim == 2 else v.vector(where, "moment", moment, 3)
+        if inside:
+            return self._inside_load(name, np.zeros(self.dim), m)
         self._loads.append((name, np.zeros(self.dim), np.zeros(self.dim), m))
 
     def clear_loads(self) -> None:
         """Remove the applied forces and moments (the actuation stays; set its value to 0 to remove it)."""
         self._loads.clear()
+        points, _, motions = self._inside
+        self._inside = (points, (), motions)
 
     def set_actuation(self, link: str, direction, value: float = 0.0, point=None) -> None:
         """Declare the actuation force: ``value`` [force] along the unit vector ``direction`` (global,
@@ -340,7 +410,15 @@ class Mechanism:
         except (KeyError, TypeError):
             raise UnsupportedStrategyError(
                 f"no model builder for capability {capability!r}; builders: {', '.join(BUILDERS)}") from None
-        compiled = builder(self)
+        points, loads, motions = self._inside
+        if not points:
+            compiled = builder(self)
+        elif capability != fe_build.CAPABILITY:
+            raise UnsupportedStrategyError(f"points inside a joint ({', '.join(p[0] for p in points)}) need the "
+                                           "finite-element model (method='conventional' or flexmb.trace)")
+        else:
+            mech, where = joint_points.refined(self, points)
+            compiled = joint_points.attach(builder(mech), self, where, loads, dict(motions))
         return compiled if self.units is None else attrs.evolve(compiled, units=self.units)
 
     def __repr__(self) -> str:

@@ -106,6 +106,8 @@ class Solution:
         try:
             return self.compiled.link_node[link]
         except (KeyError, TypeError):
+            if link in getattr(self.compiled, "joint_points", {}):  # a point inside a joint (Mechanism.add_joint_point)
+                return self.compiled.joint_points[link]
             raise ModelError(f"no link named {link!r}; links: {', '.join(self.compiled.link_node)}") from None
 
     def pose(self, link: str):

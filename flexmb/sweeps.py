@@ -54,7 +54,8 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     solve that fails is kept (``converged=False``), and so is one where the strategy raises (a
     `DatabaseError` outside the trained range, any other error): its Solution's ``message``
     names the value and the error, its numbers are NaN. The next value starts from the last
-    converged one. Only ``raise_on_failure=True`` stops a sweep, with the `ConvergenceError` asked for.
+    converged one. Only ``raise_on_failure=True`` stops a sweep, with the `ConvergenceError` asked for;
+    Ctrl-C ends it with the solutions computed so far (``interrupted=True``, a UserWarning).
     ``properties``: design properties added to the table, a sequence of names (``"modes"``,
     ``"buckling"``, ``"compliance"``, ``"stress"``) or a mapping of the keyword arguments of
     `flexmb.design_properties.properties` (e.g. ``{"which": ("modes",), "n_modes": 3}``).
@@ -71,14 +72,33 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     else:
         bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
                    disable=None if progress is None else not progress)
-        result = SweepResult(list(bar), values, "force" if motion is None else ".".join(motion))
-        result.warnings = caught
+        done = _until_interrupted(bar, len(values))
+        result = SweepResult(done, values[: len(done)], "force" if motion is None else ".".join(motion))
+        result.interrupted = len(done) < len(values)
+        result.warnings = caught[: len(done)]
     if properties is not None:
         from .design_properties import property_columns
 
         kw = dict(properties) if isinstance(properties, Mapping) else {"which": properties}
         result.property_table = Table(property_columns(result.solutions, **kw))
     return result
+
+
+def _until_interrupted(bar, total: int) -> list:
+    """The solutions of ``bar`` (a tqdm over the sweep's generator) up to Ctrl-C: an interrupted
+    sweep returns those computed, with a UserWarning (a compiled loop runs at once: not these)."""
+    import warnings
+
+    done = []
+    try:
+        for sol in bar:
+            done.append(sol)
+    except KeyboardInterrupt:
+        warnings.warn(f"sweep: interrupted (Ctrl-C) after {len(done)} of {total} values; the solutions computed "
+                      "are returned (SweepResult.interrupted)", UserWarning, stacklevel=3)
+    finally:
+        bar.close()
+    return done
 
 
 def iter_sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: str | object = "conventional",
@@ -299,6 +319,8 @@ class SweepResult(Sequence):
 
     def __init__(self, solutions: list, values: np.ndarray, quantity: str):
         self.solutions, self._values, self.quantity = solutions, np.array(values, dtype=float), quantity
+        #: whether Ctrl-C ended the sweep before its last value (the values are those solved)
+        self.interrupted = False
 
         #: the `properties` columns requested from `sweep`, a `Table` (None: none)
         self.property_table = None

@@ -131,7 +131,9 @@ def test_a_design_that_does_not_converge_is_penalised(monkeypatch):
 
 def test_ctrl_c_returns_the_best_design_so_far_with_its_history():
     """A real SIGINT sent to this process from inside the 20th build (the start takes 8: two
-    configurations and two builds per parameter for the gradients)."""
+    configurations and two builds per parameter for the gradients). Python's own Ctrl-C handler is
+    installed for the test: a shell starts background jobs with SIGINT ignored."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     calls = []
 
     def build(p):
@@ -140,9 +142,12 @@ def test_ctrl_c_returns_the_best_design_so_far_with_its_history():
             os.kill(os.getpid(), signal.SIGINT)
         return stage(p)
 
-    result = optimize(build, dict(STAGE), BOUNDS, objective=ks_min(support_stiffness("stage", "y", point="tool")),
-                      maximize=True, constraints=[Constraint(ks_max(R.reaction("stage", "x")), upper=5.0)],
-                      stroke=STROKE)
+    try:
+        result = optimize(build, dict(STAGE), BOUNDS, objective=ks_min(support_stiffness("stage", "y", point="tool")),
+                          maximize=True, constraints=[Constraint(ks_max(R.reaction("stage", "x")), upper=5.0)],
+                          stroke=STROKE)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert result.interrupted and not result.success and "interrupted" in result.message
     h = result.history
     assert h.n_rows >= 2 and len(calls) == 20
@@ -173,6 +178,11 @@ def test_bad_input_is_refused_naming_it(monkeypatch):
         optimize(stage, dict(STAGE), BOUNDS, objective=obj, stroke=STROKE, optimizer="bfgs")
     with pytest.raises(ParameterError, match="not a response"):
         optimize(stage, dict(STAGE), BOUNDS, objective=ks_min(3.0), stroke=STROKE)
+    with pytest.raises(ParameterError, match="'nelder-mead' takes bounds only"):
+        optimize(stage, dict(STAGE), BOUNDS, objective=obj, stroke=STROKE, optimizer="nelder-mead",
+                 constraints=[Constraint(ks_max(R.reaction("stage", "x")), upper=5.0)])
+    with pytest.raises(ParameterError, match="derivative-free"):
+        optimize(stage, dict(STAGE), BOUNDS, objective=obj, stroke=STROKE, optimizer="cobyla", gradient="adjoint")
     with pytest.raises(ParameterError, match="aggregate"):
         optimize(stage, dict(STAGE), BOUNDS, objective=R.reaction("stage", "x"), stroke=STROKE)
     with pytest.raises(UnsupportedStrategyError, match="'newton'"):
@@ -197,3 +207,13 @@ def test_a_single_configuration_optimisation_without_a_stroke():
                       constraints=[Constraint(R.reaction("B", "rotation"), upper=2.0)])
     assert result.feasible and result.constraints["reaction(B, rotation) <= 2"] == pytest.approx(2.0, rel=1e-4)
     assert len(result.solutions) == 1
+
+
+def test_an_optimisation_with_its_configurations_on_an_executor_keeps_the_best_designs_solutions():
+    from concurrent.futures import ThreadPoolExecutor
+
+    serial = stage_problem(optimizer="slsqp")
+    with ThreadPoolExecutor(2) as pool:
+        spread = stage_problem(optimizer="slsqp", executor=pool, chunks=2)
+    assert spread.objective == pytest.approx(serial.objective, rel=1e-6)
+    assert len(spread.solutions) == len(STROKE) and all(s.converged for s in spread.solutions)

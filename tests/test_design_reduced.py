@@ -40,5 +40,5 @@ def test_ksd_reduced_refuses_a_joint_dimension_naming_it():
 
 
 def test_ksd_reduced_refuses_the_linearisation_responses_naming_them():
-    with pytest.raises(UnsupportedStrategyError, match=r"frequency\(1\).*KSD-reduced"):
+    with pytest.raises(UnsupportedStrategyError, match=r"frequency\(1\).*'ksd-reduced'"):
         evaluate(lambda q: fourbar(q, 2), P, R.frequency(1), **OPTIONS)

@@ -236,3 +236,17 @@ def test_several_responses_in_one_aggregate_and_the_configurations_it_needs():
     full.configuration_jacobians()
     np.testing.assert_allclose(J, full.jacobian(), rtol=1e-7, atol=0)  # adjoint vs direct solves: round-off
     assert agg.name.startswith("ks_min([1/compliance(stage, y, y), 1/compliance(stage, rotation, rotation)]")
+
+
+def test_a_stroke_on_any_executor_gives_the_serial_numbers():
+    """Any concurrent.futures.Executor (here threads; a dask client's get_executor() the same way)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    stroke = Stroke([-5.0, -2.0, 2.0, 5.0], motion=("stage", "x"))
+    aggs = [ks_min(support_stiffness("stage", "y", point="tool")), ks_max(R.reaction("stage", "x"))]
+    serial = evaluate_stroke(stage, dict(STAGE), aggs, stroke)
+    with ThreadPoolExecutor(2) as pool:
+        spread = evaluate_stroke(stage, dict(STAGE), aggs, stroke, executor=pool, chunks=2)
+    np.testing.assert_allclose(spread.values, serial.values, rtol=1e-8)
+    np.testing.assert_allclose(spread.jacobian, serial.jacobian, rtol=1e-6)
+    assert spread.solves == 4 and spread.solutions is None

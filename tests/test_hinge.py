@@ -426,7 +426,7 @@ def test_hinged_euler_columns_bifurcate_at_their_closed_form_loads_through_trace
         m = _column(dim, top, n_el)
         m.clear_loads()
         m.apply_force("slider" if top == "pinned" else "top", [-1.5 * P, 0.0] + ([0.0] if dim == 3 else []))
-        path = flexmb.trace(m, steps=40, max_load_factor=1.0, progress=False)
+        path = flexmb.trace(m, steps=40, max_load_factor=1.0, progress=False, branch="primary")  # the straight path
         assert path.stopped_by == "max_load_factor", path.message
         (crit,) = path.critical
         assert crit.kind == "bifurcation"

@@ -152,10 +152,11 @@ def test_a_slender_truss_bar_buckles_first_a_bifurcation_at_eulers_load():
 
 def test_the_perfect_euler_strut_bifurcates_at_eulers_load():
     """Clamped-free strut, 20 Euler-Bernoulli elements: the straight path loses stability at
-    lam = P / P_E = 1 (Euler, P_E = pi^2 EI / 4 L^2) + the mesh's 5e-4; no limit point."""
+    lam = P / P_E = 1 (Euler, P_E = pi^2 EI / 4 L^2) + the mesh's 5e-4; no limit point. Kept on
+    its primary branch (``branch="primary"``) the path goes on straight and unstable."""
     path = flexmb.trace(cases.euler_strut(load=math.pi**2 / 4, imperfection=0.0), arc_length=0.05,
-                        max_load_factor=1.5, progress=False)
-    assert [c.kind for c in path.critical] == ["bifurcation"]
+                        max_load_factor=1.5, progress=False, branch="primary")
+    assert [c.kind for c in path.critical] == ["bifurcation"] and not path.critical[0].switched
     assert path.critical[0].load_factor == pytest.approx(1.0, rel=1e-3)
     assert path.load_factor[-1] == 1.5 and path.stopped_by == "max_load_factor"  # the target reached exactly
     assert np.all(path.stable == (path.load_factor < path.critical[0].load_factor))
@@ -250,9 +251,10 @@ def test_a_mechanism_with_nothing_to_scale_is_refused():
     (dict(rtol=1.0), ParameterError, r"rtol.*\(0, 1\)"),  # accepted every point as converged
     # the first step max_load_factor / 20 = 5e298 overflowed the constraint's square and stopped
     # "at load factor 0" without saying why (issue 19)
-    (dict(max_load_factor=1e300), ParameterError, r"max_load_factor=1e\+300 \(first step max_load_factor / 20 = "
-                                                   r"5e\+298\): .* at most 1e\+150"),
-    (dict(max_load_factor=-1e300), ParameterError, r"max_load_factor=-1e\+300"),
+    (dict(max_load_factor=1e300, arc_length=1e298), ParameterError, r"arc_length=1e\+298: .* at most 1e\+150"),
+    (dict(branch="other"), ParameterError, "branch='other'; valid: stable, primary, bifurcated"),
+    (dict(arc_length=0.0), ParameterError, r"arc_length=0.0 must be > 0"),
+    (dict(arc_length=float("nan")), ParameterError, "arc_length"),
     (dict(arc_length=1e200), ParameterError, r"arc_length=1e\+200: .* at most 1e\+150"),
     (dict(max_load_factor=float("inf")), ParameterError, "max_load_factor"),
 ])
@@ -276,17 +278,32 @@ def test_a_path_that_cannot_continue_is_reported_with_its_points():
     assert len(path) == 1 and path[0].converged and path.load_factor[0] == 0.0
 
 
+def test_the_first_step_is_scaled_to_a_huge_reference_load():
+    """The von Mises truss (`flexmb.studies.paths.von_mises_truss`: limit load 4001.4 N, closed
+    form) under a 1e12 N reference load: the default first step was max_load_factor / 20 = 5e10
+    (5e22 N), and every halving down to min_arc found no equilibrium: "cannot continue from load
+    factor 0". The first step now moves the truss by at most `FIRST_MOTION` of its size in the
+    linear response, and the path goes through the limit point (at 4001.4 N / 1e12)."""
+    m = cases.von_mises_truss(load=1e12)
+    path = flexmb.trace(m, max_load_factor=1e12, steps=40, progress=False,
+                        stop=lambda s: -s.displacement("T")[1] > 60.0)
+    assert path.stopped_by == "stop" and len(path) > 10
+    assert [c.kind for c in path.critical][:1] == ["limit"]
+    assert path.critical[0].load_factor * 1e12 == pytest.approx(4001.4155, rel=1e-6)
+    # the same with a negative target: the first step goes the other way, as small
+    back = flexmb.trace(m, max_load_factor=-1e300, steps=3, progress=False)
+    assert back.load_factor[1] < 0 and -back.load_factor[1] * 1e12 < 4001.4
+
+
 def test_a_first_step_too_large_to_converge_is_named_in_the_stop_message():
-    """The von Mises truss (`flexmb.studies.paths.von_mises_truss`: limit load factor 0.40, its closed
-    form 4001.4 N of the 1e4 N reference load, as in the README) asked
-    for load factor 1e12: its first step 5e10 and every halving down to min_arc (1e-4) x it find no
-    equilibrium; the message names the step and where it came from (was: only "cannot continue
-    from load factor 0")."""
-    path = flexmb.trace(cases.von_mises_truss(), max_load_factor=1e12, progress=False)
+    """An explicit arc_length of 5e10 on the truss (reference load 1e4 N, limit load factor 0.4):
+    every halving down to min_arc (1e-4) x it finds no equilibrium; the message names the step
+    and where it came from."""
+    path = flexmb.trace(cases.von_mises_truss(), arc_length=5e10, progress=False)
     assert path.stopped_by == "failure" and len(path) == 1
     assert "cannot continue from load factor 0" in path.message
     assert "the first step's 5e+10" in path.message
-    assert "first step's load-factor increment 5e+10 is max_load_factor / 20" in path.message
+    assert "first step's load-factor increment 5e+10 is arc_length" in path.message
 
 
 def test_a_path_beyond_the_elastic_range_warns_as_solve_and_sweep_do():
@@ -310,8 +327,9 @@ def test_a_path_beyond_the_elastic_range_warns_as_solve_and_sweep_do():
 
 
 def test_a_stop_predicate_that_raises_ends_the_path_with_its_points():
-    """A bug in the user's ``stop`` (here a ZeroDivisionError from the third point on) does not
-    discard the points already traced: the path ends there, says why, and warns."""
+    """A bug in the user's ``stop`` (here a ZeroDivisionError from its third call on: the start and
+    two points passed) does not discard the points already traced: the path ends there, says why,
+    and warns."""
     calls = []
 
     def stop(solution):
@@ -321,7 +339,7 @@ def test_a_stop_predicate_that_raises_ends_the_path_with_its_points():
     with pytest.warns(UserWarning, match="stop\\(\\) raised ZeroDivisionError"):
         path = flexmb.trace(cases.von_mises_truss(), steps=10, arc_length=0.05, stop=stop, progress=False)
     assert path.stopped_by == "failure" and "ZeroDivisionError" in path.message
-    assert len(path) == 4 and all(s.converged for s in path)  # the start and the three points stop() saw
+    assert len(path) == 3 and all(s.converged for s in path)  # the start and the two points stop() saw
 
 
 def test_qiu_bistable_snaps_through_between_two_stable_states():
@@ -383,7 +401,7 @@ def test_hinged_euler_columns_bifurcate_at_their_closed_form_loads(held, critica
     inertia of the tangent on the motions the hinges allow; the straight column loses it at the
     Euler load, from above at order 2 (the co-rotational chord's geometric stiffness): measured
     +1.3, +0.24, +0.08 % pinned-pinned and +2.6, +0.52, +0.13 % pinned-fixed at 8, 16, 32 elements."""
-    path = flexmb.trace(_hinged_column(held), arc_length=0.1, max_load_factor=2.2, progress=False)
+    path = flexmb.trace(_hinged_column(held), arc_length=0.1, max_load_factor=2.2, progress=False, branch="primary")
     assert [c.kind for c in path.critical] == ["bifurcation"]
     assert 0 < path.critical[0].load_factor / critical - 1 < 7e-3  # 16 elements
     assert path.stable[0] and not path.stable[-1]
@@ -507,3 +525,19 @@ def _bare_point():
     from flexmb.solvers.arclength import PathPoint
 
     return PathPoint(None, 0.0, None, None, 0.0, 1.0, 0, np.zeros(0), 0.0, 0.0, 0)
+
+
+def test_both_branches_can_be_asked_for():
+    """The hinged pinned-pinned column past its Euler load: by default the path takes the stable
+    post-buckled branch (switched at the bifurcation) and stays on it at the second bifurcation
+    it meets (P / P_E = 2.19, the ends turned 131 deg), where no other branch is more stable;
+    ``branch="bifurcated"`` leaves there too; ``branch="primary"`` never leaves the straight path."""
+    kw = dict(arc_length=0.1, max_load_factor=2.2, progress=False)
+    stable = flexmb.trace(_hinged_column(False), **kw)
+    assert [(c.kind, c.switched) for c in stable.critical] == [("bifurcation", True), ("bifurcation", False)]
+    bifurcated = flexmb.trace(_hinged_column(False), **kw, branch="bifurcated")
+    assert [(c.kind, c.switched) for c in bifurcated.critical][:2] == [("bifurcation", True), ("bifurcation", True)]
+    assert bifurcated.critical[1].load_factor == pytest.approx(stable.critical[1].load_factor, rel=1e-6)
+    primary = flexmb.trace(_hinged_column(False), **kw, branch="primary")
+    assert [(c.kind, c.switched) for c in primary.critical] == [("bifurcation", False)]
+    assert np.allclose([s.rotation_vector("A")[0] for s in primary], 0.0, atol=1e-12)

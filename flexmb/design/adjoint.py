@@ -7,10 +7,10 @@ The equilibrium ``r_f(u_f, u_p, N) = 0`` on the free DOFs, with the prescribed D
 
 *Adjoint* (one solve per response, any number of parameters): ``K_ff^T lam = (dJ/du_f)^T``, then
 ``dJ/dp = dJ/dN N' + dJ/du_p g' - lam^T b``. *Direct* (one solve per parameter, any number of
-responses): ``u_f' = -K_ff^-1 b``. Both reuse one LU factorisation of the converged ``K_ff`` per
-configuration; the tangent is not symmetric (dead loads at offsets, dead moments in 3D,
-prescribed rotations), so the adjoint solves with its transpose (``trans="T"``), never a
-symmetrised matrix. Rotation DOFs are increments: 2D angles, 3D spatial spins.
+responses): ``u_f' = -K_ff^-1 b``. Both reuse one factorisation of the converged ``K_ff`` per
+configuration (the solution's own linearisation, `flexmb.Solution.linearisation`); the tangent
+is not symmetric (dead loads at offsets, dead moments in 3D, prescribed rotations), so the
+adjoint solves with its transpose, never a symmetrised matrix. Rotation DOFs are increments: 2D angles, 3D spatial spins.
 """
 
 from __future__ import annotations
@@ -18,23 +18,27 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..errors import ConvergenceError, ModelError, UnsupportedStrategyError
-from ..modal import full_tangent
+from ..linearisation import full_tangent
 from ..rotations import skew
 from .partials import contract, mass_blocks, residual_rates, tangent_blocks
 
-__all__ = ["Sensitivity", "left_jacobian", "DENSE_BELOW", "STRATEGIES"]
+__all__ = ["Sensitivity", "left_jacobian", "full_model", "DENSE_BELOW", "STRATEGIES"]
 
-#: Free DOFs below which K_ff is factorised dense (LAPACK getrf), at and above sparse (SuperLU).
-DENSE_BELOW = 200
+#: Model DOFs below which the full tangent's blocks and rows are read from a dense copy (`Sensitivity.block`).
+DENSE_BELOW = 800
 
 #: The strategies whose solutions are the full finite-element equilibrium (KSD-full converges to
 #: the conventional equations from its KSD start, so it shares their gradient).
 STRATEGIES = ("conventional", "ksd-full")
+
+
+def full_model(solution) -> bool:
+    """Whether ``solution`` is an equilibrium of the full finite-element model (its solution kind says
+    so, `flexmb.Solution.full_equilibrium`, and its model has beam elements): what `Sensitivity`
+    differentiates."""
+    return bool(getattr(solution, "full_equilibrium", False)) and hasattr(solution.compiled.problem.model, "elements")
 
 
 def left_jacobian(w: np.ndarray) -> np.ndarray:
@@ -49,14 +53,14 @@ def left_jacobian(w: np.ndarray) -> np.ndarray:
 
 
 class Sensitivity:
-    """A converged solution's linearisation with respect to the design: the full tangent, one LU
+    """A converged solution's linearisation with respect to the design: the full tangent, one
     factorisation of ``K_ff`` reused by every adjoint and direct solve, and the rates of the
     residual and of the prescribed DOFs with the parameters (`flexmb.design.parameters.ModelRates`).
     """
 
     def __init__(self, solution, rates):
         method = getattr(solution, "method", None)
-        if method not in STRATEGIES or not hasattr(solution.compiled.problem.model, "elements"):
+        if not full_model(solution):
             kinds = ", ".join(f"{name!r} ({rates.kind(k)})" for k, name in enumerate(rates.names))
             raise UnsupportedStrategyError(
                 f"design gradients with method {method!r} are not available for the parameters {kinds}: the "
@@ -74,14 +78,16 @@ class Sensitivity:
 
     @functools.cached_property
     def K(self):
-        """The full tangent (n_dofs, n_dofs), CSR (`flexmb.modal.full_tangent`)."""
-        return full_tangent(self.solution).tocsr()
+        """The full tangent (n_dofs, n_dofs), CSR (`flexmb.linearisation.full_tangent`, the one the
+        solution's linearisation assembled)."""
+        full = getattr(self.linearisation, "full", None)
+        return (full if full is not None else full_tangent(self.solution)).tocsr()
 
     @functools.cached_property
     def _dense(self) -> np.ndarray | None:
         """The full tangent as a dense array for small models (`DENSE_BELOW`: blocks and rows are
         read from it ~10x faster than sliced from the CSR matrix), else None."""
-        return self.K.toarray() if self.model.n_dofs < 4 * DENSE_BELOW else None
+        return self.K.toarray() if self.model.n_dofs < DENSE_BELOW else None
 
     def block(self, rows: np.ndarray, cols: np.ndarray):
         """The tangent's block ``K[rows][:, cols]``: dense for small models, else CSR."""
@@ -94,23 +100,22 @@ class Sensitivity:
         return self._dense[dof].copy() if self._dense is not None else self.K[[dof]].toarray()[0]
 
     @functools.cached_property
-    def _lu(self):
-        K_ff = self.block(self.free, self.free)
-        if K_ff.shape[0] < DENSE_BELOW:
-            lu = sla.lu_factor(K_ff if isinstance(K_ff, np.ndarray) else K_ff.toarray(), check_finite=True)
-            if np.any(np.diag(lu[0]) == 0.0):
-                raise ModelError("design gradient: the tangent on the free DOFs is singular (a critical equilibrium)")
-            return lambda rhs, trans: sla.lu_solve(lu, rhs, trans=1 if trans else 0)
-        try:
-            lu = spla.splu(sp.csc_array(K_ff))
-        except RuntimeError as exc:
-            raise ModelError("design gradient: the tangent on the free DOFs is singular (a critical equilibrium)") \
-                from exc
-        return lambda rhs, trans: lu.solve(np.asarray(rhs, dtype=float), trans="T" if trans else "N")
+    def linearisation(self):
+        """The solution's own linearisation (`flexmb.Solution.linearisation`, held: the prescribed
+        DOFs): ``K_ff`` and one kept factorisation for every adjoint and direct solve."""
+        lin = self.solution.linearisation("prescribed", owner="design gradients")
+        if lin.Z is not None or not np.array_equal(lin.free, self.free):
+            raise ModelError("design gradients: the solution's linearisation is not on the free DOFs of its problem")
+        return lin
 
     def solve(self, rhs: np.ndarray, transpose: bool = False) -> np.ndarray:
-        """``K_ff^-1 rhs`` or ``K_ff^-T rhs`` (rhs (n_free,) or (n_free, m)) with the kept factorisation."""
-        return self._lu(rhs, transpose)
+        """``K_ff^-1 rhs`` or ``K_ff^-T rhs`` (rhs (n_free,) or (n_free, m)) with the linearisation's
+        kept factorisation (`flexmb.protocols.Linearisation.solve`)."""
+        try:
+            return self.linearisation.solve(np.asarray(rhs, dtype=float), transpose)
+        except (np.linalg.LinAlgError, RuntimeError) as exc:
+            raise ModelError("design gradient: the tangent on the free DOFs is singular (a critical equilibrium)") \
+                from exc
 
     @functools.cached_property
     def residual_rates(self) -> np.ndarray:

@@ -22,14 +22,12 @@ import weakref
 
 import attrs
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import ModelError, ParameterError
 from ..linearised import buckling as _buckling
 from ..linearised import compliance as _compliance
-from ..linearised import material_tangent
 from ..modal import held_dofs, modes
 from ..rotations import skew
 from .base import component_index
@@ -60,16 +58,10 @@ def _left_vectors(A, B, Phi: np.ndarray, lam: float) -> np.ndarray:
     steps of inverse iteration with ``(A - s B)^T``, ``s`` next to ``lam`` (the cluster's left
     invariant subspace to ~(1e-8 lam / gap)^2)."""
     s = lam + 1e-8 * max(abs(lam), 1e-300) if lam != 0 else 1e-12
-    Ash = (A - s * B).tocsc() if hasattr(A, "tocsc") else A - s * B
-    if hasattr(Ash, "tocsc"):
-        lu = spla.splu(Ash)
-        solve = lambda r: lu.solve(r, trans="T")
-    else:
-        lu = sla.lu_factor(Ash)
-        solve = lambda r: sla.lu_solve(lu, r, trans=1)
+    lu = spla.splu(sp.csc_array(A - s * B))
     Psi = B.T @ Phi
     for _ in range(2):
-        Psi = solve(Psi)
+        Psi = lu.solve(Psi, trans="T")
         Psi = Psi / np.linalg.norm(Psi, axis=0)
     return Psi
 
@@ -145,15 +137,13 @@ class _Frequency:
         return dlam / (4 * np.pi * np.sqrt(abs(lam)))
 
     def _left(self, sens, m, Phi, lam):
+        """The cluster's left vectors: ``Phi`` itself for a symmetric problem, else by inverse
+        iteration on the solution's linearisation (`flexmb.Solution.linearisation`, ``K`` and ``M``)."""
         if m.symmetric:
             return Phi
-        from ..fe.mass import mass_matrix
-
-        free = np.setdiff1d(np.arange(sens.model.n_dofs), m.held)
-        K = _restricted(sens, free)
-        M = mass_matrix(sens.model, sens.state, sens.model.rigid_masses)[free][:, free]
+        lin = sens.solution.linearisation(self.held, owner="frequency")
         Psi = np.zeros_like(Phi)
-        Psi[free] = _left_vectors(K, M, Phi[free], lam)
+        Psi[lin.free] = _left_vectors(sp.csc_array(lin.K), sp.csc_array(lin.M), Phi[lin.free], lam)
         return Psi
 
 
@@ -163,12 +153,6 @@ def frequency(k: int, held="prescribed", cluster: str = "rank"):
     directional derivative of the k-th frequency per parameter (module notes); ``cluster="mean"``:
     the mean of the k-th frequency's cluster's eigenvalues instead, a differentiable response."""
     return _Frequency(k, held, cluster)
-
-
-def _restricted(A, free):
-    """``A[free][:, free]`` as CSC (``A``: a sparse matrix or a `Sensitivity`'s tangent block reader)."""
-    block = A.block(free, free) if hasattr(A, "block") else A[free][:, free]
-    return sp.csc_array(block)
 
 
 def _inverse_iteration(A, B, shift: float, c: int, seed: int = 0, transpose: bool = False) -> np.ndarray:
@@ -203,14 +187,15 @@ class _Buckling:
 
     def gradient(self, sens, method: str = "auto") -> np.ndarray:
         sol = sens.solution
-        free = np.setdiff1d(np.arange(sens.model.n_dofs), held_dofs(sol, self.held, "buckling"))
+        lin = sol.linearisation(self.held, owner="buckling")  # K_t and K_m on the free DOFs
+        free = lin.free
         n = min(self.k + 2, len(free))
         mu = _buckling(sol, n=n, held=self.held)
         if not np.isfinite(mu[self.k - 1]):
             raise ModelError(f"buckling({self.k}): no {self.k}-th positive multiplier (inf): no derivative")
         idx = _cluster(mu, self.k)
         lam = float(np.mean(mu[idx]))
-        Kt, Km = _restricted(sens, free), _restricted(material_tangent(sol), free)
+        Kt, Km = sp.csc_array(lin.K), sp.csc_array(lin.material_tangent())
         Ks = (Kt - Km).tocsc()
         shift = lam * (1.0 + 1e-8)
         Phi = np.zeros((sens.model.n_dofs, len(idx)))
@@ -280,9 +265,10 @@ class _Compliance:
         X, Y = np.zeros((model.n_dofs, nd)), np.zeros((model.n_dofs, nd))  # K^-1 E and K^-T E
         if held is sens.prescribed:
             X[free], Y[free] = sens.solve(E[free]), sens.solve(E[free], transpose=True)
-        else:
-            lu = spla.splu(_restricted(sens, free))
-            X[free], Y[free] = lu.solve(E[free]), lu.solve(E[free], trans="T")
+        else:  # the solution's linearisation with these DOFs held (`flexmb.Solution.linearisation`)
+            lin = sol.linearisation(self.held, owner="compliance")
+            free = lin.free
+            X[free], Y[free] = lin.solve(E[free]), lin.solve(E[free], transpose=True)
         for Z in (X, Y):
             Z[:, np.isin(dofs, held)] = 0.0  # held components of the node: zero rows and columns
         C_node = E.T @ X  # (nd, nd) = E^T K^-1 E on the free components

@@ -360,8 +360,6 @@ def _scipy(prob: _Problem, x0, name, max_iter, tol, options):
         cons = ([{"type": "ineq", "fun": prob.c}] if m else []) + box
         opts = {"maxiter": max_iter, "tol": tol, "rhobeg": 0.1, **options}
         return minimize(prob.f, x0, method="COBYLA", constraints=cons, options=opts)
-    if m:
-        raise ParameterError("optimizer 'nelder-mead' takes bounds only, no constraints; use 'cobyla'")
     opts = {"maxiter": max_iter, "xatol": tol, "fatol": tol, **options}
     return minimize(prob.f, x0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(x0), options=opts)
 
@@ -505,6 +503,8 @@ def optimize(build, p0, bounds=None, *, objective, maximize: bool = False, const
     n_conf = 1 if stroke is None else len(stroke)
     obj = as_aggregates(objective, n_conf)[0]
     aggregates, sides = _constraint_list(constraints, n_conf)
+    if optimizer == "nelder-mead" and sides:
+        raise ParameterError("optimize: optimizer 'nelder-mead' takes bounds only, no constraints; use 'cobyla'")
     if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
         raise ParameterError(f"optimize: max_iter={max_iter!r} must be an integer >= 1")
     options = dict(method=method, mode=mode, executor=executor, chunks=chunks, eager=gradient == "adjoint", **solve_options)
@@ -540,7 +540,6 @@ def _result(prob: _Problem, raw, message, success, interrupted, optimizer) -> Op
     sols = best.point.solutions
     if sols is None and not interrupted:  # solved on an executor, or forgotten: solve the best design again
         again = prob.point(dict((k, best.row[k]) for k in prob.names))
-        again.options = dict(again.options, executor=None)
         again.executor = None
         again.values()
         prob.solves += again.solves

@@ -39,6 +39,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import ParameterError
 from ..fe.model import State
+from .branching import DENSE_EIGEN_BELOW, branch_points, choose, critical_modes, is_bifurcation, multiplicity, switch_arc
 from .conventional import is_stable, positive_float, positive_int, relative_tolerance, unit_interval
 
 __all__ = ["ArcLength", "PathPoint", "load_tangent", "inertia", "DENSE_EIGEN_BELOW"]
@@ -46,8 +47,22 @@ __all__ = ["ArcLength", "PathPoint", "load_tangent", "inertia", "DENSE_EIGEN_BEL
 #: Below this many free DOFs the eigenvalues of the symmetric tangent come from LAPACK's dense
 #: ``eigvalsh`` (all of them; measured 0.4 ms at 60, 34 ms at 300, 2.2 s at 1500 DOFs, one BLAS
 #: thread, loaded host); above, the negative count from a sparse symmetric LDL^T and the
-#: eigenvalues nearest zero from ARPACK (shift-invert at 0).
-DENSE_EIGEN_BELOW = 400
+#: eigenvalues nearest zero from ARPACK (shift-invert at 0). (`flexmb.solvers.branching`'s.)
+
+#: Eigenvalue crossings located within this fraction of a step's arc length of each other are
+#: one critical point of that multiplicity. A double eigenvalue splits by round-off where the
+#: eigenvalues near zero are tiny beside the tangent's entries: Qiu's double beam with its
+#: shuttle (two halves decoupled) at 40 elements per half, eigenvalues 2e-14 of the largest
+#: entry, split by 0.2 %: their crossings were located 0.13 % of the step apart (reported as two
+#: simple points, and the path left onto a one-half branch); an exact double eigenvalue's agree
+#: to ``locate_tol`` (1e-6).
+SAME_CRITICAL = 2e-2
+
+#: An eigenvalue that changes sign between two points while staying below this fraction of the
+#: eigenvalues nearest zero there is round-off, no critical point: on a strut's post-buckling
+#: branch next to the bifurcation the buckling mode's eigenvalue is ~1e-9 of the next one and
+#: its sign flickered from point to point (20 "bifurcations" at the same load).
+ROUNDOFF_EIGENVALUE = 1e-7
 
 
 def _nonnegative_float(instance, attribute, value):
@@ -223,11 +238,11 @@ class ArcLength:
                                  "(both in units of the first step's arc length)")
 
     # -- the pieces --------------------------------------------------------------------------
-    def setup(self, problem):
-        """``(metric, t_0, K_ff)``: the constraint's metric from the undeformed state's path
-        tangent ``t_0`` (see the module notes) and the tangent there."""
-        state = problem.model.initial_state()
-        x = problem.model.point_positions(state)
+    def setup(self, problem, state: State | None = None):
+        """``(metric, t_0, K_ff)``: the constraint's metric from the path tangent ``t_0`` at the
+        start ``state`` (default: undeformed; see the module notes) and the tangent there."""
+        state = problem.model.initial_state() if state is None else state
+        x = problem.model.point_positions(problem.model.initial_state())
         size = float(np.max(np.ptp(x, axis=0))) if len(x) > 1 else 1.0
         metric = _Metric(problem.model, size if size > 0 else 1.0, 1.0, self.psi)
         _, Kff, Kfp, _ = problem.evaluate(state, 0.0)
@@ -236,9 +251,9 @@ class ArcLength:
         metric = attrs.evolve(metric, scale=c if c > 0 else 1.0)
         return metric, _unit_tangent(problem, metric, state, 0.0, Kff, Kfp), Kff
 
-    def start(self, problem, metric, t0, Kff0) -> PathPoint:
-        """The undeformed configuration as the path's first point (load factor 0)."""
-        state = problem.model.initial_state()
+    def start(self, problem, metric, t0, Kff0, state: State | None = None) -> PathPoint:
+        """The path's first point at load factor 0: ``state`` (default: undeformed)."""
+        state = problem.model.initial_state() if state is None else state
         r = problem.evaluate(state, 0.0, tangent=False)[0]
         neg, near = inertia(problem.reduced_tangent(Kff0))  # hinges: on the motions they allow
         t, tl = t0
@@ -304,6 +319,11 @@ class ArcLength:
         except (np.linalg.LinAlgError, RuntimeError, ValueError):
             return None
 
+    def rate(self, problem, state: State, lam: float):
+        """The path's rate per unit load factor on all DOFs at ``(state, lam)`` (`_rate`), or None."""
+        _, Kff, Kfp, _ = problem.evaluate(state, lam)
+        return _rate(problem, state, lam, Kff, Kfp)
+
     def _point(self, problem, metric, a, state, lam, r, Kff, Kfp, iterations, history, seconds) -> PathPoint:
         t, tl = _unit_tangent(problem, metric, state, lam, Kff, Kfp)
         chord_u, chord_l = metric.difference(state, a.state), lam - a.lam
@@ -326,7 +346,10 @@ class ArcLength:
         is_tr = problem.model.force_dofs
         # forces and moments measure each other through the size: a mechanism loaded by moments
         # alone (a sprung hinge turned) has forces of round-off size, no scale of their own
-        F0 = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]))
+        # the element end forces meeting at a node (and the hinges' constraint forces) set its
+        # round-off floor: a mechanism that moves on hinges carries little net force but its
+        # residual sums large end forces (a motor four-bar: 5e-9 N of 0.3 N, none applied)
+        F0 = max(np.linalg.norm(f_int[is_tr]), np.linalg.norm(f_ext[is_tr]), getattr(problem, "force_scale", 0.0))
         M0 = max(np.linalg.norm(f_int[~is_tr]), np.linalg.norm(f_ext[~is_tr]))
         F, M = max(F0, M0 / metric.size), max(M0, F0 * metric.size)
         if F == 0.0 and M == 0.0:
@@ -336,35 +359,53 @@ class ArcLength:
         a, b = np.linalg.norm(rf_tr) / F, np.linalg.norm(rf_rot) / M
         if a <= self.rtol and b <= self.rtol:
             return True
-        return None if max(a, b) <= 1e-5 else False
+        if max(a, b) <= 1e-5 or float(np.linalg.norm(r[free])) <= _hinge_floor(problem.model, metric.size):
+            return None
+        return False
 
     def next_arc(self, ds: float, iterations: int, ds0: float) -> float:
         """The next step's arc length after a step that took ``iterations`` (Crisfield 1981)."""
         f = min(2.0, max(0.5, math.sqrt(self.desired_iterations / max(iterations, 1))))
         return min(self.max_arc * ds0, max(self.min_arc * ds0, ds * f))
 
-    def follow(self, problem, metric, first: PathPoint, ds0: float):
+    def follow(self, problem, metric, first: PathPoint, ds0: float, branch: str = "primary"):
         """Step along the path from ``first`` with first arc length ``ds0``: yields
         ``("point", PathPoint, ds)`` for every converged step (``ds`` its constraint radius),
-        ``("critical", kind, PathPoint)`` before the point past a limit (``"limit"``) or
-        bifurcation (``"bifurcation"``) point, and ``("stuck", message)`` once when the arc length
-        falls below ``min_arc`` (then stops). Runs until the consumer stops asking."""
-        a, ds = first, ds0
+        ``("critical", kind, PathPoint, multiplicity, modes, switched)`` before the point past a
+        limit (``"limit"``) or bifurcation (``"bifurcation"``) point (``modes`` (m, n_dofs) the
+        critical modes, `flexmb.solvers.branching.critical_modes`; ``switched``: the path leaves
+        there for another branch, chosen by ``branch``, `flexmb.solvers.branching.BRANCHES`), and
+        ``("stuck", message)`` once when the arc length falls below ``min_arc`` (then stops).
+        Runs until the consumer stops asking."""
+        a, ds, ref = first, ds0, ds0  # ref: the arc length the bounds min_arc, max_arc refer to
         while True:
             b = self.step(problem, metric, a, ds)
-            if b is not None and ds > self.min_arc * ds0 and self._turn(metric, a, b) > self.max_turn:
+            if b is not None and ds > self.min_arc * ref and self._turn(metric, a, b) > self.max_turn:
                 b = None  # the path turns too sharply for this step: it may have jumped to another branch
             if b is None:
                 ds *= 0.5
-                if ds < self.min_arc * ds0:
+                if ds < self.min_arc * ref:
                     yield ("stuck", f"the path cannot continue from load factor {a.lam:.6g}: no equilibrium "
                                     f"within arc length {2 * ds:.3g} (min_arc={self.min_arc:g} x the first step's "
-                                    f"{ds0:.3g})")
+                                    f"{ref:.3g})")
                     return
                 continue
-            yield from self._critical(problem, metric, a, b, ds)
-            yield ("point", b, ds)
-            a, ds = b, self.next_arc(ds, b.iterations, ds0)
+            following = b
+            for kind, p, count, modes in self._critical(problem, metric, a, b, ds):
+                q = None
+                if kind == "bifurcation" and branch != "primary":
+                    # a branch the path was not scaled for (a strut's bending under an axial
+                    # load): its first step moves the mode by SWITCH_MOTION, and sets the bounds
+                    ds = max(ds, switch_arc(metric, modes))
+                    own, others = branch_points(self, problem, metric, p, a, modes, ds)
+                    q = choose(p, own, others, branch)
+                    q = None if q is own else q
+                yield ("critical", kind, p, count, modes, q is not None)
+                if q is not None:  # onto another branch: the critical points beyond p are not on it
+                    following, ref = q, max(ref, ds)
+                    break
+            yield ("point", following, ds)
+            a, ds = following, self.next_arc(ds, following.iterations, ref)
 
     @staticmethod
     def _turn(metric, a: PathPoint, b: PathPoint) -> float:
@@ -372,31 +413,54 @@ class ArcLength:
         c = (metric.dot(a.tangent, b.tangent) + metric.psi2 * a.tangent_lam * b.tangent_lam) / (1.0 + metric.psi2)
         return math.acos(max(-1.0, min(1.0, a.direction * b.direction * c)))
 
-    def _critical(self, problem, metric, a: PathPoint, b: PathPoint, ds: float):
-        """The limit and bifurcation points between consecutive points ``a`` and ``b``, in path order.
+    def _critical(self, problem, metric, a: PathPoint, b: PathPoint, ds: float) -> list:
+        """The limit and bifurcation points between consecutive points ``a`` and ``b``, in path
+        order: ``(kind, PathPoint, multiplicity, modes)``.
 
         Each eigenvalue (ascending order) that changes sign between them is located by its zero;
         the limit point, if ``dlam/ds`` changes sign, by that zero. The eigenvalue crossing
         nearest the limit point is the limit's own (the two zeros agree only to the equilibrium's
-        accuracy: the eigenvalue is flat there); every other crossing is a bifurcation point."""
+        accuracy: the eigenvalue is flat there); the other crossings are bifurcation points, those
+        located at the same point (within `SAME_CRITICAL` of the step) one point whose
+        multiplicity is their number (a double eigenvalue: a symmetric two-leaf device). A load
+        factor's extremum whose critical modes the load pattern does not work on is a bifurcation
+        (`flexmb.solvers.branching.is_bifurcation`: a pitchfork met along its bifurcated branch)."""
         found = []
         if np.sign(a.dlam_ds) != np.sign(b.dlam_ds):
             p = self.locate(problem, metric, a, ds, a.dlam_ds, b.dlam_ds, lambda x: x.dlam_ds)
             if p is not None:
-                found.append(("limit", p))
+                found.append(("limit", p, 1))
         crossings = []
         for k in range(min(a.negative, b.negative), max(a.negative, b.negative)):
             def crossing(x, k=k):
                 return _kth_eigenvalue(problem, x, k)
 
-            p = self.locate(problem, metric, a, ds, crossing(a), crossing(b), crossing)
+            ga, gb = crossing(a), crossing(b)
+            if max(abs(ga), abs(gb)) <= ROUNDOFF_EIGENVALUE * max(np.max(np.abs(a.near)), np.max(np.abs(b.near))):
+                continue  # an eigenvalue that only flickers about zero in round-off (a flat branch)
+            p = self.locate(problem, metric, a, ds, ga, gb, crossing)
             if p is not None:
                 crossings.append(p)
         if found and crossings:  # the crossing nearest the limit point is the limit's own eigenvalue
             crossings.remove(min(crossings, key=lambda p: abs(p.arc - found[0][1].arc)))
-        found += [("bifurcation", p) for p in crossings]
-        for kind, p in sorted(found, key=lambda f: f[1].arc):
-            yield ("critical", kind, p)
+        groups = []
+        for p in sorted(crossings, key=lambda p: p.arc):
+            if groups and p.arc - groups[-1][0].arc <= SAME_CRITICAL * ds:
+                groups[-1].append(p)
+            else:
+                groups.append([p])
+        found += [("bifurcation", g[0], len(g)) for g in groups]
+        out = []
+        for kind, p, m in sorted(found, key=lambda f: f[1].arc):
+            if kind == "limit":  # a pitchfork met along its bifurcated branch turns the load factor too
+                m = multiplicity(p)
+                modes = critical_modes(problem, metric, p, m)
+                g = load_tangent(problem, p.state, p.lam)[0]
+                kind = "bifurcation" if is_bifurcation(problem, metric, modes, g) else kind
+            else:
+                modes = critical_modes(problem, metric, p, m)
+            out.append((kind, p, m, modes))
+        return out
 
     def locate(self, problem, metric, a: PathPoint, b_arc: float, g_a: float, g_b: float, g):
         """The point between ``a`` (arc 0) and the step of arc ``b_arc`` where ``g(point)``
@@ -454,6 +518,18 @@ def _split(problem, du: np.ndarray, dl: float, lam: float) -> np.ndarray:
     return out
 
 
+def _hinge_floor(model, size: float) -> float:
+    """The round-off floor of the hinges' constraint rows [N]: their scale (the stiffest element's
+    EA / L, `flexmb.fe.build._row_scales`) times 100 eps of the mechanism's size. A four-bar whose
+    cross-flexure rocker is back at rest after a full crank turn carries forces of ~1e-6 N and its
+    residual stalls at 1e-9 N; below this floor `ArcLength.step` accepts a correction that moves
+    nothing."""
+    hinges = getattr(model, "hinges", None)
+    if hinges is None:
+        return 0.0
+    return 100.0 * np.finfo(float).eps * float(np.asarray(hinges.scale).ravel()[0]) * size  # a position row
+
+
 def _negligible(model, du: np.ndarray, size: float) -> bool:
     """Whether an increment moves no node by more than 1e-12 of the mechanism's size (nor turns
     one by 1e-12 rad): round-off in the positions; measured on a strut with EA L^2 / EI = 1e7,
@@ -509,6 +585,10 @@ class _Metric:
         if self.model.hinges is not None:  # the hinges' multipliers follow the motion: no weight
             w = np.concatenate([w, np.zeros(self.model.hinges.n_rows)])
         return w
+
+    def weights(self) -> np.ndarray:
+        """The metric's weight of every DOF (n_dofs,)."""
+        return self._weights()
 
     def dot(self, a: np.ndarray, b: np.ndarray) -> float:
         w = self._weights()

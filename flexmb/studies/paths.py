@@ -14,11 +14,13 @@ import math
 import numpy as np
 from scipy.special import ellipe, ellipk
 
+from ..joints.cross_flexure import CrossFlexure
 from ..mechanism import Mechanism
 from ..sections import Section
 
 __all__ = ["beam_section", "polyline", "lee_frame", "deep_arch", "euler_strut", "strut_elastica",
-           "von_mises_truss", "von_mises_force", "qiu_bistable", "qiu_switching_forces", "qiu_force"]
+           "von_mises_truss", "von_mises_force", "qiu_bistable", "qiu_switching_forces", "qiu_force",
+           "LEAF", "bistable_pair", "sine_arch", "FOURBAR", "motor_fourbar", "QIU", "qiu_beam"]
 
 
 def beam_section(E: float, A: float, I: float, shear: bool = False, G: float | None = None) -> Section:
@@ -207,3 +209,114 @@ def qiu_force(travel, span: float = 3e-3, rise: float = 1.2e-4, thickness: float
     line = math.pi**4 * (8 - 6 * d)
     inside = (d > 1 - root) & (d < 1 + root)
     return np.where(inside, line, cubic) * 2.0 * E * I * rise / span**3
+
+
+# -- snap-through design cases (issue 29): builders; their references are in tests/test_snap.py ---------------
+
+#: The device: two steel leaves 50 x 10 x 0.5 mm inclined at 10 deg (mm, N, MPa), rise 8.68 mm
+LEAF = dict(L=50.0, t=0.5, w=10.0, E=200000.0, alpha=math.radians(10.0))
+
+
+def bistable_pair(elements: int = 12, control: str = "motion") -> Mechanism:
+    """Two leaves from the ground (G1, G2) to the shuttle S at the apex, mirror images, clamped
+    at both ends (Euler-Bernoulli sections: the shooting reference has no shear; the default
+    Timoshenko leaf differs by 0.1 %); S guided (x and rotation held) and pushed down: by a
+    prescribed travel of twice the rise at load factor 1 (``"motion"``) or by 100 N (``"load"``)."""
+    L, t, w, E, a = LEAF["L"], LEAF["t"], LEAF["w"], LEAF["E"], LEAF["alpha"]
+    sec = beam_section(E, w * t, w * t**3 / 12)
+    m = Mechanism(dim=2)
+    m.add_link("G1", (-L * math.cos(a), 0.0), fixed=True)
+    m.add_link("G2", (L * math.cos(a), 0.0), fixed=True)
+    m.add_link("S", (0.0, L * math.sin(a)))
+    m.add_joint("G1", "S", "leaf_spring", length=L, section=sec, elements=elements, origin=(-L * math.cos(a), 0.0),
+                rotation=a)
+    m.add_joint("G2", "S", "leaf_spring", length=L, section=sec, elements=elements, origin=(L * math.cos(a), 0.0),
+                rotation=math.pi - a)
+    if control == "load":
+        m.prescribe("S", x=0.0, rotation=0.0)
+        m.apply_force("S", (0.0, -100.0))
+    else:
+        m.prescribe("S", x=0.0, y=-2 * L * math.sin(a), rotation=0.0)
+    return m
+
+
+def sine_arch(elements: int = 40, e: float = 6.0, rise: float = 0.01, imperfection: float = 0.0):
+    """A half-sine arch ``y = rise sin(pi x / L)`` (L = 1, hinged ends P0, P1) of radius of
+    gyration ``r = rise / e``, EI = 1, under the half-sine load ``q0 sin(pi x / L)``, ``q0 = EI
+    (pi / L)^4 r`` per unit load factor (so the load factor is Timoshenko & Gere's load
+    parameter), lumped at the nodes; ``imperfection``: an antisymmetric part ``imperfection r
+    sin(2 pi x / L)`` of the shape."""
+    L, r = 1.0, rise / e
+    x = np.linspace(0, L, elements + 1)
+    y = rise * np.sin(np.pi * x / L) + imperfection * r * np.sin(2 * np.pi * x / L)
+    names = ["P0"] + [f"a{i}" for i in range(1, elements)] + ["P1"]
+    m = Mechanism(dim=2)
+    E = 2e11  # steel, with I = 1 / E: EI = 1
+    polyline(m, np.c_[x, y], beam_section(E, 1.0 / (E * r**2), 1.0 / E), names)
+    m.prescribe("P0", x=0.0, y=0.0)
+    m.prescribe("P1", x=0.0, y=0.0)
+    q0 = (np.pi / L) ** 4 * r
+    for k in range(1, elements):
+        m.apply_force(names[k], (0.0, -q0 * math.sin(np.pi * x[k] / L) * L / elements))
+    return m
+
+
+FOURBAR = dict(a=0.02, b=0.08, c=0.05, d=0.08)  # crank, coupler, rocker, ground [m]: a Grashof crank-rocker
+
+
+def _rocker_tip(A, P):
+    """The coupler-rocker pin B of the rigid four-bar: |B - A| = b, |B - P| = c, above the line AP."""
+    b, c = FOURBAR["b"], FOURBAR["c"]
+    v = P - A
+    L = float(np.linalg.norm(v))
+    x = (L**2 + b**2 - c**2) / (2 * L)
+    e = v / L
+    return A + x * e + math.sqrt(b**2 - x**2) * np.array([-e[1], e[0]])
+
+
+def motor_fourbar(dim: int, turn: float = 2 * math.pi) -> Mechanism:
+    """A crank-rocker four-bar (`FOURBAR`): the crank turned by a hinge motor at the origin, the
+    coupler pinned to it and to the rocker, the rocker's pivot a cross flexure (30 mm leaves,
+    0.3 mm thick) centred at (d, 0); 2D or 3D (the same plane)."""
+    z = (0.0,) if dim == 3 else ()
+    a, d = FOURBAR["a"], FOURBAR["d"]
+    A0, P = np.array([0.0, a]), np.array([d, 0.0])
+    B0 = _rocker_tip(A0, P)
+    cf = CrossFlexure(length=0.03, thickness=3e-4, width_inner=0.01, width_outer=0.005, elements_per_leaf=6)
+    half = cf.interface_b(2)[1] / 2  # the leaves cross half-way between the blocks
+    m = Mechanism(dim=dim)
+    m.add_link("G", fixed=True)
+    m.add_link("crank", (0.0, 0.0) + z)
+    m.add_link("coupler", tuple(A0) + z)
+    m.add_link("rocker", (d, half) + z)
+    m.add_joint("G", "crank", "hinge", angle=turn, origin=(0.0, 0.0) + z)
+    m.add_joint("crank", "coupler", "hinge", origin=tuple(A0) + z)
+    m.add_joint("coupler", "rocker", "hinge", origin=tuple(B0) + z)
+    m.add_joint("G", "rocker", cf, origin=(d, -half) + z)
+    return m
+
+
+QIU = dict(span=3e-3, rise=1.2e-4, t=1e-5, w=5e-4, E=169e9)  # Qiu, Lang & Slocum (2004): Q = h / t = 12
+
+
+def qiu_beam(elements: int, shuttle: bool) -> Mechanism:
+    """The whole cosine-shaped clamped-clamped beam ``w0 = h/2 (1 - cos(2 pi x / L))``
+    (``elements`` chords per half, both ends fixed), its centre C pushed down by twice the rise
+    at load factor 1. ``shuttle``: Qiu's double beam, two beams joined by the centre shuttle
+    (twice the stiffness, C's rotation and sideways motion held); without it a single beam
+    whose centre turns freely."""
+    span, rise, t, w, E = (QIU[k] for k in ("span", "rise", "t", "w", "E"))
+    k = 2 if shuttle else 1
+    n = 2 * elements
+    x = np.linspace(0.0, span, n + 1)
+    names = ["L"] + [f"q{i}" for i in range(1, n)] + ["R"]
+    names[elements] = "C"
+    m = Mechanism(dim=2)
+    m.add_link("L", (0.0, 0.0), fixed=True)
+    m.add_link("R", (span, 0.0), fixed=True)
+    polyline(m, np.c_[x, rise / 2 * (1 - np.cos(2 * np.pi * x / span))], beam_section(E, k * w * t, k * w * t**3 / 12),
+             names)
+    if shuttle:
+        m.prescribe("C", x=0.0, rotation=0.0)
+    m.prescribe("C", y=-2 * rise)
+    return m

@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import copy
 import math
-import time
 import warnings
 from collections.abc import Callable, Mapping
 
 import attrs
 import numpy as np
 
+from ._timing import Stopwatch
 from .design_properties import PROPERTIES, property_columns
 from .errors import ConvergenceError, ConvergenceWarning, ModelError, ParameterError, UnsupportedStrategyError
 from .solvers import make_strategy, solve
@@ -211,7 +211,7 @@ def discretisation_error(mechanism, quantity, *, method: str = "conventional", l
     meshes = [mechanism] + [refined(mechanism, 2 ** k) for k in range(1, levels)]  # refusals before any solve
     rows, elements, times = [], [], []
     for k, m in enumerate(meshes):
-        t0 = time.perf_counter()
+        watch = Stopwatch()
         sol = solve(m, strategy)
         if not sol.converged:
             why = f"the solve on the {'given mesh' if k == 0 else f'mesh refined by {2 ** k}'} did not converge: " \
@@ -222,7 +222,7 @@ def discretisation_error(mechanism, quantity, *, method: str = "conventional", l
                           ConvergenceWarning, stacklevel=2)
             break
         rows.append(evaluate(sol))
-        times.append(time.perf_counter() - t0)
+        times.append(watch.total())
         elements.append(sum(len(e) for e in sol.compiled.joint_elements.values()))
     names = tuple(rows[0])
     if any(tuple(r) != names for r in rows[1:]):

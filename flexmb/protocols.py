@@ -13,12 +13,12 @@ that an object has the attributes, not their types or meaning.
 - `Linearisation`: a converged equilibrium linearised on its free coordinates
   (`flexmb.linearisation.FELinearisation`, `flexmb.ksd.properties.ReducedLinearisation`), the one
   thing `flexmb.modes`, `flexmb.buckling`, `flexmb.compliance` and the design gradients read.
-- `Response`: a scalar of a solution with its derivative (the coming design layer).
+- `Response`: a scalar of a solution with its derivative (the design layer, `flexmb.design`).
 """
 
 from __future__ import annotations
 
-from typing import Any, Callable, ClassVar, Protocol, runtime_checkable
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -150,11 +150,19 @@ class Linearisation(Protocol):
 
 @runtime_checkable
 class Response(Protocol):
-    """A scalar of a converged solution and its derivative (the coming design layer, issue 28):
-    ``value(solution)`` and ``partial_state(solution)``, dJ/du on the generalised DOFs (size,),
-    from which an adjoint ``Linearisation.solve(dJ/du[free], transpose=True)`` gives dJ/dp with
-    the factorisation the linearisation keeps."""
+    """A scalar ``J(u, N)`` of a converged solution's state ``u`` and model numbers ``N`` with its
+    derivative (the design layer, `flexmb.design.base.Response`): ``value(solution)``;
+    ``partials(sens)``, the explicit ``(dJ/du (n_dofs,), dJ/dN N' (K,))`` at the state of a
+    `flexmb.design.adjoint.Sensitivity`; ``gradient(sens, method)``, ``dJ/dp`` (K,) by the adjoint
+    (``K^T lam = dJ/du`` with the factorisation the linearisation keeps) or the direct method."""
 
     name: str
-    value: Callable[[Any], float]
-    partial_state: Callable[[Any], np.ndarray]
+
+    def value(self, solution) -> float:
+        """The response's value at the converged ``solution``."""
+
+    def partials(self, sens) -> tuple:
+        """``(dJ/du, dJ/dN . dN/dp)`` at the state of ``sens``."""
+
+    def gradient(self, sens, method: str = "auto") -> np.ndarray:
+        """``dJ/dp`` (K,)."""

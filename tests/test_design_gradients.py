@@ -291,8 +291,37 @@ def _chained(p):
     return m
 
 
-def test_a_prescribed_chain_of_rotations_serves_other_parameters_and_refuses_its_own():
-    c = check_gradient(lambda q: _chained({**q, "a": 0.35}), {"t": 1e-3}, R.reaction("B", "rz"), **TIGHT)
+@pytest.mark.parametrize("response", [R.reaction("B", "rz"), R.displacement("B", "y"), R.reaction("A", "rx")])
+def test_a_prescribed_chain_of_rotations_and_its_angles(response):
+    # R = exp(w_1) exp(w_2) with w_1 = (0, 0, a): the spin sum_i P_(i-1) J_l(w_i) w_i'
+    c = check_gradient(_chained, {"t": 1e-3, "a": 0.35}, response, **TIGHT)
     assert c.ok, str(c)
-    with pytest.raises(UnsupportedStrategyError, match=r"\['a'\].*chain"):
-        evaluate(_chained, {"t": 1e-3, "a": 0.35}, R.reaction("B", "rz"))
+
+
+def test_a_build_with_a_kink_at_the_design_is_refused_by_name():
+    # thickness = max(t, 1 mm) at t = 1 mm: the model's stiffness has slope 3 S/t above and 0 below
+    def build(p):
+        m = _cantilever({"L": 0.1, "t": max(p["t"], 1e-3)}, 2)
+        m.apply_force("B", (0.0, p["F"]))
+        return m
+
+    with pytest.raises(ParameterError, match="'t'.*not smooth"):
+        evaluate(build, {"t": 1e-3, "F": 1e-3}, R.displacement("B", "y"))
+    evaluate(build, {"t": 1.2e-3, "F": 1e-3}, R.displacement("B", "y"))  # away from the kink: fine
+
+
+def _manipulator(p):
+    """The spatial manipulator of Dwarshuis et al. (2020) Sec. 4.4 (three 3x-infinity joints, its
+    links' orientations prescribed as chains of the joints' turns, 0.35 rad) with its arms' lengths
+    as placements of joints 3 and the end point, and a dead load on the end link."""
+    m = flexmb.models.manipulator("joint", rotation=0.35, geometry={"arm2": p["arm2"], "arm3": p["arm3"]})
+    m.apply_force("link3", (0.0, 0.0, p["Fz"]))
+    return m
+
+
+@pytest.mark.slow  # ~2.5 s
+@pytest.mark.parametrize("response", [R.reaction("link2", "ry"), R.displacement("link3", "z")])
+def test_the_manipulator_s_placements(response):
+    c = check_gradient(_manipulator, {"arm2": 0.3, "arm3": 0.25, "Fz": -20.0}, response, rtol=1e-11)
+    assert c.ok, str(c)
+    assert abs(c.taylor.rate - 2.0) <= 0.1

@@ -227,7 +227,10 @@ def test_ksd_reduced_linearisation_is_its_reduced_mechanism():
 
 def test_the_built_in_parts_keep_the_protocols():
     """Every built-in strategy is a `Strategy`; the FE and closed-form problems and models are
-    `Problem`s and `Model`s."""
+    `Problem`s and `Model`s; the design layer's response base is a `Response`."""
+    from flexmb.design.base import Response
+
+    assert isinstance(Response(), protocols.Response)
     for cls in STRATEGIES.values():
         assert isinstance(cls(), protocols.Strategy), cls
     for sol in (flexmb.solve(cross_flexure_pivot(2, dim=2, rotation=0.1)),

@@ -176,16 +176,15 @@ FUSED = {  # none of them a paper case
 @pytest.mark.slow
 def test_the_tabulated_path_equals_the_general_and_the_numpy_path(kernels, tabulated_pivots, case):
     # KSD-reduced (Dwarshuis et al. 2020 Sec. 2, steps 1-4) with every joint tabulated and in range
-    # runs the prepared kernels with their outputs allocated inside (flexmb.solvers.ksd._tabulated):
+    # runs the prepared kernels with their outputs allocated inside (flexmb.ksd.reduced.ReducedMechanism.tabulated_plan):
     # the same kernels as the general compiled path, so the same numbers to the last bit; and the
     # numpy path's (step 2 by Lookup.__call__) to 1e-12, as tests/test_kernels.py holds the stages
-    from flexmb.solvers.ksd import _tabulated
 
     m = FUSED[case]()
     kernels("numba")
     fast = flexmb.solve(m, method="ksd-reduced")
     red = fast.stages["eob"]["near"][0]
-    assert _tabulated(red) is not None and fast.stages["eob"]["tabulated"] == len(red.joint_names)
+    assert red.tabulated_plan() is not None and fast.stages["eob"]["tabulated"] == len(red.joint_names)
     red._tabulated = False  # the general compiled path for the same set-up
     general = flexmb.solve(m, method="ksd-reduced")
     del red._tabulated

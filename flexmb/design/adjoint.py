@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, ModelError, UnsupportedStrategyError
 from ..linearisation import full_tangent
-from ..rotations import skew
+from ..rotations import expm_so3, skew
 from .partials import contract, mass_blocks, residual_rates, tangent_blocks
 
 __all__ = ["Sensitivity", "left_jacobian", "full_model", "DENSE_BELOW", "STRATEGIES"]
@@ -133,17 +133,30 @@ class Sensitivity:
         out = lam * dvalues.T.copy()
         tr = comp < m.dim
         out[tr] += dx0[:, node[tr], comp[tr]].T
-        chained = [np.searchsorted(self.prescribed, d) for d, _ in self.problem.rotation_paths]
-        moving = [self.names[k] for k in range(len(self.names)) if any(np.any(dvalues[k, c] != 0.0) for c in chained)]
-        if moving:
-            raise UnsupportedStrategyError(
-                f"design gradients with respect to {moving}: they change a prescribed chain of rotations "
-                "(Mechanism.prescribe(rotation=[...])), whose derivative is not built; prescribe the rotation vector")
         if m.dim == 3:  # the prescribed rotation vectors' totals from the undeformed state (the rates' own
             values = self.rates.compiled_numbers("values")  # compile: a warm-started problem holds increments)
             for i in np.flatnonzero(comp == 3):
                 out[i:i + 3] = left_jacobian(lam * values[i:i + 3]) @ out[i:i + 3]
+            self._chain_rates(out)
         return out
+
+    def _chain_rates(self, out: np.ndarray) -> None:
+        """The spins of prescribed chains of rotations ``R = exp(w_1) ... exp(w_k)`` (at load factor
+        ``lam``: ``exp(lam w_i)``) into ``out``: ``sum_i P_(i-1) J_l(w_i) w_i'``, ``P_(i-1)`` the
+        product of the rotations before ``w_i`` (``d exp(w) = skew(J_l(w) dw) exp(w)``)."""
+        paths = self.rates.compiled.problem.rotation_paths  # a warm-started problem drops its chains
+        if not paths:
+            return
+        dchain, at, lam = self.rates.rate("chains"), 0, self.lam
+        for dofs, w in paths:
+            w = np.asarray(w, dtype=float)
+            dw = lam * dchain[:, at:at + w.size].reshape(-1, len(w), 3)  # (K, k, 3)
+            at += w.size
+            spin, P = np.zeros((len(self.names), 3)), np.eye(3)
+            for i, wi in enumerate(w):
+                spin += dw[:, i] @ (P @ left_jacobian(lam * wi)).T
+                P = P @ expm_so3(lam * wi)
+            out[np.searchsorted(self.prescribed, dofs)] = spin.T
 
     @functools.cached_property
     def _b(self) -> np.ndarray:

@@ -54,8 +54,10 @@ class TaylorResult:
 class GradientCheck:
     """`check_gradient`'s result: the ``taylor`` test, the ``gradient`` checked and the central
     differences ``central`` ({parameter: value}), ``errors`` per parameter (scaled: ``|g - g_cd|
-    s / max_j |g_j s_j|`` with the parameters' scales ``s``), the ``agreement`` asked for and ``ok``
-    (both checks pass)."""
+    s / max_j |g_j s_j|`` with the parameters' scales ``s``), the ``agreement`` asked for, ``ok``
+    (both checks pass; a parameter agrees within ``agreement`` or where ``|g - g_cd| s`` is within
+    the differences' own round-off, `ROUND_OFF` ``|J| / relative_step``, e.g. a response that does
+    not depend on it) and which parameters agreed by ``round_off``."""
 
     taylor: TaylorResult
     gradient: dict
@@ -63,12 +65,16 @@ class GradientCheck:
     errors: dict
     ok: bool
     agreement: float
+    #: {parameter: True where gradient and differences differ by no more than the differences' round-off}
+    round_off: dict = attrs.field(factory=dict)
 
     def __str__(self) -> str:
         rows = [f"  {k}: gradient {self.gradient[k]:.9g}  central differences {self.central[k]:.9g}  "
-                f"error {self.errors[k]:.2e}" for k in self.gradient]
+                f"error {self.errors[k]:.2e}{' (within round-off)' if self.round_off.get(k) else ''}"
+                for k in self.gradient]
+        good = all(e <= self.agreement or self.round_off.get(k) for k, e in self.errors.items())
         return "\n".join([str(self.taylor), f"central differences (agreement {self.agreement:g}): "
-                          f"{'ok' if all(e <= self.agreement for e in self.errors.values()) else 'FAILED'}"] + rows)
+                          f"{'ok' if good else 'FAILED'}"] + rows)
 
 
 def _scales(point: DesignPoint) -> np.ndarray:
@@ -160,9 +166,12 @@ def check_gradient(build, p, response, *, agreement: float = 1e-6, tolerance: fl
     cd = central_differences(build, p, response, relative_step=relative_step, bounds=bounds, **options)
     s = _scales(point)
     c = np.array([cd[k] for k in point.names])
-    noise = ROUND_OFF * abs(value) / relative_step  # the differences' floor, scaled as g s
-    size = max(float(np.max(np.abs(g * s))), float(np.max(np.abs(c * s))), noise, 1e-300)
-    err = np.abs(g - c) * s / size
+    noise = ROUND_OFF * abs(value) / relative_step  # the differences' round-off, scaled as g s
+    size = max(float(np.max(np.abs(g * s))), float(np.max(np.abs(c * s))), 1e-300)
+    diff = np.abs(g - c) * s
+    err = diff / size
+    agree = (err <= agreement) | (diff <= noise)  # a difference within the differences' round-off agrees
     errors = {k: float(e) for k, e in zip(point.names, err)}
     grad = {k: float(x) for k, x in zip(point.names, g)}
-    return GradientCheck(taylor, grad, cd, errors, bool(taylor.ok and np.all(err <= agreement)), agreement)
+    return GradientCheck(taylor, grad, cd, errors, bool(taylor.ok and np.all(agree)), agreement,
+                         {k: bool(d <= noise) for k, d in zip(point.names, diff)})

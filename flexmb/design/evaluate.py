@@ -19,7 +19,7 @@ from ..boundary import boundary
 from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
 from ..ksd.linearisation import ReducedSolution
 from ..linear import single_threaded
-from .adjoint import STRATEGIES, Sensitivity
+from .adjoint import STRATEGIES, Sensitivity, full_model
 from .parameters import ModelRates, as_design, model_numbers, model_rates
 
 __all__ = ["Evaluation", "DesignPoint", "evaluate", "value_and_grad"]
@@ -176,7 +176,7 @@ class DesignPoint:
         if not solution.converged:
             raise ConvergenceError(f"the design at {self.design.values} did not converge ({solution.message}); "
                                    "no responses or gradients of an unconverged state", solution)
-        if not isinstance(solution, ReducedSolution) and solution.method not in STRATEGIES:  # refused naming the method
+        if not (full_model(solution) or _reduced(solution)):  # refused naming the method and each parameter's kind
             if gradient:
                 Sensitivity(solution, self.rates(None))
             raise UnsupportedStrategyError(f"design responses with method {solution.method!r}: available for "
@@ -221,11 +221,15 @@ def _same_model(compiled, solution, values) -> None:
                              "reference numbers differ): pass a solve of DesignPoint.mechanism(configure)")
 
 
+def _reduced(solution) -> bool:
+    """Whether ``solution`` is KSD-reduced's solution kind (`flexmb.ksd.linearisation.ReducedSolution`)."""
+    return isinstance(solution, ReducedSolution)
+
+
 def _sensitivity(solution, rates, items):
     """The linearisation of ``solution`` for the responses ``items``: `Sensitivity` of the full
-    model; a KSD-reduced solution's (its kind, `ReducedSolution`)
-    `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
-    if not isinstance(solution, ReducedSolution):
+    model; a KSD-reduced solution's `flexmb.design.reduced.ReducedSensitivity` (loads only)."""
+    if not _reduced(solution):
         return Sensitivity(solution, rates)
     from .reduced import ReducedSensitivity
 

@@ -14,7 +14,10 @@ tests/test_design_parameters.py (relative 1e-10 on the cantilever's closed forms
 
 The topology must not depend on ``p``: the structure of the compiled model (element ends, node
 and point numbering, DOF layout, prescribed DOFs, load and mass rows) is compared between the
-builds, and a change is refused (`flexmb.TopologyError` naming the parameter).
+builds, and a change is refused (`flexmb.TopologyError` naming the parameter). Nor may the numbers
+have a kink at the design (a ``max()``, a rounding, a branch on ``p`` in the build): the builds at
+``p + h``, ``p`` and ``p - h`` tell it (forward and backward differences disagree), and it is
+refused naming the parameter rather than averaged into a wrong gradient.
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ RELATIVE_STEP = 1e-5
 #: lengths, stiffness, frames and mass per length, the nodes' reference positions, the links' rigid
 #: masses, the loads, the prescribed values and the named points' offsets.
 MODEL_FIELDS = ("point_offset", "L0", "S", "ny0", "nz0", "alpha0", "rho_A", "local_mass", "x0", "rigid_mass",
-                "rigid_inertia", "rigid_offset", "load_offset", "load_force", "load_moment", "values", "points")
+                "rigid_inertia", "rigid_offset", "load_offset", "load_force", "load_moment", "values", "chains", "points")
 
 
 @attrs.frozen
@@ -205,8 +208,10 @@ def model_numbers(compiled, field: str) -> np.ndarray:
     if field == "points":
         pts = [offset for _, offset in compiled.points.values()]
         return np.array(pts, dtype=float).reshape(len(pts), model.dim)
-    if field in ("values", ):
+    if field == "values":
         return np.asarray(problem.values, dtype=float)
+    if field == "chains":  # the rotation vectors of prescribed chains of rotations, flattened
+        return np.concatenate([np.asarray(w, dtype=float).ravel() for _, w in problem.rotation_paths] + [np.zeros(0)])
     if field in ("x0", "point_offset"):
         return np.asarray(getattr(model, field), dtype=float)
     value = getattr(el, field)
@@ -225,7 +230,7 @@ def structure(compiled) -> dict:
             "links": tuple(compiled.link_node.items()),
             "joints' elements": tuple((k, tuple(v)) for k, v in compiled.joint_elements.items()),
             "named points": tuple((k, link) for k, (link, _) in compiled.points.items()),
-            "rotation chains": tuple(tuple(d) for d, _ in problem.rotation_paths)}
+            "rotation chains": tuple((tuple(d), len(w)) for d, w in problem.rotation_paths)}
 
 
 def _same(a, b) -> bool:
@@ -264,7 +269,10 @@ class ModelRates:
             base = model_numbers(self.compiled, field)
             out = np.zeros((len(self.names),) + base.shape)
             for k, (stencil, h) in enumerate(self._builds):
-                out[k] = sum(w * (model_numbers(c, field) if c is not None else base) for w, c in stencil) / h
+                values = [(w, model_numbers(c, field) if c is not None else base) for w, c in stencil]
+                out[k] = sum(w * v for w, v in values) / h
+                if len(values) == 2:  # central: the base build tells a kink in build(p) (module notes)
+                    _check_smooth(self.names[k], field, base, values[1][1], values[0][1], h)
             out.flags.writeable = False
             self._cache[field] = out
         return self._cache[field]
@@ -289,7 +297,7 @@ class ModelRates:
         groups = (("joint dimension or material", ("S", "L0", "rho_A")),
                   ("placement", ("point_offset", "x0", "ny0", "nz0", "alpha0", "points")),
                   ("mass", ("rigid_mass", "rigid_inertia", "rigid_offset")),
-                  ("load", ("load_offset", "load_force", "load_moment")), ("prescribed motion", ("values",)))
+                  ("load", ("load_offset", "load_force", "load_moment")), ("prescribed motion", ("values", "chains")))
         kinds = [name for name, fields in groups if any(np.any(self.rate(f)[k] != 0.0) for f in fields)]
         if kinds and kinds[0] == "joint dimension or material":
             kinds = [k for k in kinds if k != "placement"]  # a joint's length moves its nodes too
@@ -298,6 +306,29 @@ class ModelRates:
     def touched(self, k: int) -> bool:
         """Whether parameter ``k`` changes any model number at all."""
         return any(np.any(self.rate(f)[k] != 0.0) for f in MODEL_FIELDS)
+
+
+#: The largest difference of a model number's forward and backward differences about the design,
+#: relative to the field's largest rate, that passes as smooth: a smooth build differs by ~(step /
+#: scale) (p N''/N') ~ 1e-5; a kink (max(), a branch, a rounding) by order 1.
+KINK = 1e-3
+
+
+def _check_smooth(name: str, field: str, base: np.ndarray, plus: np.ndarray, minus: np.ndarray, h: float) -> None:
+    """Refuse (`ParameterError`) a build whose model numbers have a kink at the design in parameter
+    ``name``: their forward and backward differences (builds at ``p + h``, ``p``, ``p - h``)
+    disagree by more than `KINK` of the field's largest rate, where a central difference would
+    silently average two slopes."""
+    if base.size == 0:
+        return
+    fwd, bwd = (plus - base) / h, (base - minus) / h
+    scale = max(float(np.max(np.abs(fwd))), float(np.max(np.abs(bwd))))
+    floor = 1e3 * np.finfo(float).eps * float(np.max(np.abs(base))) / h  # round-off of the differences
+    worst = float(np.max(np.abs(fwd - bwd)))
+    if worst > KINK * scale + floor:
+        raise ParameterError(f"design parameter {name!r}: build(p) is not smooth in it at the design (the model's "
+                             f"{field} changes at different rates above and below it: {worst:.3g} against {scale:.3g}); "
+                             "a max(), a rounding or a branch on the parameter in build(p) has no derivative there")
 
 
 def _stencil(q: Parameter) -> tuple:

@@ -39,7 +39,8 @@ class ReducedSensitivity:
         if bad:
             listed = ", ".join(f"{name!r} ({kind})" for name, kind in bad)
             raise UnsupportedStrategyError(
-                f"design gradients with method {solution.method!r} are available with respect to loads only; the parameters "
+                f"design gradients with KSD-reduced (method {solution.method!r}) are available with respect to loads only; "
+                "the parameters "
                 f"{listed} change the joints' database entries, frames or near configurations (KSD steps 1-2): solve "
                 "with method='ksd-full' (the full equilibrium from the KSD start, with every parameter's gradient)")
         self.solution, self.rates = solution, rates
@@ -58,10 +59,11 @@ class ReducedSensitivity:
     def check_response(self, response) -> None:
         """Refuse a response whose KSD-reduced value is not a function of the links' DOFs alone."""
         if type(response).__name__ not in RESPONSES:
+            method = self.solution.method
             raise UnsupportedStrategyError(
-                f"{response.name} cannot be differentiated with method {self.solution.method!r} (its value comes from the joints' "
-                "condensed EOB models, which the design parameters' gradient does not follow): solve with "
-                f"method='ksd-full'; with {self.solution.method!r}: reactions, displacements, positions, rotations and the mass")
+                f"{response.name} cannot be differentiated with KSD-reduced (method {method!r}: its value comes from the "
+                "joints' condensed EOB models, which the design parameters' gradient does not follow): solve with "
+                "method='ksd-full'; with KSD-reduced: reactions, displacements, positions, rotations and the mass")
 
     def row(self, dof: int) -> np.ndarray:
         """Row ``dof`` of the reduced tangent on the full model's DOFs (zero outside the links')."""
@@ -107,7 +109,7 @@ class ReducedSensitivity:
         dJ_du = np.asarray(dJ_du, dtype=float)
         if np.any(dJ_du[len(self.links):] != 0.0):
             raise UnsupportedStrategyError("this response reads the joints' internal nodes, which KSD-reduced recovers "
-                                           f"from the EOBs (step 4): not differentiable with method {self.solution.method!r}")
+                                           "from the EOBs (step 4): not differentiable with KSD-reduced")
         if method == "direct" or (method == "auto" and "state_rates" in self.__dict__):
             return dJ_dN + dJ_du @ self.state_rates
         lam_adj = self.solve(dJ_du[self.free], transpose=True)

@@ -102,7 +102,8 @@ class Joint(abc.ABC):
     #: Intended rotation [rad] up to which the joint is meant to work, for the conformance tests.
     motion_range: ClassVar[float] = 0.3
     #: Database training settings overriding `flexmb.database.TRAINING` (``range_deg``,
-    #: ``step_deg``, ``element_powers``, ``constraint_powers``, ``length_powers``).
+    #: ``step_deg``, ``element_powers``, ``constraint_powers``, ``length_powers``), checked against
+    #: `flexmb.database.TRAINING_SCHEMA` (unknown keys refused; docs/plugins.md).
     training: ClassVar[dict] = {}
     #: Name of the integer parameter that sets the number of beam elements of `mesh` (e.g.
     #: ``"elements_per_leaf"``): `flexmb.discretisation.refined` multiplies it to refine the mesh.

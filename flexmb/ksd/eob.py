@@ -124,26 +124,33 @@ class EOBTemplate:
         m.add_link("B", position=joint.interface_b(dim))
         m.add_joint("A", "B", joint, name="joint")
         model = m.compile().problem.model
-        el = model.elements
         self.dim, self.data = dim, data
-        self.nd = nd = model.ndof
-        self.n_nodes = N = model.n_nodes
-        self.n_elements = E = len(el.L0)
+        self.nd = model.ndof
+        self.n_nodes = model.n_nodes
+        self.n_elements = len(model.elements.L0)
         self.node_x0 = model.x0
-        ends = el.ends
-        master = model.point_master
-        offset = model.point_offset
+        parent, flip = self._chains(joint, model)
+        self._markers(model, flip, self._stiffness_at_rest(model))
+        self._internal_paths(parent)
+        self._assembly_layout()
+        self._orientation_polynomial(data)
+        self.lookup = None  # the tabulated condensation (`flexmb.ksd.eob_table.lookup_for`), when it applies
 
-        # element material stiffness at rest, marker order (end 0, end 1)
-        x = model.point_x0[ends]
-        if dim == 2:
-            K0 = beam2d.internal_force_and_tangent(x[:, 0], x[:, 1], np.zeros(E), np.zeros(E), el.alpha0, el.L0,
-                                                   el.S)[1]
-        else:
-            I = np.tile(np.eye(3), (E, 1, 1))
-            K0 = beam3d.internal_force_and_tangent(x[:, 0], x[:, 1], I, I, el.ny0, el.nz0, el.L0, el.S)[1]
+    def _stiffness_at_rest(self, model) -> np.ndarray:
+        """Every element's material stiffness at rest (E, 2 nd, 2 nd), marker order (end 0, end 1)."""
+        el, E = model.elements, self.n_elements
+        x = model.point_x0[el.ends]
+        if self.dim == 2:
+            return beam2d.internal_force_and_tangent(x[:, 0], x[:, 1], np.zeros(E), np.zeros(E), el.alpha0, el.L0,
+                                                     el.S)[1]
+        I = np.tile(np.eye(3), (E, 1, 1))
+        return beam3d.internal_force_and_tangent(x[:, 0], x[:, 1], I, I, el.ny0, el.nz0, el.L0, el.S)[1]
 
-        # chains: breadth-first tree over the nodes from node A; each element runs p -> q away from A
+    def _chains(self, joint, model):
+        """A breadth-first tree over the nodes from node A: each node's parent element (N,) and
+        which elements run q -> p (E,) so that every element runs p -> q away from A."""
+        N, E = self.n_nodes, self.n_elements
+        ends, master = model.elements.ends, model.point_master
         incident = [[] for _ in range(N)]
         for k, (i, j) in enumerate(master[ends]):
             incident[i].append(k)
@@ -169,6 +176,13 @@ class EOBTemplate:
         if seen < N:
             raise ModelError(f"joint {joint.kind!r}: nodes {np.flatnonzero(order < 0).tolist()} are not connected "
                              "to node A by elements")
+        return parent, flip
+
+    def _markers(self, model, flip, K0) -> None:
+        """Each element's markers p, q (points, nodes, offsets), its step ``d`` from p to q, its
+        stiffness at rest in (p, q) order and its axial force row."""
+        nd, dim = self.nd, self.dim
+        ends, master, offset = model.elements.ends, model.point_master, model.point_offset
         pq = np.where(flip[:, None], ends[:, ::-1], ends)
         self.p_point, self.q_point = pq[:, 0], pq[:, 1]
         self.p_node, self.q_node = master[self.p_point], master[self.q_point]
@@ -181,10 +195,12 @@ class EOBTemplate:
         self._axial_row = np.einsum("ea,eab->eb", self.d / np.linalg.norm(self.d, axis=1)[:, None],
                                     self.K0[:, nd:nd + dim])
 
-        # internal nodes: x_n = x_root + sum over the path from the root (A or B) of the element
-        # steps R_p s_p + R_k d_k - R_q s_q (node to node through the element's markers)
+    def _internal_paths(self, parent) -> None:
+        """Internal nodes: x_n = x_root + sum over the path from the root (A or B) of the element
+        steps R_p s_p + R_k d_k - R_q s_q (node to node through the element's markers)."""
+        N = self.n_nodes
         n_int = N - 2
-        self.path = np.zeros((n_int, E))
+        self.path = np.zeros((n_int, self.n_elements))
         self.root = np.zeros(n_int, dtype=np.int64)
         for n in range(2, N):
             v = n
@@ -194,13 +210,16 @@ class EOBTemplate:
                 v = self.p_node[k]
             self.root[n - 2] = v
 
-        # node DOFs of every element's (p, q) markers, flattened for assembly into K_nodes
+    def _assembly_layout(self) -> None:
+        """Node DOFs of every element's (p, q) markers, flattened for assembly into K_nodes; the
+        internal nodes' chains (a cross flexure: one per leaf) that only the interface nodes
+        couple: the Craig-Bampton solve is block diagonal, done per block size."""
+        nd, N = self.nd, self.n_nodes
+        n_int = N - 2
         dofs = np.concatenate([self.p_node[:, None] * nd + np.arange(nd), self.q_node[:, None] * nd + np.arange(nd)],
                               axis=1)
         self.element_dofs = dofs
         self._kidx = (dofs[:, :, None] * (N * nd) + dofs[:, None, :]).ravel()
-        # internal nodes fall apart into chains (a cross flexure: one per leaf) that only the
-        # interface nodes couple: the Craig-Bampton solve is block diagonal, done per block size
         inner = (self.p_node >= 2) & (self.q_node >= 2)
         graph = sp.coo_array((np.ones(inner.sum()), (self.p_node[inner] - 2, self.q_node[inner] - 2)),
                              shape=(n_int, n_int))
@@ -213,14 +232,15 @@ class EOBTemplate:
         n, b = N * nd, 2 * nd
         self._block_at = [((b + i)[:, :, None] * n + (b + i)[:, None, :]) for i in self._blocks]  # in K_nodes (n * n)
         self._scatter_at = {}
-        # element and internal-node orientations as one polynomial over the union of their powers
-        polys = (data.elements, data.nodes) if N > 2 else (data.elements,)
+
+    def _orientation_polynomial(self, data) -> None:
+        """The element and internal-node orientation fits as one polynomial over the union of their powers."""
+        polys = (data.elements, data.nodes) if self.n_nodes > 2 else (data.elements,)
         powers = np.unique(np.concatenate([f.powers for f in polys]))
         coef = [np.zeros((np.atleast_2d(f.coefficients).shape[0], len(powers))) for f in polys]
         for c, f in zip(coef, polys):
             c[:, np.searchsorted(powers, f.powers)] = np.atleast_2d(f.coefficients)
         self._powers, self._coef = powers, np.concatenate(coef).T  # (P,), (P, n_orient)
-        self.lookup = None  # the tabulated condensation (`flexmb.ksd.eob_table.lookup_for`), when it applies
 
     def evaluate(self, theta: np.ndarray, b_position: np.ndarray, *, held_a: bool = False) -> EOB:
         """EOBs of J joints at intended rotations ``theta`` (J,) [rad] with node B's near position

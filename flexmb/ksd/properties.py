@@ -246,64 +246,88 @@ def reduced_modal_model(solution, n_fixed: int, database=None, table: bool = Tru
     at the configuration (`flexmb.ksd.joint_mass.condensed_subspace`: the same frequencies)."""
     red, (_, _, _, _, _, theta) = near(solution, database)
     st = _static(red)
-    poses = link_poses(red, solution.state)
-    fr = red.frames
-    emb, nL, J = red.active, red.n_links, len(red.joint_names)
     model = solution.compiled.problem.model
-    nl = nL * model.ndof
-    nd = len(emb)
+    nl = red.n_links * model.ndof
     compiled = jit.enabled()
-    if compiled:  # G[j] (2 nd, 12) on links a, b's twists, placed by pos[j] among the links' DOFs
-        G, pos, F = np.empty((J, 2 * nd, 12)), np.empty((J, 12), dtype=np.int64), np.empty((J, 3, 3))
-        properties_jit.joint_maps(np.ascontiguousarray(poses.R, dtype=float), fr.a, fr.b, fr.s_a, fr.s_b, fr.P, emb,
-                                  st["pos6"], F, G, pos)
-    else:
-        oA, F = fr.frame_a(poses)
-        arms = np.stack([oA - poses.x[fr.a], fr.relative(poses)[2]["rb"]], axis=1)  # (J, 2, 3): A, B from links a, b
-        Ft = np.zeros((J, 6, 6))  # the joint frames' axes on both halves of a link twist
-        Ft[:, :3, :3] = Ft[:, 3:, 3:] = np.swapaxes(F, 1, 2)
-        levers = (Ft[:, None] @ lever(arms, 3))[..., emb, :]  # (J, 2, nd, 6)
-        G = np.zeros((J, 2, nd, nL, 6))  # joint j's interface DOFs (A, B) from the links' twists
-        ar = np.arange(J)
-        G[ar, 0, :, fr.a] = levers[:, 0]
-        G[ar, 1, :, fr.b] = levers[:, 1]
-        G = G.reshape(J, 2 * nd, 6 * nL)
+    poses = link_poses(red, solution.state)
+    G, pos, F = _joint_maps(red, poses, st, compiled)
     parts = [condensed_subspace(tpl, st["joints"][red.joint_names[idx[0]]], theta[idx], n_fixed, table,
                                 recovery=False) for tpl, _, idx in red.groups]  # interior shapes: when to_full asks
-    recovered = []
     counts = tuple(ws.shape[1] for _, _, ws, _ in parts)  # modal coordinates per joint of each group
     if counts not in st:  # each joint's first modal coordinate, per kept counts: ~6 us a call
-        nm = np.zeros(J, dtype=np.int64)
+        nm = np.zeros(len(red.joint_names), dtype=np.int64)
         for (_, _, idx), c in zip(red.groups, counts):
             nm[idx] = c
         st[counts] = nm, nl + np.concatenate([[0], np.cumsum(nm)])
     nm, at = st[counts]
     n = int(at[-1])
-    M, K = np.zeros((n, n)), np.zeros((n, n))
-    if compiled:
-        for (_, _, idx), (Mbs, Cs, _, _) in zip(red.groups, parts):
-            properties_jit.assemble_mass(G, pos, idx, Mbs, Cs, at, M)
-    else:
-        M6 = np.zeros((6 * nL, 6 * nL))
-        for (_, _, idx), (Mbs, Cs, _, _) in zip(red.groups, parts):
-            Gg = G[idx]
-            M6 += (np.swapaxes(Gg, 1, 2) @ Mbs @ Gg).sum(axis=0)
-            CG = (Cs @ Gg)[..., red.emb_dofs]
-            for k, j in enumerate(idx):
-                sl = slice(at[j], at[j + 1])
-                M[sl, :nl], M[:nl, sl] = CG[k], CG[k].T
-                M[sl, sl] = np.eye(nm[j])
-        M[:nl, :nl] = M6 if st["whole"] else M6[np.ix_(red.emb_dofs, red.emb_dofs)]
+    M = _modal_mass(red, st, parts, G, pos, nm, at, nl, compiled)
+    K = np.zeros((n, n))
     K[:nl, :nl] = reduced_tangent(solution, database)[0]
     for (_, _, idx), (_, _, Kq, _) in zip(red.groups, parts):  # each joint's modal stiffness block
         for k, j in enumerate(idx):
             K[at[j]:at[j + 1], at[j]:at[j + 1]] = Kq[k]
     rigid = model.rigid_masses
-    if rigid is not None and (rigid.node < nL).any():
-        on = rigid.node < nL
+    if rigid is not None and (rigid.node < red.n_links).any():
+        on = rigid.node < red.n_links
         sub = RigidMasses(rigid.node[on], rigid.offset[on], rigid.mass[on], rigid.inertia[on])
         for d, blk in zip(model.node_dofs[sub.node], rigid_mass(model, solution.state, sub)):
             M[np.ix_(d, d)] += blk
+    return K, 0.5 * (M + M.T), _recovery(red, st, parts, G, pos, F, at, n, model, compiled)
+
+
+def _joint_maps(red, poses, st, compiled: bool):
+    """Each joint's interface DOFs (A, B) in its frame from the links' twists: ``G`` (J, 2 nd, 12)
+    on links a, b's twists placed by ``pos`` (J, 12) among the links' DOFs (compiled), or ``G``
+    (J, 2 nd, 6 n_links) on all the links' twists (numpy, ``pos`` None); the joint frames ``F``."""
+    fr = red.frames
+    emb, nL, J = red.active, red.n_links, len(red.joint_names)
+    nd = len(emb)
+    if compiled:
+        G, pos, F = np.empty((J, 2 * nd, 12)), np.empty((J, 12), dtype=np.int64), np.empty((J, 3, 3))
+        properties_jit.joint_maps(np.ascontiguousarray(poses.R, dtype=float), fr.a, fr.b, fr.s_a, fr.s_b, fr.P, emb,
+                                  st["pos6"], F, G, pos)
+        return G, pos, F
+    oA, F = fr.frame_a(poses)
+    arms = np.stack([oA - poses.x[fr.a], fr.relative(poses)[2]["rb"]], axis=1)  # (J, 2, 3): A, B from links a, b
+    Ft = np.zeros((J, 6, 6))  # the joint frames' axes on both halves of a link twist
+    Ft[:, :3, :3] = Ft[:, 3:, 3:] = np.swapaxes(F, 1, 2)
+    levers = (Ft[:, None] @ lever(arms, 3))[..., emb, :]  # (J, 2, nd, 6)
+    G = np.zeros((J, 2, nd, nL, 6))  # joint j's interface DOFs (A, B) from the links' twists
+    ar = np.arange(J)
+    G[ar, 0, :, fr.a] = levers[:, 0]
+    G[ar, 1, :, fr.b] = levers[:, 1]
+    return G.reshape(J, 2 * nd, 6 * nL), None, F
+
+
+def _modal_mass(red, st, parts, G, pos, nm, at, nl: int, compiled: bool) -> np.ndarray:
+    """The joints' condensed mass (n, n) on the links' DOFs and their modal coordinates (not yet
+    symmetrised; the links' rigid masses not yet added)."""
+    n = int(at[-1])
+    M = np.zeros((n, n))
+    if compiled:
+        for (_, _, idx), (Mbs, Cs, _, _) in zip(red.groups, parts):
+            properties_jit.assemble_mass(G, pos, idx, Mbs, Cs, at, M)
+        return M
+    M6 = np.zeros((6 * red.n_links, 6 * red.n_links))
+    for (_, _, idx), (Mbs, Cs, _, _) in zip(red.groups, parts):
+        Gg = G[idx]
+        M6 += (np.swapaxes(Gg, 1, 2) @ Mbs @ Gg).sum(axis=0)
+        CG = (Cs @ Gg)[..., red.emb_dofs]
+        for k, j in enumerate(idx):
+            sl = slice(at[j], at[j + 1])
+            M[sl, :nl], M[:nl, sl] = CG[k], CG[k].T
+            M[sl, sl] = np.eye(nm[j])
+    M[:nl, :nl] = M6 if st["whole"] else M6[np.ix_(red.emb_dofs, red.emb_dofs)]
+    return M
+
+
+def _recovery(red, st, parts, G, pos, F, at, n: int, model, compiled: bool):
+    """The function mapping reduced vectors (n, k) to the full model's DOFs (n_dofs, k): links as
+    they are, joint interiors by the Craig-Bampton transformation (read on its first call)."""
+    nl = red.n_links * model.ndof
+    nd = len(red.active)
+    recovered = []
 
     def to_full(v):
         v = np.asarray(v, dtype=float).reshape(n, -1)
@@ -329,4 +353,4 @@ def reduced_modal_model(solution, n_fixed: int, database=None, table: bool = Tru
             out[dofs.ravel()] = g.reshape(-1, k)
         return out
 
-    return K, 0.5 * (M + M.T), to_full
+    return to_full

@@ -27,7 +27,7 @@ from ..linear import single_threaded
 from ..rotations import cross, skew, unskew
 from . import constraints
 from .eob import EOBTemplate
-from .eob_table import lookup_for
+from .eob_table import SLACK, lookup_for
 from .geometry import ACTIVE, JointFrames, LinkPoses, compose, expm, intended_angle
 
 __all__ = ["ReducedMechanism", "template"]
@@ -172,10 +172,27 @@ class ReducedMechanism:
 
     def __init__(self, compiled, folder=None):
         problem = compiled.problem
-        dim = self.dim = problem.model.dim
-        self.compiled = compiled
-        self.n_links = nL = len(compiled.link_node)
         model = problem.model
+        dim = self.dim = model.dim
+        self.compiled, self.folder = compiled, folder
+        self._links(problem)
+        names, a, b, rot, b0, origin, groups = self._joints(compiled, folder)
+        self._joint_frames(names, a, b, rot, b0, origin, groups)
+        r0 = self._constraint_layout()
+        # hinges (flexmb.fe.ideal.Hinges of the full model, between link nodes): their kept
+        # constraint rows join step 1's equations (positions over the length, rotations in rad) and
+        # step 3's equilibrium with their multipliers, as in the full model
+        self.hinges = model.hinges
+        self.n_equations = r0 if self.hinges is None else self._hinge_layout(r0)
+        if self.hinges is None:
+            self.lam_rate = np.zeros(r0)
+        self._load_layout(problem.loads, dim)
+        _BUILT.update(vars(self))  # the attributes a set-up has when built (`rebind` keeps only these)
+
+    def _links(self, problem) -> None:
+        """The links (3D form): reference positions, prescribed and free coordinates, FE DOFs."""
+        model, dim, compiled = problem.model, self.dim, self.compiled
+        self.n_links = nL = len(compiled.link_node)
         self.X0 = _embed(model.x0[:nL], dim)
         nd = model.ndof
         act = ACTIVE[dim]
@@ -193,6 +210,11 @@ class ReducedMechanism:
         self.fe_dofs = (np.arange(nL)[:, None] * nd + np.arange(nd)).ravel()
         self.emb_dofs = (np.arange(nL)[:, None] * 6 + act).ravel()
 
+    def _joints(self, compiled, folder):
+        """The flexure joints (hinges are the full model's, `_hinge_layout`): their names, links,
+        placements and interface B, grouped by template (one EOB template per distinct joint
+        value, its database file's signature kept for `current`)."""
+        dim, model = self.dim, compiled.problem.model
         names, a, b, rot, b0, origin, groups, seen, used = [], [], [], [], [], [], {}, {}, []
         for key, jt, pl, side_a, side_b in compiled.joints:
             if "ideal" in jt.capabilities:  # a hinge: its exact constraints, from the full model (below)
@@ -226,9 +248,13 @@ class ReducedMechanism:
                     "KSD: the mechanism has hinges only, no flexure joint with a database: nothing for the EOBs "
                     "(steps 2-4); use method='conventional'")
             raise ModelError("the mechanism has no joints")
-        self.joint_names = names
-        self.folder = folder
         self._templates = used  # (joint, template, database file signature) per distinct joint value
+        return names, a, b, rot, b0, origin, groups
+
+    def _joint_frames(self, names, a, b, rot, b0, origin, groups) -> None:
+        """The joints' frames on their links, sizes and groups (joints sharing a template)."""
+        dim, compiled = self.dim, self.compiled
+        self.joint_names = names
         self.b0 = _embed(np.array(b0), dim)
         self.frames = self._frames(np.array(a), np.array(b), rot, origin)
         self.D0 = np.sqrt((self.b0 * self.b0).sum(axis=1))
@@ -238,55 +264,59 @@ class ReducedMechanism:
         self.joint_nodes = [compiled.joint_nodes[k] for k in names]
         #: each group's internal FE nodes (Jg, n), by the id of its joint index array (step 4)
         self._group_nodes = {id(idx): np.array([self.joint_nodes[j] for j in idx]) for _, _, idx in self.groups}
-        # equation rows: (joint, constraint) per group, in group order
+        # characteristic length for scaling translations against rotations
+        self.length = float(self.D0.sum()) / len(self.D0)
+
+    def _constraint_layout(self) -> int:
+        """Step 1's equation rows (joint, constraint) per group and where each group's (Jg, m_c, 12)
+        gradients go in the Jacobian (m, 6 n_links) (a joint's 12 columns are distinct: links
+        a != b); returns the number of rows."""
+        names, nL = self.joint_names, self.n_links
         self.rows = [(names[j], c) for tpl, cons, idx in self.groups for j in idx for c in cons]
         cols = np.concatenate([self.frames.a[:, None] * 6 + np.arange(6), self.frames.b[:, None] * 6 + np.arange(6)],
                               axis=1)
         self._cols = cols  # (J, 12)
-        # step 1: each group's constraints, and where its (Jg, m_c, 12) gradients go in the
-        # Jacobian (m, 6 n_links); a joint's 12 columns are distinct (links a != b)
         self._sets, self._jac_at, r0 = [], [], 0
         for tpl, cons, idx in self.groups:
             self._sets.append(_constraint_set(tpl, cons, self.D0[idx].tobytes(), self.b0[idx].tobytes()))
             row = r0 + np.arange(len(idx) * len(cons)).reshape(len(idx), len(cons), 1)
             self._jac_at.append((row * 6 * nL + cols[idx][:, None, :]).ravel())
             r0 += len(idx) * len(cons)
-        # characteristic length for scaling translations against rotations
-        self.length = float(self.D0.sum()) / len(self.D0)
-        # hinges (flexmb.fe.ideal.Hinges of the full model, between link nodes): their kept
-        # constraint rows join step 1's equations (positions over the length, rotations in rad) and
-        # step 3's equilibrium with their multipliers, as in the full model
-        self.hinges = hinges = model.hinges
-        if hinges is not None:
-            H, R = hinges.active.shape
-            self._hinge_links = (np.arange(nL)[:, None] * 6 + act)[hinges.node].reshape(H, -1)  # (H, 2 nd)
-            self._hinge_row_scale = np.where(np.arange(R) < dim, 1.0 / self.length, 1.0)
-            h, k = np.nonzero(hinges.active)
-            self._hinge_rows = (h, k)
-            row = r0 + np.arange(len(h))
-            self._hinge_jac_at = (row[:, None] * 6 * nL + self._hinge_links[h]).ravel()
-            # d(constraint)/d(load factor): the motor rows (their angle ramps with it, 2D and 3D alike)
-            self.lam_rate = np.zeros(r0 + len(h))
-            motor = k == R - 1
-            self.lam_rate[r0 + np.flatnonzero(motor)] = -hinges.angle[h[motor]]
-            self.rows += [(hinges.names[i], row_names(dim)[j]) for i, j in zip(h, k)]
-            # step 3: the hinges' blocks (links' DOFs, then their multipliers after the 6 n_links link DOFs)
-            self.hinge_dofs = hinges.dofs((np.arange(nL)[:, None] * 6 + act), 6 * nL)
-            r0 += len(h)
-        else:
-            self.lam_rate = np.zeros(r0)
-        self.n_equations = r0
-        self.load_node = problem.loads.node
-        self._set_loads(problem.loads)
-        # step 3: where the joints' wrenches on links b and a and the loads go in the residual, and
-        # each joint's 12 x 12 block and each offset load's 3 x 3 block in the flattened tangent
+        return r0
+
+    def _hinge_layout(self, r0: int) -> int:
+        """The hinges' kept rows after the joints' ``r0`` (step 1), their motors' rate in the load
+        factor, and their blocks in step 3 (links' DOFs, then the multipliers after the 6 n_links
+        link DOFs); returns the number of equations."""
+        hinges, dim, nL, act = self.hinges, self.dim, self.n_links, self.active
+        H, R = hinges.active.shape
+        self._hinge_links = (np.arange(nL)[:, None] * 6 + act)[hinges.node].reshape(H, -1)  # (H, 2 nd)
+        self._hinge_row_scale = np.where(np.arange(R) < dim, 1.0 / self.length, 1.0)
+        h, k = np.nonzero(hinges.active)
+        self._hinge_rows = (h, k)
+        row = r0 + np.arange(len(h))
+        self._hinge_jac_at = (row[:, None] * 6 * nL + self._hinge_links[h]).ravel()
+        # d(constraint)/d(load factor): the motor rows (their angle ramps with it, 2D and 3D alike)
+        self.lam_rate = np.zeros(r0 + len(h))
+        motor = k == R - 1
+        self.lam_rate[r0 + np.flatnonzero(motor)] = -hinges.angle[h[motor]]
+        self.rows += [(hinges.names[i], row_names(dim)[j]) for i, j in zip(h, k)]
+        self.hinge_dofs = hinges.dofs((np.arange(nL)[:, None] * 6 + act), 6 * nL)
+        return r0 + len(h)
+
+    def _load_layout(self, loads, dim: int) -> None:
+        """The dead loads in 3D form and, for step 3, where the joints' wrenches on links b and a
+        and the loads go in the residual, and each joint's 12 x 12 block and each offset load's
+        3 x 3 block in the flattened tangent."""
+        nL, cols = self.n_links, self._cols
+        self.load_node = loads.node
+        self._set_loads(loads)
         ld = self.load_node[:, None] * 6
         self._r_at = np.concatenate([np.concatenate([cols[:, 6:], cols[:, :6]], axis=1).ravel(),  # per joint: b, a
                                      (ld + np.arange(6)).ravel()])
         lr = ld + np.arange(3, 6)
         self._K_at = np.concatenate([(cols[:, :, None] * 6 * nL + cols[:, None, :]).ravel(),
                                      (lr[:, :, None] * 6 * nL + lr[:, None, :]).ravel()])
-        _BUILT.update(vars(self))  # the attributes a set-up has when built (`rebind` keeps only these)
 
     def _frames(self, a: np.ndarray, b: np.ndarray, rot: list, origin: list) -> JointFrames:
         """The joints' `JointFrames` from their links ``a``, ``b`` (J,), placements' rotations and
@@ -434,6 +464,38 @@ class ReducedMechanism:
         if not jacobian:
             return vals, None, theta, p
         return vals, (jac if jacobian == "deferred" else jac()), theta, p
+
+    def tabulated_plan(self):
+        """KSD-reduced's compiled path with every joint's condensation tabulated, prepared once per
+        set-up (kept on the set-up; `with_values` drops it): per group of joints its indices,
+        `flexmb.ksd.eob_table.Lookup.kernel_args` split around the per-solve arguments, its internal
+        nodes' count and FE nodes; per joint the rotations [rad] within which a solve takes this
+        path, (J,) arrays: in the trained range (up to step 1's 1e-9 rad, as the strategy's range
+        check) and on the table's grid (up to `flexmb.ksd.eob_table.SLACK`, `Lookup.covers`); steps 3-4's set-up
+        arguments. None where a joint has no table (its EOB is evaluated per solve: the general path)."""
+        plan = vars(self).get("_tabulated")
+        if plan is not None:
+            return plan or None
+        J = len(self.joint_names)
+        lo, hi, groups = np.zeros(J), np.zeros(J), []
+        for tpl, _, idx in self.groups:
+            lookup = tpl.lookup
+            if lookup is None:
+                self._tabulated = False
+                return None
+            t, coef, k, root, powers, ocoef, emb = lookup.kernel_args()
+            groups.append((idx, (t, coef, k), (root, powers, ocoef, emb), tpl.n_nodes - 2, tpl.dim))
+            (tl, th), (kl, kh) = tpl.data.range, lookup.range
+            lo[idx], hi[idx] = max(tl - 1e-9, kl - SLACK), min(th + 1e-9, kh + SLACK)
+        fr, model, dim = self.frames, self.compiled.problem.model, self.dim
+        frames = (fr.a, fr.b, fr.s_a, fr.s_b, fr.P)
+        loads = (self._cols, self.load_node, self.load_offset, self.load_force, self.load_moment, self.free)
+        N = model.n_nodes
+        reference = (model.x0, np.repeat(np.eye(3)[None], N if dim == 3 else 0, axis=0), np.zeros(N if dim == 2 else 0))
+        nodes = tuple(np.ascontiguousarray(self._group_nodes[id(idx)], dtype=np.int64) for idx, *_ in groups)
+        plan = self._tabulated = (groups, lo, hi, frames, loads, nodes, reference,
+                                 (self.fe_dofs, self.emb_dofs, int(model.n_dofs)))
+        return plan
 
     # -- step 2: the joints' EOBs, condensed ---------------------------------------------------
     def condensed_joints(self, theta: np.ndarray, p_hat: np.ndarray, *, lookup: bool, compiled: bool):

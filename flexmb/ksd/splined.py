@@ -47,8 +47,8 @@ class SplinedTable:
             worst = 0.0
             for name, v in parts.items():  # error relative to each array's largest entry
                 at = slice(*self._at(parts, name))
-                err = np.abs(interpolated[:, at] - between[name].reshape(len(mid), -1)).max()
-                worst = max(worst, float(err / max(np.abs(v).max(), 1e-300)))
+                err = np.abs(interpolated[:, at] - between[name].reshape(len(mid), -1)).max(initial=0.0)
+                worst = max(worst, float(err / max(np.abs(v).max(initial=0.0), 1e-300)))  # empty: a chain of no modes
             if worst <= TOL:
                 break
             step /= 2

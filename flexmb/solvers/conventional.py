@@ -10,7 +10,6 @@ starts from the extrapolation of the converged path, a corrector that leaves it 
 
 from __future__ import annotations
 
-import time
 from typing import ClassVar
 
 import attrs
@@ -20,11 +19,13 @@ from scipy.sparse.linalg import splu
 from .. import _validate as v
 from ..errors import ConvergenceError
 from ..fe.model import State
+from .._timing import Stopwatch
 from ..linear import single_threaded
 from ..problem import StaticProblem
 from ..results import Solution
 
-__all__ = ["Conventional", "newton_steps", "is_stable", "STEP_CONTROLS"]
+__all__ = ["Conventional", "newton_steps", "is_stable", "STEP_CONTROLS", "PaperControl", "AdaptiveControl",
+           "Corrector", "Report"]
 
 STEP_CONTROLS = ("adaptive", "paper")
 
@@ -185,14 +186,14 @@ class Conventional:
 
     def solve(self, compiled, *, state: State | None = None) -> Solution:
         """Equilibrium of ``compiled`` (a `Compiled` FE model), stepping from ``state`` (default undeformed)."""
-        t0 = time.perf_counter()
+        watch = Stopwatch()
         problem: StaticProblem = compiled.problem
         state = problem.model.initial_state() if state is None else state
         with single_threaded():
             out = newton_steps(problem, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
                                min_step=self.min_step, initial_step=self.initial_step, max_rotation=self.max_rotation,
                                control=self.step_control, rtol=self.rtol)
-        out["wall_time"]["total"] = time.perf_counter() - t0
+        out["wall_time"]["total"] = watch.total()
         tolerance = out.pop("tolerance", self.tol if self.tol is not None else np.nan)
         sol = Solution(method=self.name, compiled=compiled, tolerance=tolerance, **out)
         if self.raise_on_failure and not sol.converged:
@@ -216,160 +217,333 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
                  first_geometric_stress=None, control: str = "adaptive", rtol: float = RTOL) -> dict:
     """Drive ``problem`` from ``state`` at load factor ``lam0`` to 1; returns Solution fields.
 
-    ``control="paper"``: Fig. 18 (linear predictor from the converged tangent, halving, doubling
-    after easy steps); ``"adaptive"``: each step after the first starts from the polynomial
-    extrapolation of the last converged states (`FEModel.extrapolated_increment`), a corrector that leaves the
-    predicted path (`PATH_DEVIATION`) is rejected and the step cut, and the step grows or shrinks
-    with the iterations it took and how far its corrector moved.
+    Load steps in a loop: the step control (`PaperControl` for ``control="paper"``, Fig. 18:
+    linear predictor from the converged tangent, halving, doubling after easy steps;
+    `AdaptiveControl` for ``"adaptive"``: each step after the first starts from the polynomial
+    extrapolation of the last converged states, `FEModel.extrapolated_increment`, a corrector that
+    leaves the predicted path, `PATH_DEVIATION`, is rejected and the step cut, and the step grows
+    or shrinks with the iterations it took and how far its corrector moved) predicts each step,
+    `Corrector` iterates it, and `Report` says how the run ended.
     ``tol``: absolute threshold on the free residual's 2-norm [N, N m]; None: relative, the
     scaled residual (`StaticProblem.scaled_residual`) below ``rtol``, or a corrector below
     `CORRECTION_FLOOR` (the round-off floor: Newton cannot improve the state further).
     ``first_geometric_stress``: the geometric-stiffness stresses of the first tangent only
     (`StaticProblem.evaluate`), where ``state``'s own are known to be off (KSD step 5)."""
-    adaptive = control == "adaptive"
-    model = problem.model
-    history: list[float] = []
-    times = {"assemble": 0.0, "solve": 0.0}
-    lam, dlam = lam0, min(initial_step, 1.0 - lam0)
-    steps = rejected = 0
-    free = problem.free
-    path = [(lam, state)]  # converged (load factor, state), the predictor's support
-    reference = None  # the generalised stresses of the last converged state (adaptive control)
-    last_deviation = None  # the deviation ratio of the last step rejected for leaving the path
-    length = problem.model_length
-
-    def finish(converged: bool, message: str, r=None) -> dict:
-        if r is None:  # reactions at the last converged state
-            r = problem.evaluate(state, lam, tangent=False)[0]
-        return dict(converged=converged, iterations=len(history), residual_history=np.array(history),
-                    load_factor=lam, steps=steps, rejected_steps=rejected, wall_time=times, state=state,
-                    residual=r, message=message)
-
+    steps = (AdaptiveControl if control == "adaptive" else PaperControl)(problem, state, lam0)
+    report = Report(problem, tol, rtol)
+    corrector = Corrector(problem, tol=tol, rtol=rtol, max_iter=max_iter, divergence=divergence,
+                          max_rotation=max_rotation, history=report.history, times=report.watch,
+                          first_geometric_stress=first_geometric_stress)
+    dlam = min(initial_step, 1.0 - lam0)
     if dlam <= 0.0:  # nothing to do but check equilibrium
-        r = problem.evaluate(state, 1.0, tangent=False)[0]
-        res = float(np.linalg.norm(r[free]))
-        history.append(res)
-        ok = res < tol if tol is not None else problem.scaled_residual(r[free]) <= rtol
-        return finish(ok, "already in equilibrium" if ok else f"residual {res:.3g} above the tolerance", r)
+        return report.at_rest(state, lam0)
     while True:
         dlam = min(dlam, problem.max_load_step)
-        target = lam + dlam
-        du_p = problem.prescribed_increment(dlam, lam)
-        extrapolate = adaptive and len(path) > 1
-        if extrapolate:
-            du_pred = model.extrapolated_increment(path, target)
-            du_pred[problem.prescribed] = du_p
-            trial = model.apply_increment(state, du_pred)
-            predicted, moved = _size(model, du_pred, length), np.zeros(model.n_dofs)
+        step = corrector.run(steps, dlam)
+        if step.accepted:
+            steps.accept(step)
+            report.steps += 1
+            if steps.lam >= 1.0 - 1e-14:
+                steps.lam = 1.0
+                return report.converged(steps.state, step)
+            dlam = min(steps.growth(step) * dlam, 1.0 - steps.lam)
+        elif step.stalled is not None:
+            return report.stalled(steps.state, steps.lam, step.stalled)
         else:
-            trial = state
+            report.rejected += 1
+            dlam *= 0.5
+            steps.reject(step)
+            if dlam < min_step:
+                return report.failed(steps.state, steps.lam, min_step)
+
+
+class PaperControl:
+    """Dwarshuis et al. (2020) Fig. 18's step control: the linear predictor (the converged
+    tangent's first correction from the last converged state), halving a failed step, doubling
+    after a step of at most 4 iterations. Holds the run's converged state and load factor."""
+
+    adaptive = False
+
+    def __init__(self, problem: StaticProblem, state: State, lam: float):
+        self.problem, self.model, self.state, self.lam = problem, problem.model, state, lam
+
+    def predict(self, target: float, du_p: np.ndarray):
+        """The corrector's start for load factor ``target`` (prescribed increment ``du_p``) and
+        whether it is extrapolated (then its first iteration is a correction, not a predictor)."""
+        return self.state, False
+
+    def accept_rtol(self, rtol: float, target: float) -> float:
+        """The relative tolerance a step to ``target`` is accepted at: ``rtol`` for every step."""
+        return rtol
+
+    def geometric_stress(self, it: int, moving: bool, physical: bool):
+        """The stresses of the tangent's geometric part at iteration ``it`` (None: the iterate's own)."""
+        return None
+
+    def evaluated(self, sigma, geometric) -> None:
+        """The first evaluation's stresses, where the control keeps them."""
+
+    def left_path(self, it: int, du: np.ndarray, extrapolated: bool):
+        """None, or how far (over the predicted step) the corrector has left the predicted path."""
+        return None
+
+    def accept(self, step) -> None:
+        """``step`` converged: its state and load factor are the run's."""
+        self.state, self.lam = step.trial, step.target
+
+    def growth(self, step) -> float:
+        """The next step's size over this one's after ``step`` was accepted."""
+        return 2.0 if step.it <= 4 else 1.0
+
+    def reject(self, step) -> None:
+        """Bookkeeping after ``step`` was rejected (its load step halved)."""
+
+
+class AdaptiveControl(PaperControl):
+    """The continuation (``step_control="adaptive"``, `Conventional`'s notes): each step after the
+    first starts from the extrapolation of the last `PATH_POINTS` converged states; in steps that
+    move prescribed DOFs the corrector's tangent takes the last converged state's stresses for its
+    geometric part (`REFERENCE_STRESS_UNTIL`, `REFERENCE_STRESS_ITERATIONS`); a corrector farther
+    than `PATH_DEVIATION` x the predicted step from the predicted state is rejected (and when
+    halving does not bring it `RESTART_RATIO` nearer, the extrapolation restarts); the steps before
+    the last converge to `INTERMEDIATE_RTOL`; the next step grows or shrinks with the iterations."""
+
+    adaptive = True
+
+    def __init__(self, problem: StaticProblem, state: State, lam: float):
+        super().__init__(problem, state, lam)
+        self.path = [(lam, state)]  # converged (load factor, state), the predictor's support
+        self.reference = None  # the generalised stresses of the last converged state
+        self.last_deviation = None  # the deviation ratio of the last step rejected for leaving the path
+        self.length = problem.model_length
+        self.predicted = self.moved = None
+
+    def predict(self, target: float, du_p: np.ndarray):
+        model = self.model
+        if len(self.path) <= 1:
+            return self.state, False
+        du_pred = model.extrapolated_increment(self.path, target)
+        du_pred[self.problem.prescribed] = du_p
+        self.predicted, self.moved = _size(model, du_pred, self.length), np.zeros(model.n_dofs)
+        return model.apply_increment(self.state, du_pred), True
+
+    def accept_rtol(self, rtol: float, target: float) -> float:
+        """``rtol`` for the last step, `INTERMEDIATE_RTOL` (when looser) before it."""
+        return rtol if target >= 1.0 - 1e-14 else max(rtol, INTERMEDIATE_RTOL)
+
+    def geometric_stress(self, it: int, moving: bool, physical: bool):
+        if moving and it > 0 and not physical and self.reference is not None:
+            return self.reference  # held: the stresses themselves, not the iterate's
+        return None
+
+    def evaluated(self, sigma, geometric) -> None:
+        if self.reference is None:  # the start state's: its own, or those given for its first tangent
+            self.reference = sigma if geometric is None else (geometric(sigma.copy()) if callable(geometric)
+                                                              else np.array(geometric))
+
+    def left_path(self, it: int, du: np.ndarray, extrapolated: bool):
+        model = self.model
+        if it == 0:
+            self.predicted, self.moved = _size(model, du, self.length), np.zeros(model.n_dofs)
+            return None
+        self.moved += du
+        # after a linear predictor, its nodes' rotations are corrected a lot along rotating
+        # leaves (the tangent's straight line stretches them): translations only
+        away = (_size if extrapolated else _translation)(model, self.moved, self.length)
+        if away > max(PATH_DEVIATION * self.predicted, SAME_PATH):
+            return away / self.predicted  # the corrector leaves the predicted path (another branch)
+        return None
+
+    def accept(self, step) -> None:
+        """As `PaperControl.accept`; its stresses become the reference, its state joins the path."""
+        super().accept(step)
+        self.reference, self.last_deviation = step.sigma, None
+        self.path = (self.path + [(self.lam, self.state)])[-PATH_POINTS:]
+
+    def growth(self, step) -> float:
+        ratio = _size(self.model, self.moved, self.length) / self.predicted if self.predicted > 0 else 0.0
+        return 2.0 if (step.it < GROW_BELOW or ratio < SMOOTH_PATH) else (0.6 if step.it > SHRINK_ABOVE else 1.0)
+
+    def reject(self, step) -> None:
+        deviation = step.deviation
+        if step.extrapolated and deviation is not None and self.last_deviation is not None \
+                and deviation > RESTART_RATIO * self.last_deviation:
+            self.path = self.path[-1:]  # halving did not bring the corrector nearer: the extrapolation is off
+            deviation = None
+        self.last_deviation = deviation if step.extrapolated else None
+
+
+@attrs.define
+class Step:
+    """What one load step's corrector left (`Corrector.run`)."""
+
+    target: float
+    extrapolated: bool
+    trial: State = None
+    accepted: bool = False
+    stalled: float | None = None  # the residual where Newton stopped gaining (absolute tol only)
+    deviation: float | None = None  # how far the corrector left the predicted path (adaptive)
+    it: int = 0  # the last iteration
+    floor: bool = False  # the last correction was at the round-off floor
+    r: np.ndarray | None = None
+    Kff: object = None
+    sigma: np.ndarray | None = None
+
+
+class Corrector:
+    """Newton iterations of one load step from the step control's prediction: accepted at the
+    tolerance (``tol`` absolute, else ``rtol`` relative or the round-off floor), given up on a
+    residual that grows by ``divergence`` after the first correction or is not finite, on a
+    singular tangent, at ``max_iter``, on a correction that turns a node by more than
+    ``max_rotation`` [rad] (the predictor excepted: leaving for another branch) or, as the
+    control decides, on a corrector that leaves the predicted path. Times assembly and solves."""
+
+    def __init__(self, problem: StaticProblem, *, tol, rtol, max_iter, divergence, max_rotation, history, times,
+                 first_geometric_stress=None):
+        self.problem, self.model = problem, problem.model
+        self.tol, self.rtol, self.max_iter, self.divergence = tol, rtol, max_iter, divergence
+        self.max_rotation, self.history, self.watch = max_rotation, history, times
+        self.first_geometric_stress = first_geometric_stress  # the first tangent's only
+        self.length = problem.model_length
+
+    def run(self, control: PaperControl, dlam: float) -> Step:
+        """One load step of size ``dlam`` from the control's converged state, predicted by it."""
+        problem = self.problem
+        target = control.lam + dlam
+        du_p = problem.prescribed_increment(dlam, control.lam)
+        trial, extrapolated = control.predict(target, du_p)
+        step = Step(target, extrapolated, trial)
         prev = first = np.inf
-        floor = accepted = physical = False
-        stalled = deviation = None
+        physical = False
         moving = bool(np.any(du_p != 0.0))  # the reference stresses serve steps of prescribed motion only
-        accept_rtol = rtol if not adaptive or target >= 1.0 - 1e-14 else max(rtol, INTERMEDIATE_RTOL)
-        for it in range(1 if extrapolate else 0, max_iter + 1):
-            t = time.perf_counter()
-            geometric = first_geometric_stress
-            if geometric is None and adaptive and moving and it > 0 and not physical and reference is not None:
-                geometric = reference  # held: the stresses themselves, not the iterate's
-            r, Kff, Kfp, sigma = problem.evaluate(trial, target, tangent=True, geometric_stress=geometric)
-            first_geometric_stress = None
-            if reference is None:  # the start state's: its own, or those given for its first tangent
-                reference = sigma if geometric is None else (geometric(sigma.copy()) if callable(geometric)
-                                                             else np.array(geometric))
-            times["assemble"] += time.perf_counter() - t
-            rf = r[free]
+        accept_rtol = control.accept_rtol(self.rtol, target)
+        for it in range(1 if extrapolated else 0, self.max_iter + 1):
+            step.it = it
+            Kfp = self._evaluate(step, control, moving, physical)
+            rf = step.r[problem.free]
             if it == 0:
                 rhs = -(rf + Kfp @ du_p)
             else:
                 res = float(np.linalg.norm(rf))
-                history.append(res)
-                if not np.isfinite(res) or (it > 1 and res > divergence * prev):
+                self.history.append(res)
+                if not np.isfinite(res) or (it > 1 and res > self.divergence * prev):
                     break
-                scaled = problem.scaled_residual(rf) if tol is None else np.nan
-                if (res < tol) if tol is not None else (floor or scaled <= accept_rtol):
-                    accepted = True
+                scaled = problem.scaled_residual(rf) if self.tol is None else np.nan
+                if (res < self.tol) if self.tol is not None else (step.floor or scaled <= accept_rtol):
+                    step.accepted = True
                     break
                 physical = physical or scaled < REFERENCE_STRESS_UNTIL or it >= REFERENCE_STRESS_ITERATIONS
-                if tol is not None and it > 2 and res > 0.5 * prev and res < 1e-10 * first:
-                    stalled = res  # Newton stopped gaining: roundoff floor of this model
+                if self.tol is not None and it > 2 and res > 0.5 * prev and res < 1e-10 * first:
+                    step.stalled = res  # Newton stopped gaining: roundoff floor of this model
                     break
                 if it == 1:
                     first = res
                 prev = res
                 rhs = -rf
-                if it == max_iter:
+                if it == self.max_iter:
                     break
-            t = time.perf_counter()
-            try:
-                du_f = problem.solve_linear(Kff, rhs)
-            except np.linalg.LinAlgError:
+            du = self._correction(step, rhs, du_p if it == 0 else np.zeros_like(du_p))
+            if du is None:
                 break
-            finally:
-                times["solve"] += time.perf_counter() - t
-            if not np.all(np.isfinite(du_f)):
-                break
-            du = problem.full_increment(du_f, du_p if it == 0 else np.zeros_like(du_p))
-            floor = _size(model, du, length) <= CORRECTION_FLOOR  # the predictor too: a step with nothing to do
-            if it > 0 and max_rotation is not None and model.largest_motion(du)[1] > max_rotation:
+            if it > 0 and self.max_rotation is not None and self.model.largest_motion(du)[1] > self.max_rotation:
                 break  # a corrector that turns a node this far has left the branch: cut the step
-            if adaptive:
-                if it == 0:
-                    predicted, moved = _size(model, du, length), np.zeros(model.n_dofs)
-                else:
-                    moved += du
-                    # after a linear predictor, its nodes' rotations are corrected a lot along
-                    # rotating leaves (the tangent's straight line stretches them): translations only
-                    away = (_size if extrapolate else _translation)(model, moved, length)
-                    if away > max(PATH_DEVIATION * predicted, SAME_PATH):
-                        deviation = away / predicted
-                        break  # the corrector leaves the predicted path (another branch): cut the step
-            trial = model.apply_increment(trial, du)
-        if accepted:
-            state, lam, reference, last_deviation = trial, target, sigma, None
-            path = (path + [(lam, state)])[-PATH_POINTS:]
-            steps += 1
-            if lam >= 1.0 - 1e-14:
-                lam = 1.0
-                broken = problem.broken_constraints(state)  # "" without hinges
-                if broken:
-                    return finish(False, f"not converged: {broken}", r)
-                if tol is not None:
-                    out = finish(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {steps} steps", r)
-                    out["tolerance"] = tol
-                else:
-                    scaled = problem.scaled_residual(r[free])
-                    why = f"the round-off floor: last correction below {CORRECTION_FLOOR:g}" if floor else f"rtol {rtol:g}"
-                    out = finish(True, f"converged: residual {history[-1]:.3g}, {scaled:.2g} of the force scale "
-                                       f"{problem.force_scale:.3g} ({why}) in {steps} steps", r)
-                    out["tolerance"] = max(rtol * problem.force_scale, history[-1])
-                stable = problem.positive_definite(Kff)  # from the solver's own analysis, None: cannot tell
-                out["stable"] = is_stable(problem.reduced_tangent(Kff)) if stable is None else stable
-                if out["stable"] is False:
-                    out["message"] += ("; the equilibrium is UNSTABLE (tangent not positive definite): another "
-                                       "branch may be the physical one, try initial_step < 1")
-                return out
-            if adaptive:
-                ratio = _size(model, moved, length) / predicted if predicted > 0 else 0.0
-                grow = 2.0 if (it < GROW_BELOW or ratio < SMOOTH_PATH) else (0.6 if it > SHRINK_ABOVE else 1.0)
-            else:
-                grow = 2.0 if it <= 4 else 1.0
-            dlam = min(grow * dlam, 1.0 - lam)
-        elif stalled is not None:
-            return finish(False, f"not converged: the residual stalls at {stalled:.3g}, the roundoff floor of this "
-                                 f"model, above tol={tol:.3g}; raise tol or leave it None (relative; load factor "
-                                 f"reached {lam:.6g})")
-        else:
-            rejected += 1
-            dlam *= 0.5
-            if extrapolate and deviation is not None and last_deviation is not None \
-                    and deviation > RESTART_RATIO * last_deviation:
-                path = path[-1:]  # halving did not bring the corrector nearer: the extrapolation is off
-                deviation = None
-            last_deviation = deviation if extrapolate else None
-            if dlam < min_step:
-                return finish(False, f"not converged: step halved below min_step={min_step:g} at load factor "
-                                     f"{lam:.6g} (the last converged step); the residual history shows the failed "
-                                     "iterations" + problem.roundoff_hint())
+            step.deviation = control.left_path(it, du, extrapolated)
+            if step.deviation is not None:
+                break  # the corrector leaves the predicted path (another branch): cut the step
+            step.trial = self.model.apply_increment(step.trial, du)
+        return step
 
+    def _evaluate(self, step: Step, control: PaperControl, moving: bool, physical: bool):
+        """Residual, tangent and stresses at the step's iterate (on ``step``; returns the
+        free-prescribed tangent block), the geometric stiffness from the stresses the control
+        holds or, the first time only, from ``first_geometric_stress``."""
+        with self.watch.adding("assemble"):
+            geometric = self.first_geometric_stress
+            if geometric is None:
+                geometric = control.geometric_stress(step.it, moving, physical)
+            step.r, step.Kff, Kfp, step.sigma = self.problem.evaluate(step.trial, step.target, tangent=True,
+                                                                      geometric_stress=geometric)
+            self.first_geometric_stress = None
+            control.evaluated(step.sigma, geometric)
+        return Kfp
+
+    def _correction(self, step: Step, rhs: np.ndarray, du_p: np.ndarray):
+        """The Newton correction on all DOFs (prescribed: ``du_p``), None where the tangent is
+        singular or the solve not finite; marks the round-off floor on ``step``."""
+        problem = self.problem
+        with self.watch.adding("solve"):
+            try:
+                du_f = problem.solve_linear(step.Kff, rhs)
+            except np.linalg.LinAlgError:
+                return None
+        if not np.all(np.isfinite(du_f)):
+            return None
+        du = problem.full_increment(du_f, du_p)
+        step.floor = _size(self.model, du, self.length) <= CORRECTION_FLOOR  # the predictor too: nothing to do
+        return du
+
+
+class Report:
+    """The end of a `newton_steps` run as `flexmb.Solution` fields: converged or why not, the
+    residual history, steps taken and rejected, the wall time per phase, the stability of a
+    converged equilibrium."""
+
+    def __init__(self, problem: StaticProblem, tol, rtol):
+        self.problem, self.tol, self.rtol = problem, tol, rtol
+        self.history: list[float] = []
+        self.watch = Stopwatch({"assemble": 0.0, "solve": 0.0})
+        self.steps = self.rejected = 0
+
+    def _fields(self, converged: bool, message: str, state: State, lam: float, r=None) -> dict:
+        if r is None:  # reactions at the last converged state
+            r = self.problem.evaluate(state, lam, tangent=False)[0]
+        return dict(converged=converged, iterations=len(self.history), residual_history=np.array(self.history),
+                    load_factor=lam, steps=self.steps, rejected_steps=self.rejected, wall_time=self.watch.times,
+                    state=state, residual=r, message=message)
+
+    def at_rest(self, state: State, lam: float) -> dict:
+        """Nothing to step (``lam``, the start, is already 1): whether ``state`` is in equilibrium
+        at load factor 1."""
+        problem, tol = self.problem, self.tol
+        r = problem.evaluate(state, 1.0, tangent=False)[0]
+        res = float(np.linalg.norm(r[problem.free]))
+        self.history.append(res)
+        ok = res < tol if tol is not None else problem.scaled_residual(r[problem.free]) <= self.rtol
+        return self._fields(ok, "already in equilibrium" if ok else f"residual {res:.3g} above the tolerance",
+                            state, lam, r)
+
+    def converged(self, state: State, step: Step) -> dict:
+        """Load factor 1 reached: converged (unless a hinge's constraint broke), with the
+        tolerance met and the equilibrium's stability from the last tangent."""
+        problem, tol, rtol, r, history = self.problem, self.tol, self.rtol, step.r, self.history
+        broken = problem.broken_constraints(state)  # "" without hinges
+        if broken:
+            return self._fields(False, f"not converged: {broken}", state, 1.0, r)
+        if tol is not None:
+            out = self._fields(True, f"converged: residual {history[-1]:.3g} < tol {tol:.3g} in {self.steps} steps",
+                               state, 1.0, r)
+            out["tolerance"] = tol
+        else:
+            scaled = problem.scaled_residual(r[problem.free])
+            why = f"the round-off floor: last correction below {CORRECTION_FLOOR:g}" if step.floor else f"rtol {rtol:g}"
+            out = self._fields(True, f"converged: residual {history[-1]:.3g}, {scaled:.2g} of the force scale "
+                                     f"{problem.force_scale:.3g} ({why}) in {self.steps} steps", state, 1.0, r)
+            out["tolerance"] = max(rtol * problem.force_scale, history[-1])
+        stable = problem.positive_definite(step.Kff)  # from the solver's own analysis, None: cannot tell
+        out["stable"] = is_stable(problem.reduced_tangent(step.Kff)) if stable is None else stable
+        if out["stable"] is False:
+            out["message"] += ("; the equilibrium is UNSTABLE (tangent not positive definite): another "
+                               "branch may be the physical one, try initial_step < 1")
+        return out
+
+    def stalled(self, state: State, lam: float, res: float) -> dict:
+        """Not converged: the residual ``res`` stopped falling above the absolute ``tol``."""
+        return self._fields(False, f"not converged: the residual stalls at {res:.3g}, the roundoff floor of this "
+                                   f"model, above tol={self.tol:.3g}; raise tol or leave it None (relative; load "
+                                   f"factor reached {lam:.6g})", state, lam)
+
+    def failed(self, state: State, lam: float, min_step: float) -> dict:
+        """Not converged: the step was halved below ``min_step``."""
+        return self._fields(False, f"not converged: step halved below min_step={min_step:g} at load factor "
+                                   f"{lam:.6g} (the last converged step); the residual history shows the failed "
+                                   "iterations" + self.problem.roundoff_hint(), state, lam)

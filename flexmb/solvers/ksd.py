@@ -20,7 +20,6 @@
 
 from __future__ import annotations
 
-import time
 import warnings
 from typing import ClassVar
 
@@ -30,12 +29,12 @@ import numpy as np
 from ..errors import ConvergenceError, DatabaseError, ExtrapolationWarning
 from .. import jit
 from ..ksd.geometry import ACTIVE, LinkPoses, rz
-from ..ksd.eob_table import SLACK
 from ..ksd.linearisation import ReducedSolution
 from ..ksd.kinematics import _gesv, _norm, kinematics_in_range, solve_kinematics
 from ..ksd.estimate import DEFAULT_TOLERANCE, check, estimate_at
 from ..ksd.provenance import files
 from ..ksd.reduced import ReducedMechanism, kernels, reduced_mechanism, setup_key
+from .._timing import Stopwatch
 from ..linear import single_threaded
 from ..fe.model import State
 from ..results import Solution
@@ -110,39 +109,6 @@ def _reachable(red: ReducedMechanism) -> None:
 
 
 _TOL_TEXT: dict = {}  # tolerances as messages print them (a float's formatting: ~10 us after other work)
-
-
-def _tabulated(red: ReducedMechanism):
-    """KSD-reduced's compiled path with every joint's condensation tabulated, prepared once per
-    set-up (kept on ``red``; `ReducedMechanism.with_values` drops it): per group of joints its
-    indices, `flexmb.ksd.eob_table.Lookup.kernel_args` split around the per-solve arguments, its
-    internal nodes' count and FE nodes; per joint the rotations [rad] within which a solve takes
-    this path, (J,) arrays: in the trained range (up to step 1's 1e-9 rad, `_check_range`) and on
-    the table's grid (up to `flexmb.ksd.eob_table.SLACK`, `Lookup.covers`); steps 3-4's set-up
-    arguments. None where a joint has no table (its EOB is evaluated per solve: the general path)."""
-    plan = vars(red).get("_tabulated")
-    if plan is not None:
-        return plan or None
-    J = len(red.joint_names)
-    lo, hi, groups = np.zeros(J), np.zeros(J), []
-    for tpl, _, idx in red.groups:
-        lookup = tpl.lookup
-        if lookup is None:
-            red._tabulated = False
-            return None
-        t, coef, k, root, powers, ocoef, emb = lookup.kernel_args()
-        groups.append((idx, (t, coef, k), (root, powers, ocoef, emb), tpl.n_nodes - 2, tpl.dim))
-        (tl, th), (kl, kh) = tpl.data.range, lookup.range
-        lo[idx], hi[idx] = max(tl - 1e-9, kl - SLACK), min(th + 1e-9, kh + SLACK)
-    fr, model, dim = red.frames, red.compiled.problem.model, red.dim
-    frames = (fr.a, fr.b, fr.s_a, fr.s_b, fr.P)
-    loads = (red._cols, red.load_node, red.load_offset, red.load_force, red.load_moment, red.free)
-    N = model.n_nodes
-    reference = (model.x0, np.repeat(np.eye(3)[None], N if dim == 3 else 0, axis=0), np.zeros(N if dim == 2 else 0))
-    nodes = tuple(np.ascontiguousarray(red._group_nodes[id(idx)], dtype=np.int64) for idx, *_ in groups)
-    plan = red._tabulated = (groups, lo, hi, frames, loads, nodes, reference,
-                             (red.fe_dofs, red.emb_dofs, int(model.n_dofs)))
-    return plan
 
 
 @attrs.frozen(kw_only=True)
@@ -222,49 +188,43 @@ class _KSD:
         return not self.full and jit.enabled() and getattr(compiled.problem.model, "hinges", None) is None
 
     def _solve(self, compiled) -> Solution:
-        t0 = time.perf_counter()
-        times, stages = {}, {}
-
-        def lap(key, t):
-            now = time.perf_counter()
-            times[key] = now - t
-            return now
-
+        watch, stages = Stopwatch(), {}
+        times = watch.times
         red = reduced_mechanism(compiled, self.database)
         stages["setup"] = {"files": files(red)}  # which database file each joint's data came from (issue 32)
-        t = lap("setup", t0)
+        watch.lap("setup")
 
         if self.strict_range:
             _check_reachable(red)
         compiled_path = self._compiled_path(compiled)  # steps 2-4 as arrays, compiled
-        plan = _tabulated(red) if compiled_path and not self.full else None
+        plan = red.tabulated_plan() if compiled_path and not self.full else None
         step1 = None if plan is None else kinematics_in_range(red, self.kinematic_tol, self.strict_range, *plan[1:3])
         if step1 is not None:  # in range and on the tables: steps 2-4 from prepared arguments
-            return self._tabulated_steps(compiled, red, plan, step1, stages, times, t, t0, lap)
+            return self._tabulated_steps(compiled, red, plan, step1, stages, watch)
         try:
             poses, theta, p_hat, info = solve_kinematics(red, tol=self.kinematic_tol, stop_beyond_half_turn=self.strict_range)
         except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy
-            lap("kinematics", t)
-            times["total"] = time.perf_counter() - t0
+            watch.lap("kinematics")
+            watch.total()
             sol = self.solution_type.failed(self.name, compiled, f"{self.name}: {exc}", times, stages)
             if self.raise_on_failure:
                 raise ConvergenceError(sol.message, sol) from None
             return sol
         _check_range(red, theta, self.strict_range, info["load_factor"])
         stages["kinematics"] = {**info, "theta": theta.copy(), "p_hat": p_hat.copy()}  # flexmb.ksd.properties.near
-        t = lap("kinematics", t)
+        watch.lap("kinematics")
 
         K, Fh, eobs, tabulated = red.condensed_joints(theta, p_hat, lookup=not self.full, compiled=compiled_path)
         R_hat = rz(theta)
         stages["eob"] = {"joints": len(theta), "tabulated": tabulated}  # step 2: EOBs built, of them looked up
         if not self.full:  # step 2's EOBs, kept for flexmb.ksd.properties.near (not rebuilt)
             stages["eob"]["near"] = (red, eobs, K, Fh)
-        t = lap("eob", t)
-        return self._steps_3_4(compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, times, t, t0, lap)
+        watch.lap("eob")
+        return self._steps_3_4(compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, watch)
 
-    def _tabulated_steps(self, compiled, red, plan, step1, stages, times, t, t0, lap) -> Solution:
-        """Steps 2-4 of KSD-reduced with every joint tabulated and in range (`_tabulated`'s
-        ``plan``), from step 1's ``(poses, theta, p_hat, info)``: the kernels of the general
+    def _tabulated_steps(self, compiled, red, plan, step1, stages, watch) -> Solution:
+        """Steps 2-4 of KSD-reduced with every joint tabulated and in range
+        (`ReducedMechanism.tabulated_plan`), from step 1's ``(poses, theta, p_hat, info)``: the kernels of the general
         compiled path (`flexmb.ksd.reduced_jit`: `eob_lookup` per group, `reduced_newton`,
         `internal`) with their outputs allocated inside (`eob_lookup_new`, `reduced_newton_near`,
         `internal_state`): the same numbers with ~25 fewer numpy calls per solve, each ~5 us after
@@ -272,18 +232,19 @@ class _KSD:
         `flexmb.solve` (medians of 60 interleaved, loaded host): 0.30 -> 0.16 ms steady, 0.62 ->
         0.43 ms after a conventional solve, 0.98 -> 0.68 ms after gc.collect (cache misses: a
         solve after an 8 MB sweep of memory takes 0.47 ms, with no page faults)."""
+        times = watch.times
         groups, _, _, frames, loads, nodes, reference, dofs = plan
         kernel = kernels()
         poses, theta, p_hat, info, K, Fh = step1
         stages["kinematics"] = {**info, "theta": theta, "p_hat": p_hat}  # fresh arrays, read below only
-        t = lap("kinematics", t)
+        watch.lap("kinematics")
         J = len(theta)
         eobs, out = [], []
         for idx, head, (root, powers, ocoef, emb), ni, dim in groups:  # (recover, x_int, R_int, a_int) per group
             out.append(kernel.eob_lookup_new(*head, theta, p_hat, idx, root, powers, ocoef, emb, K, Fh, ni, dim))
             eobs.append([out[-1][0], out[-1][1], out[-1][2 if dim == 3 else 3]])
         stages["eob"] = {"joints": J, "tabulated": J, "near": (red, eobs, K, Fh)}
-        t = lap("eob", t)
+        watch.lap("eob")
         x, R, angle = poses.x, poses.R, poses.angle  # step 1's, fresh: moved in place
         ok3, it, history, r3, R_hat = kernel.reduced_newton_near(x, R, angle, *frames, K, Fh, p_hat, np.cos(theta),
                                                                   np.sin(theta), *loads, self.tol, self.max_iter,
@@ -291,15 +252,15 @@ class _KSD:
         hist3 = history.tolist()
         stages["reduced"] = {"iterations": it, "residual": hist3[-1] if hist3 else np.nan, "converged": ok3,
                              "history": hist3}
-        t = lap("reduced", t)
+        watch.lap("reduced")
         pos, rot, ang, reaction = kernel.internal_state(x, R, angle, *frames, p_hat, R_hat, tuple(g[0] for g in groups),
                                                         nodes, *zip(*out), ACTIVE[red.dim], red.dim, *reference, r3,
                                                         *dofs)
-        lap("internal", t)
+        watch.lap("internal")
         for key in ("setup", "kinematics", "eob", "reduced", "internal"):
             stages.setdefault(key, {})["time"] = times[key]
         stages["setup"]["database"] = red.folder
-        times["total"] = time.perf_counter() - t0
+        watch.total()
         sol = ReducedSolution(method=self.name, converged=ok3, iterations=info["iterations"] + it, residual_history=history,
                        load_factor=1.0, steps=1, rejected_steps=0, wall_time=times, message=self._message(ok3, hist3),
                        state=State(pos, ang if red.dim == 2 else rot), residual=reaction, compiled=compiled,
@@ -326,21 +287,22 @@ class _KSD:
                    "residual stalls at the roundoff of the joints' forces")
         return msg
 
-    def _steps_3_4(self, compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, times, t, t0, lap):
+    def _steps_3_4(self, compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, watch):
         """Steps 3 and 4 (and 5 for ``ksd-full``) from step 2's ``eobs``, ``K``, ``Fh``; the `Solution`."""
+        times = watch.times
         poses3, ok3, hist3, r3, mu, angles = self._reduced(red, poses, K, Fh, p_hat, R_hat, info["hinge_angles"])
         stages["reduced"] = {"iterations": len(hist3), "residual": hist3[-1] if hist3 else np.nan,
                              "converged": ok3, "history": hist3}
-        t = lap("reduced", t)
+        watch.lap("reduced")
 
         state, q_nodes = red.internal_nodes(poses3, eobs, p_hat, R_hat, mu, angles, displacements=self.full)
-        t = lap("internal", t)
+        watch.lap("internal")
         for key in ("setup", "kinematics", "eob", "reduced", "internal"):  # setup: kept per compiled model
             stages.setdefault(key, {})["time"] = times[key]
         stages["setup"]["database"] = red.folder  # the solution's properties read the same data
 
         if not self.full:
-            times["total"] = time.perf_counter() - t0
+            watch.total()
             sol = ReducedSolution(method=self.name, converged=ok3, iterations=info["iterations"] + len(hist3),
                            residual_history=np.array(hist3), load_factor=1.0, steps=1, rejected_steps=0,
                            wall_time=times, message=self._message(ok3, hist3), state=state,
@@ -365,13 +327,13 @@ class _KSD:
             # stops step 5 of the manipulator's location case at -45 deg (load factor 0.157), and
             # step 5 converges in its first step on every other benchmark case: Fig. 18 kept here
             out.pop("tolerance", None)
-            t = lap("full", t)
+            watch.lap("full")
             stages["full"] = {"iterations": out["iterations"], "time": times["full"],
                               "residual": float(out["residual_history"][-1]) if out["iterations"] else np.nan,
                               "converged": out["converged"]}
             inner = out.pop("wall_time")
             times.update({f"full_{k}": v for k, v in inner.items()})
-            times["total"] = time.perf_counter() - t0
+            watch.total()
             out["iterations"] += info["iterations"] + len(hist3)
             out["message"] = "KSD-full: " + ("" if ok3 else "step 3 did not converge, step 5 started from its last "
                                                           "iterate; ") + out["message"]

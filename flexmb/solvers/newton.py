@@ -15,7 +15,6 @@ diverges once the links turn by a few hundredths of a radian.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from typing import ClassVar
 
@@ -27,6 +26,7 @@ from ..closed_form.problem import LinkageProblem
 from .. import _validate as v
 from .. import jit
 from ..errors import ConvergenceError
+from .._timing import Stopwatch
 from ..fe.model import State
 from ..results import Solution
 
@@ -66,29 +66,25 @@ class Newton:
 
     def solve(self, compiled, *, state: State | None = None) -> Solution:
         """Equilibrium of ``compiled`` (a closed-form `Compiled`), from ``state`` (default undeformed)."""
-        t0 = time.perf_counter()
+        watch = Stopwatch({"assemble": 0.0, "solve": 0.0})
         problem: LinkageProblem = compiled.problem
         model, free = problem.model, problem.free
         ixf = np.ix_(free, free)
         start = problem.prescribed_state(model.initial_state() if state is None else state)
         if jit.enabled():
-            return self._finish(compiled, start, *self.run_compiled(problem, start), t0)
-        times = {"assemble": 0.0, "solve": 0.0}
+            return self._finish(compiled, start, *self.run_compiled(problem, start), watch)
         lu = None
         if self.tangent == "constant":
-            t = time.perf_counter()
-            K = self.constant_tangent(problem)
-            times["assemble"] += time.perf_counter() - t
-            t = time.perf_counter()
-            lu = sla.lu_factor(K, check_finite=False) if len(free) else None
-            times["solve"] += time.perf_counter() - t
+            with watch.adding("assemble"):
+                K = self.constant_tangent(problem)
+            with watch.adding("solve"):
+                lu = sla.lu_factor(K, check_finite=False) if len(free) else None
         history: list[float] = []
         cur = start
         status, first = "", None
         for it in range(self.max_iter + 1):
-            t = time.perf_counter()
-            r, terms = problem.evaluate(cur, tangent=lu is None)
-            times["assemble"] += time.perf_counter() - t
+            with watch.adding("assemble"):
+                r, terms = problem.evaluate(cur, tangent=lu is None)
             rf = r[free]
             res = float(np.sqrt(rf @ rf))
             if it > 0:
@@ -102,24 +98,22 @@ class Newton:
                 status = "max_iter"
             if status:
                 break
-            t = time.perf_counter()
-            try:
-                if lu is not None:
-                    dq = sla.lu_solve(lu, -r[free], check_finite=False)
-                else:
-                    K = terms["I"] if self.tangent == "first-term" else sum(terms.values())
-                    dq = np.linalg.solve(K[ixf], -r[free])
-            except np.linalg.LinAlgError:
-                status = "singular"
-                break
-            finally:
-                times["solve"] += time.perf_counter() - t
+            with watch.adding("solve"):
+                try:
+                    if lu is not None:
+                        dq = sla.lu_solve(lu, -r[free], check_finite=False)
+                    else:
+                        K = terms["I"] if self.tangent == "first-term" else sum(terms.values())
+                        dq = np.linalg.solve(K[ixf], -r[free])
+                except np.linalg.LinAlgError:
+                    status = "singular"
+                    break
             du = np.zeros(model.n_dofs)
             du[free] = dq
             cur = model.apply_increment(cur, du)
-        times["total"] = time.perf_counter() - t0
+        watch.total()
         return self._finish(compiled, start, status == "converged", self._message(status, it, res, first),
-                            np.array(history), cur, r, times, None)
+                            np.array(history), cur, r, watch.times, None)
 
     def run_compiled(self, problem: LinkageProblem, start: State, K0: np.ndarray | None = None):
         """The iterations of `solve` as one compiled loop (`flexmb.closed_form.linkage_jit.newton`)
@@ -168,7 +162,7 @@ class Newton:
         history = np.empty(self.max_iter)
         dir_c = complex(direction[0], direction[1])
         for k, value in enumerate(values):
-            t = time.perf_counter()
+            watch = Stopwatch()
             lforce[row] = float(value) * dir_c
             if mode == 2 and offset:
                 K0 = self.constant_tangent(problem.with_loads(loads_at(float(value))))
@@ -183,7 +177,7 @@ class Newton:
             if ok:
                 last = State(pos, ang)
             out[3][k], out[4][k] = (pos, ang) if ok else (start.positions, start.rotations)
-            out[6][k] = time.perf_counter() - t
+            out[6][k] = watch.total()
         return ForceSweep(self, compiled, values, loads_at, starts, out)
 
     def constant_tangent(self, problem: LinkageProblem) -> np.ndarray:
@@ -202,13 +196,13 @@ class Newton:
                     f"iterations (tangent={self.tangent})")
         return f"not converged: singular tangent at iteration {it} (tangent={self.tangent})"
 
-    def _finish(self, compiled, start, converged, message, history, cur, r, times, t0) -> Solution:
+    def _finish(self, compiled, start, converged, message, history, cur, r, times, watch) -> Solution:
         """The `Solution` of a finished loop (the start state and its residual when not converged)."""
         problem = compiled.problem
         final = cur if converged else start
         r = r if converged else problem.evaluate(start, tangent=False)[0]
-        if t0 is not None:
-            times["total"] = time.perf_counter() - t0
+        if watch is not None:  # started by the caller: the total includes the compiled loop's set-up
+            times["total"] = watch.total()
         sol = Solution(method=self.name, converged=converged, iterations=len(history),
                        residual_history=history, load_factor=1.0 if converged else 0.0,
                        steps=1 if converged else 0, rejected_steps=0, wall_time=times, message=message,

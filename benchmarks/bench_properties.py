@@ -120,7 +120,7 @@ def _pct(x) -> str:
 
 
 def tables(rows, rotations) -> tuple[str, str, dict]:
-    """The frequency table (README and BENCHMARKS.md), the time/compliance/stress table and totals."""
+    """The frequency table (docs/properties.md and BENCHMARKS.md), the time/compliance/stress table and totals."""
     at = {(r["rotation"], r["method"]): r for r in rows}
     freq = ["| rotation [deg] | f1 … f6, conventional [Hz] | KSD-full, largest error f1–f6 | KSD-reduced error f1, f2, f3 [%] | "
             "KSD-reduced, largest error f4–f6 [%] | solve + modes [ms]: conventional / KSD-full / KSD-reduced |",

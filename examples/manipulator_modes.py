@@ -2,7 +2,7 @@
 f1 ... f6 at the 19 joint-case positions of Dwarshuis et al. (2020) Sec. 4.4 with the conventional
 method (lines), KSD-full (circles) and KSD-reduced (crosses); the links' prescribed DOFs held
 (`flexmb.modes`, SPACAR's convention). Writes ``manipulator_frequencies.png`` into --out.
-The numbers are README's table (``benchmarks/bench_properties.py``). Run:
+The numbers are docs/properties.md's table (``benchmarks/bench_properties.py``). Run:
 python examples/manipulator_modes.py [--out docs] [--quick]   (--quick: -45, 0, 45 deg)
 """
 

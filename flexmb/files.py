@@ -95,7 +95,7 @@ def _joint_dict(mechanism, a, b, name, data, materials: dict) -> dict:
                                  "its plugin)")
     if not attrs.has(type(joint)):
         raise MechanismFileError(f"save: {where}: {type(joint).__qualname__} is not an attrs class: its parameters "
-                                 "cannot be read (write plugin joints as attrs classes, README 'Writing your own joint')")
+                                 "cannot be read (write plugin joints as attrs classes, docs/plugins.md)")
     params = {}
     for f in attrs.fields(type(joint)):
         value = getattr(joint, f.name)

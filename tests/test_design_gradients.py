@@ -147,6 +147,19 @@ def test_checker_catches_a_wrong_gradient(mutation):
     assert "FAILED" in str(c)
 
 
+def test_central_differences_catch_an_error_the_taylor_test_cannot_see():
+    """A gradient 1e-4 off (relative) still gives Taylor rates of 2 over 1e-2 ... 6e-4 (its
+    linear remainder is below the quadratic one); the differences at either of their two steps
+    (flexmb.design.check.CHECK_STEPS) see it, so the check fails and names the error."""
+    resp = R.displacement("B", "z")
+    exact = check_gradient(spatial, SPATIAL, resp, **TIGHT)
+    assert exact.ok, str(exact)
+    off = {k: g * (1.0 + 1e-4) for k, g in exact.gradient.items()}
+    c = check_gradient(spatial, SPATIAL, resp, gradient=off, **TIGHT)
+    assert c.taylor.ok and not c.ok
+    assert 5e-5 < max(c.errors.values()) < 2e-4
+
+
 def test_taylor_rate_of_a_wrong_gradient_is_one():
     resp = _Mutant(R.displacement("B", "z"), "sign")
     t = taylor_test(spatial, SPATIAL, resp, **TIGHT)

@@ -7,6 +7,7 @@ example without a check, or a check without its example, fails `test_every_examp
 from __future__ import annotations
 
 import importlib.util
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,8 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: the examples that take more than 3 s with --quick or start a process pool (the fast set,
 #: ``-m "not slow"``, skips them; measured with the compiled kernels cached)
 SLOW = {"cross_flexure", "cross_flexure_buckling", "eob_limits", "fourbar", "gripper", "manipulator",
-        "manipulator_modes", "mode_pictures", "stiffness_map", "optimize_hinge", "optimize_manipulator"}
+        "manipulator_modes", "mode_pictures", "stiffness_map", "optimize_hinge", "optimize_manipulator",
+        "tutorial_manipulator"}
 CHECKS = {}
 
 
@@ -42,6 +44,18 @@ def _names() -> list[str]:
 
 def _png(path: Path) -> None:
     assert path.stat().st_size > 10_000, f"{path.name} is not a drawn figure"
+
+
+@pytest.fixture(autouse=True)
+def _session_joints():
+    """An example may register a joint for its session (examples/tutorial_plugin_joint.py): undone
+    after it, so the registry's tests see only the installed joints."""
+    from flexmb import registry
+
+    saved = dict(registry._session)
+    yield
+    registry._session.clear()
+    registry._session.update(saved)
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in _names()])
@@ -142,7 +156,7 @@ def gripper(res, printed, out, ex):
 
 @check
 def manipulator(res, printed, out, ex):
-    """Sec. 4.4 at -45, 0, 45 deg: every solve converges; KSD-reduced's errors within the README's
+    """Sec. 4.4 at -45, 0, 45 deg: every solve converges; KSD-reduced's errors within docs/manipulator.md's
     measured bounds over the 19 positions (location case: reaction <= 1.32 %, displacement <= 0.10 %).
     (Its speed-ups are printed, not asserted: times belong to benchmarks/bench_manipulator.py.)"""
     rows = res["rows"]
@@ -159,7 +173,7 @@ def manipulator(res, printed, out, ex):
 @check
 def manipulator_modes(res, printed, out, ex):
     """At -45, 0, 45 deg: KSD-full's frequencies are the conventional ones (same equilibrium, to
-    1e-8), KSD-reduced's f1-f3 within 1 % (README table), and the figure draws 6 modes x 3 methods."""
+    1e-8), KSD-reduced's f1-f3 within 1 % (docs/properties.md's table), and the figure draws 6 modes x 3 methods."""
     f = res["frequencies"]
     np.testing.assert_allclose(f["ksd-full"], f["conventional"], rtol=1e-8)
     assert np.abs(f["ksd-reduced"][:, :3] / f["conventional"][:, :3] - 1).max() < 0.01
@@ -276,3 +290,146 @@ def optimize_manipulator(res, printed, out, ex):
     assert r.objective > 2 * r.history["objective"][0]
     assert r.constraints["reach >= 0.45 m"] >= 0.45 * (1 - 1e-6)
 
+
+
+# -- the tutorials (docs/tutorials/<name>.md includes examples/tutorial_<name>.py) ----------------
+
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def _tutorial_page(name: str) -> Path:
+    return EXAMPLES.parent / "docs" / "tutorials" / (name.removeprefix("tutorial_").replace("_", "-") + ".md")
+
+
+def _matches(shown: str, printed: str) -> bool:
+    """``shown`` (a line of a page) is ``printed`` (a line the script printed): the same words, and
+    every number within one unit of the last digit the page shows."""
+    if _NUMBER.sub("#", shown).split() != _NUMBER.sub("#", printed).split():
+        return False
+    for a, b in zip(_NUMBER.findall(shown), _NUMBER.findall(printed)):
+        mantissa = a.lower().split("e")[0]
+        unit = 10.0 ** -len(mantissa.split(".")[1]) if "." in mantissa else 1.0
+        unit *= 10.0 ** int(a.lower().split("e")[1]) if "e" in a.lower() else 1.0
+        if abs(float(a) - float(b)) > 1.01 * unit:
+            return False
+    return True
+
+
+def _shown_on_its_page(name: str, printed: str) -> None:
+    """Every line the tutorial printed is in its page's output block, in order (the page may show
+    more: the lines of the full run that ``quick`` leaves out)."""
+    text = _tutorial_page(name).read_text(encoding="utf-8")
+    assert f'--8<-- "examples/{name}.py' in text, f"{_tutorial_page(name).name} does not include examples/{name}.py"
+    (block,) = re.findall(r"```text\n(.*?)```", text, flags=re.S)
+    shown = iter(block.splitlines())
+    for line in printed.strip().splitlines():
+        assert any(_matches(s, line) for s in shown), f"{_tutorial_page(name).name} does not show: {line!r}"
+
+
+@check
+def tutorial_parallel_guide(res, printed, out, ex):
+    """Beam theory (spring steel, mm N MPa, 24 el./leaf): the guide's small-push stiffness 24 EI/L^3
+    within 0.1 % (measured -0.03 %, the leaves' shear), its drop at 4 mm 0.6 d^2/L within 0.5 %
+    (+0.18 %), its support stiffness at rest 2EA/L within 1e-4 and at 4 mm Awtar's beam constraint
+    model within 2 % (-1.4 %); the double parallelogram: half the stiffness within 0.1 %, its drop
+    below 0.1 % of the guide's (measured 0.05 %)."""
+    _shown_on_its_page("tutorial_parallel_guide", printed)
+    r = res["results"]
+    guide0, guide4 = r["parallel guide", 0.05], r["parallel guide", ex.STROKE]
+    assert guide0[0]["stiffness"] == pytest.approx(guide0[1]["stiffness"], rel=1e-3)
+    assert guide4[0]["drop"] == pytest.approx(guide4[1]["drop"], rel=5e-3)
+    assert guide0[0]["support"] == pytest.approx(guide0[1]["support"], rel=1e-4)
+    assert guide4[0]["support"] == pytest.approx(guide4[1]["support"], rel=2e-2)
+    double0, double4 = r["double parallelogram", 0.05], r["double parallelogram", ex.STROKE]
+    assert double0[0]["stiffness"] == pytest.approx(double0[1]["stiffness"], rel=1e-3)
+    assert abs(double4[0]["drop"]) < 1e-3 * guide4[0]["drop"]
+
+
+@check
+def tutorial_cross_flexure(res, printed, out, ex):
+    """The planar Table 1 pivot at 24 el./leaf against the exact elastica (Wittrick 1948's model,
+    flexmb.reference): moment within 0.1 % from 15 to 75 deg (measured 1e-5 ... +0.03 %), the
+    pivot axis' drift within 0.2 % (+0.09 %); the intended frequency within 1 % below
+    sqrt(k0/J)/2pi (-0.69 %, the leaves' own inertia)."""
+    _shown_on_its_page("tutorial_cross_flexure", printed)
+    ref = res["reference"]
+    np.testing.assert_allclose(res["moment"], ref.moment, rtol=1e-3)
+    np.testing.assert_allclose(res["shift"], ref.center_shift, rtol=2e-3)
+    assert 0.99 * res["estimate"] < res["intended"] < res["estimate"]
+
+
+@check
+def tutorial_bistable(res, printed, out, ex):
+    """24 el./leaf against the shooting elastica (tests/test_snap.py): snap force within 0.8 %
+    (measured +0.56 %), minimum force within 1.6 % (+1.3 %), second stable position within 0.3 %
+    (+0.16 %), the unstable middle to 1e-6; stable throughout, two bifurcations of multiplicity 2."""
+    _shown_on_its_page("tutorial_bistable", printed)
+    path, E = res["path"], ex.ELASTICA
+    assert path.stable.all() and path.snap is None
+    assert [(c.kind, c.multiplicity) for c in path.critical] == [("bifurcation", 2)] * 2
+    assert res["push"][0] == pytest.approx(E["snap"], rel=8e-3)
+    assert res["push"][1] == pytest.approx(E["minimum"], rel=1.6e-2)
+    assert res["stroke"][1] == pytest.approx(E["middle"], rel=1e-6)
+    assert res["stroke"][2] == pytest.approx(E["second"], rel=3e-3)
+
+
+@check
+def tutorial_prb_linkage(res, printed, out, ex):
+    """The PRB model follows the rigid four-bar to 1e-9 deg and its crank torque is the virtual
+    work of its springs to 1e-6; the compliant four-bar's rocker within 1.5 % of it (measured
+    1.2 %), its torque within 0.2 % (0.11 %)."""
+    _shown_on_its_page("tutorial_prb_linkage", printed)
+    exact, prb, leaves, torque, work, fe_torque = res["rows"].T
+    np.testing.assert_allclose(prb, exact, atol=1e-9)
+    np.testing.assert_allclose(torque, work, rtol=1e-6)
+    np.testing.assert_allclose(leaves, prb, rtol=1.5e-2)
+    np.testing.assert_allclose(fe_torque, torque, rtol=2e-3)
+
+
+@check
+def tutorial_gripper(res, printed, out, ex):
+    """The closed forms' closing forces of Cammarata et al. (2022) as tests/test_gripper.py holds
+    them (63.947, 77.035 uN); the FE model at 16 el./arc within 1 % of its converged 69.853 uN
+    (Richardson 32/64, docs/gripper.md); both models agree at rest to 1e-9 mm."""
+    _shown_on_its_page("tutorial_gripper", printed)
+    c = res["closing"]
+    assert c["linear (closed form)"] == pytest.approx(63.947, abs=1e-3)
+    assert c["partial non-linear"] == pytest.approx(77.035, abs=1e-3)
+    assert c["FE, 16 el./arc"] == pytest.approx(69.853, rel=1e-2)
+    rest = [s.point(*ex.END_EFFECTOR) for s in (res["closed_form"][2], res["fe"][2])]
+    np.testing.assert_allclose(rest[0], rest[1], atol=1e-9)
+
+
+@check
+def tutorial_manipulator(res, printed, out, ex):
+    """KSD-full = conventional (reaction to 1e-8 relative, node positions to 1e-8 m); KSD-reduced
+    within tests/test_manipulator.py's location-case bounds: reaction 1.32 %, positions 0.1 % of
+    the 0.5 m mechanism (measured 0.18 %, 2.4 um at 30 deg)."""
+    _shown_on_its_page("tutorial_manipulator", printed)
+    for rows in res["results"].values():
+        assert rows["ksd-full"]["force error"] < 1e-8 and rows["ksd-full"]["position error"] < 1e-8
+        assert rows["ksd-reduced"]["force error"] < 1.32e-2 and rows["ksd-reduced"]["position error"] < 5e-4
+
+
+@check
+def tutorial_optimisation(res, printed, out, ex):
+    """SLSQP's optimum: feasible with the moment constraint active (2 N m to 1e-4), L on its lower
+    bound, both KKT multipliers positive; no feasible design of a 6 x 6 grid beats it (measured
+    208.1 against 222.8 Hz)."""
+    _shown_on_its_page("tutorial_optimisation", printed)
+    r = res["result"]
+    assert r.feasible and res["values"][1] == pytest.approx(2.0, rel=1e-4)
+    assert r.p["L"] == pytest.approx(ex.BOUNDS["L"][0], rel=1e-6)
+    assert min(res["multipliers"]) > 0
+    assert res["grid_best"] < r.objective
+
+
+@check
+def tutorial_plugin_joint(res, printed, out, ex):
+    """The folded leaf's stiffness is 6 EI/L^3 within 1e-3 at a small push (measured -3e-4, the
+    shear) and within 0.5 % at a tenth of its length (+0.23 %); the stage does not drift along the
+    leaves (below 1e-6 of one leaf's 0.6 d^2/L)."""
+    _shown_on_its_page("tutorial_plugin_joint", printed)
+    k = res["force"] / res["pushes"]
+    assert k[0] == pytest.approx(res["k_beam"], rel=1e-3) and k[-1] == pytest.approx(res["k_beam"], rel=5e-3)
+    assert np.all(np.abs(res["drift"]) < 1e-6 * 0.6 * res["pushes"] ** 2 / ex.FoldedLeaf().length)

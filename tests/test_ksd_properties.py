@@ -275,7 +275,7 @@ def test_buckling_of_a_reduced_solution_points_to_ksd_full():
     """KSD-reduced has no geometric stiffness of its joints' leaves (stress-free EOBs, first-order
     step 4): `buckling` refuses and names what to use; KSD-full, the alternative it names, gives the
     conventional solution's critical force (the Table 1 cross flexure pushed along its axis by
-    100 N, B's turn free, not in the paper: 961 N at 5 el./leaf, README's buckling table)."""
+    100 N, B's turn free, not in the paper: 961 N at 5 el./leaf, docs/properties.md's buckling table)."""
     joint = flexmb.CrossFlexure(elements_per_leaf=5)
     axis = joint.interface_b(3) / np.linalg.norm(joint.interface_b(3))
     m = flexmb.Mechanism(dim=3)

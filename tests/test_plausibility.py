@@ -1,7 +1,7 @@
 """Say it where the user meets it (issue 20, classes 7 and 8): a non-converged answer, strains a
 linear-elastic beam cannot carry, a stress above the given yield stress, a modulus in the wrong
 unit and the closed-form model's missing shortening each come with a warning; nu is accepted
-wherever G is; the solver options are in help(flexmb.solve) and the README."""
+wherever G is; the solver options are in help(flexmb.solve) and the strategies page (docs/strategies.md)."""
 
 import math
 import pathlib
@@ -176,8 +176,8 @@ def test_closed_form_is_exported_where_the_readme_names_it():
     assert isinstance(flexmb.LeafSpring().closed_form(2), ClosedForm)
 
 
-def test_every_solver_option_is_in_help_solve_and_the_readme():
-    readme = (pathlib.Path(__file__).parents[1] / "README.md").read_text()
+def test_every_solver_option_is_in_help_solve_and_the_strategies_page():
+    readme = (pathlib.Path(__file__).parents[1] / "docs" / "strategies.md").read_text()
     for name, cls in STRATEGIES.items():
         for option, default, text in options_doc(cls):
             assert f"``{option}={default!r}``" in flexmb.solve.__doc__, (name, option)
@@ -187,7 +187,7 @@ def test_every_solver_option_is_in_help_solve_and_the_readme():
 
 
 def test_the_strategy_table_states_the_missing_shortening():
-    readme = (pathlib.Path(__file__).parents[1] / "README.md").read_text()
+    readme = (pathlib.Path(__file__).parents[1] / "docs" / "strategies.md").read_text()
     row = next(line for line in readme.splitlines() if line.startswith('| `"newton"`'))
     assert "no shortening" in row
 

@@ -9,7 +9,7 @@ from flexmb.analysis import support_ratios
 from flexmb.rotations import logm_so3
 from flexmb.testing import joint_mechanism
 
-J = flexmb.ThreeXInfinity(elements_per_leaf=3)  # the mesh of the shipped database and of the README numbers
+J = flexmb.ThreeXInfinity(elements_per_leaf=3)  # the mesh of the shipped database and of docs/manipulator.md's numbers
 DEG45 = np.radians(45.0)
 
 

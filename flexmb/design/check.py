@@ -53,11 +53,12 @@ class TaylorResult:
 @attrs.frozen(eq=False)
 class GradientCheck:
     """`check_gradient`'s result: the ``taylor`` test, the ``gradient`` checked and the central
-    differences ``central`` ({parameter: value}), ``errors`` per parameter (scaled: ``|g - g_cd|
-    s / max_j |g_j s_j|`` with the parameters' scales ``s``), the ``agreement`` asked for, ``ok``
-    (both checks pass; a parameter agrees within ``agreement`` or where ``|g - g_cd| s`` is within
-    the differences' own round-off, `ROUND_OFF` ``|J| / relative_step``, e.g. a response that does
-    not depend on it) and which parameters agreed by ``round_off``."""
+    differences ``central`` ({parameter: value}, at the step of `CHECK_STEPS` that agrees best),
+    ``errors`` per parameter (scaled: ``|g - g_cd| s / max_j |g_j s_j|`` with the parameters'
+    scales ``s``), the ``agreement`` asked for, ``ok`` (both checks pass; a parameter agrees within
+    ``agreement`` or where ``|g - g_cd| s`` is within the differences' own round-off, `ROUND_OFF`
+    ``|J| / relative_step``, e.g. a response that does not depend on it), which parameters agreed
+    by ``round_off`` and the relative ``step`` of each parameter's differences."""
 
     taylor: TaylorResult
     gradient: dict
@@ -67,10 +68,13 @@ class GradientCheck:
     agreement: float
     #: {parameter: True where gradient and differences differ by no more than the differences' round-off}
     round_off: dict = attrs.field(factory=dict)
+    #: {parameter: the relative step of the central differences shown}
+    step: dict = attrs.field(factory=dict)
 
     def __str__(self) -> str:
         rows = [f"  {k}: gradient {self.gradient[k]:.9g}  central differences {self.central[k]:.9g}  "
-                f"error {self.errors[k]:.2e}{' (within round-off)' if self.round_off.get(k) else ''}"
+                f"(step {self.step.get(k, math.nan):g}) error {self.errors[k]:.2e}"
+                f"{' (within round-off)' if self.round_off.get(k) else ''}"
                 for k in self.gradient]
         good = all(e <= self.agreement or self.round_off.get(k) for k, e in self.errors.items())
         return "\n".join([str(self.taylor), f"central differences (agreement {self.agreement:g}): "
@@ -154,24 +158,43 @@ def central_differences(build, p, response, *, relative_step: float = 1e-4, boun
     return out
 
 
+#: Relative steps (times the parameters' scales) of `check_gradient`'s central differences. The
+#: smaller is truncation-exact (~1e-8 relative) but carries the solves' round-off divided by the
+#: step; the larger the opposite. Measured (FLEXMB_KERNELS=numpy): a KSD-full buckling multiplier
+#: (tol 1e-8 N) scatters by 1.4e-10 of its value between neighbouring designs, so its placement
+#: derivative (exactly 0 by symmetry; adjoint -1.9e-7) reads -1.07 at 1e-4 and 0.04 at 1e-3; the
+#: manipulator's reaction (rtol 1e-11) reads -2.4e-5 / -7.6e-7 for an adjoint 8e-9. A correct
+#: gradient agrees with the differences at one of the steps; a wrong one (the mutation tests of
+#: tests/test_design_gradients.py) with neither.
+CHECK_STEPS = (1e-4, 1e-3)
+
+
 def check_gradient(build, p, response, *, agreement: float = 1e-6, tolerance: float = 0.1, gradient=None,
-                   bounds=None, relative_step: float = 1e-4, **options) -> GradientCheck:
+                   bounds=None, relative_step=CHECK_STEPS, **options) -> GradientCheck:
     """Taylor test (rates 2 +- ``tolerance``) and agreement with central differences (``agreement``,
     scaled as in `GradientCheck`) of ``response``'s gradient of the design ``build`` at ``p``
-    (flexmb's own, or ``gradient`` given as in `taylor_test`). Returns a `GradientCheck`; its
-    ``ok`` says whether both pass (``str()`` it for a report)."""
+    (flexmb's own, or ``gradient`` given as in `taylor_test`). ``relative_step``: one step or
+    several (`CHECK_STEPS`); a parameter agrees if it agrees at one of them. Returns a
+    `GradientCheck`; its ``ok`` says whether both pass (``str()`` it for a report)."""
     taylor = taylor_test(build, p, response, tolerance=tolerance, gradient=gradient, bounds=bounds, **options)
     point = DesignPoint(build, p, bounds)
     value, g = _gradient(point, response, gradient, options)
-    cd = central_differences(build, p, response, relative_step=relative_step, bounds=bounds, **options)
     s = _scales(point)
-    c = np.array([cd[k] for k in point.names])
-    noise = ROUND_OFF * abs(value) / relative_step  # the differences' round-off, scaled as g s
-    size = max(float(np.max(np.abs(g * s))), float(np.max(np.abs(c * s))), 1e-300)
-    diff = np.abs(g - c) * s
-    err = diff / size
-    agree = (err <= agreement) | (diff <= noise)  # a difference within the differences' round-off agrees
-    errors = {k: float(e) for k, e in zip(point.names, err)}
-    grad = {k: float(x) for k, x in zip(point.names, g)}
-    return GradientCheck(taylor, grad, cd, errors, bool(taylor.ok and np.all(agree)), agreement,
-                         {k: bool(d <= noise) for k, d in zip(point.names, diff)})
+    steps = tuple(np.atleast_1d(np.asarray(relative_step, dtype=float)))
+    tried = []
+    for h in steps:  # each step: (diff, err, agree, round-off) per parameter
+        cd = central_differences(build, p, response, relative_step=h, bounds=bounds, **options)
+        c = np.array([cd[k] for k in point.names])
+        noise = ROUND_OFF * abs(value) / h  # the differences' round-off, scaled as g s
+        size = max(float(np.max(np.abs(g * s))), float(np.max(np.abs(c * s))), 1e-300)
+        diff = np.abs(g - c) * s
+        tried.append((c, diff / size, (diff / size <= agreement) | (diff <= noise), diff <= noise))
+    best = [min(range(len(steps)), key=lambda i: (not tried[i][2][j], tried[i][1][j])) for j in range(len(point.names))]
+    pick = lambda field, j: tried[best[j]][field][j]  # noqa: E731
+    names = point.names
+    return GradientCheck(taylor, {k: float(x) for k, x in zip(names, g)},
+                         {k: float(pick(0, j)) for j, k in enumerate(names)},
+                         {k: float(pick(1, j)) for j, k in enumerate(names)},
+                         bool(taylor.ok and all(pick(2, j) for j in range(len(names)))), agreement,
+                         {k: bool(pick(3, j)) for j, k in enumerate(names)},
+                         {k: steps[best[j]] for j, k in enumerate(names)})

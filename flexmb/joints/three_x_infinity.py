@@ -46,7 +46,7 @@ class ThreeXInfinity(MaterialJoint):
 
     The leaves' width is along z and their thickness in the plane of motion.
 
-    Parameters (defaults: the flexmb design of the README, steel as in Sec. 4.4)
+    Parameters (defaults: the flexmb design of docs/manipulator.md, steel as in Sec. 4.4)
     --------------------------------------------------------------------------
     length
         Leaf length [length] (0.03).

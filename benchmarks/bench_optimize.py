@@ -73,7 +73,7 @@ def main(quick: bool = False) -> str:
     foot = ["",
             "Every run reaches COBYLA's optimum or better (within 0.5 %). The wall-time gain over central "
             "differences stays below the issue's 3x at 4 parameters and 10x at 10: per design the exact "
-            "gradient costs about one to two plain evaluations (the design's two builds per parameter, the "
+            "gradient costs about one to two plain evaluations (the design's builds, one complex-step build per parameter, the "
             "complex-step tangent blocks of every parameter direction; on the hinge also the stress sample "
             "points of each new section size, ~40 ms, which the differences pay too), against the 2K plain "
             "evaluations of central differences (docs/design.md)."]

@@ -66,6 +66,22 @@ CASES = [
      dict(steps=200, max_load_factor=1.0), "a full crank turn"),
     ("motor four-bar, cross-flexure rocker, 3D", lambda: cases.motor_fourbar(3),
      dict(steps=200, max_load_factor=1.0), "a full crank turn"),
+    ("Roorda frame, 12 el./member, perfect", lambda: cases.roorda_frame(12),
+     dict(steps=30, max_load_factor=16.0), "asymmetric bifurcation, to 16 EI/L^2"),
+    ("Roorda frame, 48 el./member, perfect", lambda: cases.roorda_frame(48),
+     dict(steps=30, max_load_factor=16.0), "asymmetric bifurcation, to 16 EI/L^2"),
+    ("Roorda frame, 12 el., eccentricity 1e-5 L", lambda: cases.roorda_frame(12, 1e-5),
+     dict(steps=60, stop=lambda s: not s.stable), "to the limit point"),
+    ("Roorda frame, 48 el., eccentricity 1e-5 L", lambda: cases.roorda_frame(48, 1e-5),
+     dict(steps=60, stop=lambda s: not s.stable), "to the limit point"),
+    ("clamped arch, uniform load, 40 el.", lambda: cases.clamped_arch(40),
+     dict(steps=20, max_load_factor=8.0), "bifurcation below the limit"),
+    ("clamped arch, uniform load, 80 el.", lambda: cases.clamped_arch(80),
+     dict(steps=20, max_load_factor=8.0), "bifurcation below the limit"),
+    ("clamped arch, central point load, 40 el.", lambda: cases.clamped_arch(40, e=30.0, load="point"),
+     dict(steps=30, stop=lambda s: s.load_factor < 1.5 and not s.stable), "limit, bifurcation past it"),
+    ("clamped arch, central point load, 80 el.", lambda: cases.clamped_arch(80, e=30.0, load="point"),
+     dict(steps=30, stop=lambda s: s.load_factor < 1.5 and not s.stable), "limit, bifurcation past it"),
 ]
 
 
@@ -97,7 +113,8 @@ def main(quick: bool = False) -> str:
         "",
         f"Arc-length paths from the undeformed state (`flexmb.studies.paths`); {machine()}; median of {repeat} "
         "run(s), one BLAS thread. Each path traced as the device goes (`branch=\"stable\"`, the default since issue "
-        "29: at a bifurcation the branch with the fewest negative eigenvalues, then a growing load factor) and on its "
+        "29: at a bifurcation the branch with the fewest negative eigenvalues, then, where the path's own continuation "
+        "is unstable, a branch that leaves it, then a growing load factor) and on its "
         "primary branch only (`branch=\"primary\"`, the trace before). Iterations: corrector iterations of the path's "
         "points (the located critical points, the branch-switching trials and rejected steps come on top and are in "
         "the time).",

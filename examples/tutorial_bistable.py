@@ -49,7 +49,7 @@ def main(out: Path | None = None, quick: bool = False) -> dict:
     zeros = path.crossings(lambda s: s.reaction("shuttle")[1])                  # force = 0
     stroke = [-s.displacement("shuttle")[1] for s in zeros]                      # [mm]
     # --8<-- [end:trace]
-    print(f"{len(path)} points, stable throughout: {bool(path.stable.all())}, snaps: {path.snap is not None}")
+    print(f"stable throughout: {bool(path.stable.all())}, snaps: {path.snap is not None}")
     print(f"{'critical point':16} {'kind':>12} {'x':>2} {'force [N]':>10} {'elastica':>9}")
     for label, c, f in zip(("snap force", "minimum force"), path.critical, push):
         ref = ELASTICA["snap" if label == "snap force" else "minimum"]

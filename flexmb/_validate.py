@@ -1,7 +1,17 @@
-"""Small validators that raise `ParameterError` naming the parameter and its valid range."""
+"""Small validators that raise `ParameterError` naming the parameter and its valid range.
+
+Within a complex-step build (`complex_step`, entered by `flexmb.design.builds`) complex numbers
+pass where a real one is asked for, judged by their real part and returned as they came: the
+design is built at ``p + i h`` and its model's rates are read from the imaginary parts
+(``docs/plugins.md``, "Complex-step safe joints"). Outside one, complex input is refused as
+before; real numbers take the float path unchanged.
+"""
 
 from __future__ import annotations
 
+import cmath
+import contextlib
+import contextvars
 import math
 import os
 
@@ -9,11 +19,95 @@ import numpy as np
 
 from .errors import ParameterError
 
+#: Whether a complex-step build of `flexmb.design` is running (`complex_step`): only then do the
+#: validators take complex numbers; elsewhere a complex value is refused as not a real number.
+_COMPLEX_STEP = contextvars.ContextVar("flexmb_complex_step", default=False)
+
+
+@contextlib.contextmanager
+def complex_step():
+    """A context in which design quantities may be complex (the complex step of `flexmb.design`:
+    `flexmb.design.builds`, `flexmb.testing.check_complex_step`)."""
+    token = _COMPLEX_STEP.set(True)
+    try:
+        yield
+    finally:
+        _COMPLEX_STEP.reset(token)
+
+
+def accepts_complex() -> bool:
+    """Whether a complex-step build is running (`complex_step`): the validators then take complex
+    design quantities; outside one they refuse them (or fail as on any non-real input), as before."""
+    return _COMPLEX_STEP.get()
+
+
+def is_complex(value) -> bool:
+    """Whether ``value`` (a number, an array or a sequence of them) is complex: a complex-step
+    perturbed design quantity (`flexmb.design`). (Data already validated; the validators of input
+    take complex numbers only within `complex_step`.)"""
+    if isinstance(value, (complex, np.complexfloating)):
+        return True
+    if isinstance(value, (tuple, list)):  # items may be None or of mixed kinds
+        return any(map(is_complex, value))
+    return isinstance(value, np.ndarray) and value.dtype.kind == "c"
+
+
+def _input_dtype(value) -> type:
+    """The dtype an input array is taken as: complex within `complex_step` where it is complex,
+    else float (outside a complex step, complex input fails as it always did)."""
+    return complex if _COMPLEX_STEP.get() and is_complex(value) else float
+
+
+def real(value):
+    """The real part of a complex number or array (what the validators judge), else ``value``."""
+    return value.real if is_complex(value) else value
+
+
+def real_or_complex(value) -> type:
+    """``complex`` for complex ``value`` (the complex step of `flexmb.design`), else ``float``: the
+    dtype that keeps a design quantity's imaginary part."""
+    return complex if is_complex(value) else float
+
+
+def array(value) -> np.ndarray:
+    """``np.asarray(value, dtype=float)``, or complex where ``value`` is within a complex step (never
+    dropping an imaginary part)."""
+    return np.asarray(value, dtype=_input_dtype(value))
+
+
+def sin(x):
+    """``math.sin`` of a real number; ``cmath.sin`` of a complex one (the complex step)."""
+    return cmath.sin(x) if isinstance(x, (complex, np.complexfloating)) else math.sin(x)
+
+
+def cos(x):
+    """``math.cos`` of a real number; ``cmath.cos`` of a complex one (the complex step)."""
+    return cmath.cos(x) if isinstance(x, (complex, np.complexfloating)) else math.cos(x)
+
+
+def atan2(y, x):
+    """``math.atan2(y, x)`` of real numbers; of complex ones (a complex step) the real parts' angle
+    with the imaginary part carried to first order, ``(x dy - y dx) / (x^2 + y^2)``."""
+    if not (isinstance(x, (complex, np.complexfloating)) or isinstance(y, (complex, np.complexfloating))):
+        return math.atan2(y, x)
+    x, y = complex(x), complex(y)
+    return complex(math.atan2(y.real, x.real), (x.real * y.imag - y.real * x.imag) / (x.real**2 + y.real**2))
+
+
+def norms(rows: np.ndarray) -> np.ndarray:
+    """Euclidean lengths of the rows of ``rows`` (n, d): ``np.linalg.norm`` for real rows; for
+    complex ones (a complex step) the analytic continuation ``sqrt(r . r)`` (the modulus would drop
+    the imaginary part)."""
+    if np.iscomplexobj(rows):
+        return np.sqrt(np.einsum("ei,ei->e", rows, rows))
+    return np.linalg.norm(rows, axis=1)
+
 
 def positive(owner: str, name: str, value) -> float:
-    """Return ``value`` as float if finite and > 0, else raise naming ``owner.name``."""
+    """Return ``value`` as float if finite and > 0, else raise naming ``owner.name`` (a complex
+    value: judged by its real part and returned as it is)."""
     v = finite(owner, name, value)
-    if not v > 0.0:
+    if not real(v) > 0.0:
         raise ParameterError(f"{owner}: {name}={value!r} must be > 0 (valid range: (0, inf))")
     return v
 
@@ -21,14 +115,22 @@ def positive(owner: str, name: str, value) -> float:
 def nonnegative(owner: str, name: str, value) -> float:
     """Return ``value`` as float if finite and >= 0, else raise naming ``owner.name``."""
     v = finite(owner, name, value)
-    if not v >= 0.0:
+    if not real(v) >= 0.0:
         raise ParameterError(f"{owner}: {name}={value!r} must be >= 0 (valid range: [0, inf))")
     return v
 
 
 def finite(owner: str, name: str, value) -> float:
+    """``value`` as a float if it is a finite real number (a complex one with finite parts: as a
+    Python complex, the complex step), else raise naming ``owner.name``."""
     if isinstance(value, (str, bytes, bool)):
         raise ParameterError(f"{owner}: {name}={value!r} is not a real number")
+    if isinstance(value, (complex, np.complexfloating)):
+        if not _COMPLEX_STEP.get():
+            raise ParameterError(f"{owner}: {name}={value!r} is not a real number")
+        if not (math.isfinite(value.real) and math.isfinite(value.imag)):
+            raise ParameterError(f"{owner}: {name}={value!r} must be finite")
+        return complex(value)
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -40,7 +142,7 @@ def finite(owner: str, name: str, value) -> float:
 
 def in_open_range(owner: str, name: str, value, lo: float, hi: float, unit: str = "") -> float:
     v = finite(owner, name, value)
-    if not lo < v < hi:
+    if not lo < real(v) < hi:
         raise ParameterError(f"{owner}: {name}={value!r}{unit} outside the valid range ({lo:g}, {hi:g}){unit}")
     return v
 
@@ -60,9 +162,10 @@ def integer(owner: str, name: str, value, lo: int, hi: int | None = None) -> int
 
 
 def vector(owner: str, name: str, value, size: int) -> np.ndarray:
-    """``value`` as a new float array of shape (size,) (a copy: the caller's array stays theirs)."""
+    """``value`` as a new float array of shape (size,) (a copy: the caller's array stays theirs;
+    complex where ``value`` is, the complex step)."""
     try:
-        a = np.array(value, dtype=float)
+        a = np.array(value, dtype=_input_dtype(value))
     except (TypeError, ValueError):
         raise ParameterError(f"{owner}: {name}={value!r} is not a vector of {size} real numbers") from None
     if a.shape != (size,):
@@ -91,11 +194,19 @@ def rigid_body(owner: str, mass, inertia, center, dim: int):
     if inertia is None:
         return m, np.zeros((3, 3)), c
     try:
-        J = np.array(inertia, dtype=float)
+        J = np.array(inertia, dtype=_input_dtype(inertia))
     except (TypeError, ValueError):
         raise ParameterError(f"{owner}: inertia={inertia!r} is not a (3, 3) tensor of real numbers") from None
     if J.shape != (3, 3) or not np.all(np.isfinite(J)):
         raise ParameterError(f"{owner}: inertia must be a finite (3, 3) tensor [kg m^2], got shape {J.shape}")
+    if np.iscomplexobj(J):  # the complex step: the real part judged, the tensor kept
+        _inertia(owner, J.real.copy())
+        return m, 0.5 * (J + J.T), c
+    return m, _inertia(owner, J), c
+
+
+def _inertia(owner: str, J: np.ndarray) -> np.ndarray:
+    """A real inertia tensor ``J`` (3, 3), checked (`rigid_body`), symmetrised."""
     scale = float(np.abs(J).max())
     tol = 1e-12 * scale
     if not np.all(np.abs(J - J.T) <= tol):
@@ -109,7 +220,7 @@ def rigid_body(owner: str, mass, inertia, center, dim: int):
     if p[0] + p[1] < p[2] - 1e-10 * scale:
         raise ParameterError(f"{owner}: the principal moments {', '.join(f'{x:.4g}' for x in p)} kg m^2 violate "
                              "the triangle inequality I1 + I2 >= I3 (no mass distribution has them)")
-    return m, J, c
+    return J
 
 
 def shear_modulus(owner: str, E, G, nu, default=None):
@@ -129,7 +240,7 @@ def modulus_units(owner: str, E: float, length: float, what: str = "length", sta
     """Warn (`PlausibilityWarning`) when Young's modulus looks like GPa with lengths in metres:
     E < 1e3 with a ``length`` below 1. (GPa in SI puts metals at 40-400; MPa with mm, a consistent
     system, at 1e3-4e5 and lengths above 1.)"""
-    if E < 1e3 and length < 1.0:
+    if real(E) < 1e3 and real(length) < 1.0:
         import warnings
 
         from .errors import PlausibilityWarning
@@ -140,8 +251,9 @@ def modulus_units(owner: str, E: float, length: float, what: str = "length", sta
 
 
 def frozen(a) -> np.ndarray:
-    """A read-only copy of array ``a``: what a model object stores, so no caller can change it."""
-    out = np.array(a, dtype=float)
+    """A read-only copy of array ``a``: what a model object stores, so no caller can change it
+    (complex where ``a`` is: the complex step)."""
+    out = np.array(a, dtype=_input_dtype(a))
     out.flags.writeable = False
     return out
 

@@ -52,7 +52,8 @@ def boundary(mechanism, link_node: dict, links: dict | None = None):
         force=np.array([f for *_, f, _ in rows]).reshape(-1, dim),
         moment=np.array([m for *_, m in rows]).reshape(-1, nrot),
     )
-    return pres[order], np.array(vals, dtype=float)[order], loads, paths
+    dt = complex if any(np.iscomplexobj(x) for x in vals) else float  # complex: the complex step (flexmb.design)
+    return pres[order], np.array(vals, dtype=dt)[order], loads, paths
 
 
 def actuation_row(mechanism, loads: PointLoads) -> tuple | None:

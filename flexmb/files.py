@@ -33,12 +33,16 @@ __all__ = ["save", "load", "dumps", "loads", "to_dict", "from_dict", "MechanismF
            "MAX_BYTES"]
 
 #: The ``"format"`` marker of a mechanism file and its current version (a reader refuses newer ones).
-FORMAT, VERSION = "flexmb-mechanism", 1
+#: Version 2 adds points inside joints (``joint_points``, ``joint_point_loads``); a mechanism
+#: without them is written as version 1, which older readers read.
+FORMAT, VERSION = "flexmb-mechanism", 2
 #: Largest file `load` reads [bytes]: far above any mechanism (the manipulator: 9 kB) and small
 #: enough that a hostile file cannot exhaust memory.
 MAX_BYTES = 16 * 2**20
 _TOP = {"format", "version", "dim", "units", "materials", "links", "joints", "prescribed", "loads", "points",
-        "actuation"}
+        "actuation", "joint_points", "joint_point_loads"}
+#: The keys a file needs version 2 for (points inside joints, `Mechanism.add_joint_point`)
+_V2 = ("joint_points", "joint_point_loads")
 
 
 class MechanismFileError(ModelError):
@@ -51,23 +55,27 @@ def to_dict(mechanism: Mechanism) -> dict:
     """The mechanism as the JSON-ready document `save` writes (see ``docs/files.md``)."""
     if not isinstance(mechanism, Mechanism):
         raise MechanismFileError(f"save: {type(mechanism).__name__} is not a flexmb.Mechanism")
-    if mechanism.joint_points:  # not in the format yet: refused, never dropped (issue 29's add_joint_point)
-        raise MechanismFileError(f"save: points inside joints ({', '.join(mechanism.joint_points)}) are not in the file "
-                                 "format yet; add them (Mechanism.add_joint_point) after loading")
     materials: dict = {}
-    doc = {"format": FORMAT, "version": VERSION, "dim": mechanism.dim,
+    inside, inside_loads, inside_motions = mechanism._inside  # points inside joints: version 2
+    doc = {"format": FORMAT, "version": VERSION if inside else 1, "dim": mechanism.dim,
            "units": None if mechanism.units is None else mechanism.units.name, "materials": materials}
     doc["links"] = [_link_dict(lk) for lk in mechanism.links.values()]
     doc["joints"] = [_joint_dict(mechanism, a, b, name, data, materials)
                      for a, b, name, data in mechanism.graph.edges(keys=True, data=True)]
     doc["prescribed"] = {name: {k: _encode(x, f"prescribed.{name}.{k}") for k, x in mechanism.prescribed(name).items()}
                          for name in mechanism.links if mechanism.prescribed(name)}
+    doc["prescribed"].update({name: {k: _encode(x, f"prescribed.{name}.{k}") for k, x in motion.items()}
+                              for name, motion in inside_motions if motion})
     doc["loads"] = [{"link": link, "offset": o.tolist(), "force": f.tolist(), "moment": m.tolist()}
                     for link, o, f, m in mechanism.loads]
     doc["points"] = [{"name": name, "link": link, "offset": o.tolist()} for name, (link, o) in mechanism.points.items()]
     act = mechanism.actuation
     doc["actuation"] = None if act is None else {"link": act["link"], "offset": act["offset"].tolist(),
                                                  "direction": act["direction"].tolist(), "value": act["value"]}
+    if inside:
+        doc["joint_points"] = [{"name": n, "joint": j, "leaf": leaf, "fraction": float(f)} for n, j, leaf, f in inside]
+        doc["joint_point_loads"] = [{"point": n, "force": np.asarray(f, dtype=float).tolist(),
+                                     "moment": np.asarray(mo, dtype=float).tolist()} for n, f, mo in inside_loads]
     _check_finite(doc)
     return doc
 
@@ -254,7 +262,11 @@ def _unique_keys(pairs):
 def from_dict(doc) -> Mechanism:
     """The mechanism described by the document ``doc`` (what `to_dict` gives)."""
     _header(doc)
-    _keys(doc, "mechanism", _TOP, _TOP - {"units", "materials", "prescribed", "loads", "points", "actuation"})
+    _keys(doc, "mechanism", _TOP, _TOP - {"units", "materials", "prescribed", "loads", "points", "actuation", *_V2})
+    for key in _V2:
+        if key in doc and doc["version"] < 2:
+            raise MechanismFileError(f"{key}: points inside joints need format version 2 (the file says version "
+                                     f"{doc['version']})")
     dim = doc["dim"]
     if dim not in (2, 3) or isinstance(dim, bool):
         raise MechanismFileError(f"dim: {dim!r} must be 2 or 3")
@@ -267,6 +279,8 @@ def from_dict(doc) -> Mechanism:
         _at(f"links[{i}]", lambda: _add_link(m, lk))
     for i, jd in enumerate(_list(doc, "joints")):
         _at(f"joints[{i}]", lambda: _add_joint(m, jd, materials, f"joints[{i}]"))
+    for i, d in enumerate(_list(doc, "joint_points")):
+        _at(f"joint_points[{i}]", lambda: _add_joint_point(m, d))
     prescribed = doc.get("prescribed", {})
     if not isinstance(prescribed, dict):
         raise MechanismFileError("prescribed: must be an object {link: {component: value}}")
@@ -276,7 +290,32 @@ def from_dict(doc) -> Mechanism:
             raise MechanismFileError(f"{where}: must be an object {{component: value}}")
         _at(where, lambda: m.prescribe(name, **{k: _decode(x, f"{where}.{k}") for k, x in motion.items()}))
     _restore_loads(m, doc)
+    _restore_joint_point_loads(m, doc)
     return m
+
+
+def _add_joint_point(m: Mechanism, d) -> None:
+    """A point inside a joint (`Mechanism.add_joint_point`), its leaf checked against the joint's."""
+    from .fe.joint_points import leaf_path
+
+    _keys(d, "", {"name", "joint", "leaf", "fraction"}, {"name", "joint", "fraction"})
+    leaf = d.get("leaf", 0)
+    m.add_joint_point(d["joint"], d["name"], d["fraction"], leaf=leaf)
+    leaf_path(m.joints[d["joint"]], m.dim, leaf, f"joint point {d['name']!r}")
+
+
+def _restore_joint_point_loads(m: Mechanism, doc: dict) -> None:
+    """The loads at points inside joints as written (force and moment bit for bit)."""
+    dim, nm = m.dim, (1 if m.dim == 2 else 3)
+    for i, d in enumerate(_list(doc, "joint_point_loads")):
+        where = f"joint_point_loads[{i}]"
+        _keys(d, where, {"point", "force", "moment"}, {"point"})
+        if not m._is_joint_point(d["point"]):
+            raise MechanismFileError(f"{where}.point: no joint point named {d['point']!r}; joint points: "
+                                     f"{', '.join(m.joint_points) or 'none'}")
+        force = _number_list(d.get("force", [0.0] * dim), f"{where}.force", (dim,))
+        moment = _number_list(d.get("moment", [0.0] * nm), f"{where}.moment", (nm,))
+        m._inside_load(d["point"], force, moment)
 
 
 def _header(doc) -> None:

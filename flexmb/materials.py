@@ -43,10 +43,10 @@ class Material:
         E = v.positive(owner, "E", E)
         G = v.shear_modulus(owner, E, G, nu)
         G = v.positive(owner, "G", G)
-        implied = E / (2.0 * G) - 1.0
+        implied = v.real(E / (2.0 * G) - 1.0)  # a complex modulus (the complex step): its real part judged
         if not -1.0 < implied < 0.5:
-            raise ParameterError(f"{owner}: E={E:g} and G={G:g} imply Poisson's ratio {implied:.3g}, outside (-1, 0.5); "
-                                 "check the units of the moduli")
+            raise ParameterError(f"{owner}: E={v.real(E):g} and G={v.real(G):g} imply Poisson's ratio {implied:.3g}, "
+                                 "outside (-1, 0.5); check the units of the moduli")
         density = v.nonnegative(owner, "density", density)
         if yield_stress is not None:
             yield_stress = v.positive(owner, "yield_stress", yield_stress)
@@ -157,15 +157,16 @@ def check_joint(joint, units, where: str, dim: int) -> None:
                          f"give material={mat.name or 'structural_steel'!r} to add_joint (it resolves in the "
                          f"mechanism's units), or flexmb.material(name, {units.name!r}), or E, G, density in "
                          f"{units.label('stress')} and {units.label('density')}")
-    size = next((float(getattr(joint, n)) for n in ("length", "radius") if isinstance(getattr(joint, n, None), float)),
-                None)
+    # the real parts of a complex-step design's numbers (`flexmb.design`) are judged
+    size = next((float(v.real(getattr(joint, n))) for n in ("length", "radius")
+                 if isinstance(getattr(joint, n, None), (float, complex))), None)
     if size is None:
-        size = float(np.linalg.norm(joint.interface_b(dim)))
+        size = float(np.linalg.norm(v.real(joint.interface_b(dim))))
     section = getattr(joint, "section", None)  # a leaf spring's own section carries its modulus
     E = getattr(section, "E", None) or mat.E
     if size > 0:
-        check_size(where, E, size, units, mat.density if section is None else section.density, stacklevel=4,
-                   rules=("mm",))
+        check_size(where, v.real(E), size, units, v.real(mat.density if section is None else section.density),
+                   stacklevel=4, rules=("mm",))
 
 
 def sources() -> dict:

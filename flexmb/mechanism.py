@@ -189,13 +189,17 @@ class Mechanism:
         if self.dim == 2:
             return rot2(v.finite(where, "rotation", rotation))
         try:
-            r = np.asarray(rotation, dtype=float)
+            r = v.array(rotation)  # complex: the complex step (`flexmb.design`)
         except (TypeError, ValueError):
             raise ParameterError(f"{where}: rotation={rotation!r} is not a rotation vector (3,) or matrix (3, 3)") from None
         if r.shape == (3, 3):
-            if not np.allclose(r.T @ r, np.eye(3), atol=1e-9) or np.linalg.det(r) < 0:
+            r0 = r.real if np.iscomplexobj(r) else r
+            if not np.allclose(r0.T @ r0, np.eye(3), atol=1e-9) or np.linalg.det(r0) < 0:
                 raise ParameterError(f"{where}: rotation matrix is not a proper rotation")
-            u, _, vt = np.linalg.svd(r)  # the nearest exact rotation: meshes are turned with it
+            u, _, vt = np.linalg.svd(r0)  # the nearest exact rotation: meshes are turned with it
+            if np.iscomplexobj(r):  # its change projected on the rotations' tangent space, R0 skew(.)
+                a = (u @ vt).T @ r.imag
+                return u @ vt + 1j * ((u @ vt) @ (0.5 * (a - a.T)))
             return u @ vt
         return expm_so3(v.vector(where, "rotation", rotation, 3))
 

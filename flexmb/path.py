@@ -45,8 +45,10 @@ class Critical:
     ``"bifurcation"``: the stability changes without one), its ``load_factor`` and `Solution`,
     ``arc_length`` from the path's start (the dimensionless metric of `trace`), its
     ``multiplicity`` (the number of eigenvalues of the tangent that vanish there: 2 for the two
-    leaves of a symmetric device), whether the path ``switched`` there onto another branch, and
-    the critical `modes`."""
+    leaves of a symmetric device), whether the path ``switched`` there onto another branch,
+    whether it is an ``asymmetric`` bifurcation (its branches leave on both sides of its load
+    factor: the critical state is itself unstable, Koiter 1945; known where `trace` sought the
+    branches, ``branch != "primary"``), and the critical `modes`."""
 
     kind: str
     load_factor: float
@@ -55,6 +57,7 @@ class Critical:
     multiplicity: int = 1
     switched: bool = False
     _modes: np.ndarray = attrs.field(default=None, repr=False, alias="modes")
+    asymmetric: bool = False
 
     @property
     def modes(self) -> np.ndarray:
@@ -105,14 +108,17 @@ class Path(SweepResult):
     def snap(self) -> Critical | None:
         """The first instability of the path as traced, for its control (what the load factor
         scales): the first critical point that a stable point reaches and past which the path
-        (on the branch it follows) is unstable; None if the path stays stable. Under load
-        control the device snaps there (a limit point, or a bifurcation with no stable branch);
-        under a prescribed motion it follows a stable branch where one exists and snaps only
-        where none does (a snap-back)."""
+        (on the branch it follows) is unstable, or which is an asymmetric bifurcation (the
+        critical state itself unstable: a perfect Roorda frame's, whose stable branch rises on
+        one side while the other falls; its imperfect twin snaps below it, Koiter's 1/2-power
+        law); None if the path stays stable. Under load control the device snaps there (a limit
+        point, or a bifurcation with no stable branch); under a prescribed motion it follows a
+        stable branch where one exists and snaps only where none does (a snap-back)."""
         for c in self.critical:
             before = np.flatnonzero(self._arc < c.arc_length)
             after = np.flatnonzero(self._arc > c.arc_length)
-            if len(before) and len(after) and self._negative[before[-1]] == 0 and self._negative[after[0]] > 0:
+            if len(before) and self._negative[before[-1]] == 0 and (
+                    c.asymmetric or (len(after) and self._negative[after[0]] > 0)):
                 return c
         return None
 
@@ -444,11 +450,11 @@ class _Tracer:
                                  "(smaller, or larger than roundoff) may start the path")
             return True
         if event[0] == "critical":
-            _, kind, p, multiplicity, modes, switched = event
-            text = f"{kind} point at load factor {p.lam:.10g}" + ("" if multiplicity == 1 else
-                                                                   f" (multiplicity {multiplicity})")
+            _, kind, p, multiplicity, modes, switched, asymmetric = event
+            text = f"{'asymmetric ' if asymmetric else ''}{kind} point at load factor {p.lam:.10g}" + (
+                "" if multiplicity == 1 else f" (multiplicity {multiplicity})")
             self.critical.append(Critical(kind, float(p.lam), self.solution(p, text), p.arc, multiplicity,
-                                          switched, modes=modes))
+                                          switched, modes=modes, asymmetric=asymmetric))
             self._switched = p if switched else None
             return False
         _, p, ds = event

@@ -252,6 +252,16 @@ class StaticProblem(BoundaryConditions):
             du[slots] = logm_so3(expm_so3(w0 + (lam + dlam) * (w1 - w0)) @ expm_so3(w0 + lam * (w1 - w0)).T)
         return du
 
+    def path_rate(self, state: State, lam: float, r: np.ndarray, K_ff, K_fp, h: float) -> np.ndarray:
+        """The equilibrium path's derivative in the load factor at ``state`` (n_dofs,; the
+        increment's coordinates): ``K_ff du_f = -(dr_f/dlam + K_fp du_p)``, the prescribed rate
+        ``du_p`` (central) and ``dr/dlam`` (the applied loads', linear in lam) as differences over ``h``;
+        ``r``, ``K_ff``, ``K_fp`` the residual and tangent blocks at ``(state, lam)``
+        (`evaluate`). The continuation's tangent predictor."""
+        dp = (self.prescribed_increment(h, lam) - self.prescribed_increment(-h, lam)) / (2.0 * h)
+        dr = (self.residual(state, lam + h) - r) / h
+        return self.full_increment(self.solve_linear(K_ff, -(dr[self.free] + K_fp @ dp)), dp)
+
     @property
     def max_load_step(self) -> float:
         """Largest load-factor step whose prescribed rotation increments stay below 3 rad (< pi,

@@ -48,8 +48,10 @@ def expm_so3(w: np.ndarray) -> np.ndarray:
     """Rotation matrices ``exp(skew(w))``, rotation vectors [rad] shape (..., 3).
 
     Rodrigues, ``cos t I + (sin t / t) skew(w) + (1 - cos t) / t^2 w w^T`` with ``t = |w|``;
-    ``(1 - cos t) / t^2 = (sin h / h)^2 / 2`` (``h = t / 2``) has no cancellation at small ``t``."""
-    w = np.asarray(w, dtype=float)
+    ``(1 - cos t) / t^2 = (sin h / h)^2 / 2`` (``h = t / 2``) has no cancellation at small ``t``
+    (complex ``w``, a complex step: ``t = sqrt(w . w)``, the even functions of ``t`` continued
+    analytically)."""
+    w = np.asarray(w, dtype=_real_or_complex(w))
     row = w[..., None, :]
     t = np.maximum(np.sqrt(row @ w[..., :, None])[..., 0], 1e-300)  # (..., 1); sin(t)/t = 1 at t = 1e-300
     h = 0.5 * t
@@ -61,7 +63,10 @@ def expm_so3(w: np.ndarray) -> np.ndarray:
 
 
 def logm_so3(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors [rad] of rotation matrices, shape (..., 3, 3) -> (..., 3), angle in [0, pi]."""
+    """Rotation vectors [rad] of rotation matrices, shape (..., 3, 3) -> (..., 3), angle in [0, pi]
+    (complex ``R = R0 + i h dR``, a complex step: `_logm_complex`)."""
+    if np.iscomplexobj(R):
+        return _logm_complex(np.asarray(R))
     R = np.asarray(R, dtype=float)
     tv = R.reshape(R.shape[:-2] + (9,)) @ _TRACE_AXIAL
     c = 0.5 * (tv[..., 0] - 1.0)  # cos(t)
@@ -81,10 +86,27 @@ def logm_so3(R: np.ndarray) -> np.ndarray:
     return w
 
 
+def _logm_complex(R: np.ndarray) -> np.ndarray:
+    """`logm_so3` of ``R0 + i h dR`` to first order in ``h``: ``w0 + i h J_l(w0)^-1 s`` with the
+    spin ``skew(s) = dR R0^T`` (``d exp(w) = skew(J_l(w) dw) exp(w)``, Chirikjian 2011, Eq. 10.86;
+    ``J_l^-1 = I - W/2 + (1/t^2 - (1 + cos t) / (2 t sin t)) W^2``)."""
+    R0 = R.real.copy()
+    w0 = logm_so3(R0)
+    s = unskew(np.einsum("...ij,...kj->...ik", R.imag, R0))  # dR R0^T is skew for a rotation's dR
+    W = skew(w0)
+    t = np.sqrt(np.einsum("...i,...i->...", w0, w0))[..., None, None]
+    small = t < 1e-4
+    tt = np.where(small, 1.0, t)
+    c = np.where(small, 1.0 / 12.0 + t * t / 720.0, 1.0 / tt**2 - (1.0 + np.cos(tt)) / (2.0 * tt * np.sin(tt)))
+    Jinv = np.eye(3) - 0.5 * W + c * (W @ W)
+    return w0 + 1j * np.einsum("...ij,...j->...i", Jinv, s)
+
+
 def chain_rotation(w: np.ndarray, scale: float = 1.0) -> np.ndarray:
-    """``exp(scale w_1) exp(scale w_2) ... exp(scale w_k)`` of rotation vectors ``w`` (k, 3) [rad]."""
+    """``exp(scale w_1) exp(scale w_2) ... exp(scale w_k)`` of rotation vectors ``w`` (k, 3) [rad]
+    (complex ones, a complex step: the product in complex arithmetic)."""
     R = np.eye(3)
-    for Ri in expm_so3(scale * np.asarray(w, dtype=float)):
+    for Ri in expm_so3(scale * np.asarray(w, dtype=_real_or_complex(w))):
         R = R @ Ri
     return R
 

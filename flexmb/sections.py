@@ -24,9 +24,14 @@ def torsion_constant_rectangle(width: float, thickness: float, terms: int = 50) 
 
     Exact series (Timoshenko & Goodier, *Theory of Elasticity*, 3rd ed., Sec. 109), the form
     SPACAR uses: ``I_t = (1/3)(2a)^3(2b)[1 - (192/pi^5)(a/b) sum_{n odd} tanh(n pi b / 2a)/n^5]``
-    with ``a = min/2``, ``b = max/2``.
+    with ``a = min/2``, ``b = max/2`` (complex sides, the complex step of `flexmb.design`: ordered
+    by their real parts, the series carried in complex arithmetic).
     """
-    a, b = 0.5 * min(width, thickness), 0.5 * max(width, thickness)
+    if v.is_complex(width) or v.is_complex(thickness):
+        small, large = (width, thickness) if v.real(width) <= v.real(thickness) else (thickness, width)
+        a, b = 0.5 * complex(small), 0.5 * complex(large)
+    else:
+        a, b = 0.5 * min(width, thickness), 0.5 * max(width, thickness)
     n = np.arange(1, 2 * terms, 2, dtype=float)
     series = np.sum(np.tanh(n * math.pi * b / (2.0 * a)) / n**5)
     return (2 * a) ** 3 * (2 * b) / 3.0 * (1.0 - 192.0 / math.pi**5 * (a / b) * series)
@@ -102,8 +107,10 @@ class Section:
                 raise ParameterError(f"Section: a circle has ymax = zmax (its radius), got {self.ymax!r}, {self.zmax!r}")
         for name in ("E", "G", "A", "Iy", "Iz", "It"):
             v.positive("Section", name, getattr(self, name))
-        for name in ("ky", "kz"):  # inf is allowed: no shear deformation
+        for name in ("ky", "kz"):  # inf is allowed: no shear deformation (a complex one: the complex step)
             val = getattr(self, name)
+            if v.accepts_complex() and v.is_complex(val) and math.isfinite(val.imag):
+                val = val.real
             if not (isinstance(val, numbers.Real) and not isinstance(val, bool) and val > 0):
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
 
@@ -148,19 +155,22 @@ def _rectangle(width: float, thickness: float, E: float, G: float | None = None,
     E = v.positive("rectangle", "E", E)
     G = v.positive("rectangle", "G", v.shear_modulus("rectangle", E, G, nu))
     density = v.nonnegative("rectangle", "density", density)
-    w, t = np.float64(width), np.float64(thickness)  # numpy floats overflow to inf, checked below
-    with np.errstate(over="ignore", under="ignore"):
-        props = dict(A=float(w * t), Iy=float(t * w**3 / 12.0), Iz=float(w * t**3 / 12.0))
-    v.finite_model(f"rectangle {width:g} x {thickness:g} m", props)
+    if v.is_complex((width, thickness, E, G, density)):  # the complex step (`flexmb.design`)
+        props = dict(A=width * thickness, Iy=thickness * width**3 / 12.0, Iz=width * thickness**3 / 12.0)
+    else:
+        w, t = np.float64(width), np.float64(thickness)  # numpy floats overflow to inf, checked below
+        with np.errstate(over="ignore", under="ignore"):
+            props = dict(A=float(w * t), Iy=float(t * w**3 / 12.0), Iz=float(w * t**3 / 12.0))
+    v.finite_model(f"rectangle {v.real(width):g} x {v.real(thickness):g} m", props)
     nu = E / (2.0 * G) - 1.0
-    if not -1.0 < nu < 0.5:
+    if not -1.0 < v.real(nu) < 0.5:
         raise ParameterError(
-            f"rectangle: E={E:g} Pa and G={G:g} Pa imply Poisson's ratio {nu:.3g}, outside (-1, 0.5); "
-            "check the units of the moduli"
+            f"rectangle: E={v.real(E):g} Pa and G={v.real(G):g} Pa imply Poisson's ratio {v.real(nu):.3g}, outside "
+            "(-1, 0.5); check the units of the moduli"
         )
     k = shear_coefficient_rectangle(nu)
     return Section(E=E, G=G, It=torsion_constant_rectangle(width, thickness), ky=k, kz=k,
-                   ymax=0.5 * float(thickness), zmax=0.5 * float(width), density=density, shape="rectangle",
+                   ymax=0.5 * _number(thickness), zmax=0.5 * _number(width), density=density, shape="rectangle",
                    yield_stress=yield_stress, **props)
 
 
@@ -175,24 +185,43 @@ def circle(diameter: float, E: float, G: float | None = None, density: float = S
     E = v.positive("circle", "E", E)
     G = v.positive("circle", "G", v.shear_modulus("circle", E, G, nu))
     density = v.nonnegative("circle", "density", density)
-    r = 0.5 * np.float64(diameter)
-    with np.errstate(over="ignore", under="ignore"):
-        props = dict(A=float(math.pi * r**2), Iy=float(math.pi * r**4 / 4.0), Iz=float(math.pi * r**4 / 4.0),
-                     It=float(math.pi * r**4 / 2.0))
-    v.finite_model(f"circle of diameter {diameter:g} m", props)
+    if v.is_complex((diameter, E, G, density)):  # the complex step (`flexmb.design`)
+        r = 0.5 * diameter
+        props = dict(A=math.pi * r**2, Iy=math.pi * r**4 / 4.0, Iz=math.pi * r**4 / 4.0, It=math.pi * r**4 / 2.0)
+    else:
+        r = 0.5 * np.float64(diameter)
+        with np.errstate(over="ignore", under="ignore"):
+            props = dict(A=float(math.pi * r**2), Iy=float(math.pi * r**4 / 4.0), Iz=float(math.pi * r**4 / 4.0),
+                         It=float(math.pi * r**4 / 2.0))
+    v.finite_model(f"circle of diameter {v.real(diameter):g} m", props)
     nu = E / (2.0 * G) - 1.0
-    if not -1.0 < nu < 0.5:
-        raise ParameterError(f"circle: E={E:g} Pa and G={G:g} Pa imply Poisson's ratio {nu:.3g}, outside (-1, 0.5); "
-                             "check the units of the moduli")
+    if not -1.0 < v.real(nu) < 0.5:
+        raise ParameterError(f"circle: E={v.real(E):g} Pa and G={v.real(G):g} Pa imply Poisson's ratio "
+                             f"{v.real(nu):.3g}, outside (-1, 0.5); check the units of the moduli")
     k = shear_coefficient_circle(nu)
-    return Section(E=E, G=G, ky=k, kz=k, ymax=float(r), zmax=float(r), density=density, shape="circle",
+    return Section(E=E, G=G, ky=k, kz=k, ymax=_number(r), zmax=_number(r), density=density, shape="circle",
                    yield_stress=yield_stress, **props)
+
+
+def shear_factor(num, k, den):
+    """``num / (k den)`` in complex arithmetic (the complex step of `flexmb.design`), for the shear
+    factor ``phi = 12 E I / (k G A L0^2)`` (Eq. A.16): a shear coefficient ``k = inf`` (no shear
+    deformation) gives 0, where complex ``inf`` times a number is ``nan``."""
+    inf = np.isinf(np.real(k))
+    return np.where(inf, 0.0, num / (np.where(inf, 1.0, k) * den))
+
+
+def _number(x):
+    """``float(x)``, or ``x`` as a complex number where it is one (the complex step)."""
+    return complex(x) if v.is_complex(x) else float(x)
 
 
 def properties(sections, names) -> np.ndarray:
     """The named properties (e.g. ``("E", "A")``) of a sequence of sections as a (len(names), n)
-    float array; each distinct section object is read once (a mesh repeats a few sections)."""
+    float array (complex where a section's are: the complex step); each distinct section object is
+    read once (a mesh repeats a few sections)."""
     distinct = {}
     code = [distinct.setdefault(id(s), (len(distinct), s))[0] for s in sections]
-    table = np.array([[getattr(s, n) for n in names] for _, s in distinct.values()], dtype=float)
+    rows = [[getattr(s, n) for n in names] for _, s in distinct.values()]
+    table = np.array(rows, dtype=v.real_or_complex(rows))
     return table.reshape(-1, len(names))[code].T

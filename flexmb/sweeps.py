@@ -40,7 +40,8 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     """Solve ``mechanism`` for each of ``values``: actuation forces [N] (`Mechanism.set_actuation`)
     by default, or with ``motion=(link, component)`` the prescribed value of that component of a
     link (``"x"``, ``"y"``, ``"z"`` [m]; ``"rotation"`` [rad], in 3D rotation vectors, shape
-    (n, 3)); the component must already be prescribed (`Mechanism.prescribe`).
+    (n, 3)) or of a point inside a joint (`Mechanism.add_joint_point`; the finite-element model);
+    the component must already be prescribed (`Mechanism.prescribe`).
 
     ``start="previous"`` starts each solve from the last converged solution (continuation, the
     paper's Fig. 12 warm start; the conventional method then steps from the previous value to
@@ -208,8 +209,11 @@ def _motion_dofs(mechanism, motion) -> list[int]:
             or motion[1] not in comps):
         raise ParameterError(f"sweep: motion={motion!r} must be a (link, component) tuple with component one of "
                              f"{', '.join(comps)}")
-    if motion[0] not in mechanism.links:
-        raise ModelError(f"sweep: no link named {motion[0]!r}; links: {', '.join(mechanism.links)}")
+    points = getattr(mechanism, "joint_points", {})
+    if motion[0] not in mechanism.links and motion[0] not in points:
+        what = "link or joint point" if points else "link"
+        raise ModelError(f"sweep: no {what} named {motion[0]!r}; links: {', '.join(mechanism.links)}"
+                         + (f"; joint points: {', '.join(points)}" if points else ""))
     return comps[motion[1]]
 
 
@@ -230,12 +234,15 @@ def _motions(values, motion, width: int) -> np.ndarray:
 
 
 def _prescribed_slots(compiled, motion, comps) -> np.ndarray:
-    """Positions of the swept DOFs in ``compiled.problem.prescribed``."""
+    """Positions of the swept DOFs in ``compiled.problem.prescribed`` (of a link or a point inside
+    a joint, `Mechanism.add_joint_point`)."""
     problem = compiled.problem
-    dofs = problem.model.node_dofs[compiled.link_node[motion[0]]][comps]
+    inside = motion[0] not in compiled.link_node
+    node = compiled.joint_points[motion[0]] if inside else compiled.link_node[motion[0]]
+    dofs = problem.model.node_dofs[node][comps]
     if not np.all(np.isin(dofs, problem.prescribed)):
-        raise ModelError(f"sweep: the {motion[1]} of link {motion[0]!r} is not prescribed; prescribe it first, "
-                         f"e.g. Mechanism.prescribe({motion[0]!r}, {motion[1]}=0.0)")
+        raise ModelError(f"sweep: the {motion[1]} of {'joint point' if inside else 'link'} {motion[0]!r} is not "
+                         f"prescribed; prescribe it first, e.g. Mechanism.prescribe({motion[0]!r}, {motion[1]}=0.0)")
     if any(np.isin(dofs, d).any() for d, _ in getattr(problem, "rotation_paths", ())):
         raise ModelError(f"sweep: link {motion[0]!r} has a chain of rotations prescribed; sweep a single rotation "
                          f"vector instead")
@@ -313,6 +320,28 @@ class _Columns(dict):
             self[name] = values
 
 
+def _link_columns(sols, link: str) -> dict:
+    """`SweepResult.table`'s columns of one link (or point inside a joint): its position, rotation
+    and, where a DOF of it is fixed or prescribed, the reaction."""
+    compiled, dim = sols[0].compiled, sols[0].dim
+    axes = "xyz"[:dim]
+    problem = compiled.problem
+    held = set(np.asarray(problem.prescribed) // problem.model.ndof)
+    pos = np.array([s.pose(link)[0] for s in sols])
+    rot = np.array([s.rotation_vector(link) for s in sols])
+    cols = {f"{link}.{a}": pos[:, i] for i, a in enumerate(axes)}
+    if dim == 2:
+        cols[f"{link}.rotation"] = rot[:, 0]
+    else:
+        cols.update({f"{link}.rotation_{a}": rot[:, i] for i, a in enumerate(axes)})
+    node = compiled.link_node[link] if link in compiled.link_node else compiled.joint_points.get(link)
+    if node in held:
+        w = np.array([s.reaction(link) for s in sols])
+        labels = [f"F{a}" for a in axes] + (["Mz"] if dim == 2 else [f"M{a}" for a in axes])
+        cols.update({f"{link}.{n}": w[:, i] for i, n in enumerate(labels)})
+    return cols
+
+
 class SweepResult(Sequence):
     """The solutions of a `sweep` (a sequence: ``len``, indexing, iteration) with ``values``, the
     swept quantity's name ``quantity`` (``"force"`` or ``"link.component"``) and `table`."""
@@ -360,7 +389,8 @@ class SweepResult(Sequence):
         link in ``links`` (default: all) its position ``"<link>.x"`` ... [m], rotation
         ``"<link>.rotation"`` (2D) or rotation vector ``"<link>.rotation_x"`` ... [rad], and for
         links with a fixed or prescribed DOF the reaction ``"<link>.Fx"`` ... [N],
-        ``"<link>.Mz"`` ... [N m]; for every named point in ``points`` its position [m]. Write it
+        ``"<link>.Mz"`` ... [N m] (``links`` may name points inside joints, `Mechanism.add_joint_point`);
+        for every named point in ``points`` its position [m]. Write it
         with ``.to_csv(path)``; ``result.table().to_pandas()`` makes a data frame.
 
         Nothing is overwritten: a column keeps the first name it takes, in the order above, and
@@ -382,21 +412,8 @@ class SweepResult(Sequence):
             cols["warnings"] = np.array(self.warnings, dtype=str)
         cols["iterations"] = np.array([s.iterations for s in sols])
         cols["time"] = np.array([s.wall_time.get("total", np.nan) for s in sols])
-        links = list(compiled.link_node) if links is None else list(links)
-        problem = compiled.problem
-        held = set(np.asarray(problem.prescribed) // problem.model.ndof)
-        for link in links:
-            pos = np.array([s.pose(link)[0] for s in sols])
-            rot = np.array([s.rotation_vector(link) for s in sols])
-            cols.update({f"{link}.{a}": pos[:, i] for i, a in enumerate(axes)})
-            if dim == 2:
-                cols[f"{link}.rotation"] = rot[:, 0]
-            else:
-                cols.update({f"{link}.rotation_{a}": rot[:, i] for i, a in enumerate(axes)})
-            if compiled.link_node[link] in held:
-                w = np.array([s.reaction(link) for s in sols])
-                labels = [f"F{a}" for a in axes] + (["Mz"] if dim == 2 else [f"M{a}" for a in axes])
-                cols.update({f"{link}.{n}": w[:, i] for i, n in enumerate(labels)})
+        for link in list(compiled.link_node) if links is None else list(links):
+            cols.update(_link_columns(sols, link))
         for name in points:
             owner = compiled.points.get(name, (None,))[0]
             if owner is None:

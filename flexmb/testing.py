@@ -19,7 +19,7 @@ from .testing_ksd import (KSD_FULL_TOLERANCE, KSD_REDUCED_REACTION, KSD_REDUCED_
 __all__ = ["finite_difference_tangent", "perturbed_state", "scaled_error", "joint_mechanism", "check_rest",
            "check_tangent", "check_rigid_motion", "check_frame_invariance", "check_reciprocity", "check_energy",
            "check_strategies", "check_mass", "check_modes_rigid_move", "check_floating_modes", "check_rayleigh",
-           "joints", "placements", "JointConformance", "joint_size", "force_scale", "solver_tolerance",
+           "check_complex_step", "joints", "placements", "JointConformance", "joint_size", "force_scale", "solver_tolerance",
            "CheckSkipped", "ConformanceReport", "conformance_report", "strategy_skips", "KSDShape", "check_ksd",
            "check_ksd_database", "trained_shape", "KSD_FULL_TOLERANCE", "KSD_REDUCED_TOLERANCE", "KSD_REDUCED_REACTION"]
 
@@ -794,6 +794,89 @@ def check_rayleigh(joint, dim: int, rotation=None, *, motion: float = 0.2, n: in
 # -- hypothesis strategies and the pytest base class ----------------------------------------
 
 
+def _real_parameters(joint) -> dict:
+    """The joint's real-valued parameters ``{name: value}``: its attrs fields holding floats and,
+    for a `flexmb.joints.MaterialJoint`, its material's ``E``, ``G``, ``density``."""
+    out = {}
+    if attrs.has(type(joint)):
+        for a in attrs.fields(type(joint)):
+            value = getattr(joint, a.name)
+            if a.init and not a.name.startswith("_") and isinstance(value, float):
+                out[a.alias or a.name] = value
+    material = getattr(joint, "material", None)
+    if hasattr(material, "E") and hasattr(material, "G"):
+        out.update(E=float(material.E), G=float(material.G), density=float(material.density))
+    return out
+
+
+def _mesh_numbers(joint, dim: int) -> dict:
+    from .fe.build import _checked_mesh
+    from .sections import properties
+
+    mesh = _checked_mesh("under test", joint, dim)
+    rho, A = properties(mesh.sections, ("density", "A"))
+    out = {"points": mesh.points, "L0": mesh.L0, "S": mesh.S, "rho A": rho * A}
+    if dim == 3:
+        out.update(ny0=mesh.ny0, nz0=mesh.nz0)
+    return out
+
+
+def _differences(joint, dim: int, name: str, x: float, d: float, base: dict) -> dict:
+    """Central differences of `_mesh_numbers` in parameter ``name`` (one-sided of second order
+    where the joint refuses ``x - d``, e.g. a gap of 0)."""
+    from .errors import FlexmbError
+
+    plus = _mesh_numbers(attrs.evolve(joint, **{name: x + d}), dim)
+    try:
+        minus = _mesh_numbers(attrs.evolve(joint, **{name: x - d}), dim)
+    except FlexmbError:
+        far = _mesh_numbers(attrs.evolve(joint, **{name: x + 2 * d}), dim)
+        return {f: (-3 * np.asarray(base[f]) + 4 * np.asarray(plus[f]) - np.asarray(far[f])) / (2 * d) for f in base}
+    return {f: (np.asarray(plus[f]) - np.asarray(minus[f])) / (2 * d) for f in base}
+
+
+def check_complex_step(joint, dim: int, *, parameters=None, agreement: float = 1e-6) -> None:
+    """The joint's mesh carries a complex step (design gradients, `flexmb.design`: the build at
+    ``p + i h``): for each real parameter (``parameters``: names, default every float field and
+    the material's ``E``, ``G``, ``density``), the joint made with it complex builds its mesh with
+    numpy's ``ComplexWarning`` as an error and no ``TypeError`` (``float()``, ``math.*``, a
+    comparison), and the imaginary parts of its points, lengths, stiffness, mass per length (and
+    frames in 3D) over the step equal central differences of the real meshes within
+    ``agreement`` (relative to each field's largest rate): no imaginary part dropped silently
+    (``abs``, ``np.linalg.norm``, ``.real``). See docs/plugins.md, "Complex-step safe joints"."""
+    import warnings
+
+    from . import _validate as v
+    from .design.builds import culprit
+    from .design.parameters import H
+
+    values = _real_parameters(joint)
+    names = list(values) if parameters is None else list(parameters)
+    base = _mesh_numbers(joint, dim)
+    for name in names:
+        x = values[name]
+        scale = abs(x) or 1.0
+        h, d = H * scale, 1e-6 * scale
+        with warnings.catch_warnings(), v.complex_step():
+            warnings.simplefilter("error", np.exceptions.ComplexWarning)
+            try:
+                cs = _mesh_numbers(attrs.evolve(joint, **{name: complex(x, h)}), dim)
+            except (TypeError, np.exceptions.ComplexWarning) as exc:
+                raise AssertionError(f"{joint.kind} (dim={dim}): its mesh drops the complex step of {name!r} at "
+                                     f"{culprit(exc)}: {type(exc).__name__}: {exc}") from exc
+        diffs = _differences(joint, dim, name, x, d, base)
+        for field, ref in base.items():
+            fd = diffs[field]
+            rate = np.imag(cs[field]) / h
+            size = max(float(np.abs(fd).max(initial=0.0)), float(np.abs(rate).max(initial=0.0)))
+            floor = 1e3 * np.finfo(float).eps * float(np.abs(ref).max(initial=0.0)) / d  # the differences' round-off
+            err = float(np.abs(rate - fd).max(initial=0.0))
+            if err > agreement * size + floor:
+                raise AssertionError(f"{joint.kind} (dim={dim}): the mesh's {field} drops (part of) the complex step "
+                                     f"of {name!r}: its rate {err:.3g} off central differences (largest rate "
+                                     f"{size:.3g}); keep p's numbers complex (sqrt(x @ x), not abs or np.linalg.norm)")
+
+
 def joints(cls, ranges: dict | None = None, fixed: dict | None = None):
     """Hypothesis strategy of ``cls`` instances with the shape parameters of ``ranges`` (default
     ``cls.parameter_ranges``) drawn uniformly in their ranges, ``fixed`` parameters as given (e.g.
@@ -1011,6 +1094,21 @@ class JointConformance:
     def test_rayleigh_quotients_are_the_eigenvalues(self):
         """`check_rayleigh`: each mode's Rayleigh quotient is its omega^2."""
         self._run(lambda j, dim, pl, mo, **o: check_rayleigh(j, dim, pl[1], motion=mo))
+
+    #: Whether the joint's mesh is meant to carry a complex step (design gradients with respect to
+    #: its dimensions: one build per parameter); False skips `test_mesh_is_complex_step_safe` with
+    #: that reason (the design gradients then take central differences of the build: two builds).
+    complex_step: bool = True
+
+    def test_mesh_is_complex_step_safe(self):
+        """`check_complex_step`: the mesh carries a complex step in every real parameter (design
+        gradients with respect to the joint's dimensions and material, `flexmb.design`)."""
+        if "fe_model" not in self.representative().capabilities:
+            _skipped({d: "the joint has no finite-element mesh" for d in self.joint_class.dims}, [])
+        if not self.complex_step:
+            _skipped({d: "complex_step = False: design gradients with respect to the joint's own parameters take "
+                         "central differences of the build (flexmb.design.builds)" for d in self.joint_class.dims}, [])
+        self._run(lambda j, dim, pl, mo, **o: check_complex_step(j, dim))
 
 
 def _ksd_applies(joint, dim: int) -> bool:

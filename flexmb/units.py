@@ -120,6 +120,9 @@ def check_size(owner: str, E: float, length: float, units=None, density: float =
     units yet, asks for ``"GPa"`` alone; `flexmb.Mechanism.add_joint` for ``"mm"`` where the
     mechanism is undeclared (a mm-uN-Pa gripper arc, E = 1e11 with a 5 mm radius, is plausible).
     """
+    # a complex-step design's numbers (`flexmb.design`): their real parts are judged
+    E, length, density = (x.real if isinstance(x, complex) or getattr(x, "dtype", None) == complex else x
+                          for x in (E, length, density))
     u = system(units)
     msg = None
     if u is None:
@@ -163,7 +166,8 @@ def _magnitudes(value) -> list:
     """The angles in ``value``: a scalar, or the norms of the rows of a vector / (k, 3) array."""
     import numpy as np
 
-    a = np.asarray(value, dtype=float)
+    raw = np.asarray(value)  # a complex-step design's angles (`flexmb.design`): their real parts
+    a = raw.real.astype(float) if raw.dtype.kind == "c" else np.asarray(value, dtype=float)
     if a.ndim == 0:
         return [float(a)]
     if a.ndim == 1 and a.shape[0] == 3:

@@ -51,7 +51,7 @@ class Good(Joint):
         return self.width * self.thickness**3 / 12.0
 
     def interface_b(self, dim: int) -> np.ndarray:
-        b = np.zeros(dim)
+        b = np.zeros(dim, dtype=np.result_type(self.length))  # complex where length is (a complex-step build)
         b[0] = self.length
         return b
 

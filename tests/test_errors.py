@@ -555,17 +555,21 @@ def hard_pivot() -> flexmb.Mechanism:
 def test_starved_solver_reports_non_convergence_with_the_load_factor_reached():
     """max_iter=1 allows one Newton correction per step, far too few for a 75-degree rotation.
 
-    Step control (Fig. 18 / `newton_steps`): the full step 1.0 fails, is halved to 0.5, fails
-    again, is halved to 0.25 < min_step = 0.3 and the solver gives up. So no step was accepted:
-    load factor 0, two rejected steps, one residual recorded per attempt.
+    Step control (`newton_steps`, the continuation): the full step's linear predictor stretches
+    the leaves by more than 10 %, so the step is shortened before any iteration, to min_step = 0.3
+    at most (not a rejection); its one correction fails, it is halved to 0.15 < min_step and the
+    solver gives up. So no step was accepted: load factor 0, one rejected step, one residual
+    recorded per attempt. (Fig. 18's control, before issue 31's stretch bound: 1.0 and 0.5 failed.)
     """
     sol = flexmb.solve(hard_pivot(), max_iter=1, min_step=0.3)
     assert sol.converged is False
     assert re.search(r"not converged", sol.message), sol.message
     assert re.search(r"load factor 0\b", sol.message), sol.message
     assert sol.load_factor == 0.0
-    assert sol.steps == 0 and sol.rejected_steps == 2
-    assert len(sol.residual_history) == sol.iterations == 2
+    assert sol.steps == 0 and sol.rejected_steps == 1
+    assert len(sol.residual_history) == sol.iterations == 1
+    paper = flexmb.solve(hard_pivot(), max_iter=1, min_step=0.3, step_control="paper")
+    assert paper.steps == 0 and paper.rejected_steps == 2 and len(paper.residual_history) == paper.iterations == 2
     assert np.all(sol.residual_history > TOL), "an honest failure: no iteration was within tolerance"
 
 

@@ -247,13 +247,36 @@ def _text(replace_from, replace_to):
     return lambda: json.dumps(_valid()).replace(replace_from, replace_to, 1)
 
 
+def _valid_points() -> dict:
+    """A file with points inside a joint (format version 2): a load at P, a prescribed motion at M."""
+    m = models.cantilever(elements=4)
+    m.add_joint_point(next(iter(m.joints)), "P", 0.3)
+    m.add_joint_point(next(iter(m.joints)), "M", 0.6)
+    m.apply_force("P", (0.0, -1.0))
+    m.prescribe("M", y=-1e-4)
+    return files.to_dict(m)
+
+
+def _points(path, value):
+    """``_valid_points()`` with the value at ``path`` replaced (a missing parent: the key added)."""
+    def make():
+        doc = _valid_points()
+        *parents, last = path
+        d = doc
+        for k in parents:
+            d = d[k]
+        d[last] = value
+        return json.dumps(doc)
+    return make
+
+
 HOSTILE = {
     "not JSON": (lambda: "this is not a mechanism {", "not JSON"),
     "empty": (lambda: "", "not JSON"),
     "a list": (lambda: "[1, 2, 3]", "not a flexmb mechanism file"),
     "another format": (_set(["format"], "flexmb-database"), "not a flexmb mechanism file"),
-    "newer version": (_set(["version"], 2), "format version 2, written by a newer flexmb; this flexmb reads "
-                                            "versions up to 1"),
+    "newer version": (_set(["version"], 3), "format version 3, written by a newer flexmb; this flexmb reads "
+                                            "versions up to 2"),
     "version as text": (_set(["version"], "1"), "version: '1' must be a whole number"),
     "missing key": (_edit(lambda d: d.pop("joints")), "missing key(s) 'joints'"),
     "unknown key": (_set(["linkz"], []), "unknown key(s) 'linkz'"),
@@ -288,6 +311,26 @@ HOSTILE = {
     "code as a parameter": (_set(["joints", 0, "parameters", "angle"], "__import__('os').system('true')"),
                             "joints[0].parameters.angle: cross_flexure: angle="),
     "not UTF-8": (lambda: b"\xff\xfe\x00garbage", "not UTF-8"),
+    # points inside joints (format version 2, issue 29)
+    "joint points in a version-1 file": (_points(["version"], 1), "joint_points: points inside joints need format "
+                                                                 "version 2 (the file says version 1)"),
+    "joint point of no joint": (_points(["joint_points", 0, "joint"], "nowhere"),
+                                "joint_points[0]: no joint named 'nowhere'"),
+    "joint point at its end": (_points(["joint_points", 0, "fraction"], 1.0),
+                               "joint_points[0]: joint point 'P': fraction=1.0 must be in (0, 1)"),
+    "joint point fraction as text": (_points(["joint_points", 0, "fraction"], "half"),
+                                     "joint_points[0]: joint point 'P': fraction='half'"),
+    "joint point on no leaf": (_points(["joint_points", 1, "leaf"], 3),
+                               "joint_points[1]: joint point 'M': leaf=3; joint 'leaf_spring' has leaves 0 ... 0"),
+    "joint point named like a link": (_points(["joint_points", 0, "name"], "tip"),
+                                      "joint_points[0]: a link or joint point named 'tip' exists already"),
+    "joint point unknown key": (_points(["joint_points", 0, "side"], "A"), "joint_points[0]: unknown key(s) 'side'"),
+    "joint point load at no point": (_points(["joint_point_loads", 0, "point"], "nowhere"),
+                                     "joint_point_loads[0].point: no joint point named 'nowhere'"),
+    "joint point load of 3 components": (_points(["joint_point_loads", 0, "force"], [0.0, 1.0, 2.0]),
+                                         "joint_point_loads[0].force: must be a list of 2 numbers, got shape (3,)"),
+    "joint point prescribed junk": (_points(["prescribed", "M", "w"], 1.0),
+                                    "prescribed.M: joint point 'M': cannot prescribe 'w'"),
 }
 
 

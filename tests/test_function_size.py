@@ -28,7 +28,6 @@ MAX_BRANCHES = 25
 
 #: "module:qualified.name" -> (owner, reason). Each one is a debt with a name on it.
 EXCEPTIONS = {
-    "flexmb/fe/build.py:build": ("speed", "fe/build.py is speed's this session (issue 31); not split here"),
     "flexmb/fe/beam3d_jit.py:_kernel": (
         "unassigned", "the numba twin of beam3d's element, one compiled pass per element (its loop body the "
                       "paper's order); splitting it into njit calls is a speed question nobody has measured"),

@@ -529,12 +529,15 @@ def _bare_point():
 
 def test_both_branches_can_be_asked_for():
     """The hinged pinned-pinned column past its Euler load: by default the path takes the stable
-    post-buckled branch (switched at the bifurcation) and stays on it at the second bifurcation
-    it meets (P / P_E = 2.19, the ends turned 131 deg), where no other branch is more stable;
-    ``branch="bifurcated"`` leaves there too; ``branch="primary"`` never leaves the straight path."""
+    post-buckled branch (switched at the bifurcation); at the second bifurcation it meets (P /
+    P_E = 2.19, the ends turned 131 deg) no branch is stable and the path leaves its unstable
+    continuation for the bifurcated branch (the critical mode grows), as ``branch="bifurcated"``
+    does; ``branch="primary"`` never leaves the straight path."""
     kw = dict(arc_length=0.1, max_load_factor=2.2, progress=False)
     stable = flexmb.trace(_hinged_column(False), **kw)
-    assert [(c.kind, c.switched) for c in stable.critical] == [("bifurcation", True), ("bifurcation", False)]
+    assert [(c.kind, c.switched) for c in stable.critical][:2] == [("bifurcation", True), ("bifurcation", True)]
+    after = np.flatnonzero(stable.arc_length > stable.critical[1].arc_length)
+    assert stable.negative_eigenvalues[after[0]] > 0  # no stable branch there
     bifurcated = flexmb.trace(_hinged_column(False), **kw, branch="bifurcated")
     assert [(c.kind, c.switched) for c in bifurcated.critical][:2] == [("bifurcation", True), ("bifurcation", True)]
     assert bifurcated.critical[1].load_factor == pytest.approx(stable.critical[1].load_factor, rel=1e-6)

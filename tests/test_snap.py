@@ -3,7 +3,10 @@
 Every case is checked against a reference written here: the extensible elastica by shooting
 (`InclinedLeaf`), the shallow-arch closed form of Timoshenko & Gere (1961, Theory of Elastic
 Stability, Sec. 7.8: the half-sine arch with hinged ends under a half-sine load; Fung & Kaplan
-1952, NACA TN 2840), Qiu, Lang & Slocum's (2004) modal model, and Koiter's (1945) 2/3 law.
+1952, NACA TN 2840), Qiu, Lang & Slocum's (2004) modal model, Koiter's (1945) 2/3 law, and
+Roorda's frame (Roorda 1965, Koiter 1967) by shooting (`RoordaElastica`) for the 1/2 law, and
+the shallow clamped circular arch's closed form (`clamped_arch_closed_form`, after Pi, Bradford &
+Uy 2002 and Bradford, Uy & Pi 2002).
 """
 
 import math
@@ -11,10 +14,11 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from scipy.optimize import brentq, minimize_scalar
+from scipy.optimize import brentq, minimize_scalar, root
 
 import flexmb
-from flexmb.studies.paths import FOURBAR, LEAF, QIU, bistable_pair, motor_fourbar, qiu_beam, sine_arch
+from flexmb.studies.paths import (FOURBAR, FRAME, LEAF, QIU, bistable_pair, clamped_arch, motor_fourbar, qiu_beam,
+                                  roorda_frame, sine_arch)
 
 
 # -- the reference: an inclined clamped-guided leaf by shooting ------------------------------------------------
@@ -137,7 +141,8 @@ def test_bistable_pair_force_stroke_follows_the_elastica(elastica, elements):
     lists each bifurcation once, with multiplicity 2 (one eigenvalue per leaf)."""
     path = flexmb.trace(bistable_pair(elements), max_load_factor=1.0, steps=200, progress=False)
     assert path.stopped_by == "max_load_factor" and path.stable.all() and path.snap is None
-    assert [(c.kind, c.multiplicity, c.switched) for c in path.critical] == [("bifurcation", 2, True)] * 2
+    assert [(c.kind, c.multiplicity, c.switched, c.asymmetric) for c in path.critical] == \
+        [("bifurcation", 2, True, False)] * 2
     snap, minimum = (_push(c.solution) for c in path.critical)
     forces = [_push(s) for s in path]
     assert max(forces) < path.load_factor[-1] * 1e4 and snap == pytest.approx(max(forces[:10]), rel=1e-3)
@@ -210,6 +215,118 @@ def test_shallow_arch_bifurcates_below_its_limit_point(elements):
     assert limits[0].load_factor > first.load_factor
 
 
+#: The clamped beam's antisymmetric buckling mode: ``tan(k S / 2) = k S / 2``, k S = 2 x 4.4934
+KB = 2 * 4.493409457909064
+
+
+def clamped_arch_closed_form(e: float, load: str, rise: float = 0.01) -> tuple:
+    """``(bifurcation, limit)`` load factors of the shallow clamped circular arch `clamped_arch`
+    (span S = 1, EI = 1, r = rise / e, R the radius of the circle through its ends and crown),
+    re-derived in the shallow-arch theory of Pi, Bradford & Uy (2002, Int. J. Solids Struct. 39,
+    105-125: a uniform axial compression N, ``EI v'''' + N (y0'' + v'') = p``) and Bradford, Uy &
+    Pi (2002, J. Eng. Mech. 128, 710-719: the central point load). On the left half, with
+    ``k^2 = N / EI`` and ``y0'' = -1 / R``: ``v = A + B x + C cos kx + D sin kx + beta x^2 / 2``,
+    clamped at x = 0, ``v'(S/2) = 0`` and the crown's shear ``EI v'''(S/2) = Q / 2`` (point load
+    Q) or 0 (uniform load q: ``beta = 1 / R - q / N``); v is linear in the load at a given N, and
+    the ends' fixed distance, ``N S / EA = -int (y0' v' + v'^2 / 2) dx``, a quadratic in it: the
+    symmetric path, its load through the root that grows from 0 (the two roots cross at k S =
+    2 pi, the symmetric clamped mode, where the path passes from the lower to the upper). The
+    antisymmetric mode leaves the symmetric path where N reaches its clamped-beam buckling load,
+    k = `KB` (an antisymmetric increment changes no axial force: the bifurcation); the limit point
+    is the load's maximum before the path turns in N. The bifurcation is None where the path
+    does not reach it (N turns first). The compatibility integral: 64-point Gauss-Legendre."""
+    R = (0.25 + rise * rise) / (2 * rise)
+    EA = (e / rise) ** 2
+    x, w = np.polynomial.legendre.leggauss(64)
+    x, w = (x + 1) / 4, w / 4
+    y0p = (0.5 - x) / R
+
+    def slope(k, beta, shear):
+        s, c = math.sin(k / 2), math.cos(k / 2)
+        M = [[1, 0, 1, 0], [0, 1, 0, k], [0, 1, -k * s, k * c], [0, 0, k**3 * s, -k**3 * c]]
+        A, B, C, D = np.linalg.solve(M, [0, 0, -beta / 2, shear])
+        return B - C * k * np.sin(k * x) + D * k * np.cos(k * x) + beta * x
+
+    def quadratic(k):
+        v0 = slope(k, 1 / R, 0.0)
+        v1 = slope(k, 0.0, 0.5) if load == "point" else slope(k, -1 / k**2, 0.0)
+        return (k * k / EA + 2 * np.sum(w * (y0p * v0 + v0**2 / 2)), 2 * np.sum(w * (y0p * v1 + v0 * v1)),
+                np.sum(w * v1**2))
+
+    def disc(k):
+        c0, c1, c2 = quadratic(k)
+        return c1 * c1 - 4 * c2 * c0
+
+    def Q(k):
+        c0, c1, c2 = quadratic(k)
+        return (-c1 + math.sqrt(disc(k))) / (2 * c2)
+
+    ks = np.arange(2 * math.pi + 0.01, 16, 0.01)
+    j = int(np.argmax([disc(k) < 0 for k in ks]))
+    turn = brentq(disc, ks[j - 1], ks[j], xtol=1e-14)
+    top = minimize_scalar(lambda k: -Q(k), bounds=(2 * math.pi + 1e-6, turn), method="bounded",
+                          options={"xatol": 1e-10})
+    return (Q(KB) if KB < turn else None), -top.fun
+
+
+def _antisymmetric(critical, elements):
+    """Whether the critical mode's vertical motions are antisymmetric about the crown."""
+    node = critical.solution.compiled.link_node
+    names = ["L"] + [f"a{i}" for i in range(1, elements)] + ["R"]
+    names[elements // 2] = "crown"
+    v = critical.modes[0].reshape(-1, 3)[[node[n] for n in names], 1]
+    return np.allclose(v, -v[::-1], atol=1e-6 * np.abs(v).max())
+
+
+@pytest.mark.parametrize("elements", [40, 80])
+def test_clamped_arch_under_a_uniform_load_bifurcates_below_its_limit_point(elements):
+    """A shallow clamped circular arch (rise 1 % of the span, rise / r = 15) under a uniform
+    load: the antisymmetric bifurcation (q S^3 / EI = 5.9789) lies below the symmetric limit
+    point (6.7566); the first critical point is the bifurcation (measured +0.36 / +0.07 % at 40 /
+    80 elements, -0.002 % at 160), simple, its mode antisymmetric; the arch snaps there
+    (`Path.snap`) and the path leaves along the antisymmetric branch; held on the symmetric
+    branch (``branch="primary"``) it meets the limit point (+0.38 / +0.07 %)."""
+    Qb, Ql = clamped_arch_closed_form(15.0, "uniform")
+    path = flexmb.trace(clamped_arch(elements), steps=20, max_load_factor=8.0, progress=False)
+    first = path.critical[0]
+    assert (first.kind, first.multiplicity, first.switched) == ("bifurcation", 1, True) and path.snap is first
+    assert _antisymmetric(first, elements) and not first.asymmetric  # a symmetric (unstable) bifurcation
+    err = first.load_factor / Qb - 1
+    assert 0 < err < 5e-3 if elements == 40 else abs(err) < 1.5e-3
+    primary = flexmb.trace(clamped_arch(elements), steps=30, max_load_factor=8.0, progress=False, branch="primary",
+                           stop=lambda s: s.load_factor < 6.0 and not s.stable)
+    limit = [c for c in primary.critical if c.kind == "limit"][0]
+    assert primary.critical[0].kind == "bifurcation" and limit.load_factor > first.load_factor
+    err = limit.load_factor / Ql - 1
+    assert 0 < err < 5e-3 if elements == 40 else abs(err) < 1.5e-3
+
+
+@pytest.mark.parametrize("elements", [40, 80])
+def test_clamped_arch_under_a_central_point_load_snaps_at_its_limit_point(elements):
+    """A clamped arch under a central point load snaps at its symmetric limit point: at rise /
+    r = 30 the closed form's limit (Q S^2 / EI = 2.3160) comes before the axial force reaches the
+    antisymmetric mode's, which it does past the limit, on the unstable branch (2.0849); at
+    rise / r = 15, never. The first critical point is the limit (+0.43 / +0.10 % at 40 / 80
+    elements), where the arch snaps (`Path.snap`); the bifurcation follows on the falling branch
+    (+0.78 / +0.16 %), its mode antisymmetric. At rise / r = 15: a limit point alone (2.1607;
+    +0.39 % at 40 elements)."""
+    Qb, Ql = clamped_arch_closed_form(30.0, "point")
+    path = flexmb.trace(clamped_arch(elements, e=30.0, load="point"), steps=30, progress=False,
+                        stop=lambda s: s.load_factor < 1.5 and not s.stable)
+    first, second = path.critical[:2]
+    assert first.kind == "limit" and path.snap is first and first.multiplicity == 1
+    assert second.kind == "bifurcation" and second.load_factor < first.load_factor and _antisymmetric(second, elements)
+    errors = np.array([first.load_factor / Ql, second.load_factor / Qb]) - 1
+    assert np.all(errors > 0) and np.all(errors < (1e-2 if elements == 40 else 2.5e-3)), errors
+    Qb, Ql = clamped_arch_closed_form(15.0, "point")
+    assert Qb is None
+    if elements == 40:
+        path = flexmb.trace(clamped_arch(elements, e=15.0, load="point"), steps=30, progress=False,
+                            stop=lambda s: s.load_factor < 1.5 and not s.stable)
+        assert [c.kind for c in path.critical] == ["limit"] and path.snap is path.critical[0]
+        assert path.critical[0].load_factor / Ql - 1 == pytest.approx(0.0039, abs=1e-3)
+
+
 @pytest.mark.parametrize("elements", [40, pytest.param(80, marks=pytest.mark.slow)])
 def test_arch_imperfection_sensitivity_follows_koiter_two_thirds_law(elements):
     """An antisymmetric imperfection of amplitude eta r turns the bifurcation into a limit point:
@@ -239,6 +356,149 @@ def test_arch_imperfection_sensitivity_follows_koiter_two_thirds_law(elements):
     np.testing.assert_allclose(loads, [model(eta) for eta in etas], rtol=5e-4)
     slope = np.polyfit(np.log(etas), np.log(1 - np.array(loads) / perfect), 1)[0]
     assert slope == pytest.approx(2 / 3, abs=0.01)
+
+
+# -- Koiter's 1/2-power law: Roorda's frame, an asymmetric bifurcation ------------------------------------------
+
+class RoordaElastica:
+    """The extensible Euler-Bernoulli elastica of Roorda's frame (`roorda_frame`) by shooting:
+    the column from the pinned base A (its angle ``th0`` and internal force ``(nx, ny)``
+    unknown, no moment), the rigid corner C (the load ``(0, -P)`` and the moment ``ecc P L``
+    applied), the beam to the pin B (x held, y settled by ``P L / EA``, no moment); lengths
+    over L, forces over EI / L^2 (so ``P`` is the load factor). `solve` finds the equilibrium at
+    a corner rotation ``phi`` [rad] with the load unknown (through the limit point), scipy's
+    hybrid Newton on DOP853 integrations (rtol 1e-11)."""
+
+    def __init__(self, L, t, w, E):
+        self.kap = t * t / (12 * L * L)  # (EI / L^2) / EA
+
+    def _rhs(self, s, Y, nx, ny):
+        c, sn = math.cos(Y[2]), math.sin(Y[2])
+        e = 1 + self.kap * (nx * c + ny * sn)  # the stretch of the axial force n . tangent
+        return [e * c, e * sn, Y[3], -e * (c * ny - sn * nx)]
+
+    def _ends(self, q, ecc):
+        th0, nx, ny, P = q
+        o = dict(rtol=1e-11, atol=1e-12, method="DOP853")
+        c = solve_ivp(self._rhs, (0, 1), [0, 0, th0, 0], args=(nx, ny), **o).y[:, -1]
+        b = solve_ivp(self._rhs, (0, 1), [c[0], c[1], c[2] - math.pi / 2, c[3] - ecc * P], args=(nx, ny + P),
+                      **o).y[:, -1]
+        return c, b
+
+    def _residual(self, q, ecc, phi):
+        c, b = self._ends(q, ecc)
+        return [b[0] - 1, b[1] - (1 - self.kap * q[3]), b[3], c[2] - math.pi / 2 - phi]
+
+    def solve(self, ecc, phi, guess):
+        """``(th0, nx, ny, P)`` at corner rotation ``phi`` from ``guess``."""
+        r = root(self._residual, guess, args=(ecc, phi), method="hybr", options=dict(xtol=1e-11))
+        if not r.success:
+            raise RuntimeError(f"no equilibrium at ecc={ecc}, phi={phi}: {r.message}")
+        return r.x
+
+    def critical(self):
+        """``(P_c, a)``: the perfect frame's bifurcation load and its initial post-buckling slope
+        ``a = d(P / P_c) / d phi`` (central differences at phi = +-1e-4 on the bifurcated branch)."""
+        g, h = np.array([math.pi / 2, 0.0, -13.9, 13.9]), 1e-4
+        up, down = self.solve(0.0, h, g)[3], self.solve(0.0, -h, g)[3]
+        return (up + down) / 2, (up - down) / (up + down) / h
+
+    def limit(self, ecc, Pc):
+        """The limit load with eccentricity ``ecc`` > 0: continuation in phi from 5 ecc (the load
+        near 0.8 P_c) to 3 sqrt(ecc), the maximum by Brent's method."""
+        phis = np.geomspace(5 * ecc, 3 * math.sqrt(ecc), 8)
+        qs = [self.solve(ecc, phis[0], np.array([math.pi / 2, 0.0, -0.8 * Pc, 0.8 * Pc]))]
+        for phi in phis[1:]:
+            qs.append(self.solve(ecc, phi, qs[-1]))
+        i = int(np.argmax([q[3] for q in qs]))
+        assert 0 < i < len(phis) - 1
+        best = minimize_scalar(lambda x: -self.solve(ecc, x, qs[i])[3], bounds=(phis[i - 1], phis[i + 1]),
+                               method="bounded", options={"xatol": 1e-8})
+        return -best.fun
+
+
+#: Eccentricities (over L) of the imperfection sweep
+ECCENTRICITIES = np.array([1e-6, 3e-6, 1e-5, 3e-5, 1e-4])
+
+
+@pytest.fixture(scope="module")
+def roorda():
+    ref = RoordaElastica(**FRAME)
+    Pc, a = ref.critical()
+    return dict(model=ref, Pc=Pc, a=a)
+
+
+@pytest.fixture(scope="module")
+def roorda_limits(roorda):
+    """The shooting reference's limit loads at `ECCENTRICITIES` (0.8-1 s each)."""
+    return np.array([roorda["model"].limit(e, roorda["Pc"]) for e in ECCENTRICITIES])
+
+
+def test_roorda_reference_is_koiters_frame(roorda):
+    """The shooting reference against the closed forms of the inextensible frame: the column
+    (pinned at A, C held) turning the beam's end (stiffness 3 EI / L, B pinned) buckles where
+    ``x^2 / (1 - x cot x) = -3`` (x = L sqrt(P / EI), the stability function of a propped
+    column): P_c L^2 / EI = 13.8859 (Roorda 1965's 13.89); extensible, +1.1e-4. Its bifurcated
+    branch falls as P / P_c = 1 - 0.3805 phi, Koiter's (1967) initial post-buckling slope of
+    the equal-member frame (as quoted by Thompson & Hunt 1973, A General Theory of Elastic Stability)."""
+    x = brentq(lambda x: x * x / (1 - x / math.tan(x)) + 3, 3.5, 4.0)
+    assert roorda["Pc"] / (x * x) - 1 == pytest.approx(1.06e-4, abs=1e-5)
+    assert roorda["a"] == pytest.approx(-0.3805, abs=5e-4)
+
+
+def _perfect_roorda(elements: int):
+    """The perfect frame's path to 16 EI / L^2 and its first critical point."""
+    perfect = flexmb.trace(roorda_frame(elements), max_load_factor=16.0, steps=30, progress=False)
+    return perfect, perfect.critical[0]
+
+
+@pytest.mark.parametrize("elements", [12, 48])
+def test_the_perfect_roorda_frame_bifurcates_asymmetrically(roorda, elements):
+    """An asymmetric bifurcation (Koiter 1945): the perfect frame's trivial path bifurcates at
+    P_c (+0.65 / +0.04 % at 12 / 48 elements against the shooting reference), reported once as
+    a bifurcation; the path goes on along its stable branch, rising as the corner turns away
+    from the beam (its first two points' loads within 4e-5 / 2e-6 of the shooting branch's at
+    the same corner rotation, the mesh's P_c error taken out). The bifurcation is reported
+    asymmetric (the branches along +-mode change the load with opposite signs) and is its
+    `Path.snap`: the critical state itself is unstable (Koiter), though the path goes on along
+    the stable branch; its imperfect twins snap below it (the next test)."""
+    ref, Pc = roorda["model"], roorda["Pc"]
+    perfect, first = _perfect_roorda(elements)
+    assert (first.kind, first.multiplicity, first.switched, first.asymmetric) == ("bifurcation", 1, True, True)
+    assert perfect.snap is first  # the critical state itself is unstable, though a stable branch rises
+    mesh = first.load_factor / Pc - 1
+    assert mesh == pytest.approx(0.0065 if elements == 12 else 0.0004, abs=0.0015 if elements == 12 else 2e-4)
+    after = [perfect[k] for k in np.flatnonzero(perfect.arc_length > first.arc_length)[:2]]
+    guess = np.array([math.pi / 2, 0.0, -Pc, Pc])
+    for s in after:  # the stable branch: rising, the corner turning away from the beam (a < 0)
+        phi = float(s.rotation_vector("C")[-1])
+        assert phi < 0 and s.load_factor > first.load_factor and s.stable
+        expected = ref.solve(0.0, phi, guess)[3] * (1 + mesh)
+        assert s.load_factor == pytest.approx(expected, rel=1e-4 if elements == 12 else 1e-5)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("elements", [12, 48])
+def test_roorda_frame_imperfection_sensitivity_follows_koiters_half_power_law(roorda, roorda_limits, elements):
+    """A load eccentricity e L towards the beam turns the asymmetric bifurcation into a limit
+    point (`Path.snap`) whose drop below P_c goes as e^(1/2) (Koiter 1945): the traced limit
+    loads' drops (each over its own mesh's P_c) within 0.5 / 0.05 % of the shooting reference's
+    at 12 / 48 elements (measured 0.32 / 0.02 % over e = 1e-6 ... 1e-4), and their log-log
+    slope tends to 1/2 as e falls: 0.4993 over 1e-6 ... 3e-6 (within 1e-3 of 1/2), 0.4988,
+    0.4979, 0.4962 over 3e-5 ... 1e-4 at both meshes (each the reference's to 1e-4, asserted
+    5e-4)."""
+    Pc = _perfect_roorda(elements)[1].load_factor
+    drops = []
+    for e in ECCENTRICITIES:
+        path = flexmb.trace(roorda_frame(elements, e), steps=60, progress=False, stop=lambda s: not s.stable)
+        snap = path.snap
+        assert snap is path.critical[0] and snap.kind == "limit"
+        drops.append(1 - snap.load_factor / Pc)
+    drops, expected = np.array(drops), 1 - roorda_limits / roorda["Pc"]
+    np.testing.assert_allclose(drops, expected, rtol=5e-3 if elements == 12 else 5e-4)
+    slope = np.diff(np.log(drops)) / np.diff(np.log(ECCENTRICITIES))
+    assert abs(slope[0] - 0.5) < 1e-3 and np.all(np.abs(slope - 0.5) < 1e-2) and np.all(np.diff(slope) < 0), slope
+    np.testing.assert_allclose(slope, np.diff(np.log(expected)) / np.diff(np.log(ECCENTRICITIES)), atol=5e-4)
 
 
 # -- no cry-wolf, Ctrl-C, arguments ----------------------------------------------------------------------------
@@ -509,6 +769,32 @@ def test_qiu_single_beam_without_a_shuttle_switches_through_mode_two(elements):
     assert lowest == pytest.approx(bottom, rel=0.25) and abs(lowest) < 0.02 * 0.0232
 
 
+@pytest.mark.slow
+def test_qiu_primary_path_lists_each_critical_point_of_the_double_beam_once_with_multiplicity_two():
+    """``branch="primary"``: the symmetric primary path (unstable past the first bifurcation)
+    winds through 16 critical points to twice the rise. The shuttle decouples the double beam's
+    halves, so every eigenvalue of its tangent is double and every critical point, the limit
+    points too, is listed once with multiplicity 2 (a double limit was listed as a simple limit
+    and a bifurcation at one load). The single beam (its centre free to turn, but not turning on
+    the symmetric path) follows the same path (the stroke is prescribed; twice the stiffness only
+    doubles the forces): its limit points at the same loads (measured to 1.1e-14), simple, and
+    the double beam's bifurcations among its own (the symmetric modes; measured within 2.4e-4:
+    a round-off-split double crossing is reported at its first)."""
+    double, single = (flexmb.trace(qiu_beam(20, shuttle), max_load_factor=1.0, steps=300, progress=False,
+                                   branch="primary") for shuttle in (True, False))
+    assert double.stopped_by == single.stopped_by == "max_load_factor"
+    assert len(double.critical) == 16 and all(c.multiplicity == 2 for c in double.critical)
+    loads = np.sort([c.load_factor for c in double.critical])
+    assert np.all(np.diff(loads) > 1e-3)  # none listed twice
+    limits = [[c.load_factor for c in p.critical if c.kind == "limit"] for p in (double, single)]
+    assert len(limits[0]) == 8 and all(c.multiplicity == 1 for c in single.critical if c.kind == "limit")
+    np.testing.assert_allclose(limits[0], limits[1], rtol=1e-10)
+    own = np.array([c.load_factor for c in single.critical if c.kind == "bifurcation"])
+    for c in double.critical:
+        if c.kind == "bifurcation":
+            assert np.min(np.abs(own / c.load_factor - 1)) < 1e-3
+
+
 def test_an_imperfection_along_the_critical_mode_with_the_helper():
     """`flexmb.imperfect` moves the perfect arch's geometry along the mode of its bifurcation
     (`Critical.modes`, computed at the deformed critical state), its largest node translation
@@ -535,3 +821,42 @@ def test_imperfect_refuses_a_mode_of_another_model():
         flexmb.imperfect(sine_arch(10), np.ones(3), 1e-4)
     with pytest.raises(flexmb.errors.ParameterError, match="amplitude"):
         flexmb.imperfect(sine_arch(10), np.ones(33), float("nan"))
+
+
+def test_is_asymmetric_reads_the_branches_on_both_sides():
+    """`branching.is_asymmetric` on the load-factor changes of the mode predictors (the measured
+    ones: Roorda's frame +-5.8e-5 at 13.98; the sine arch -0.049 both ways; the perfect strut
+    3.3e-10 both ways; a double point's eight directions, opposite ones four apart)."""
+    from flexmb.solvers.branching import is_asymmetric
+
+    assert is_asymmetric([5.81e-5, -5.75e-5], 1, 13.98)
+    assert not is_asymmetric([-0.0492, -0.0492], 1, 19.4)  # symmetric unstable
+    assert not is_asymmetric([3.3e-10, -3.3e-10], 1, 1.0)  # flat: round-off either way
+    assert not is_asymmetric([1e-3, -1e-5], 1, 1.0)  # not comparable: a branch and round-off
+    assert not is_asymmetric([1e-3, None], 1, 1.0)
+    double = [0.02, 0.02, 0.02, 0.02, 0.02, 0.02, 0.02, 0.02]
+    assert not is_asymmetric(double, 2, 0.5)
+    double[6] = -0.02  # opposite to direction 2
+    assert is_asymmetric(double, 2, 0.5)
+
+
+def test_multiplicity_counts_the_eigenvalues_below_the_gap():
+    """`branching.multiplicity` at a located critical point, on the eigenvalues nearest zero
+    measured there: Qiu's double beam (40 el./half) at its second double bifurcation, met at the
+    load factor's turn (numpy kernels: the two vanishing ones at round-off, +-3e-9, 1.1e-4 of the
+    next pair: a fixed fraction 1e-4 counted none), one of a pair crossing zero exactly (no gap of
+    its own), a simple limit point (Lee's frame's kind: the next eigenvalue O(1)), and a simple one
+    whose neighbour is itself small (1e-5 of the largest, no gap wide enough: the fraction)."""
+    from types import SimpleNamespace
+
+    from flexmb.solvers.branching import multiplicity
+
+    def m(*near):
+        return multiplicity(SimpleNamespace(near=np.array(near)))
+
+    assert m(-3.558e-9, 2.957e-9, 2.758e-5, 2.758e-5) == 2  # numpy kernels
+    assert m(-5.095e-10, 1.723e-9, 2.758e-5, 2.758e-5) == 2  # compiled kernels
+    assert m(0.0, 7.6e-10, 2.758e-5, 2.759e-5) == 2
+    assert m(1e-12, 0.3, 1.2, 2.7) == 1
+    assert m(-2e-9, 0.01, 0.02, 0.05) == 1
+    assert m() == 1

@@ -157,8 +157,10 @@ def newton(pos, ang, free, fi, fj, s_i, s_j, b_j, b_jc, b_ia_f, arm, p_hat, K, n
             return 1, it, res, first
         if it == max_iter:
             return 2, it, res, first
-        if mode == 2:
-            Kf[:, :] = K0
+        if mode == 2:  # element by element: numba's array assignment compiles its broadcasting checks
+            for a in range(nf):
+                for b in range(nf):
+                    Kf[a, b] = K0[a, b]
         else:
             for a in range(nf):
                 for b in range(nf):

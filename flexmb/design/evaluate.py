@@ -20,7 +20,8 @@ from ..errors import ConvergenceError, ParameterError, UnsupportedStrategyError
 from ..ksd.linearisation import ReducedSolution
 from ..linear import single_threaded
 from .adjoint import STRATEGIES, Sensitivity, full_model
-from .parameters import ModelRates, as_design, model_numbers, model_rates
+from .builds import model_rates
+from .parameters import ModelRates, as_design, model_numbers
 
 __all__ = ["Evaluation", "DesignPoint", "evaluate", "value_and_grad"]
 
@@ -95,26 +96,81 @@ class _Configured(ModelRates):
         return super().compiled_numbers(field)
 
     def _boundary_rates(self) -> None:
-        link_node = self.compiled.link_node
-
-        def numbers(mech):
-            _, vals, loads, _ = boundary(mech, link_node)
-            return {"values": vals, "load_offset": loads.offset, "load_force": loads.force,
-                    "load_moment": loads.moment}
-
+        """The boundary fields' rates: ``configure`` on a copy of each parameter's builds (its
+        complex-step mechanism, or the real ones of its central differences), their boundaries
+        combined (`flexmb.design.builds.ParameterBuild.combine`). A ``configure`` that cannot carry
+        a complex step (a ``TypeError``, numpy's ``ComplexWarning``: ``float()`` of a position)
+        takes central differences of the build for that parameter (`ModelRates.fallback`); one that
+        drops it silently (``.real``, ``abs()``) is caught along the design's check direction
+        (`ModelRates.direction`), and then every parameter takes them."""
         base = {f: model_numbers(self.compiled, f) for f in self.BOUNDARY}
         out = {f: np.zeros((len(self.names),) + np.shape(base[f])) for f in self.BOUNDARY}
-        for k, (_, h) in enumerate(self._builds):
-            for w, mech in self._base._mechanisms[k]:
-                if mech is not None:  # a copy: configure may add loads, and the builds serve every configuration
-                    mech = _copy_mechanism(mech)
-                    self._configure(mech)
-                nums = base if mech is None else numbers(mech)
+        for k, b in enumerate(self._builds):
+            try:
+                rows = self._combined(b, k, base)
+            except _DropsStep:
+                rows = self._combined(self._base.fallback(k), k, base)
+            for f in self.BOUNDARY:
+                out[f][k] = rows[f]
+        if not self._direction_agrees(out, base):
+            for k in range(len(self.names)):
+                rows = self._combined(self._base.fallback(k), k, base)
                 for f in self.BOUNDARY:
-                    out[f][k] += w * np.asarray(nums[f], dtype=float) / h
+                    out[f][k] = rows[f]
         for f in self.BOUNDARY:
             out[f].flags.writeable = False
             self._cache[f] = out[f]
+
+    def _combined(self, build, k: int, base: dict) -> dict:
+        """``{field: rate}`` of the boundary fields of parameter ``k``'s ``build`` after ``configure``."""
+        seen = {}
+
+        def read(mech, f):
+            if id(mech) not in seen:
+                seen[id(mech)] = self._configured(mech, k, base)
+            return seen[id(mech)][f]
+
+        return {f: build.combine(lambda mech, _, f=f: read(mech, f)) for f in self.BOUNDARY}
+
+    def _direction_agrees(self, out: dict, base: dict) -> bool:
+        """Whether the boundary rates ``out`` agree along the design's check direction with central
+        differences of its real builds after ``configure`` (`flexmb.design.builds.agrees`)."""
+        from .builds import agrees
+
+        if self._base.direction is None:
+            return True
+        d, points = self._base.direction
+        configured = [(w, self._configured(mech, None, base)) for w, mech in points]
+        return all(agrees(sum(w * np.real(c[f]) for w, c in configured), np.tensordot(d, out[f], axes=1),
+                          float(np.abs(base[f]).max(initial=0.0))) for f in self.BOUNDARY)
+
+    def _configured(self, mech, k, base: dict) -> dict:
+        """The boundary fields of ``configure`` applied to a copy of ``mech`` (parameter ``k``'s build;
+        `_DropsStep` where a complex one cannot pass)."""
+        import warnings
+
+        from .. import _validate as v
+
+        mech = _copy_mechanism(mech)  # a copy: configure may add loads, and the builds serve every configuration
+        with warnings.catch_warnings(), v.complex_step():
+            warnings.simplefilter("error", np.exceptions.ComplexWarning)
+            try:
+                self._configure(mech)
+                _, vals, loads, _ = boundary(mech, self.compiled.link_node)
+            except (TypeError, np.exceptions.ComplexWarning) as exc:
+                raise _DropsStep() from exc
+        out = dict(zip(self.BOUNDARY, (vals, loads.offset, loads.force, loads.moment)))
+        for f, value in out.items():
+            if np.shape(value) != np.shape(base[f]):
+                which = "the design's" if k is None else f"parameter {self.names[k]!r}'s"
+                raise ParameterError(f"configure: the configured mechanism's {f} differ in shape between the design "
+                                     f"and {which} build; configure may set prescribed values and loads, the same "
+                                     "ones for every design")
+        return out
+
+
+class _DropsStep(Exception):
+    """``configure`` cannot carry a complex step (its cause: the ``TypeError`` or ``ComplexWarning``)."""
 
 
 def _copy_mechanism(mech):
@@ -135,7 +191,7 @@ def _copy_mechanism(mech):
 
 class DesignPoint:
     """A design at parameter values ``p``: its mechanism and, on first need, the rates of its
-    model's numbers (`flexmb.design.parameters.model_rates`, shared by every configuration)."""
+    model's numbers (`flexmb.design.builds.model_rates`, shared by every configuration)."""
 
     def __init__(self, build, p=None, bounds=None):
         self.design = as_design(build, p, bounds)

@@ -1,23 +1,26 @@
 """Design parameters: a design is ``build(p) -> Mechanism`` over named floats with bounds.
 
-`Parameter` and `Design` are data; `model_rates` turns a design at ``p`` into the rates of
+`Parameter` and `Design` are data; `flexmb.design.builds.model_rates` turns a design at ``p`` into the rates of
 change of its compiled model's numbers (`MODEL_FIELDS`) per parameter, the one piece of the
-gradient that differentiates the user's build. That piece is a central difference of the
-*build* (the model's reference numbers: no solve, no state; smooth closed forms of the
-parameters, e.g. ``Iz = w t^3 / 12``, a placement's ``origin + R s``); everything downstream
-of the model numbers is exact (complex step through the numpy element kernels,
-`flexmb.design.partials`; linear algebra, `flexmb.design.adjoint`). Complex step or automatic
-differentiation through the build would need every validator, joint plugin and builder to
-carry complex numbers, and a plugin that drops an imaginary part gives a silently zero
-derivative; the difference of the build's numbers has a bounded error, measured in
-tests/test_design_parameters.py (relative 1e-10 on the cantilever's closed forms).
+gradient that differentiates the user's build. It is the complex step through the build
+(Squire & Trapp 1998; Martins, Sturdza & Alonso 2003): one build per parameter at
+``p_k + i h`` (``h`` = `H` times the parameter's scale), whose model numbers
+(`flexmb.fe.build.numbers`: no problem, no sparsity pattern, no solver set-up) carry
+``N(p) + i h N'(p)`` to round-off, no difference, no step to choose. Everything downstream of
+the model numbers is exact too (complex step through the element kernels,
+`flexmb.design.partials`; linear algebra, `flexmb.design.adjoint`).
 
-The topology must not depend on ``p``: the structure of the compiled model (element ends, node
-and point numbering, DOF layout, prescribed DOFs, load and mass rows) is compared between the
-builds, and a change is refused (`flexmb.TopologyError` naming the parameter). Nor may the numbers
-have a kink at the design (a ``max()``, a rounding, a branch on ``p`` in the build): the builds at
-``p + h``, ``p`` and ``p - h`` tell it (forward and backward differences disagree), and it is
-refused naming the parameter rather than averaged into a wrong gradient.
+flexmb's validators, joints, sections, placements, masses and loads carry complex numbers
+(judged by their real parts). Where a build or a joint plugin cannot carry them (``float()``,
+``math.sin``, a comparison or ``max()`` on ``p``: an error) the parameter falls back to central
+differences of the build, and a check along one direction catches a build that drops an
+imaginary part silently (``abs()``, ``np.linalg.norm``): `flexmb.design.builds` has the rule;
+``docs/plugins.md``, "Complex-step safe joints", and `flexmb.testing.check_complex_step` are for
+plugin authors.
+
+The topology must not depend on ``p``: the structure of the model (element ends, node and point
+numbering, DOF layout, prescribed DOFs, load and mass rows) is compared between the builds, and a
+change is refused (`flexmb.TopologyError` naming the parameter).
 """
 
 from __future__ import annotations
@@ -28,14 +31,20 @@ from collections.abc import Callable, Mapping
 import attrs
 import numpy as np
 
-from ..errors import FlexmbError, ParameterError, TopologyError, UnsupportedStrategyError
+from ..errors import ParameterError, TopologyError, UnsupportedStrategyError
 
-__all__ = ["Parameter", "Design", "as_design", "ModelRates", "model_rates", "model_numbers", "MODEL_FIELDS",
-           "RELATIVE_STEP"]
+__all__ = ["Parameter", "Design", "as_design", "ModelRates", "model_numbers", "MODEL_FIELDS",
+           "RELATIVE_STEP", "H"]
 
-#: Relative step of the central difference of the build (times the parameter's scale): truncation
-#: ~ step^2 and round-off ~ eps / step balance near 1e-5 (errors ~1e-10 relative on smooth builds).
+#: Relative step of central differences of the build (times the parameter's scale): the fallback
+#: where the complex step cannot pass and the check of the complex-step rates along one direction
+#: (`flexmb.design.builds`); truncation ~ step^2 and round-off ~ eps / step balance near 1e-5
+#: (errors ~1e-10 relative on smooth builds).
 RELATIVE_STEP = 1e-5
+
+#: The complex step of the build, relative to the parameter's scale: far below the round-off of
+#: any model number (its square vanishes beside 1), far above underflow.
+H = 1e-30
 
 #: The numbers of a compiled finite-element model that a parameter can change (what the residual,
 #: tangent and mass depend on besides the state): point offsets from their master nodes, element
@@ -49,9 +58,9 @@ MODEL_FIELDS = ("point_offset", "L0", "S", "ny0", "nz0", "alpha0", "rho_A", "loc
 class Parameter:
     """A named design parameter: ``value`` within [``lower``, ``upper``] (its unit is the build's).
 
-    ``scale``: the parameter's typical size, for the build's difference step
-    (`RELATIVE_STEP` times it); default ``max(|value|, (upper - lower) / 100)``, 1 where both are 0
-    or unbounded."""
+    ``scale``: the parameter's typical size, for the build's complex step (`H` times it) and the
+    difference steps (`RELATIVE_STEP` times it); default ``max(|value|, (upper - lower) /
+    100)``, 1 where both are 0 or unbounded."""
 
     name: str
     value: float
@@ -73,13 +82,18 @@ class Parameter:
                                  f"[{self.lower!r}, {self.upper!r}]")
 
     @property
-    def step(self) -> float:
-        """The build's central-difference step [the parameter's unit]."""
-        if self.scale is not None:
-            return RELATIVE_STEP * abs(self.scale)
+    def size(self) -> float:
+        """The parameter's typical size [its unit] (``scale``, or the default of the class notes)."""
+        if self.scale is not None and self.scale != 0:
+            return abs(self.scale)
         span = self.upper - self.lower
         scale = max(abs(self.value), span / 100.0 if math.isfinite(span) else 0.0)
-        return RELATIVE_STEP * (scale if scale > 0.0 else 1.0)
+        return scale if scale > 0.0 else 1.0
+
+    @property
+    def step(self) -> float:
+        """The build's central-difference step [the parameter's unit] (`RELATIVE_STEP` x `size`)."""
+        return RELATIVE_STEP * self.size
 
 
 @attrs.frozen
@@ -248,34 +262,97 @@ def check_structure(reference: dict, other: dict, name: str, value: float) -> No
                             "its parameters (fix the mesh sizes, e.g. elements_per_leaf, outside p)")
 
 
+def numbers_field(nums: dict, field: str, dim: int) -> np.ndarray:
+    """One of `MODEL_FIELDS` from `flexmb.fe.build.numbers` of a (complex) mechanism, as
+    `model_numbers` reads it from a compiled model (complex where the numbers are)."""
+    rigid, loads = nums["rigid"], nums["loads"]
+    if field == "rho_A":
+        from ..sections import properties
+
+        rho, A = properties(nums["sections"], ("density", "A"))
+        return rho * A
+    if field == "local_mass":
+        from ..fe.mass import local_mass
+
+        return local_mass(nums["sections"], nums["L0"], dim)
+    if field.startswith("rigid_"):
+        return np.zeros((0,)) if rigid is None else np.asarray(getattr(rigid, field[6:]))
+    if field.startswith("load_"):
+        return np.asarray(getattr(loads, field[5:]))
+    if field == "points":
+        pts = [offset for _, offset in nums["points"].values()]
+        return np.array(pts, dtype=_dtype(pts)).reshape(len(pts), dim)
+    if field == "values":
+        return np.asarray(nums["values"])
+    if field == "chains":
+        ws = [np.asarray(w).ravel() for _, w in nums["chains"]]
+        return np.concatenate(ws + [np.zeros(0)])
+    if field == "point_offset":
+        return nums["point_x0"] - nums["x0"][nums["point_master"]]
+    value = nums[field]
+    return np.zeros(0) if value is None else np.asarray(value)
+
+
+def _dtype(values) -> type:
+    return complex if any(np.iscomplexobj(x) for x in values) else float
+
+
+def numbers_structure(nums: dict, dim: int, link_node: dict, links: tuple) -> dict:
+    """`structure` of `flexmb.fe.build.numbers`' output (``links``: the build's link names)."""
+    rigid, loads = nums["rigid"], nums["loads"]
+    ndof = 3 if dim == 2 else 6
+    return {"dimension": dim, "nodes": len(nums["x0"]), "DOFs": len(nums["x0"]) * ndof, "element ends": nums["ends"],
+            "point masters": nums["point_master"], "prescribed DOFs": nums["prescribed"], "load nodes": loads.node,
+            "rigid-mass nodes": np.zeros(0) if rigid is None else rigid.node,
+            "links": tuple((n, link_node.get(n)) for n in links),
+            "joints' elements": tuple((k, tuple(v)) for k, v in nums["joint_elements"].items()),
+            "named points": tuple((k, link) for k, (link, _) in nums["points"].items()),
+            "rotation chains": tuple((tuple(d), len(w)) for d, w in nums["chains"])}
+
+
 class ModelRates:
     """The rates of change of the compiled model's numbers with each parameter, at fixed topology.
 
-    ``rate(field)`` (K, *shape of the field) for ``K`` parameters, by central differences of the
-    build (one-sided second order at a bound), computed on first use and kept."""
+    ``rate(field)`` (K, *shape of the field) for ``K`` parameters, read from each parameter's
+    `flexmb.design.builds.ParameterBuild` (the complex step through the build, or central
+    differences where it cannot pass: `flexmb.design.builds`), computed on first use and kept.
+    ``methods``: per parameter ``(method, reason)``."""
 
-    def __init__(self, design: Design, compiled, builds: list, mechanisms: list | None = None):
+    def __init__(self, design: Design, compiled, builds: list):
         self.design, self.compiled = design, compiled
         self.names = design.names
-        self._builds = builds  # per parameter: ((weight, compiled or None: the base), ...) and the step
-        self._mechanisms = mechanisms or []  # per parameter: ((weight, mechanism or None), ...)
+        self._builds = builds
         self._cache = {}
+        #: the check's direction (K,) and its real builds ((weight, mechanism), ...), or None
+        #: (`flexmb.design.builds`; a ``configure`` step is checked along it too)
+        self.direction = None
+        #: ``k -> ParameterBuild`` of central differences (real builds) for parameter ``k``, made on
+        #: first use: where ``configure`` cannot carry a complex step (`flexmb.design.evaluate`)
+        self.fallback = None
+
+    @property
+    def methods(self) -> tuple:
+        """Per parameter ``(method, reason)``: ``"complex step"`` (reason ``""``) or ``"central
+        differences"`` with why its complex step could not be used (`flexmb.design.builds`)."""
+        return tuple((b.method, b.reason) for b in self._builds)
 
     def rate(self, field: str) -> np.ndarray:
         """d(field)/dp (K, *shape) [field unit per parameter unit]."""
         if field not in MODEL_FIELDS:
             raise ParameterError(f"no model field {field!r}; fields: {', '.join(MODEL_FIELDS)}")
         if field not in self._cache:
-            base = model_numbers(self.compiled, field)
+            base = self.compiled_numbers(field)
+            dim = self.compiled.problem.model.dim
             out = np.zeros((len(self.names),) + base.shape)
-            for k, (stencil, h) in enumerate(self._builds):
-                values = [(w, model_numbers(c, field) if c is not None else base) for w, c in stencil]
-                out[k] = sum(w * v for w, v in values) / h
-                if len(values) == 2:  # central: the base build tells a kink in build(p) (module notes)
-                    _check_smooth(self.names[k], field, base, values[1][1], values[0][1], h)
+            for k, b in enumerate(self._builds):
+                out[k] = b.field(field, dim)
             out.flags.writeable = False
             self._cache[field] = out
         return self._cache[field]
+
+    def build(self, k: int):
+        """Parameter ``k``'s `flexmb.design.builds.ParameterBuild`."""
+        return self._builds[k]
 
     @property
     def shared(self) -> dict:
@@ -305,85 +382,4 @@ class ModelRates:
 
     def touched(self, k: int) -> bool:
         """Whether parameter ``k`` changes any model number at all."""
-        return any(np.any(self.rate(f)[k] != 0.0) for f in MODEL_FIELDS)
-
-
-#: The largest difference of a model number's forward and backward differences about the design,
-#: relative to the field's largest rate, that passes as smooth: a smooth build differs by ~(step /
-#: scale) (p N''/N') ~ 1e-5; a kink (max(), a branch, a rounding) by order 1.
-KINK = 1e-3
-
-
-def _check_smooth(name: str, field: str, base: np.ndarray, plus: np.ndarray, minus: np.ndarray, h: float) -> None:
-    """Refuse (`ParameterError`) a build whose model numbers have a kink at the design in parameter
-    ``name``: their forward and backward differences (builds at ``p + h``, ``p``, ``p - h``)
-    disagree by more than `KINK` of the field's largest rate, where a central difference would
-    silently average two slopes."""
-    if base.size == 0:
-        return
-    fwd, bwd = (plus - base) / h, (base - minus) / h
-    scale = max(float(np.max(np.abs(fwd))), float(np.max(np.abs(bwd))))
-    floor = 1e3 * np.finfo(float).eps * float(np.max(np.abs(base))) / h  # round-off of the differences
-    worst = float(np.max(np.abs(fwd - bwd)))
-    if worst > KINK * scale + floor:
-        raise ParameterError(f"design parameter {name!r}: build(p) is not smooth in it at the design (the model's "
-                             f"{field} changes at different rates above and below it: {worst:.3g} against {scale:.3g}); "
-                             "a max(), a rounding or a branch on the parameter in build(p) has no derivative there")
-
-
-def _stencil(q: Parameter) -> tuple:
-    """Points (offsets from the value) and weights of the build's difference for ``q``: central,
-    or one-sided of second order where a bound is nearer than the step."""
-    h = q.step
-    if q.value - h >= q.lower and q.value + h <= q.upper:
-        return ((-h, -0.5), (h, 0.5)), h
-    if q.value + 2 * h <= q.upper:
-        return ((0.0, -1.5), (h, 2.0), (2 * h, -0.5)), h
-    if q.value - 2 * h >= q.lower:
-        return ((0.0, 1.5), (-h, -2.0), (-2 * h, 0.5)), h
-    raise ParameterError(f"design parameter {q.name!r}: its bounds [{q.lower!r}, {q.upper!r}] are narrower than the "
-                         f"build's difference step {h:g}; give the parameter a smaller scale")
-
-
-def model_rates(design: Design, compiled) -> ModelRates:
-    """Build the design at the difference points of every parameter, check the topology, and return
-    the `ModelRates` about ``compiled`` (the compiled model of ``design.mechanism()``)."""
-    reference = structure(compiled)
-    values = design.values
-    builds, mechanisms = [], []
-    for q in design.parameters:
-        stencil, h = _stencil(q)
-        points, mechs = [], []
-        for offset, w in stencil:
-            if offset == 0.0:
-                points.append((w, None))
-                mechs.append((w, None))
-                continue
-            p = dict(values)
-            p[q.name] = q.value + offset
-            try:
-                mech = design.mechanism(p)
-                other = mech.compile("fe_model")
-            except FlexmbError as exc:
-                raise type(exc)(f"design parameter {q.name!r}: the build at {q.name}={p[q.name]!r} (the gradient's "
-                                f"difference step) fails: {exc}") from exc
-            check_structure(reference, structure(other), q.name, p[q.name])
-            points.append((w, other))
-            mechs.append((w, mech))
-        builds.append((tuple(points), h))
-        mechanisms.append(tuple(mechs))
-        _check_touched(q, compiled, points)
-    return ModelRates(design, compiled, builds, mechanisms)
-
-
-def _check_touched(q: Parameter, compiled, points) -> None:
-    """Refuse a parameter that changes no model number (no joint, link, placement, load or
-    prescribed motion reads it: a misspelt or unused name)."""
-    fields = [f for f in MODEL_FIELDS if f != "local_mass"]  # local_mass follows L0 and the sections (rho_A)
-    others = [c if c is not None else compiled for _, c in points]
-    for f in fields:
-        base = model_numbers(compiled, f)
-        if any(not np.array_equal(base, model_numbers(c, f)) for c in others):
-            return
-    raise ParameterError(f"design parameter {q.name!r} changes nothing in the model: no joint, link, placement, load "
-                         "or prescribed motion of the build depends on it")
+        return any(np.any(self.rate(f)[k] != 0.0) for f in MODEL_FIELDS if f != "local_mass")

@@ -17,7 +17,7 @@ import attrs
 import numpy as np
 
 from ..errors import ModelError, ParameterError
-from ..fe.stress import PERIMETER_POINTS, stress_points
+from ..fe.stress import PERIMETER_POINTS, TORSION_TERMS, stress_points
 from .base import Response
 from .partials import H, _complex, _element_hits, _elements
 
@@ -47,6 +47,77 @@ def stress_units(model, points: int = 64) -> tuple[np.ndarray, np.ndarray]:
         out.append(table[id(s)])
         inv_A.append(1.0 / s.A)
     return np.array(out).reshape(len(sections), -1, 8), np.array(inv_A)
+
+
+def section_units(section, points: int = 64) -> np.ndarray:
+    """`stress_units`' fields (points, 8) of one section at every ``PERIMETER_POINTS // points``-th
+    perimeter point, evaluated at those points alone and in complex arithmetic where the section's
+    numbers are complex (a complex-step build: their derivatives in the imaginary parts). The same
+    closed forms as `flexmb.fe.stress` (Timoshenko & Goodier 1970, Sec. 109: the rim's series of
+    Prandtl's stress function; Jourawski's parabola; the circle's closed forms), with the
+    modulus replaced by its analytic continuation on the rim (``|x| = sign(Re x) x``)."""
+    n, stride = PERIMETER_POINTS, PERIMETER_POINTS // points
+    idx = np.arange(0, n, stride)
+    ymax, zmax, A, It = section.ymax, section.zmax, section.A, section.It
+    if section.shape == "circle":
+        th = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)[idx]
+        c, s_ = np.cos(th), np.sin(th)
+        t = np.stack([-s_, c], axis=1)
+        yz = ymax * np.stack([c, s_], axis=1)
+        tT, tVy, tVz = (ymax / It) * t, (-(4.0 / (3.0 * A)) * s_)[:, None] * t, ((4.0 / (3.0 * A)) * c)[:, None] * t
+    else:
+        u = 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, n // 4 + 1)[:-1]))
+        one = np.ones_like(u)
+        fy = np.concatenate([one, 1 - 2 * u, -one, 2 * u - 1])[idx]  # the points as fractions of ymax, zmax
+        fz = np.concatenate([2 * u - 1, one, 1 - 2 * u, -one])[idx]
+        side, corner = idx // (n // 4), idx % (n // 4) == 0  # sides: y = +ymax, z = +zmax, y = -ymax, z = -zmax
+        y, z = ymax * fy, zmax * fz
+        if np.real(ymax) <= np.real(zmax):
+            tp, tq = _rim(fy, fz, ymax, zmax, side % 2 == 0, corner)
+            tT = np.stack([tp, tq], axis=1)
+        else:
+            tp, tq = _rim(fz, fy, zmax, ymax, side % 2 == 1, corner)
+            tT = -np.stack([tq, tp], axis=1)
+        tT = tT / It
+        zero = np.zeros_like(fy)
+        tVy = np.stack([1.5 / A * (1.0 - fy**2), zero], axis=1)
+        tVz = np.stack([zero, 1.5 / A * (1.0 - fz**2)], axis=1)
+        yz = np.stack([y, z], axis=1)
+    return np.column_stack([yz[:, 1] / section.Iy, yz[:, 0] / section.Iz, tT, tVy, tVz])
+
+
+def _units(sections, points: int, table: dict) -> tuple[np.ndarray, np.ndarray]:
+    """`section_units` (E, points, 8) and ``1/A`` (E,) of a mesh's ``sections`` (each distinct one
+    evaluated once, kept in ``table``; complex where a section's numbers are)."""
+    for s in sections:
+        if id(s) not in table:
+            table[id(s)] = (s, section_units(s, points), 1.0 / s.A)  # s kept: its id stays its own
+    rows = [table[id(s)] for s in sections]
+    units = np.array([r[1] for r in rows]).reshape(len(sections), -1, 8)
+    return units, np.array([r[2] for r in rows])
+
+
+def _rim(fp, fq, a, b, long, corner):
+    """Saint-Venant shear per unit ``G theta`` (tau_p, tau_q) at rim points ``(fp a, fq b)`` of the
+    rectangle ``|p| <= a <= b``: on the long sides (``long``: ``|p| = a``) ``tau_q = sign(p) (2a -
+    16a/pi^2 sum 1/n^2 cosh(n pi q/2a)/cosh(n pi b/2a))``, on the short ones ``tau_p = -sign(q) 16a/
+    pi^2 sum (-1)^((n-1)/2)/n^2 tanh(n pi b/2a) cos(n pi p/2a)``, nil at the corners (as
+    `flexmb.fe.stress`); complex ``a``, ``b`` carried analytically."""
+    n = np.arange(1, 2 * TORSION_TERMS, 2, dtype=float)[:, None]
+    sgn = np.where(((n - 1) / 2) % 2 == 0, 1.0, -1.0)
+    k = n * np.pi / (2.0 * a)
+    c = 16.0 * a / np.pi**2
+    dt = np.result_type(a, b, float)
+    tau_p, tau_q = np.zeros(len(fp), dtype=dt), np.zeros(len(fp), dtype=dt)
+    on = long & ~corner
+    d = np.abs(fq[on]) * b  # |q| (fractions real: the modulus continued as sign(Re q) q)
+    x, X = k * d, k * b
+    ch = np.exp(x - X) / (1.0 + np.exp(-2.0 * X)) * (1.0 + np.exp(-2.0 * x))
+    tau_q[on] = np.sign(fp[on]) * (2.0 * a - c * np.sum(ch / n**2, axis=0))
+    on = ~long & ~corner
+    g = c * np.sum(sgn / n**2 * np.tanh(k * b) * np.cos(k * np.abs(fp[on]) * a), axis=0)
+    tau_p[on] = -np.sign(fq[on]) * g
+    return tau_p, tau_q
 
 
 def _von_mises(e, sig, L0, units, inv_A, dim):
@@ -167,18 +238,19 @@ class _Stress(Response):
         return dJ_du, dJ_dN
 
     def _field_rates(self, sens, rows):
-        """Rates (K, B, P, 8) and (K, B) of the stress fields of elements ``rows``, from the builds."""
+        """Rates (K, B, P, 8) and (K, B) of the stress fields of elements ``rows``: `section_units`
+        of the sections of each parameter's builds (`flexmb.design.builds.ParameterBuild.combine`:
+        the imaginary parts of its complex-step build, or central differences)."""
         key = ("stress_units", self.points)
         cache = sens.rates.shared
         if key not in cache:
             base_u, base_a = stress_units(sens.rates.compiled.problem.model, self.points)
             du = np.zeros((len(sens.names),) + base_u.shape)
             da = np.zeros((len(sens.names),) + base_a.shape)
-            for k, (stencil, h) in enumerate(sens.rates._builds):
-                for wgt, c in stencil:
-                    u, a = (base_u, base_a) if c is None else stress_units(c.problem.model, self.points)
-                    du[k] += wgt * u / h
-                    da[k] += wgt * a / h
+            for k in range(len(sens.names)):
+                b, table = sens.rates.build(k), {}
+                du[k] = b.combine(lambda _, nums, table=table: _units(nums["sections"], self.points, table)[0])
+                da[k] = b.combine(lambda _, nums, table=table: _units(nums["sections"], self.points, table)[1])
             cache[key] = (du, da)
         du, da = cache[key]
         return du[:, rows], da[:, rows]

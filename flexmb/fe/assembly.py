@@ -207,7 +207,15 @@ def node_pattern(master: np.ndarray, n_nodes: int, ndof: int, slot_f: np.ndarray
     extra = [np.asarray(b, dtype=np.int64) for b in extra]
     slots = np.empty(E * n2 * n2 + sum(b.shape[0] * b.shape[1] ** 2 for b in extra), dtype=np.int64)
     k = np.arange(ndof)
-    for lo in range(0, E, _CHUNK):
+    chunked = E  # the elements the numpy pass below computes
+    if jit.enabled() and E * n2 * n2 >= COMPILED_FROM:  # one compiled pass (fe/assembly_jit)
+        from . import assembly_jit
+
+        i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)  # noqa: E731 - one specialisation
+        assembly_jit.element_slots(master, ndof, i64(G.indptr), i64(G.indices), i64(slot_f), i64(slot_p), i64(row_f),
+                                   i64(row_p), i64(frank), i64(prank), i64(within_f), i64(within_p), slots)
+        chunked = 0
+    for lo in range(0, chunked, _CHUNK):
         mc = master[lo:lo + _CHUNK]
         C = len(mc)
         dofs = (mc[:, :, None] * ndof + k).reshape(C, n2)

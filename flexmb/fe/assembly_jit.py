@@ -1,12 +1,15 @@
-"""`flexmb.fe.assembly.node_pattern`'s expansion of the nodes' row patterns into the tangent's
-column indices, compiled (numba): used for large models only (numpy's ``repeat`` and ``arange``
-over every entry otherwise; 1e5 beam elements: ~11 million entries)."""
+"""`flexmb.fe.assembly.node_pattern`'s passes over every entry, compiled (numba): the expansion of
+the nodes' row patterns into the tangent's column indices and the element blocks' slots; used for
+large models only (numpy's chunked passes otherwise; 1e5 beam elements: ~11 million entries of
+the tangent, 14 million element entries)."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..jit import njit
 
-__all__ = ["repeat_rows"]
+__all__ = ["repeat_rows", "element_slots"]
 
 
 @njit
@@ -25,3 +28,39 @@ def repeat_rows(seg, seg_start, row_len, row_count, indices, indptr):
             at += m
             r += 1
             indptr[r] = at
+
+
+@njit
+def element_slots(master, ndof, g_ptr, g_idx, slot_f, slot_p, row_f, row_p, frank, prank, within_f, within_p, out):
+    """`flexmb.fe.assembly.node_pattern`'s slots of the element blocks in one pass: for element e
+    with end nodes ``master[e]`` and entry (i, j) of its (2 ndof)^2 block, its place in K_ff's data
+    (``row_f`` of the row's DOF + ``within_f`` of the node pair + ``frank`` of the column's DOF),
+    in K_fp's (-2 minus the same with ``row_p``, ``within_p``, ``prank``) or -1 (a prescribed row);
+    the node pair's position in the node graph ``(g_ptr, g_idx)`` (sorted rows) by a scan of the
+    row. The same numbers as numpy's chunked pass."""
+    n2 = 2 * ndof
+    pair = np.empty((2, 2), dtype=np.int64)
+    at = 0
+    for e in range(master.shape[0]):
+        for s in range(2):
+            a = master[e, s]
+            for t in range(2):
+                b = master[e, t]
+                k = g_ptr[a]
+                while g_idx[k] != b:
+                    k += 1
+                pair[s, t] = k
+        for i in range(n2):
+            r = master[e, i // ndof] * ndof + i % ndof
+            for j in range(n2):
+                c = master[e, j // ndof] * ndof + j % ndof
+                k = pair[i // ndof, j // ndof]
+                if slot_f[r] < 0:
+                    out[at] = -1
+                elif slot_f[c] >= 0:
+                    out[at] = row_f[r] + within_f[k] + frank[c]
+                elif slot_p[c] >= 0:
+                    out[at] = -2 - (row_p[r] + within_p[k] + prank[c])
+                else:
+                    out[at] = -1
+                at += 1

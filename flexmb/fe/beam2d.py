@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import jit
-from ..sections import properties
+from ..sections import properties, shear_factor
 
 __all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "numpy_deformation_gradient",
            "internal_force_and_tangent", "hypot_atan2"]
@@ -24,11 +24,14 @@ __all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "numpy_deforma
 
 def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     """Local stiffness ``S`` (E, 3, 3): ``EA/L0`` and the in-plane bending block of Eq. (A.15) with ``Iz``."""
-    L0 = np.asarray(L0, dtype=float)
+    L0 = np.asarray(L0, dtype=complex if np.iscomplexobj(L0) else float)  # complex: the complex step
     E, G, A, Iz, ky = properties(sections, ("E", "G", "A", "Iz", "ky"))
-    phi = 12.0 * E * Iz / (ky * G * A * L0**2)
+    if np.iscomplexobj(L0) or np.iscomplexobj(E):  # the complex step (`properties` is complex when any is)
+        phi = shear_factor(12.0 * E * Iz, ky, G * A * L0**2)
+    else:
+        phi = 12.0 * E * Iz / (ky * G * A * L0**2)
     c = E * Iz / ((1.0 + phi) * L0**3)
-    S = np.zeros((len(L0), 3, 3))
+    S = np.zeros((len(L0), 3, 3), dtype=np.result_type(L0, E, G, A, Iz, ky))
     S[:, 0, 0] = E * A / L0
     S[:, 1, 1] = S[:, 2, 2] = c * (4.0 + phi)
     S[:, 1, 2] = S[:, 2, 1] = c * (-2.0 + phi)

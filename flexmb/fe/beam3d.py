@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import jit
 from ..rotations import cross, skew
-from ..sections import properties
+from ..sections import properties, shear_factor
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent",
            "numpy_internal_force_and_tangent", "numpy_deformation_gradient", "length"]
@@ -33,13 +33,16 @@ def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
 
     ``sections`` is a sequence of `flexmb.sections.Section`, one per element; ``L0`` [m] (E,).
     """
-    L0 = np.asarray(L0, dtype=float)
+    L0 = np.asarray(L0, dtype=complex if np.iscomplexobj(L0) else float)  # complex: the complex step
     E, G, A, Iy, Iz, It, ky, kz = properties(sections, ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
-    S = np.zeros((len(L0), 6, 6))
+    S = np.zeros((len(L0), 6, 6), dtype=np.result_type(L0, E, G, A, Iy, Iz, It, ky, kz))
     S[:, 0, 0] = E * A / L0
     S[:, 1, 1] = G * It / L0**3
     for (i, j), EI, k in (((2, 3), E * Iy, kz), ((4, 5), E * Iz, ky)):
-        phi = 12.0 * EI / (k * G * A * L0**2)  # shear factor, Eq. (A.16); k = inf -> Euler-Bernoulli
+        if np.iscomplexobj(S):  # the complex step
+            phi = shear_factor(12.0 * EI, k, G * A * L0**2)
+        else:
+            phi = 12.0 * EI / (k * G * A * L0**2)  # shear factor, Eq. (A.16); k = inf -> Euler-Bernoulli
         c = EI / ((1.0 + phi) * L0**3)
         S[:, i, i] = S[:, j, j] = c * (4.0 + phi)
         S[:, i, j] = S[:, j, i] = c * (-2.0 + phi)

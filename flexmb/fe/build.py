@@ -21,13 +21,14 @@ from ..errors import ModelError, TopologyError, UnsupportedStrategyError
 from ..joints._base import INTERNAL, SIDE_A, SIDE_B, Joint
 from ..problem import StaticProblem
 from ..rotations import cross
+from .beam2d import hypot_atan2
 from .beam2d import local_stiffness as local_stiffness_2d
 from .beam3d import local_stiffness as local_stiffness_3d
 from .ideal import ROWS, Hinges, dense_rows, free_motions, independent_rows, lock_rows, row_names
 from .mass import RigidMasses
 from .model import BeamElements, FEModel
 
-__all__ = ["build", "CAPABILITY", "BYTES_PER_ELEMENT", "check_size", "memory_bytes"]
+__all__ = ["build", "numbers", "CAPABILITY", "BYTES_PER_ELEMENT", "check_size", "memory_bytes"]
 
 CAPABILITY = "fe_model"  # what a joint must offer (`Joint.capabilities`) to be built here
 IDEAL = "ideal"  # an ideal joint (`flexmb.Hinge`): exact constraints between its two links
@@ -66,7 +67,57 @@ def build(mechanism) -> Compiled:
     dim = mechanism.dim
     names = list(links)
     link_node = {n: i for i, n in enumerate(names)}
-    node_x0 = [np.array([lk.position for lk in links.values()], dtype=float).reshape(-1, dim)]
+    a = _assemble(mechanism, links, link_node)
+    elements = _elements(a, dim)
+    node_x0 = a["node_x0"]
+    rigid = RigidMasses.of_bodies([(link_node[n], lk.mass, lk.inertia, lk.center) for n, lk in links.items()], dim)
+    pres, vals, loads, paths = boundary(mechanism, link_node, links)
+    ideal = None
+    if a["hinges"]:
+        ideal = _hinges(mechanism, a["hinges"], node_x0[:len(names)], elements, pres, names)
+    model = FEModel(dim, node_x0, a["pt_master"], a["pt_x0"], elements, rigid_masses=rigid, hinges=ideal)
+
+    return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, mechanism.points,
+                    a["joint_elements"], actuation_row(mechanism, loads), a["joint_nodes"],
+                    tuple((k, d["joint"], d["placement"], *d["sides"])
+                          for _, _, k, d in mechanism.graph.edges(keys=True, data=True)),
+                    tuple(n for n, lk in links.items() if lk.fixed))
+
+
+def numbers(mechanism, link_node: dict) -> dict:
+    """The numbers of ``mechanism``'s finite-element model without the model (no problem, no
+    sparsity pattern, no solver set-up): what `flexmb.design` differentiates, for links numbered by
+    ``link_node`` (a compiled model's `Compiled.link_node`, whose structure the caller compares).
+
+    Keys: ``x0`` (N, dim) nodes' and ``point_x0`` (P, dim) points' reference positions,
+    ``point_master`` (P,), ``L0``, ``S``, ``ny0``, ``nz0``, ``alpha0`` (as `BeamElements`),
+    ``sections``, ``ends``, ``rigid`` (`RigidMasses` or None), ``values``, ``loads``
+    (`PointLoads`), ``chains`` (the prescribed chains' rotation vectors) and ``points`` (named
+    points' offsets), ``joint_elements``. Complex numbers in the mechanism (the complex step) stay complex; a joint
+    mesh that drops them raises where it does (``docs/plugins.md``). Ideal hinges and points
+    inside joints are not covered (`flexmb.ModelError`)."""
+    links = mechanism.links
+    dim = mechanism.dim
+    if getattr(mechanism, "joint_points", None):
+        raise ModelError("points inside joints (Mechanism.add_joint_point) have no numbers-only model")
+    a = _assemble(mechanism, links, link_node)
+    if a["hinges"]:
+        raise ModelError("ideal joints (flexmb.Hinge) have no numbers-only model")
+    elements = _elements(a, dim)
+    rigid = RigidMasses.of_bodies([(link_node[n], lk.mass, lk.inertia, lk.center) for n, lk in links.items()], dim)
+    pres, vals, loads, paths = boundary(mechanism, link_node, links)
+    return {"x0": a["node_x0"], "point_x0": a["pt_x0"], "point_master": a["pt_master"], "L0": elements.L0,
+            "S": elements.S, "ny0": elements.ny0, "nz0": elements.nz0, "alpha0": elements.alpha0,
+            "sections": elements.sections, "ends": elements.ends, "rigid": rigid, "prescribed": pres, "values": vals,
+            "loads": loads, "chains": paths, "points": mechanism.points, "joint_elements": a["joint_elements"]}
+
+
+def _assemble(mechanism, links: dict, link_node: dict) -> dict:
+    """The joints' meshes placed in the mechanism: nodes, points, elements and their data (`build`)."""
+    dim = mechanism.dim
+    names = list(links)
+    positions = [lk.position for lk in links.values()]
+    node_x0 = [np.array(positions, dtype=v.real_or_complex(positions)).reshape(-1, dim)]
     n_nodes = len(names)
     pt_master = [np.arange(n_nodes)]
     pt_x0 = list(node_x0)
@@ -120,30 +171,22 @@ def build(mechanism) -> Compiled:
         nS = 3 if dim == 2 else 6
         ends, L0, S, owner = [np.zeros((0, 2), dtype=np.int64)], [np.zeros(0)], [np.zeros((0, nS, nS))], [np.zeros(0, dtype=np.int64)]
         ny, nz = [np.zeros((0, 3))], [np.zeros((0, 3))]
-    ends = np.concatenate(ends)
-    pt_x0 = np.concatenate(pt_x0)
-    node_x0 = np.concatenate(node_x0)
-    owner = np.concatenate(owner)
-    L0, S = np.concatenate(L0), np.concatenate(S)
-    if dim == 3:
-        elements = BeamElements(ends, L0, S, tuple(sections), owner, ny0=np.concatenate(ny), nz0=np.concatenate(nz),
-                                stress_sections=recovery)
-    else:
-        chord = pt_x0[ends[:, 1]] - pt_x0[ends[:, 0]]
-        elements = BeamElements(ends, L0, S, tuple(sections), owner, alpha0=np.arctan2(chord[:, 1], chord[:, 0]),
-                                stress_sections=recovery)
-    rigid = RigidMasses.of_bodies([(link_node[n], lk.mass, lk.inertia, lk.center) for n, lk in links.items()], dim)
-    pres, vals, loads, paths = boundary(mechanism, link_node, links)
-    ideal = None
-    if hinges:
-        ideal = _hinges(mechanism, hinges, node_x0[:len(names)], elements, pres, names)
-    model = FEModel(dim, node_x0, np.concatenate(pt_master), pt_x0, elements, rigid_masses=rigid, hinges=ideal)
+    return {"node_x0": np.concatenate(node_x0), "pt_master": np.concatenate(pt_master), "pt_x0": np.concatenate(pt_x0),
+            "ends": np.concatenate(ends), "sections": tuple(sections), "recovery": recovery,
+            "L0": np.concatenate(L0), "S": np.concatenate(S), "owner": np.concatenate(owner),
+            "ny": np.concatenate(ny) if dim == 3 else None, "nz": np.concatenate(nz) if dim == 3 else None,
+            "joint_elements": joint_elements, "joint_nodes": joint_nodes, "hinges": hinges}
 
-    return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, mechanism.points,
-                    joint_elements, actuation_row(mechanism, loads), joint_nodes,
-                    tuple((k, d["joint"], d["placement"], *d["sides"])
-                          for _, _, k, d in mechanism.graph.edges(keys=True, data=True)),
-                    tuple(n for n, lk in links.items() if lk.fixed))
+
+def _elements(a: dict, dim: int) -> BeamElements:
+    """The `BeamElements` of `_assemble`'s arrays ``a`` (2D: the elements' undeformed angles)."""
+    if dim == 3:
+        return BeamElements(a["ends"], a["L0"], a["S"], a["sections"], a["owner"], ny0=a["ny"], nz0=a["nz"],
+                            stress_sections=a["recovery"])
+    chord = a["pt_x0"][a["ends"][:, 1]] - a["pt_x0"][a["ends"][:, 0]]
+    alpha0 = hypot_atan2(chord)[1] if np.iscomplexobj(chord) else np.arctan2(chord[:, 1], chord[:, 0])
+    return BeamElements(a["ends"], a["L0"], a["S"], a["sections"], a["owner"], alpha0=alpha0,
+                        stress_sections=a["recovery"])
 
 
 def _element_count(joint: Joint, dim: int) -> int:
@@ -182,12 +225,22 @@ def _cached_mesh(joint: Joint, dim: int) -> _Mesh:
 def _joint_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     """The joint's checked mesh; cached per joint value (joints are immutable), so a mechanism of
     identical joints and repeated solves build it once."""
-    if not v.hashable(joint):
+    if not v.hashable(joint) or _complex_step(joint):
         return _checked_mesh(key, joint, dim)
     try:
         return _cached_mesh(joint, dim)
     except ModelError:
         return _checked_mesh(key, joint, dim)  # repeat to name the joint in the error
+
+
+def _complex_step(joint: Joint) -> bool:
+    """Whether an attrs joint holds complex numbers (a complex-step build of `flexmb.design`): its
+    mesh is built for one gradient and not kept in the cache of meshes."""
+    values = attrs.astuple(joint, recurse=False) if attrs.has(type(joint)) else ()
+    material = getattr(joint, "material", None)
+    if attrs.has(type(material)):
+        values += attrs.astuple(material, recurse=False)
+    return any(isinstance(x, (complex, np.complexfloating)) for x in values)
 
 
 def _internal_nodes(side: np.ndarray, body) -> tuple[np.ndarray, np.ndarray]:
@@ -206,7 +259,7 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     """The joint's `JointMesh`, checked for shapes and indices (a plugin's mistakes named here)."""
     mesh = joint.mesh(dim)
     where = f"joint {key!r} ({joint.kind})"
-    pts, side, el = np.asarray(mesh.points, dtype=float), np.asarray(mesh.side), np.asarray(mesh.elements)
+    pts, side, el = v.array(mesh.points), np.asarray(mesh.side), np.asarray(mesh.elements)  # complex: the complex step
     if pts.ndim != 2 or pts.shape[1] != dim or not np.all(np.isfinite(pts)):
         raise ModelError(f"{where}: mesh points must be a finite (n, {dim}) array, got shape {pts.shape}")
     if side.shape != (len(pts),) or not np.isin(side, (INTERNAL, SIDE_A, SIDE_B)).all():
@@ -235,18 +288,18 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
         raise ModelError(f"{where}: internal mesh point {k} at {pts[k].tolist()} is attached to no beam element "
                          f"(its node would have no stiffness); remove it or connect it")
     chord = pts[el[:, 1]] - pts[el[:, 0]]
-    L0 = np.linalg.norm(chord, axis=1)
-    if np.any(~(L0 > 0)):
-        raise ModelError(f"{where}: beam element {int(np.flatnonzero(~(L0 > 0))[0])} has zero length")
+    L0 = v.norms(chord)  # complex chords (the complex step): sqrt(c . c), never the modulus
+    if np.any(~(v.real(L0) > 0)):
+        raise ModelError(f"{where}: beam element {int(np.flatnonzero(~(v.real(L0) > 0))[0])} has zero length")
     ny = nz = None
     if dim == 3:
         # the cross-section axis must be perpendicular to the element: project, normalise
         ex = chord / L0[:, None]
-        ny = np.asarray(mesh.ny0, dtype=float)
+        ny = v.array(mesh.ny0)
         ny = ny - np.einsum("ei,ei->e", ny, ex)[:, None] * ex
-        norm = np.linalg.norm(ny, axis=1)
-        if np.any(~(norm > 1e-6)):
-            raise ModelError(f"{where}: element {int(np.flatnonzero(~(norm > 1e-6))[0])}'s ny0 is (nearly) parallel "
+        norm = v.norms(ny)
+        if np.any(~(v.real(norm) > 1e-6)):
+            raise ModelError(f"{where}: element {int(np.flatnonzero(~(v.real(norm) > 1e-6))[0])}'s ny0 is (nearly) parallel "
                              "to its axis or zero; give the cross-section's local y axis")
         ny = ny / norm[:, None]
         nz = cross(ex, ny)

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..rotations import cross, rot2
-from ..sections import properties
+from ..sections import properties, shear_factor
 from .assembly import SparsePattern
 from .beam2d import hypot_atan2
 from .beam3d import length as _length
@@ -76,24 +76,27 @@ def local_mass(sections, L0: np.ndarray, dim: int) -> np.ndarray:
     """Consistent mass matrices in the element's local axes (x along the chord, y and z its
     cross-section's principal axes), shape (E, 6, 6) in 2D (``[u, v, theta]`` per node) or
     (E, 12, 12) in 3D (``[u, v, w, theta_x, theta_y, theta_z]`` per node) [kg, kg m, kg m^2]."""
-    L0 = np.asarray(L0, dtype=float)
+    L0 = np.asarray(L0, dtype=complex if np.iscomplexobj(L0) else float)  # complex: the complex step
     rho, E, G, A, Iy, Iz, ky, kz = properties(sections, ("density", "E", "G", "A", "Iy", "Iz", "ky", "kz"))
     nE = len(L0)
     nd = 3 if dim == 2 else 6
-    M = np.zeros((nE, 2 * nd, 2 * nd))
+    M = np.zeros((nE, 2 * nd, 2 * nd), dtype=np.result_type(L0, rho, E, G, A, Iy, Iz, ky, kz))
     ax = np.array([0, nd])
     M[:, ax[:, None], ax] = _bar(rho * A, L0)
     # bending in the x-y plane (v, theta_z = dv/dx): E Iz with shear coefficient ky, as the stiffness
     rz = 2 if dim == 2 else 5
     idx = np.array([1, rz, nd + 1, nd + rz])
-    M[:, idx[:, None], idx] = _bending(rho * A, rho * Iz, L0, 12.0 * E * Iz / (ky * G * A * L0**2))
+    cplx = np.iscomplexobj(M)  # the complex step: k = inf kept (`flexmb.sections.shear_factor`)
+    phi = shear_factor(12.0 * E * Iz, ky, G * A * L0**2) if cplx else 12.0 * E * Iz / (ky * G * A * L0**2)
+    M[:, idx[:, None], idx] = _bending(rho * A, rho * Iz, L0, phi)
     if dim == 3:
         tw = np.array([3, 9])
         M[:, tw[:, None], tw] = _bar(rho * (Iy + Iz), L0)
         # bending in the x-z plane (w, theta_y = -dw/dx): E Iy with kz
         idx = np.array([2, 4, 8, 10])
         sign = np.array([1.0, -1.0, 1.0, -1.0])
-        Mb = _bending(rho * A, rho * Iy, L0, 12.0 * E * Iy / (kz * G * A * L0**2))
+        phi = shear_factor(12.0 * E * Iy, kz, G * A * L0**2) if cplx else 12.0 * E * Iy / (kz * G * A * L0**2)
+        Mb = _bending(rho * A, rho * Iy, L0, phi)
         M[:, idx[:, None], idx] = sign[:, None] * Mb * sign
     return M
 
@@ -116,14 +119,15 @@ class RigidMasses:
     def of_bodies(cls, bodies, dim: int) -> RigidMasses | None:
         """From ``(node, mass, inertia, center)`` rows (checked values, e.g. `flexmb.Link` s);
         bodies without mass and inertia are left out; None when none is left."""
-        rows = [b for b in bodies if b[1] > 0 or np.any(np.asarray(b[2]) != 0)]
+        rows = [b for b in bodies if np.real(b[1]) > 0 or np.any(np.asarray(b[2]) != 0)]
         if not rows:
             return None
         nrot = (len(rows), 3, 3) if dim == 3 else (len(rows),)
-        return cls(np.array([r[0] for r in rows], dtype=np.int64),
-                   np.array([np.zeros(dim) if r[3] is None else r[3] for r in rows], dtype=float).reshape(-1, dim),
-                   np.array([r[1] for r in rows], dtype=float),
-                   np.array([r[2] for r in rows], dtype=float).reshape(nrot))
+        centers = [np.zeros(dim) if r[3] is None else r[3] for r in rows]
+        masses, inertias = [r[1] for r in rows], [r[2] for r in rows]
+        dt = complex if any(np.iscomplexobj(x) for x in centers + masses + inertias) else float  # the complex step
+        return cls(np.array([r[0] for r in rows], dtype=np.int64), np.array(centers, dtype=dt).reshape(-1, dim),
+                   np.array(masses, dtype=dt), np.array(inertias, dtype=dt).reshape(nrot))
 
 
 def _frames_3d(model, state, x, R):

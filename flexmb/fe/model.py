@@ -114,6 +114,17 @@ class FEModel:
         """Current positions of all points [m], shape (P, dim)."""
         return state.positions[self.point_master] + self.offsets(state, self.point_master, self.point_offset)
 
+    def largest_stretch(self, frm: State, to: State) -> float:
+        """The largest change of an element's chord length from ``frm`` to ``to`` over its
+        undeformed length: what a linear predictor's straight-line motion of turning elements
+        adds to them (a chord turned by theta gains theta^2 / 2)."""
+        if not len(self.elements.L0):
+            return 0.0
+        ends = self.elements.ends
+        a, b = self.point_positions(frm)[ends], self.point_positions(to)[ends]  # (E, 2, dim)
+        change = np.linalg.norm(b[:, 1] - b[:, 0], axis=1) - np.linalg.norm(a[:, 1] - a[:, 0], axis=1)
+        return float(np.max(np.abs(change) / self.elements.L0))
+
     def node_part(self, du: np.ndarray) -> np.ndarray:
         """The nodes' rows (N, ndof) of a vector on all DOFs (the hinges' multipliers, last, left out)."""
         return np.asarray(du)[: self.n_node_dofs].reshape(self.n_nodes, self.ndof)
@@ -156,26 +167,35 @@ class FEModel:
             return du.ravel()
         return np.concatenate([du.ravel(), self.multiplier_change(frm, to)])
 
-    def extrapolated_increment(self, path: list, target: float) -> np.ndarray:
+    def extrapolated_increment(self, path: list, target: float, rate: np.ndarray | None = None) -> np.ndarray:
         """The increment (n_dofs,) from the last state of ``path`` [(load factor, State), ...] to
         the Lagrange polynomial through all of them (degree len - 1) at load factor ``target``:
         positions in R^n, rotations as spins about the last state (3D: on SO(3), each spin
         continued from its neighbour's along the path, `continued_spins`, so a path that turns a
-        node beyond pi is not wrapped), the hinges' multipliers in R^n. The continuation's
-        predictor (`flexmb.solvers.conventional.newton_steps`)."""
+        node beyond pi is not wrapped), the hinges' multipliers in R^n. With ``rate`` (n_dofs,),
+        the path's derivative in the load factor at the last state (the same coordinates), the
+        polynomial one degree higher that also has that slope there (Hermite). The
+        continuation's predictor (`flexmb.solvers.conventional.newton_steps`)."""
         lams = np.array([lam for lam, _ in path])
         last = path[-1][1]
         du = np.zeros(self.n_dofs)
         near = np.zeros((self.n_nodes, 3))
+        lam_n = lams[-1]
+        # p(t) = sum_i l_i(t) d_i + w(t) / w'(lam_n) (rate - sum_i l_i'(lam_n) d_i), w(t) = prod_j (t - lam_j)
+        hermite = 0.0 if rate is None else np.prod(target - lams) / np.prod(lam_n - lams[:-1])
         for i in range(len(path) - 2, -1, -1):  # from the last state back
             lam_i, s_i = path[i]
             others = np.delete(lams, i)
             weight = np.prod((target - others) / (lam_i - others))
+            if rate is not None:  # l_i'(lam_n): the factor (t - lam_n) differentiated
+                weight -= hermite * np.prod(lam_n - others[:-1]) / np.prod(lam_i - others)
             d = self.increment(last, s_i)
             if self.dim == 3:
                 nodes = d[:self.n_node_dofs].reshape(self.n_nodes, self.ndof)  # a view: hinge multipliers last
                 nodes[:, 3:] = near = continued_spins(nodes[:, 3:], near)
             du += weight * d
+        if rate is not None:
+            du += hermite * rate
         return du
 
     def apply_increment(self, state: State, du: np.ndarray) -> State:

@@ -21,9 +21,9 @@ def check_leaves(owner: str, joint, names, widths=("width_inner", "width_outer")
     v.in_open_range(owner, "angle", joint.angle, 0.0, math.pi / 2, " rad")
     check_size(owner, joint.E, joint.length, stacklevel=5, rules=("GPa",))  # "mm": at add_joint, in its units
     v.integer(owner, "elements_per_leaf", joint.elements_per_leaf, 1, v.MAX_ELEMENTS)
-    if not joint.thickness < joint.length / 10:
+    if not v.real(joint.thickness) < v.real(joint.length) / 10:
         raise ParameterError(f"{owner}: thickness={joint.thickness!r} m is not slender for length={joint.length!r} m "
-                             f"(valid range: thickness < length/10 = {joint.length / 10:g} m)")
+                             f"(valid range: thickness < length/10 = {v.real(joint.length) / 10:g} m)")
     for wname in widths:  # derived quantities must be representable (extreme magnitudes overflow)
         try:
             rectangle(getattr(joint, wname), joint.thickness, joint.E, joint.G, yield_stress=joint.yield_stress)

@@ -79,7 +79,7 @@ class CrossFlexure(MaterialJoint):
         owner = "cross_flexure"
         super().__attrs_post_init__()
         check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer"))
-        if v.finite(owner, "gap", self.gap) < 0:
+        if v.real(v.finite(owner, "gap", self.gap)) < 0:
             raise ParameterError(f"{owner}: gap={self.gap!r} m must be >= 0")
         # the mesh's points are start + ((end - start) k) / n, k <= n, on every leaf: finite when its
         # ends and n times its span are (checked without meshing: ~0.1 ms of every joint's construction)
@@ -89,17 +89,19 @@ class CrossFlexure(MaterialJoint):
             raise ParameterError(f"{owner}: length={self.length!r} m gives non-finite node coordinates")
 
     def interface_b(self, dim: int) -> np.ndarray:
-        b = np.zeros(dim)
-        b[1] = self.length * math.sin(self.angle)
+        b = np.zeros(dim, dtype=v.real_or_complex((self.length, self.angle)))  # complex: the complex step
+        b[1] = self.length * v.sin(self.angle)
         return b
 
     def leaves(self, dim: int) -> list[tuple[np.ndarray, np.ndarray, float]]:
         """(start, end, width) of every leaf in the joint frame; start on block A."""
         L, a = self.length, self.angle
-        c, s = 0.5 * L * math.cos(a), 0.5 * L * math.sin(a)
+        c, s = 0.5 * L * v.cos(a), 0.5 * L * v.sin(a)
+        zo = 0.5 * self.width_inner + self.gap + 0.5 * self.width_outer
+        dtype = v.real_or_complex((c, s, zo))  # complex numbers: the complex step of flexmb.design
 
         def leaf(x0: float, z: float):
-            start, end = np.zeros(dim), np.zeros(dim)
+            start, end = np.zeros(dim, dtype=dtype), np.zeros(dim, dtype=dtype)
             start[0], end[0], end[1] = x0, -x0, 2 * s
             if dim == 3:
                 start[2] = end[2] = z
@@ -107,7 +109,6 @@ class CrossFlexure(MaterialJoint):
 
         if dim == 2:
             return [(*leaf(-c, 0.0), self.width_inner), (*leaf(c, 0.0), 2 * self.width_outer)]
-        zo = 0.5 * self.width_inner + self.gap + 0.5 * self.width_outer
         return [
             (*leaf(-c, 0.0), self.width_inner),
             (*leaf(c, zo), self.width_outer),

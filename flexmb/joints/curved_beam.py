@@ -99,7 +99,7 @@ class CurvedBeam(MaterialJoint):
         check_size(owner, self.E, self.radius, what="radius", stacklevel=4, rules=("GPa",))
         v.integer(owner, "elements", self.elements, 1, v.MAX_ELEMENTS)
         v.choice(owner, "model", self.model, FLEXURE_MODELS)
-        if not self.height < self.radius:
+        if not v.real(self.height) < v.real(self.radius):
             raise ParameterError(f"{owner}: height={self.height!r} must be < radius={self.radius!r} (a slender arc)")
         try:
             rectangle(self.width, self.height, self.E, self.shear_modulus, yield_stress=self.yield_stress)
@@ -152,17 +152,21 @@ class CurvedBeam(MaterialJoint):
         `ParameterError` says by how much. ``params`` go to the constructor (E, width, height, ...).
         """
         c, p0, p1 = (v.vector("curved_beam", n, x, 2) for n, x in (("center", center), ("start", start), ("end", end)))
-        r0, r1 = np.linalg.norm(p0 - c), np.linalg.norm(p1 - c)
-        if not r0 > 0:
+        r0, r1 = v.norms(np.stack([p0 - c, p1 - c]))  # complex (the complex step): sqrt(d . d), not the modulus
+        if not v.real(r0) > 0:
             raise ParameterError("curved_beam: start coincides with the hinge centre")
-        if abs(r1 - r0) > rtol * r0:
+        if abs(v.real(r1 - r0)) > rtol * v.real(r0):
             raise ParameterError(
                 f"curved_beam: end is {r1:.6g} from the hinge centre but start is {r0:.6g}: the attachment "
                 f"points are inconsistent with one radius by {r1 - r0:+.3g} ({(r1 - r0) / r0:+.2%}; tolerance {rtol:.1%})")
-        a0 = math.atan2(*(p0 - c)[::-1])
-        a1 = math.atan2(*(p1 - c)[::-1])
-        angle = (a1 - a0) % (2 * math.pi)
-        joint = cls(radius=float(r0), angle=angle, **params)
+        a0 = v.atan2(*(p0 - c)[::-1])
+        a1 = v.atan2(*(p1 - c)[::-1])
+        angle = a1 - a0
+        if v.is_complex(angle):  # the complex step: the real part wrapped, the imaginary part kept
+            angle = complex(angle.real % (2 * math.pi), angle.imag)
+        else:
+            angle = angle % (2 * math.pi)
+        joint = cls(radius=r0 if v.is_complex(r0) else float(r0), angle=angle, **params)
         # joint frame: node A at start, +x along the counter-clockwise tangent there
         return joint, {"origin": p0, "rotation": a0 + math.pi / 2}
 

@@ -78,7 +78,7 @@ class LeafSpring(MaterialJoint):
                    rules=("GPa",))  # "mm" at add_joint, where the units are known
         thickness = self.thickness if self.section is None else \
             None if self.section.ymax is None else 2 * self.section.ymax  # the section's, where it has one
-        if thickness is not None and thickness >= self.length:
+        if thickness is not None and v.real(thickness) >= v.real(self.length):
             raise ParameterError(f"{owner}: thickness={thickness!r} m{'' if self.section is None else ' (section)'} "
                                  f"must be < length={self.length!r} m")
         if self.section is not None:  # the section's material and shape apply: different ones given here are lost
@@ -104,13 +104,13 @@ class LeafSpring(MaterialJoint):
         clash = [f"{n}={getattr(self, n)!r} (section: {sizes[n]!r})" if n in sizes else
                  f"{n}={getattr(self, n)!r} (section: a {s.shape or 'general'} section, A={s.A!r})"
                  for n in ("width", "thickness") if getattr(self, n) != default[n]
-                 and not (n in sizes and np.isclose(getattr(self, n), sizes[n], rtol=1e-12, atol=0.0))]
+                 and not (n in sizes and np.isclose(v.real(getattr(self, n)), v.real(sizes[n]), rtol=1e-12, atol=0.0))]
         if clash:
             raise ParameterError(f"{owner}: {', '.join(clash)}: the section's shape applies; give the sizes in "
                                  "the section (flexmb.rectangle(width, thickness, ...)) or leave them out here")
 
     def interface_b(self, dim: int) -> np.ndarray:
-        b = np.zeros(dim)
+        b = np.zeros(dim, dtype=v.real_or_complex(self.length))  # complex: the complex step
         b[0] = self.length
         return b
 

@@ -107,9 +107,9 @@ class ThreeXInfinity(MaterialJoint):
         check_leaves(owner, self, ("length", "thickness", "width_inner", "width_outer"))
         v.integer(owner, "stages", self.stages, 2, 100)
         for name in ("gap", "stage_gap"):
-            if v.finite(owner, name, getattr(self, name)) < 0:
+            if v.real(v.finite(owner, name, getattr(self, name))) < 0:
                 raise ParameterError(f"{owner}: {name}={getattr(self, name)!r} m must be >= 0")
-        if not self.pitch > 0:
+        if not v.real(self.pitch) > 0:
             raise ParameterError(f"{owner}: the stages must not coincide (pitch {self.pitch!r} m must be > 0)")
 
     @property
@@ -137,7 +137,7 @@ class ThreeXInfinity(MaterialJoint):
     def mesh(self, dim: int) -> JointMesh:
         self._require_3d(dim)
         n, K = self.elements_per_leaf, self.stages
-        c, s = 0.5 * self.length * math.cos(self.angle), 0.5 * self.length * math.sin(self.angle)
+        c, s = 0.5 * self.length * v.cos(self.angle), 0.5 * self.length * v.sin(self.angle)
         zo = 0.5 * self.width_inner + self.gap + 0.5 * self.width_outer
         # rigid intermediate bodies first, each by its reference point on the block between two stages
         pts = [np.array([0.0, s if k % 2 == 0 else -s, (k + 0.5) * self.pitch]) for k in range(K - 1)]

@@ -113,7 +113,9 @@ def equilibrium(p, Rrel, F_all, Ft_all, rb_all, ra_all, K, Fh, p_hat, R_hat, col
         for i in range(3):
             for c in range(12):
                 tmp[i, c] = Dq[i, 0] * Jr[3, c] + Dq[i, 1] * Jr[4, c] + Dq[i, 2] * Jr[5, c]
-        Jr[3:] = tmp
+        for i in range(3):  # Jr[3:] = tmp, element by element (no array assignment: issue 31)
+            for c in range(12):
+                Jr[3 + i, c] = tmp[i, c]
         for i in range(6):
             for c in range(12):
                 acc = 0.0
@@ -236,7 +238,27 @@ def _move(x, R, angle, dz):
         angle[l] += dz[6 * l + 5]
     out = np.empty((n, 3, 3))
     compose3d(R, w, out)
-    R[:] = out
+    _copy3(out, R)
+
+
+@njit
+def _copy3(src, dst):
+    """``dst[:] = src`` for (n, 3, 3) arrays, element by element: numba's array assignment brings
+    its broadcasting checks and their error messages, ~5 s of a first compilation (issue 31)."""
+    for l in range(src.shape[0]):
+        for i in range(3):
+            for j in range(3):
+                dst[l, i, j] = src[l, i, j]
+
+
+@njit
+def _copy_poses(x, R, angle, x_to, R_to, angle_to):
+    """``x_to[:], R_to[:], angle_to[:] = x, R, angle`` element by element (as `_copy3`)."""
+    for l in range(x.shape[0]):
+        for i in range(x.shape[1]):
+            x_to[l, i] = x[l, i]
+        angle_to[l] = angle[l]
+    _copy3(R, R_to)
 
 
 @njit
@@ -244,15 +266,19 @@ def _prescribe(x, R, angle, X0, lt, ct, vt, lr, W, lam):
     """`flexmb.ksd.reduced.ReducedMechanism.with_prescribed` in place."""
     for i in range(len(lt)):
         x[lt[i], ct[i]] = X0[lt[i], ct[i]] + lam * vt[i]
-    if len(lr):
-        w = lam * W
+    if len(lr):  # element by element, no array expressions (their broadcasting compiles ~5 s, issue 31)
+        w = np.empty((len(lr), 3))
         out = np.empty((len(lr), 3, 3))
         eye = np.zeros((len(lr), 3, 3))
         for i in range(len(lr)):
             eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0
+            for q in range(3):
+                w[i, q] = lam * W[i, q]
         compose3d(eye, w, out)
         for i in range(len(lr)):
-            R[lr[i]] = out[i]
+            for q in range(3):
+                for t in range(3):
+                    R[lr[i], q, t] = out[i, q, t]
             angle[lr[i]] = w[i, 2]
 
 
@@ -356,7 +382,7 @@ def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free
     iterations, res = 0, np.inf
     while True:
         target = lam + dlam
-        xt[:], Rt[:], at_[:] = x, R, angle
+        _copy_poses(x, R, angle, xt, Rt, at_)
         _prescribe(xt, Rt, at_, X0, lt, ct, vt, lr, W, target)
         for i in range(len(rhs)):  # predictor: jac0[:, pres] (dlam values) + dlam lam_rate
             acc = dlam * lam_rate[i]
@@ -387,7 +413,7 @@ def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free
                 history[iterations] = res
             iterations += 1
         if accepted:
-            x[:], R[:], angle[:] = xt, Rt, at_
+            _copy_poses(xt, Rt, at_, x, R, angle)
             lam = target
             beyond = False
             for j in range(len(theta)):
@@ -400,7 +426,9 @@ def kinematics(x, R, angle, jac0, path_theta, largest, step_rotation, rows, free
                 break
             step = step_rotation / largest if largest > 0.0 else 1.0
             dlam = min(2.0 * dlam, 1.0 - lam, step)
-            jac0[:] = jac  # the predictor's, at the accepted poses
+            for i in range(jac.shape[0]):  # the predictor's, at the accepted poses
+                for k in range(jac.shape[1]):
+                    jac0[i, k] = jac[i, k]
         else:
             dlam *= 0.5
             if dlam < 1e-4:
@@ -431,7 +459,8 @@ def kinematics_in_range(x0, R0, angle0, jac0, path_theta, largest, step_rotation
     for i in range(J):
         j = order[i]
         theta[j] = th[i]
-        p[j] = pp[i]
+        for q in range(3):
+            p[j, q] = pp[i, q]
     for j in range(J):
         within = within and lo[j] <= theta[j] <= hi[j]
     return (status, iterations, res, lam, within, x, R, angle, c, theta, p, history[:min(iterations, room)].copy(),
@@ -460,7 +489,8 @@ def _evaluate(x, R, a, b, s_a, s_b, P, K, Fh, p_hat, R_hat, cols, load_node, loa
         for i in range(3):
             d[l, i] = R[n, i, 0] * load_offset[l, 0] + R[n, i, 1] * load_offset[l, 1] + R[n, i, 2] * load_offset[l, 2]
         f = load_force[l]
-        loads[6 * l:6 * l + 3] = f
+        for i in range(3):
+            loads[6 * l + i] = f[i]
         loads[6 * l + 3] = load_moment[l, 0] + (d[l, 1] * f[2] - d[l, 2] * f[1])
         loads[6 * l + 4] = load_moment[l, 1] + (d[l, 2] * f[0] - d[l, 0] * f[2])
         loads[6 * l + 5] = load_moment[l, 2] + (d[l, 0] * f[1] - d[l, 1] * f[0])
@@ -722,7 +752,9 @@ def internal_state(x, R, angle, a, b, s_a, s_b, P, p_hat, R_hat, joints, nodes, 
         if dim == 2:
             ang[l] = angle[l]
         else:
-            rot[l] = R[l]
+            for i in range(3):
+                for q in range(3):
+                    rot[l, i, q] = R[l, i, q]
     for g in range(len(joints)):
         if x_int[g].shape[1] == 0:
             continue

@@ -371,10 +371,12 @@ class ArcLength:
     def follow(self, problem, metric, first: PathPoint, ds0: float, branch: str = "primary"):
         """Step along the path from ``first`` with first arc length ``ds0``: yields
         ``("point", PathPoint, ds)`` for every converged step (``ds`` its constraint radius),
-        ``("critical", kind, PathPoint, multiplicity, modes, switched)`` before the point past a
-        limit (``"limit"``) or bifurcation (``"bifurcation"``) point (``modes`` (m, n_dofs) the
-        critical modes, `flexmb.solvers.branching.critical_modes`; ``switched``: the path leaves
-        there for another branch, chosen by ``branch``, `flexmb.solvers.branching.BRANCHES`), and
+        ``("critical", kind, PathPoint, multiplicity, modes, switched, asymmetric)`` before the
+        point past a limit (``"limit"``) or bifurcation (``"bifurcation"``) point (``modes`` (m,
+        n_dofs) the critical modes, `flexmb.solvers.branching.critical_modes`; ``switched``: the
+        path leaves there for another branch, chosen by ``branch``,
+        `flexmb.solvers.branching.BRANCHES`; ``asymmetric``: an asymmetric bifurcation,
+        `flexmb.solvers.branching.is_asymmetric`, known where the branches were sought), and
         ``("stuck", message)`` once when the arc length falls below ``min_arc`` (then stops).
         Runs until the consumer stops asking."""
         a, ds, ref = first, ds0, ds0  # ref: the arc length the bounds min_arc, max_arc refer to
@@ -392,16 +394,18 @@ class ArcLength:
                 continue
             following = b
             for kind, p, count, modes in self._critical(problem, metric, a, b, ds):
-                q = None
+                q, asymmetric = None, False
                 if kind == "bifurcation" and branch != "primary":
                     # a branch the path was not scaled for (a strut's bending under an axial
-                    # load): its first step moves the mode by SWITCH_MOTION, and sets the bounds
-                    ds = max(ds, switch_arc(metric, modes))
-                    own, others = branch_points(self, problem, metric, p, a, modes, ds)
+                    # load): its first step moves the mode by SWITCH_MOTION, and sets the bounds;
+                    # the branches through p along which the load factor changes: the path's step
+                    switch = max(ds, switch_arc(metric, modes))
+                    own, others, asymmetric = branch_points(self, problem, metric, p, a, modes, ds, switch)
                     q = choose(p, own, others, branch)
                     q = None if q is own else q
-                yield ("critical", kind, p, count, modes, q is not None)
+                yield ("critical", kind, p, count, modes, q is not None, asymmetric)
                 if q is not None:  # onto another branch: the critical points beyond p are not on it
+                    ds = switch
                     following, ref = q, max(ref, ds)
                     break
             yield ("point", following, ds)
@@ -420,9 +424,12 @@ class ArcLength:
         Each eigenvalue (ascending order) that changes sign between them is located by its zero;
         the limit point, if ``dlam/ds`` changes sign, by that zero. The eigenvalue crossing
         nearest the limit point is the limit's own (the two zeros agree only to the equilibrium's
-        accuracy: the eigenvalue is flat there); the other crossings are bifurcation points, those
-        located at the same point (within `SAME_CRITICAL` of the step) one point whose
-        multiplicity is their number (a double eigenvalue: a symmetric two-leaf device). A load
+        accuracy: the eigenvalue is flat there), and so are the others located at it (within
+        `SAME_CRITICAL` of the step: a double limit point, whose multiplicity is their number or
+        `flexmb.solvers.branching.multiplicity`'s, the larger); the other crossings are
+        bifurcation points, those located at the same point (within `SAME_CRITICAL` of the step)
+        one point whose multiplicity is their number (a double eigenvalue: a symmetric two-leaf
+        device). A load
         factor's extremum whose critical modes the load pattern does not work on is a bifurcation
         (`flexmb.solvers.branching.is_bifurcation`: a pitchfork met along its bifurcated branch)."""
         found = []
@@ -441,8 +448,13 @@ class ArcLength:
             p = self.locate(problem, metric, a, ds, ga, gb, crossing)
             if p is not None:
                 crossings.append(p)
-        if found and crossings:  # the crossing nearest the limit point is the limit's own eigenvalue
-            crossings.remove(min(crossings, key=lambda p: abs(p.arc - found[0][1].arc)))
+        if found and crossings:  # the crossing nearest the limit point is the limit's own eigenvalue, and
+            # so are those located at it (a double limit: a decoupled two-half device's halves turn together)
+            at = found[0][1].arc
+            nearest = min(crossings, key=lambda p: abs(p.arc - at))
+            own = [p for p in crossings if p is nearest or abs(p.arc - at) <= SAME_CRITICAL * ds]
+            crossings = [p for p in crossings if all(p is not q for q in own)]
+            found[0] = ("limit", found[0][1], len(own))
         groups = []
         for p in sorted(crossings, key=lambda p: p.arc):
             if groups and p.arc - groups[-1][0].arc <= SAME_CRITICAL * ds:
@@ -453,7 +465,7 @@ class ArcLength:
         out = []
         for kind, p, m in sorted(found, key=lambda f: f[1].arc):
             if kind == "limit":  # a pitchfork met along its bifurcated branch turns the load factor too
-                m = multiplicity(p)
+                m = max(m, multiplicity(p))
                 modes = critical_modes(problem, metric, p, m)
                 g = load_tangent(problem, p.state, p.lam)[0]
                 kind = "bifurcation" if is_bifurcation(problem, metric, modes, g) else kind

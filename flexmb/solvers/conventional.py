@@ -5,7 +5,9 @@ step; after each iteration judge the residual: above the divergence threshold, h
 and start it again from its beginning; between the thresholds, re-linearise and iterate; below
 the accuracy threshold, accept the step and take the next (growing it again after easy steps).
 That is ``step_control="paper"``; the default adds continuation (`newton_steps`): each step
-starts from the extrapolation of the converged path, a corrector that leaves it is rejected.
+starts from the extrapolation of the converged path (with its tangent at the last converged
+state), a corrector that leaves it is rejected, and the first step is as long as its linear
+predictor allows without stretching the elements.
 """
 
 from __future__ import annotations
@@ -90,6 +92,15 @@ REFERENCE_STRESS_ITERATIONS = 4  # ... and for at most this many correctors, in 
 #: prescribed DOFs (under loads alone the predicted state's axial forces are largely the load's:
 #: cantilevers of 16 elements at F L^2 / EI = 2-20, 2D and 3D, took 498 iterations with them,
 #: 343 without, 331 with Fig. 18; before this corrector the continuation failed on 6 of the 8)
+#: a linear predictor (the first step's) that changes an element's chord by more than this fraction
+#: of its length is scaled back before any iteration, in steps of prescribed motion (its straight
+#: lines stretch turning leaves by theta^2 / 2; the step to ~sqrt(this / stretch), 0.1-0.7x). With
+#: the tangent predictor (Newton iterations; four-bar d = 0.3 m at 5/10/20 el./leaf; single cross
+#: flexures 3 / 6 el./leaf, 5-75 deg every 10, 2D and 3D; manipulator joint and location at
+#: +-15/45 deg): 0.03: 21/21/22, 142 / 180, 334; 0.1: 23/22/24, 120 / 152, 338; 0.3: 19/23/25,
+#: 102 / 134, 388; none: 18/32/28, 96 / 108, 392; before issue 31 (neither): 18/47/43, 96 / 109, 549.
+PREDICTOR_STRETCH = 0.1
+RATE_STEP = 1e-4  # the load-factor difference of the path rate's prescribed motion (central) and loads
 INTERMEDIATE_RTOL = 1e-5
   # relative tolerance of the steps before the last (the last: rtol)
 SAME_PATH = 1e-6  # ... unless it is closer than this (translations over the model length, rad): a step
@@ -138,8 +149,12 @@ class Conventional:
         Raise `ConvergenceError` instead of returning ``converged=False``.
     step_control
         ``"adaptive"`` (default): continuation: every step after the first starts from the
-        polynomial extrapolation (in the load factor) of the last ten converged states,
-        rotations as spins on SO(3) continued along the path; in steps that move prescribed
+        polynomial extrapolation (in the load factor) of the last ten converged states and the
+        path's tangent at the last (Hermite: `StaticProblem.path_rate`, one solve with the last
+        tangent per step), rotations as spins on SO(3) continued along the path; in steps that
+        move prescribed DOFs, a linear predictor (the first step's) that changes an element's
+        chord by more than 10 % of its length is scaled back before any iteration
+        (`PREDICTOR_STRETCH`); in steps that move prescribed
         DOFs the corrector's tangent takes the last converged state's stresses in its geometric
         stiffness until the residual is below
         0.1 of the force scale, for at most 4 correctors (the predicted state's own stresses are
@@ -166,7 +181,14 @@ class Conventional:
         contraction-rate rejection (+20 %), a line search on the corrector's energy (four-bar:
         44 -> 70), a second-order first predictor from a chord step (the chord grows as the
         step cubed on the four-bar: it sized the first step to 0.01) and the reference stresses
-        for a fixed number of correctors (1-10: four-bar 18-52, erratic).
+        for a fixed number of correctors (1-10: four-bar 18-52, erratic). The tangent predictor
+        and the first step's stretch bound (issue 31, benchmarks/bench_meshes.py): four-bar at
+        5/10/20/40 el./leaf 23/22/24/24 iterations (before 18/47/43/43: each step started from
+        a residual of 1e5-2e7 N, the first one was cut and the secant extrapolation rejected),
+        manipulator joint case at -45/45 deg 29/34 (47/46), location case 89/89 (148/123; its
+        straight-line end-point path stays stiff: the steps stay at ~0.07-0.14); single cross
+        flexures turned by more than ~25 deg now take 2-3 steps (3 el./leaf, 5-75 deg: 120
+        iterations against 96).
     """
 
     name: ClassVar[str] = "conventional"
@@ -220,7 +242,9 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
     Load steps in a loop: the step control (`PaperControl` for ``control="paper"``, Fig. 18:
     linear predictor from the converged tangent, halving, doubling after easy steps;
     `AdaptiveControl` for ``"adaptive"``: each step after the first starts from the polynomial
-    extrapolation of the last converged states, `FEModel.extrapolated_increment`, a corrector that
+    extrapolation of the last converged states and the path's tangent at the last,
+    `FEModel.extrapolated_increment`, a first step whose linear predictor stretches the elements
+    is shortened before any iteration (`AdaptiveControl.predictor_cut`), a corrector that
     leaves the predicted path, `PATH_DEVIATION`, is rejected and the step cut, and the step grows
     or shrinks with the iterations it took and how far its corrector moved) predicts each step,
     `Corrector` iterates it, and `Report` says how the run ended.
@@ -239,7 +263,7 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
         return report.at_rest(state, lam0)
     while True:
         dlam = min(dlam, problem.max_load_step)
-        step = corrector.run(steps, dlam)
+        step = corrector.run(steps, dlam, cut=dlam > min_step)
         if step.accepted:
             steps.accept(step)
             report.steps += 1
@@ -250,9 +274,12 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
         elif step.stalled is not None:
             return report.stalled(steps.state, steps.lam, step.stalled)
         else:
-            report.rejected += 1
-            dlam *= 0.5
-            steps.reject(step)
+            if step.cut is not None:  # the linear predictor strained the elements: shorter (not below
+                dlam = max(dlam * step.cut, min_step)  # min_step: that one is iterated), not rejected
+            else:
+                report.rejected += 1
+                dlam *= 0.5
+                steps.reject(step)
             if dlam < min_step:
                 return report.failed(steps.state, steps.lam, min_step)
 
@@ -287,6 +314,10 @@ class PaperControl:
         """None, or how far (over the predicted step) the corrector has left the predicted path."""
         return None
 
+    def predictor_cut(self, predicted: State):
+        """None, or the factor to scale a step whose linear predictor gave ``predicted`` by."""
+        return None
+
     def accept(self, step) -> None:
         """``step`` converged: its state and load factor are the run's."""
         self.state, self.lam = step.trial, step.target
@@ -301,7 +332,9 @@ class PaperControl:
 
 class AdaptiveControl(PaperControl):
     """The continuation (``step_control="adaptive"``, `Conventional`'s notes): each step after the
-    first starts from the extrapolation of the last `PATH_POINTS` converged states; in steps that
+    first starts from the extrapolation of the last `PATH_POINTS` converged states and the path's
+    tangent at the last (`StaticProblem.path_rate`); a linear predictor that stretches an element by
+    more than `PREDICTOR_STRETCH` shortens its step before any iteration; in steps that
     move prescribed DOFs the corrector's tangent takes the last converged state's stresses for its
     geometric part (`REFERENCE_STRESS_UNTIL`, `REFERENCE_STRESS_ITERATIONS`); a corrector farther
     than `PATH_DEVIATION` x the predicted step from the predicted state is rejected (and when
@@ -317,12 +350,16 @@ class AdaptiveControl(PaperControl):
         self.last_deviation = None  # the deviation ratio of the last step rejected for leaving the path
         self.length = problem.model_length
         self.predicted = self.moved = None
+        self.rate = None  # the path's derivative at the last converged state (`StaticProblem.path_rate`)
+        #: the tangent predictor and the stretch bound serve prescribed motion (under loads alone
+        #: neither helped: cantilevers 12 -> 12-32 iterations, an axially pulled rod lost its path)
+        self.moving = bool(np.any(problem.prescribed_increment(RATE_STEP, lam) != 0.0))
 
     def predict(self, target: float, du_p: np.ndarray):
         model = self.model
         if len(self.path) <= 1:
             return self.state, False
-        du_pred = model.extrapolated_increment(self.path, target)
+        du_pred = model.extrapolated_increment(self.path, target, self.rate)
         du_pred[self.problem.prescribed] = du_p
         self.predicted, self.moved = _size(model, du_pred, self.length), np.zeros(model.n_dofs)
         return model.apply_increment(self.state, du_pred), True
@@ -354,11 +391,35 @@ class AdaptiveControl(PaperControl):
             return away / self.predicted  # the corrector leaves the predicted path (another branch)
         return None
 
+    def predictor_cut(self, predicted: State):
+        """Scale a linear predictor that stretches an element by more than `PREDICTOR_STRETCH` back
+        to that stretch (it grows as the step squared along turning elements)."""
+        if not self.moving:
+            return None
+        stretch = self.model.largest_stretch(self.state, predicted)
+        if not stretch > PREDICTOR_STRETCH:  # NaN: the corrector's evaluation rejects it
+            return None
+        return min(0.7, max(0.1, float(np.sqrt(PREDICTOR_STRETCH / stretch))))
+
     def accept(self, step) -> None:
         """As `PaperControl.accept`; its stresses become the reference, its state joins the path."""
         super().accept(step)
         self.reference, self.last_deviation = step.sigma, None
+        self.rate = self._rate(step)
         self.path = (self.path + [(self.lam, self.state)])[-PATH_POINTS:]
+
+    def _rate(self, step):
+        """The path's derivative at ``step``'s converged state from its last tangent (None where
+        that is singular, or without prescribed motion): the tangent predictor's slope
+        (`StaticProblem.path_rate`)."""
+        if not self.moving:
+            return None
+        with np.errstate(all="ignore"):
+            try:
+                rate = self.problem.path_rate(step.trial, step.target, step.r, step.Kff, step.Kfp, RATE_STEP)
+            except np.linalg.LinAlgError:
+                return None
+        return rate if np.all(np.isfinite(rate)) else None
 
     def growth(self, step) -> float:
         ratio = _size(self.model, self.moved, self.length) / self.predicted if self.predicted > 0 else 0.0
@@ -384,9 +445,11 @@ class Step:
     stalled: float | None = None  # the residual where Newton stopped gaining (absolute tol only)
     deviation: float | None = None  # how far the corrector left the predicted path (adaptive)
     it: int = 0  # the last iteration
+    cut: float | None = None  # the step's scale the control asked for before iterating (its linear predictor)
     floor: bool = False  # the last correction was at the round-off floor
     r: np.ndarray | None = None
     Kff: object = None
+    Kfp: object = None
     sigma: np.ndarray | None = None
 
 
@@ -406,8 +469,9 @@ class Corrector:
         self.first_geometric_stress = first_geometric_stress  # the first tangent's only
         self.length = problem.model_length
 
-    def run(self, control: PaperControl, dlam: float) -> Step:
-        """One load step of size ``dlam`` from the control's converged state, predicted by it."""
+    def run(self, control: PaperControl, dlam: float, cut: bool = True) -> Step:
+        """One load step of size ``dlam`` from the control's converged state, predicted by it
+        (``cut``: the control may shorten it before iterating, `PaperControl.predictor_cut`)."""
         problem = self.problem
         target = control.lam + dlam
         du_p = problem.prescribed_increment(dlam, control.lam)
@@ -445,13 +509,24 @@ class Corrector:
             du = self._correction(step, rhs, du_p if it == 0 else np.zeros_like(du_p))
             if du is None:
                 break
-            if it > 0 and self.max_rotation is not None and self.model.largest_motion(du)[1] > self.max_rotation:
-                break  # a corrector that turns a node this far has left the branch: cut the step
-            step.deviation = control.left_path(it, du, extrapolated)
-            if step.deviation is not None:
-                break  # the corrector leaves the predicted path (another branch): cut the step
-            step.trial = self.model.apply_increment(step.trial, du)
+            if self._advance(step, control, it, du, cut):
+                break
         return step
+
+    def _advance(self, step: Step, control: PaperControl, it: int, du: np.ndarray, cut: bool) -> bool:
+        """Apply the correction ``du`` of iteration ``it`` to the step's iterate, or stop the step
+        (True): a corrector that turns a node by more than ``max_rotation`` has left the branch,
+        one the control finds off the predicted path is heading for another (both cut the step);
+        a linear predictor the control finds straining the elements (`predictor_cut`) asks for a
+        shorter step before any iteration (when ``cut``)."""
+        if it > 0 and self.max_rotation is not None and self.model.largest_motion(du)[1] > self.max_rotation:
+            return True
+        step.deviation = control.left_path(it, du, step.extrapolated)
+        if step.deviation is not None:
+            return True
+        step.trial = self.model.apply_increment(step.trial, du)
+        step.cut = control.predictor_cut(step.trial) if it == 0 and cut else None
+        return step.cut is not None
 
     def _evaluate(self, step: Step, control: PaperControl, moving: bool, physical: bool):
         """Residual, tangent and stresses at the step's iterate (on ``step``; returns the
@@ -461,11 +536,11 @@ class Corrector:
             geometric = self.first_geometric_stress
             if geometric is None:
                 geometric = control.geometric_stress(step.it, moving, physical)
-            step.r, step.Kff, Kfp, step.sigma = self.problem.evaluate(step.trial, step.target, tangent=True,
-                                                                      geometric_stress=geometric)
+            step.r, step.Kff, step.Kfp, step.sigma = self.problem.evaluate(step.trial, step.target, tangent=True,
+                                                                           geometric_stress=geometric)
             self.first_geometric_stress = None
             control.evaluated(step.sigma, geometric)
-        return Kfp
+        return step.Kfp
 
     def _correction(self, step: Step, rhs: np.ndarray, du_p: np.ndarray):
         """The Newton correction on all DOFs (prescribed: ``du_p``), None where the tangent is

@@ -20,7 +20,8 @@ from ..sections import Section
 
 __all__ = ["beam_section", "polyline", "lee_frame", "deep_arch", "euler_strut", "strut_elastica",
            "von_mises_truss", "von_mises_force", "qiu_bistable", "qiu_switching_forces", "qiu_force",
-           "LEAF", "bistable_pair", "sine_arch", "FOURBAR", "motor_fourbar", "QIU", "qiu_beam"]
+           "LEAF", "bistable_pair", "sine_arch", "FOURBAR", "motor_fourbar", "QIU", "qiu_beam",
+           "FRAME", "roorda_frame", "clamped_arch"]
 
 
 def beam_section(E: float, A: float, I: float, shear: bool = False, G: float | None = None) -> Section:
@@ -319,4 +320,70 @@ def qiu_beam(elements: int, shuttle: bool) -> Mechanism:
     if shuttle:
         m.prescribe("C", x=0.0, rotation=0.0)
     m.prescribe("C", y=-2 * rise)
+    return m
+
+
+#: Roorda's two-bar frame (Roorda 1965; Koiter 1967): two equal steel members 100 x 10 x 1 mm (mm, N, MPa)
+FRAME = dict(L=100.0, t=1.0, w=10.0, E=200000.0)
+
+
+def roorda_frame(elements: int = 12, eccentricity: float = 0.0) -> Mechanism:
+    """Roorda's L-frame: a column from the pinned base A (origin) up to the corner C, rigidly
+    joined there to a beam out to the pinned support B (`FRAME`: equal members, ``elements``
+    each, Euler-Bernoulli sections), pushed down at C along the column by ``EI / L^2`` per unit
+    load factor (so the load factor is ``P L^2 / EI``, Koiter's parameter), with the moment
+    ``eccentricity * P * L`` of a load off the column's axis (Roorda's imperfection; > 0
+    counter-clockwise, towards the beam: the collapsing side).
+
+    B settles with the column's axial shortening ``P L / EA`` (its vertical position prescribed,
+    scaled with the load): the beam translates without bending and the fundamental path stays
+    the trivial one of the inextensible theory; with B held, the shortening would turn the beam
+    and the corner from the start, and the perfect frame would meet a limit point instead of
+    its asymmetric bifurcation."""
+    L, t, w, E = (FRAME[k] for k in "LtwE")
+    EI, EA = E * w * t**3 / 12, E * w * t
+    P = EI / L**2
+    sec = beam_section(E, w * t, w * t**3 / 12)
+    m = Mechanism(dim=2)
+    m.add_link("A", (0.0, 0.0))
+    m.add_link("C", (0.0, L))
+    m.add_link("B", (L, L))
+    m.prescribe("A", x=0.0, y=0.0)
+    m.prescribe("B", x=0.0, y=-P * L / EA)
+    m.add_joint("A", "C", "leaf_spring", length=L, section=sec, elements=elements, origin=(0.0, 0.0),
+                rotation=math.pi / 2)
+    m.add_joint("C", "B", "leaf_spring", length=L, section=sec, elements=elements, origin=(0.0, L))
+    m.apply_force("C", (0.0, -P))
+    if eccentricity:
+        m.apply_moment("C", eccentricity * P * L)
+    return m
+
+
+def clamped_arch(elements: int = 40, e: float = 15.0, rise: float = 0.01, load: str = "uniform") -> Mechanism:
+    """A shallow circular arch of span S = 1 and ``rise`` (L, R: both ends clamped; the crown
+    link "crown" at mid-span, ``elements`` even), radius of gyration ``r = rise / e``, EI = 1
+    (steel, I = 1 / E), its chords on the circle. ``load``: ``"uniform"``, a downward load of
+    EI / S^3 per unit span per unit load factor (lumped at the nodes by their tributary span),
+    or ``"point"``, EI / S^2 down at the crown: the load factor is ``q S^3 / EI`` or
+    ``Q S^2 / EI``."""
+    S, r = 1.0, rise / e
+    R = (S * S / 4 + rise * rise) / (2 * rise)
+    half = math.asin(S / (2 * R))
+    th = np.linspace(-half, half, elements + 1)
+    x, y = S / 2 + R * np.sin(th), R * (np.cos(th) - math.cos(half))
+    names = ["L"] + [f"a{i}" for i in range(1, elements)] + ["R"]
+    names[elements // 2] = "crown"
+    m = Mechanism(dim=2)
+    m.add_link("L", (x[0], y[0]), fixed=True)
+    m.add_link("R", (x[-1], y[-1]), fixed=True)
+    E = 2e11
+    polyline(m, np.c_[x, y], beam_section(E, 1.0 / (E * r**2), 1.0 / E), names)
+    if load == "point":
+        m.apply_force("crown", (0.0, -1.0))
+    else:
+        span = np.zeros(elements + 1)
+        span[:-1] += np.diff(x) / 2
+        span[1:] += np.diff(x) / 2
+        for k in range(1, elements):
+            m.apply_force(names[k], (0.0, -span[k]))
     return m

@@ -44,7 +44,7 @@ def guide_quantities(sol):
     C = flexmb.compliance(sol, "stage")
     return {"force": sol.reaction("stage")[1], "drop": sol.displacement("stage")[0],
             "k_axial": 1.0 / C[0, 0], "k_rotation": 1.0 / C[2, 2],
-            "f1": flexmb.modes(sol, n=1).frequencies[0],
+            "f1": flexmb.modes(sol, n_modes=1).frequencies[0],
             "buckling": flexmb.buckling(sol)[0], "stress": sol.stresses().summary()["von_mises"]}
 
 
@@ -74,7 +74,7 @@ def pivot_quantities(sol, centre):
     C = flexmb.compliance(sol, "B")
     return {"moment": sol.reaction("B")[-1], "shift": centre_shift(sol, centre),
             "k_x": 1.0 / C[0, 0], "k_y": 1.0 / C[1, 1],
-            "f1": flexmb.modes(sol, n=1).frequencies[0],
+            "f1": flexmb.modes(sol, n_modes=1).frequencies[0],
             "buckling": flexmb.buckling(sol)[0], "stress": sol.stresses().summary()["von_mises"]}
 
 
@@ -108,7 +108,7 @@ def hinge_quantities(axial: int):
         C = flexmb.compliance(sol, "B")
         return {"moment": sol.reaction("B")[-1], "shift": float(np.linalg.norm(sol.displacement("B"))),
                 "k_x": 1.0 / C[0, 0], f"k_{'xyz'[axial]}": 1.0 / C[axial, axial],
-                "f1": flexmb.modes(sol, n=1).frequencies[0],
+                "f1": flexmb.modes(sol, n_modes=1).frequencies[0],
                 "buckling": flexmb.buckling(sol)[0], "stress": sol.stresses().summary()["von_mises"]}
     return quantities
 

@@ -44,7 +44,7 @@ def _timed(fn):
         gc.enable()
 
 
-_CALLS = {"modes": lambda sol: flexmb.modes(sol, n=6).frequencies,
+_CALLS = {"modes": lambda sol: flexmb.modes(sol, n_modes=6).frequencies,
           "compliance": lambda sol: flexmb.compliance(sol, "link3")[:3, :3],
           "stresses": lambda sol: float(sol.stresses().von_mises.max())}
 
@@ -103,7 +103,7 @@ def large(elements: int = 62, rotation_deg: float = 30.0, repeats: int = 3) -> d
     m = manipulator("joint", np.radians(rotation_deg), elements=elements)
     sol, t_solve = _timed(lambda: flexmb.solve(m, tol=1e-5))  # 5e-7 is below this model's roundoff floor
     out = {"dofs": len(sol.compiled.problem.free), "converged": sol.converged, "solve": t_solve}
-    for name, fn in (("modes", lambda: flexmb.modes(sol, n=6)), ("buckling", lambda: flexmb.buckling(sol)),
+    for name, fn in (("modes", lambda: flexmb.modes(sol, n_modes=6)), ("buckling", lambda: flexmb.buckling(sol)),
                      ("compliance", lambda: flexmb.compliance(sol, "link3")), ("stresses", lambda: sol.stresses())):
         ts = []
         for _ in range(repeats):
@@ -159,7 +159,7 @@ def main(quick: bool = False) -> str:
         f"Dwarshuis et al. (2020) Sec. 4.4 manipulator, joint case, flexmb's three_x_infinity joints (3 el./leaf, steel "
         f"leaves, links massless); {machine()}.",
         f"Fastest of {repeats} interleaved runs per method and position (the host is shared: the least disturbed run), after a warm-up (KSD-reduced's first use of a "
-        "joint template builds its condensed-mass table once, ~1 s). Modes: `modes(n=6)`, prescribed DOFs held (the "
+        "joint template builds its condensed-mass table once, ~1 s). Modes: `modes(n_modes=6)`, prescribed DOFs held (the "
         f"parasitic modes); KSD-reduced's from each joint's Craig-Bampton condensation with {KSD_FIXED_INTERFACE_MODES} "
         "fixed-interface modes (`flexmb.ksd.joint_mass`). Errors against the conventional solution.",
         "",
@@ -191,7 +191,7 @@ def main(quick: bool = False) -> str:
     big = large(repeats=1 if quick else 3)
     lines += ["", f"10 000-DOF model: the manipulator with 62 el./leaf ({big['dofs']} free DOFs), 30 deg (solved to "
               f"tol = 1e-5 N, 5e-7 being below its roundoff floor; converged {big['converged']}, "
-              f"{big['solve']:.1f} s): `modes(n=6)` {big['modes']:.2f} s ({big['solver']}; f1-3 "
+              f"{big['solve']:.1f} s): `modes(n_modes=6)` {big['modes']:.2f} s ({big['solver']}; f1-3 "
               f"{', '.join(f'{x:.1f}' for x in big['f'])} Hz), `buckling` {big['buckling']:.2f} s, `compliance` "
               f"{big['compliance']:.2f} s, `stresses` {big['stresses']:.2f} s (medians of {1 if quick else 3})."]
     return "\n".join(lines)

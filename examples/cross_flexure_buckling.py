@@ -22,7 +22,7 @@ from flexmb.studies import example_arguments
 
 ANGLES_DEG = (0.0, 30.0)
 ELEMENTS = (3, 5, 10)
-HELD = {"turn held": [("B", "rz")], "turn free": "none"}
+HELD = {"turn held": [("B", "rz")], "turn free": "fixed"}
 
 
 def loaded_pivot(rotation_deg: float, force: float, elements_per_leaf: int = 5) -> flexmb.Mechanism:

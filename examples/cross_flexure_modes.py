@@ -7,7 +7,7 @@ diag(1e-3) kg m^2 about its centre, which is interface node B; B turned about z 
 * the first six frequencies with B's rotation about z held and B otherwise free (the parasitic
   modes; the moment that holds the turn stays as a dead load, so its -1/2 skew(M) part makes the
   problem non-symmetric), and the first one of the same problem symmetrised (that part dropped);
-* the intended mode's frequency with B's rotation released too (``held="none"``);
+* the intended mode's frequency with B's rotation released too (``held="fixed"``);
 
 at 3, 5 and 10 elements per leaf (mesh convergence).
 Run: python examples/cross_flexure_modes.py [--quick]   (--quick: 75 deg, 3 el./leaf)
@@ -40,7 +40,7 @@ def pivot(rotation_deg: float, elements_per_leaf: int = 5) -> flexmb.Mechanism:
 
 def symmetrised_first(sol, held) -> float:
     """The first frequency [Hz] of the symmetrised problem (the dead moment's skew part dropped)."""
-    md = flexmb.modes(sol, n=1, held=held)
+    md = flexmb.modes(sol, n_modes=1, held=held)
     K, M = stiffness_and_mass(sol)
     free = np.setdiff1d(np.arange(K.shape[0]), md.held)
     Kf, Mf = K.toarray()[np.ix_(free, free)], M.toarray()[np.ix_(free, free)]
@@ -58,9 +58,9 @@ def run(angles=ANGLES_DEG, elements=ELEMENTS) -> dict:
                 raise flexmb.ConvergenceError(f"{deg} deg, {n} el./leaf: {sol.message}", sol)
             held = [("B", "rz")]
             out[deg, n] = {
-                "parasitic": flexmb.modes(sol, n=6, held=held).frequencies,
+                "parasitic": flexmb.modes(sol, n_modes=6, held=held).frequencies,
                 "parasitic_symmetrised": symmetrised_first(sol, held),
-                "intended": float(flexmb.modes(sol, n=1, held="none").frequencies[0]),
+                "intended": float(flexmb.modes(sol, n_modes=1, held="fixed").frequencies[0]),
             }
     return out
 

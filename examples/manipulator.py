@@ -13,7 +13,7 @@ import numpy as np
 import flexmb
 from flexmb.studies import example_arguments
 from flexmb.studies import manipulator as mc
-from flexmb.analysis import support_ratios
+from flexmb.joint_characteristics import support_ratios
 
 def main(out: Path | None = None, quick: bool = False) -> dict:
     """Print the joint's characteristics and the method comparison, write the figures into

@@ -27,7 +27,7 @@ def frequencies(n: int = 6, degrees=DEGREES) -> dict:
         m = flexmb.models.manipulator("joint", np.radians(deg))
         for method in METHODS:
             sol = flexmb.solve(m, method=method, raise_on_failure=True)
-            out[method].append(flexmb.modes(sol, n=n).frequencies)
+            out[method].append(flexmb.modes(sol, n_modes=n).frequencies)
     return {method: np.array(f) for method, f in out.items()}
 
 

@@ -61,7 +61,7 @@ def main(out: Path | None = None, quick: bool = False) -> dict:
     pivot = cross_flexure(n)
     pivot.prescribe("B", rotation=(0.0, 0.0, np.radians(30.0)))
     at30 = flexmb.solve(pivot)
-    modes = flexmb.modes(at30, n=4, held=[("B", "rz")])
+    modes = flexmb.modes(at30, n_modes=4, held=[("B", "rz")])
     res["f_30deg"] = modes.frequencies
     if docs is not None:
         plot.save(plot.plot_mode(modes, 0), docs / "cross_flexure_mode.png")

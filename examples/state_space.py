@@ -38,9 +38,9 @@ def main(out=None, quick: bool = False) -> dict:
     n = 3 if quick else 6
     sol = flexmb.solve(pivot_with_block())
     ss = flexmb.state_space(sol, [("force", "B", "y", "tip")],
-                            [("displacement", "B", "y", "tip"), ("displacement", "B", "rz")], n=n, damping=0.01)
+                            [("displacement", "B", "y", "tip"), ("displacement", "B", "rz")], n_modes=n, damping=0.01)
     C = flexmb.compliance(sol, "B", point="tip")
-    f = flexmb.modes(sol, n=n).frequencies
+    f = flexmb.modes(sol, n_modes=n).frequencies
     gain = ss.static_gain()
     print(f"pivot turned {np.degrees(sol.rotation_vector('B')[2]):.2f} deg by 1.5 N m; {n} modes, 1 % damping")
     print(f"static gain tip y / force y: {gain[0, 0]:.6e} m/N (flexmb.compliance: {C[1, 1]:.6e})")

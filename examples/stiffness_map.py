@@ -1,9 +1,9 @@
 """Parameter study: rotational stiffness and support of a cross flexure over leaf thickness x leaf angle.
 
-Every design is one `flexmb.analysis.joint_properties` call (the Table 1 cross flexure of
+Every design is one `flexmb.joint_characteristics.joint_characteristics` call (the Table 1 cross flexure of
 Dwarshuis et al. 2020 with the thickness and the leaf angle changed, 3 elements per leaf, at
 20 deg of rotation): the rotational stiffness [N m/rad] condensed onto node B, the weakest
-support ratio of z and the two tilts (`flexmb.analysis.support_ratios`; x and y are left out:
+support ratio of z and the two tilts (`flexmb.joint_characteristics.support_ratios`; x and y are left out:
 with the rotation free, a force at B turns the pivot about the leaves' crossing, D0/2 below B,
 so their ratio is about (D0 / (D0/2))^2 = 4 whatever the design) and the peak stress. The designs run in an embedded local process pool and, with
 ``--dask``, on a dask.distributed LocalCluster (the same code drives a real cluster: pass
@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmb.analysis import joint_properties
+from flexmb.joint_characteristics import joint_characteristics
 from flexmb.studies import example_arguments
 from flexmb.study import grid, parameter_study
 
-DESIGN = functools.partial(joint_properties, "cross_flexure", rotation=np.radians(20.0), elements_per_leaf=3)
+DESIGN = functools.partial(joint_characteristics, "cross_flexure", rotation=np.radians(20.0), elements_per_leaf=3)
 
 
 def designs(quick: bool = False) -> list[dict]:

@@ -9,7 +9,7 @@ cube). B's orientation is prescribed to the turn and swept with continuation
 
 * f1, f2: the parasitic frequencies, B's rotation about z held and B otherwise free (the
   prescription's reactions stay dead loads);
-* the intended mode: the first frequency with the turn released too (``held="none"``);
+* the intended mode: the first frequency with the turn released too (``held="fixed"``);
 * F_cr: the critical force along the axis from `flexmb.buckling` about the turned, unloaded
   state (``base``; the multiplier scales only a 1 N increment), B's turn held.
 
@@ -57,7 +57,7 @@ def run(angles=ANGLES_DEG, elements=ELEMENTS) -> dict:
         if not (unloaded.converged.all() and pushed.converged.all()):
             raise flexmb.ConvergenceError(f"{n} el./leaf: a turn did not converge", None)
         t = dict(unloaded.table())
-        t["intended"] = flexmb.properties(unloaded, ("modes",), n_modes=1, held="none")["f1"]
+        t["intended"] = flexmb.properties(unloaded, ("modes",), n_modes=1, held="fixed")["f1"]
         t["ratio"] = t["f1"] / t["intended"]
         t["F_cr"] = np.array([flexmb.buckling(p, held=[("B", "rz")], base=u)[0] for p, u in zip(pushed, unloaded)])
         out[n] = flexmb.Table(t)

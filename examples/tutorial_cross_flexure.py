@@ -56,7 +56,7 @@ def main(out: Path | None = None, quick: bool = False) -> dict:
               f"{k * 1e-6:10.3f}")
     # --8<-- [start:modes]
     at_rest = flexmb.solve(m)
-    intended = flexmb.modes(at_rest, n=1, held="none").frequencies[0]      # [Hz], the turn released
+    intended = flexmb.modes(at_rest, n_modes=1, held="fixed").frequencies[0]      # [Hz], the turn released
     J = 1e-3 + 1.0 * (pivot.interface_b(2)[1] / 2) ** 2    # block inertia about the crossing [kg m^2]
     estimate = np.sqrt(k0 / J) / (2 * np.pi)
     # --8<-- [end:modes]

@@ -26,7 +26,7 @@ from .linearised import buckling, compliance
 from .design_properties import properties
 from . import design
 from .design import responses, value_and_grad
-from .design.optimize import optimize  # issue 28 item 5 (opt's one-line hook)
+from .design.optimize import optimize
 from .discretisation import DiscretisationEstimate, discretisation_error
 from .modal import Modes, modes
 from .registry import available_joints, joint, register_joint
@@ -35,10 +35,11 @@ from .sections import Section, circle, rectangle
 from .solvers import solve
 from .study import grid, parameter_study
 from .sweeps import SweepResult, find_actuation, sweep, tangent_stiffness
-from .path import Critical, Path, trace
+from .path import Critical, EquilibriumPath, trace
 from .imperfection import imperfect
 from .table import Table, read_csv
 from ._version import __version__  # noqa: F401 (flexmb.__version__)
+from ._warnings import renamed as _renamed
 
 
 __all__ = [
@@ -54,7 +55,7 @@ __all__ = [
     "PlausibilityWarning",
     "Critical",
     "DiscretisationEstimate",
-    "Path",
+    "EquilibriumPath",
     "trace",
     "imperfect",
     "CrossFlexure",
@@ -109,3 +110,6 @@ __all__ = [
     "sweep",
     "tangent_stiffness",
 ]
+
+#: ``flexmb.Path``, `EquilibriumPath`'s name until flexmb 0.2 (it shadowed ``pathlib.Path``): warns, kept one release
+__getattr__ = _renamed("flexmb", {"Path": "flexmb.path.EquilibriumPath"})

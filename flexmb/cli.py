@@ -102,8 +102,8 @@ def _demo_manipulator(quick: bool) -> list:
     from .studies import manipulator as mc
 
     degrees = (-45, 0, 45) if quick else (-45, -30, -15, 0, 15, 30, 45)
-    # medians of 5 interleaved solves: since the continuation (issue 19) a solve takes 2-50 ms, and
-    # single timings on a busy machine swung the printed KSD ratios 0.3-25x between positions
+    # medians of interleaved solves: a solve takes milliseconds since the continuation, and single
+    # timings on a busy machine swung the printed KSD ratios by two orders of magnitude between positions
     rows = mc.study(degrees, cases=("joint",), repeats=3 if quick else 5, clock="cpu")
     _speed_table("Manipulator of three three_x_infinity joints, Dwarshuis et al. (2020) Sec. 4.4, joint case",
                  rows, "rotation", "deg")
@@ -197,7 +197,7 @@ def _train(args) -> int:
 
 
 #: Most training runs one ``flexmb train`` does per mesh (``--range`` over ``--step``): 100 000
-#: FE solves are hours; ``--step 1e-9`` (1.5e11 runs) asked for 1.09 TiB before this check (issue 32).
+#: FE solves are hours; ``--step 1e-9`` (1.5e11 runs) asked for 1.09 TiB before this check.
 MAX_TRAINING_RUNS = 100_000
 
 
@@ -474,7 +474,7 @@ def strict_json(value):
     return value
 
 
-# -- flexmb solve FILE (issue 30): a mechanism file, a sweep, properties, a traced path ----------
+# -- flexmb solve FILE: a mechanism file, a sweep, properties, a traced path ----------
 
 def _case_or_file(text: str) -> str:
     """argparse type of ``solve``'s first argument: a ready-made model's name or an existing file."""

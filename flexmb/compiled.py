@@ -58,7 +58,7 @@ def _reads(mechanism) -> tuple:
     first read's objects are kept alive)."""
     graph = mechanism.graph
     objs, counts = [], [mechanism.dim, len(graph)]
-    add, extend, count = objs.append, objs.extend, counts.append  # bound once: ~10 -> ~6 us a call
+    add, extend, count = objs.append, objs.extend, counts.append  # bound once
     plain = type(graph) is nx.MultiGraph  # its dicts read directly, in the views' order (`_edges`)
     for name, data in (graph._node.items() if plain else graph.nodes(data=True)):
         add(name)
@@ -91,8 +91,8 @@ def _reads(mechanism) -> tuple:
 
 def _edges(adj: dict) -> list:
     """``graph.edges(keys=True, data=True)`` of a networkx ``MultiGraph`` from its adjacency dict
-    ``adj``, in the view's order (the views' nested generators cost a few us a solve, more after
-    other work: the manipulator's fingerprint ~23 -> ~15 us)."""
+    ``adj``, in the view's order (the views' nested generators cost a few microseconds a solve, more after
+    other work)."""
     out, seen = [], set()
     for a, nbrs in adj.items():
         for b, keyed in nbrs.items():
@@ -113,7 +113,7 @@ def _read_only(compiled: Compiled) -> None:
     """Make the arrays of a compiled problem that describe the mechanism read-only (the prescribed
     DOFs and values, the loads, the reference positions, the maps to links and joints): a
     `Compiled` shared by the solves of one mechanism cannot be changed through one
-    `Solution.compiled`. The element batches stay as they are (the compiled kernels are typed on
+    `Solution.compiled`. The element batches stay as they are (the numba kernels are typed on
     writeable arrays)."""
     problem = compiled.problem
     model = getattr(problem, "model", None)
@@ -133,8 +133,8 @@ _LOCAL = threading.local()  # one cache per thread: a compiled problem carries i
 
 def compiled_for(mechanism, capability: str = "fe_model") -> Compiled:
     """``mechanism.compile(capability)``, kept while the mechanism is unchanged (its `fingerprint`)
-    and reused by the next solve of it: compiling the manipulator costs ~0.3 ms, a KSD-reduced
-    solve ~1 ms. Any change through the mechanism's methods or its graph compiles anew; a
+    and reused by the next solve of it: compiling is a sizeable part of a KSD-reduced solve
+    (BENCHMARKS.md, Design loops). Any change through the mechanism's methods or its graph compiles anew; a
     mechanism with a joint that is not a value is compiled every time. The cached problem's
     arrays are read-only. One cache per thread and per mechanism (held weakly)."""
     try:
@@ -188,7 +188,7 @@ def structure_key(compiled: Compiled) -> tuple | None:
 
 def adopt(compiled: Compiled, previous: Compiled) -> bool:
     """Give ``compiled`` what ``previous``, a problem of the same structure, derived from its
-    structure alone (issue 31 item 1): the tangent's sparsity pattern, the linear solver with its
+    structure alone: the tangent's sparsity pattern, the linear solver with its
     ordering and symbolic factorisation, and KSD's set-up moved to ``compiled``'s numbers (`rebind`
     of what ``previous.derived`` holds). Only when both have the same element connectivity (the
     elements' DOFs), hinges' DOFs, prescribed DOFs and loaded nodes; returns whether it adopted.
@@ -217,7 +217,7 @@ def adopt(compiled: Compiled, previous: Compiled) -> bool:
 def _share_section_table(elements, previous) -> None:
     """``previous``'s `flexmb.fe.stress.section_table` for ``elements`` too when both batches hold
     the same section objects on the same joints with the same lengths (the table reads nothing
-    else): a design that moves joints, not their meshes (the manipulator's 81 sections: ~0.1 ms)."""
+    else): a design that moves joints, not their meshes."""
     from .fe import stress
 
     table = stress._TABLES.get(previous)

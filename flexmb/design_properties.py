@@ -61,10 +61,10 @@ def _row(sol, which, n_modes, held, n_buckling, entries, axes, concentration, li
     """The property columns of one converged solution, as a dict of floats."""
     out = {}
     if "modes" in which:
-        f = modes(sol, n=n_modes, held=held).frequencies
+        f = modes(sol, n_modes=n_modes, held=held).frequencies
         out.update({f"f{k + 1}": float(x) for k, x in enumerate(f)})
     if "buckling" in which:
-        lam = buckling(sol, n=n_buckling, held=held)
+        lam = buckling(sol, n_buckling=n_buckling, held=held)
         out.update({"buckling": float(lam[0])} if n_buckling == 1 else
                    {f"buckling{k + 1}": float(x) for k, x in enumerate(lam)})
     if "compliance" in which:

@@ -1,16 +1,17 @@
-"""Compiled kernels: numba when it is installed and wanted, the numpy code otherwise.
+"""The numba kernels' switch: numba when it is installed and wanted, the numpy code otherwise
+(flexmb says "numba kernel" for these; "compiled" is a mechanism turned into a problem, `flexmb.compiled`).
 
 ``FLEXMB_KERNELS`` chooses: ``auto`` (default: numba if importable), ``numba`` (required: an
 import failure is an error) or ``numpy`` (never compile). The choice is read once, at import;
 `use` switches it in a running session (tests compare both paths on every kernel).
 
 numba is a core dependency where it publishes wheels (CPython on 64-bit x86 and ARM; elsewhere
-``pip install "flexmb[fast]"``, or the numpy code runs): the default install is the fast one
-(issue 31). A kernel compiles on its first call, one type specialisation each (the 3D beam
-model's first solve: ~8 s of CPU), and numba caches it on disk (``cache=True``): beside the
+``pip install "flexmb[fast]"``, or the numpy code runs): the default install is the fast one.
+A kernel compiles on its first call, one type specialisation each (seconds of CPU on the
+first solve: BENCHMARKS.md, Kernel compile time), and numba caches it on disk (``cache=True``): beside the
 installed module where that folder is writable, else in the user's cache folder (numba's
 ``user_cache_dir``, e.g. ``~/.cache/numba``), or in ``NUMBA_CACHE_DIR`` when set (the test suite
-sets it to a temporary folder: it never writes the user's cache). Later sessions load it (~1 s).
+sets it to a temporary folder: it never writes the user's cache). Later sessions load it.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ __all__ = ["enabled", "use", "njit", "run", "CHOICES"]
 
 CHOICES = ("auto", "numba", "numpy")
 
-# numba is optional, and imported only when a kernel module is (about 1 s): `import flexmb` stays light
+# numba is optional, and imported only when a kernel module is : `import flexmb` stays light
 _AVAILABLE = importlib.util.find_spec("numba") is not None
 
 
@@ -42,7 +43,7 @@ _enabled = _resolve(os.environ.get("FLEXMB_KERNELS", "auto").strip().lower() or 
 
 
 def enabled() -> bool:
-    """Whether the compiled kernels run (numba importable and not switched off)."""
+    """Whether the numba kernels run (numba importable and not switched off)."""
     return _enabled
 
 

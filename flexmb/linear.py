@@ -24,12 +24,9 @@ The hinges' saddle point ``[[K, G^T], [G, 0]]`` (`flexmb.fe.ideal`) goes the LDL
 zero diagonal shifted to ``-SADDLE_SHIFT max|K|`` in the factorisation only (refinement against
 the true matrix removes the shift).
 
-Measured with one BLAS thread on flexmb's own converged tangents (medians of 7, this 2-core host
-under load): four-bar at 5 el./leaf (305 unknowns) SuperLU 0.39 ms, qdldl 0.15 ms; manipulator
-(369) 0.50 / 0.15 ms; 3D cantilevers of 500 / 2000 / 8000 elements (3000 / 12 000 / 48 000
-unknowns) 2.3 / 22 / 108 ms against 0.25 / 0.94 / 11 ms. pypardiso (MKL, ~650 MB installed) took
-0.18, 0.10, 0.77, 6.7 and 51 ms; cvxopt's UMFPACK with its symbolic analysis reused was slower
-than SuperLU on every case (0.46-243 ms).
+The choice of solvers was measured on flexmb's own converged tangents (BENCHMARKS.md, Timings
+moved from docstrings): the LDL^T beat SuperLU on every case, pypardiso (MKL) needs a large
+install, cvxopt's UMFPACK was slower than SuperLU.
 """
 
 from __future__ import annotations
@@ -60,9 +57,9 @@ _STALL = 0.1
 #: exact solve). Measured on hinged leaf loops (2D 60 / 200 el./leaf: 368 / 1208 unknowns; 3D 30
 #: el./leaf: 377): refinement steps over the Newton solves 1e-6: 19 / 31 / 108 (1-2 SuperLU
 #: fallbacks), 1e-8: 9 / 12 / 67, 1e-10: 16 / 15 / 75, 1e-12: 53 / 48 / 161 with 7 / 4 / 6 fallbacks
-#: (cancellation). A solve then takes 0.15 / 0.29 / 0.19 ms against SuperLU's 0.43 / 0.77 / 0.45.
+#: (cancellation).
 SADDLE_SHIFT = 1e-8
-#: Patterns with at least this many entries are analysed by the compiled pass
+#: Patterns with at least this many entries are analysed by the numba pass
 #: (`flexmb.linear_jit.upper_maps`; smaller ones by numpy: no compilation for them)
 COMPILED_ANALYSIS_FROM = 200_000
 
@@ -77,9 +74,7 @@ def single_threaded():
 
     A solve's linear algebra is small (dense below `DENSE_BELOW` unknowns, KSD's reduced systems
     of tens): a multithreaded BLAS only adds synchronisation, and on a busy machine a thread
-    waiting for a taken core stalls every call (measured on this 2-core host with a second core
-    busy: a 100 x 100 ``numpy.linalg.solve`` 13.5 ms with OpenBLAS's default threads, 0.05 ms
-    with one). Entering costs ~0.3 ms, so solvers enter once per solve, not per iteration."""
+    waiting for a taken core stalls every call. Entering has a cost, so solvers enter once per solve, not per iteration."""
     global _CONTROLLER
     if _CONTROLLER is None:
         from threadpoolctl import ThreadpoolController
@@ -95,7 +90,7 @@ def available() -> dict:
 
 def _backward_error(K, x: np.ndarray, b: np.ndarray):
     """``r = b - K x`` and the backward error ``max|r| / (max|K| max|x| + max|b|)`` (inf when ``x``
-    is not finite); one compiled pass with numba."""
+    is not finite); one numba pass with numba."""
     if jit.enabled() and np.ndim(b) == 1:  # several right-hand sides (compliance): the numpy lines
         from . import linear_jit
 
@@ -157,11 +152,11 @@ class TangentSolver:
         """Whether the symmetric part of ``K`` is positive definite, from the signs of the pivots
         of its ``L D L^T`` on this solver's analysis (Sylvester's law of inertia; no pivoting, as
         `flexmb.solvers.conventional.is_stable`'s SuperLU in symmetric mode): qdldl's when installed
-        and the compiled L D U not analysed yet (its analysis costs ~0.2 s at 1e5 unknowns), else
-        the compiled factorisation. None where this cannot tell (below the dense limit, no
+        and the compiled L D U not analysed yet (its analysis is costly on large models), else
+        the numba factorisation. None where this cannot tell (below the dense limit, no
         sparse path, a pattern not structurally symmetric, a zero diagonal or pivot): the caller
-        decides another way. Measured: chain of 64 cross flexures (4988 unknowns) 1.3 ms against
-        is_stable's 15 ms; four-bar (305) 0.06 against 0.65 ms."""
+        decides another way. Faster than `is_stable`'s own factorisation (BENCHMARKS.md, Timings
+        moved from docstrings)."""
         compiled = jit.enabled()
         if K.shape[0] < DENSE_BELOW_LDL or not (compiled or self.use_ldl):
             return None
@@ -254,8 +249,8 @@ class TangentSolver:
 
     @staticmethod
     def _maps_compiled(K):
-        """`_maps` by one compiled pass (`flexmb.linear_jit.upper_maps`): the same arrays, ~5x
-        faster on large patterns (1e5 beam elements: ~11 million entries)."""
+        """`_maps` by one numba pass (`flexmb.linear_jit.upper_maps`): the same arrays, for large patterns
+        (1e5 beam elements: ~11 million entries)."""
         from . import linear_jit
 
         n = K.shape[0]

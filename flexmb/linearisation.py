@@ -4,7 +4,7 @@ Every property of a configuration that a linearisation gives (`flexmb.modes`, `f
 `flexmb.compliance`, the design gradients) reads one `flexmb.protocols.Linearisation`: the
 tangent ``K`` and mass ``M`` on the free coordinates, the map back to the mechanism's DOFs and a
 solve with one kept factorisation. A solution kind supplies its own through
-``Solution.linearisation`` (KSD-reduced's: `flexmb.ksd.properties.ReducedLinearisation`); the
+``Solution.linearisation`` (KSD-reduced's: `flexmb.ksd.reduced_model.ReducedLinearisation`); the
 full finite-element model's is `FELinearisation`, here.
 
 The full model's linearisation (SPACAR's convention):
@@ -15,7 +15,8 @@ The full model's linearisation (SPACAR's convention):
   their size and global direction. In 3D the rotation DOFs are spins (``dR = skew(dphi) R``).
 * **Mass.** The consistent mass (`flexmb.fe.mass`) at the deformed configuration.
 * **Held DOFs** (`held_dofs`). ``held="prescribed"`` (default) holds the fixed links and every
-  prescribed DOF; ``"none"`` holds only the fixed links; ``"floating"`` holds nothing; a sequence
+  prescribed DOF; ``"fixed"`` holds only the fixed links (``"none"`` before flexmb 0.2: a deprecated alias);
+  ``"floating"`` holds nothing; a sequence
   of link names (all their DOFs) and ``(link, component)`` pairs holds the fixed links and those
   components (``"x"``, ``"y"``, ``"z"``, ``"rx"``, ``"ry"``, ``"rz"``, ``"rotation"``).
 * **Hinges.** The coordinates are the motions the hinges allow: ``u[free] = Z q``
@@ -32,20 +33,21 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ._warnings import deprecated
 from .errors import ConvergenceError, ModelError, ParameterError, UnsupportedStrategyError
 from .fe.assembly import SparsePattern
 from .fe.ideal import constrained
 from .fe.mass import mass_matrix
 
 __all__ = ["LinearisationBase", "FELinearisation", "DenseFactor", "linearise", "full_tangent", "material_tangent", "stiffness_and_mass",
-           "held_dofs", "held_and_free", "solvable_problem", "converged_problem", "RESIDUAL_MAX", "SPARSE_FROM"]
+           "held_dofs", "held_and_free", "held_option", "HELD_RENAMED", "solvable_problem", "converged_problem", "RESIDUAL_MAX", "SPARSE_FROM"]
 
 _EPS = float(np.finfo(float).eps)
 
 #: The largest relative residual ``|K x - b| / |b|`` of a sparse solve. The sparse solvers'
 #: backward-error test (`flexmb.linear`) cannot see a singular ``K``: the manipulator (Sec. 4.4,
 #: 20 deg) with nothing held (``held="floating"``, a free rigid-body motion) passed it at 1e-16
-#: with a relative residual of 23; its ill-conditioned but regular ``held="none"`` leaves 5e-8.
+#: with a relative residual of 23; its ill-conditioned but regular ``held="fixed"`` leaves 5e-8.
 RESIDUAL_MAX = 1e-4
 #: Coordinates from which `FELinearisation.solve` factorises sparse (below: dense LAPACK, whose
 #: reciprocal condition number tells a singular tangent)
@@ -143,8 +145,22 @@ def stiffness_and_mass(solution) -> tuple[sp.csr_array, sp.csr_array]:
     return full_tangent(solution), mass_matrix(model, solution.state, model.rigid_masses)
 
 
+#: Deprecated ``held`` names -> their names now (a FutureWarning each use; removed in the next release).
+HELD_RENAMED = {"none": "fixed"}
+
+
+def held_option(held, owner: str = "modes"):
+    """``held`` with a deprecated name (`HELD_RENAMED`) replaced by its new one, with a
+    ``FutureWarning`` naming both; anything else unchanged (`held_dofs` checks it)."""
+    if isinstance(held, str) and held in HELD_RENAMED:
+        deprecated(f"{owner}(held={held!r})", f"held={HELD_RENAMED[held]!r}", ": the fixed links held, nothing else")
+        return HELD_RENAMED[held]
+    return held
+
+
 def held_dofs(solution, held, owner: str = "modes") -> np.ndarray:
     """Sorted global DOF indices that ``held`` (module notes) holds; errors name ``owner``."""
+    held = held_option(held, owner)
     compiled = solution.compiled
     problem, model = compiled.problem, compiled.problem.model
     if isinstance(held, str) and held in ("prescribed", "floating"):  # the fixed links' DOFs not needed
@@ -152,9 +168,9 @@ def held_dofs(solution, held, owner: str = "modes") -> np.ndarray:
     fixed = [compiled.link_node[name] for name in compiled.fixed]
     ground = model.node_dofs[fixed].ravel() if fixed else np.zeros(0, dtype=np.int64)
     if isinstance(held, str):
-        if held == "none":
+        if held == "fixed":
             return np.unique(ground)
-        raise ParameterError(f"{owner}: held={held!r}; valid: 'prescribed', 'none', 'floating' or a sequence of "
+        raise ParameterError(f"{owner}: held={held!r}; valid: 'prescribed', 'fixed', 'floating' or a sequence of "
                              "links and (link, component) pairs")
     try:
         items = list(held)
@@ -188,7 +204,8 @@ _HELD = weakref.WeakKeyDictionary()
 
 def held_and_free(solution, held, owner: str = "modes"):
     """`held_dofs` and the free DOFs (sorted, read-only), kept per compiled mechanism for the named
-    ``held`` ("prescribed", "none", "floating": ~10 us of a KSD-reduced ``modes`` each call)."""
+    ``held`` ("prescribed", "fixed", "floating": a visible share of a KSD-reduced ``modes`` otherwise)."""
+    held = held_option(held, owner)
     compiled = solution.compiled
     key = held if isinstance(held, str) else None
     per = _HELD.setdefault(compiled, {})
@@ -196,7 +213,7 @@ def held_and_free(solution, held, owner: str = "modes"):
         held_idx = held_dofs(solution, held, owner)
         keep = np.ones(compiled.problem.model.n_dofs, dtype=bool)
         keep[held_idx] = False
-        out = held_idx, np.flatnonzero(keep)  # np.setdiff1d's sort: 0.15 ms of the manipulator's KSD-reduced 2.2 ms
+        out = held_idx, np.flatnonzero(keep)  # not np.setdiff1d, whose sort was a visible share
         if key is None:
             return out
         for a in out:
@@ -212,8 +229,8 @@ class DenseFactor:
     non-symmetric ``K`` the LU, for an exactly symmetric one Cholesky or, indefinite,
     Bunch-Kaufman (upper triangle), as scipy tries them. The first solve with ``K`` is LAPACK's
     driver (``dgesv``, ``dposv``; ``dsytrf`` + ``dsytrs``), bit for bit `scipy.linalg.solve`'s
-    answer without its structure detection and checks per call (~45 of the KSD-reduced
-    manipulator's ~120 us ``compliance``); it keeps the factors, and every later solve (or a
+    answer without its structure detection and checks per call (a third of
+    the KSD-reduced manipulator's ``compliance``); it keeps the factors, and every later solve (or a
     first with ``K^T``) runs LAPACK's triangular solves (``dgetrs`` ...) on them: the same
     factorisation, whose OpenBLAS solve kernels may round the last bit differently from the
     driver's. Raises ``LinAlgError`` for an exactly singular ``K`` and, where the reciprocal

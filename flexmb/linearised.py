@@ -13,6 +13,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import _validate as v
+from ._warnings import renamed_keyword
 from .errors import ModelError, ParameterError
 from .linearisation import DenseFactor, RESIDUAL_MAX, _consistent, linearise, material_tangent  # noqa: F401 (re-exported)
 from .modal import DENSE_BELOW, start_vector
@@ -34,16 +35,16 @@ def _solve_dense(K: np.ndarray, rhs: np.ndarray, ill_conditioned: str = "warn") 
 MU_ROUNDOFF = 1e-10
 
 
-def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
-    """The ``n`` lowest positive buckling multipliers of the solution's loads and prescribed
+def buckling(solution, n_buckling: int = 1, held="prescribed", base=None, *, n: int | None = None) -> np.ndarray:
+    """The ``n_buckling`` lowest positive buckling multipliers of the solution's loads and prescribed
     motions, linearised about its deformed state: ``(K_m + lam K_s) phi = 0`` with ``K_m`` the
     material tangent (`material_tangent`) and ``K_s = K_t - K_m`` the part proportional to the
     current stresses and loads (geometric and load stiffness), both at the solution. ``lam = 1``:
     the solution itself is critical; ``lam`` times the loads is the linearised critical load. Where
     the pre-buckling path is linear (stresses proportional to the load) this is the classical
     linear buckling analysis (e.g. Bathe 2014, Sec. 6.8.2). Returns an array (n,), ascending;
-    ``inf`` where fewer than ``n`` positive multipliers exist (no buckling under this load
-    direction).
+    ``inf`` where fewer than ``n_buckling`` positive multipliers exist (no buckling under this load
+    direction). ``n``: the deprecated name of ``n_buckling`` (a FutureWarning).
 
     ``base``: a converged solution of the same mechanism under a preload (e.g. a prescribed turn
     with the variable force off) that stays as it is: then ``K_m`` is the full tangent at
@@ -61,17 +62,18 @@ def buckling(solution, n: int = 1, held="prescribed", base=None) -> np.ndarray:
     turned 20 deg; the converged state's tangent on that basis still +11 % (turn free): neither
     the stress-free EOBs nor the basis carry a turned joint's buckling.
     """
+    n = renamed_keyword("buckling", "n", n, "n_buckling", n_buckling, 1)
     lin = linearise(solution, held, owner="buckling")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, the number of free motions]")
+        raise ParameterError(f"buckling: n_buckling={n!r} must be an integer in [1, the number of free motions]")
     Km = lin.material_tangent(base)  # the solution kind's: KSD-reduced has none
     Kt = lin.K
     nf = Kt.shape[0]
     if nf == 0:
         raise ModelError(f"buckling: no free motion to buckle: every DOF is held or fixed (held={held!r}; the "
-                         "default 'prescribed' holds the prescribed motions: held='none' releases them)")
+                         "default 'prescribed' holds the prescribed motions: held='fixed' releases them)")
     if n > nf:
-        raise ParameterError(f"buckling: n={n!r} must be an integer in [1, {nf}] (the "
+        raise ParameterError(f"buckling: n_buckling={n!r} must be an integer in [1, {nf}] (the "
                              f"{'free DOFs' if lin.Z is None else 'motions the hinges allow'}: {nf})")
     Ks = (Kt - Km).tocsr() if sp.issparse(Kt) else np.asarray(Kt - Km)  # a dense linearisation's: arrays
     if (Ks.nnz == 0 if sp.issparse(Ks) else Ks.size == 0) or abs(Ks).max() == 0.0:
@@ -92,8 +94,8 @@ def _multipliers(Ks, Km, n: int, nf: int) -> np.ndarray:
         except np.linalg.LinAlgError:  # K_m not positive definite (an unstable base): the general problem
             mu = sla.eigvals(A, B)
     else:
-        # ARPACK to 1e-10 relative (its default, machine precision, did not finish in 15 min on
-        # a 10 000-DOF manipulator; 1e-10: 0.9 s)
+        # ARPACK to 1e-10 relative (its default, machine precision, did not finish on a
+        # 10 000-DOF manipulator)
         k = min(nf - 2, 2 * n + 8)
         if symmetric:
             mu = spla.eigsh((0.5 * (Ks + Ks.T)).tocsc(), k=k, M=(0.5 * (Km + Km.T)).tocsc(), which="SA",
@@ -110,7 +112,7 @@ def _positive_multipliers(mu: np.ndarray, n: int) -> np.ndarray:
     """The ``n`` smallest positive multipliers ``lam = -1/mu`` of the eigenvalues ``mu`` of
     ``K_s phi = mu K_m phi`` (real ones; inf where fewer exist). A mu that is zero to working
     precision (`MU_ROUNDOFF`) is none: a cantilever pulled along its axis (stress stiffening only)
-    gave mu = -3.9e-19 beside 0.012, i.e. lam = 7.8e17 instead of inf (issue 32)."""
+    gave mu = -3.9e-19 beside 0.012, i.e. lam = 7.8e17 instead of inf."""
     real = mu[np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()].real if np.iscomplexobj(mu) else mu
     zero = MU_ROUNDOFF * (np.abs(real).max() if real.size else 0.0)
     lam = np.sort(-1.0 / real[real < -zero])
@@ -130,7 +132,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     link's node give zero rows and columns.
 
     A KSD-reduced solution gives the reduced mechanism's compliance: ``K_ff`` is then the tangent
-    of KSD step 3's equilibrium on the links' DOFs (`flexmb.ksd.properties.reduced_tangent`: each
+    of KSD step 3's equilibrium on the links' DOFs (`flexmb.ksd.reduced_model.reduced_tangent`: each
     joint's Craig-Bampton EOB stiffness at its near configuration, carried through the joints'
     current frames). Measured against the full model at the conventional solution: the
     manipulator's end link over +-45 deg within 0.72 % (median 0.16 %), the four-bar's top link
@@ -156,7 +158,7 @@ def compliance(solution, link: str, point=None, axes: str = "global", held="pres
     if offset.any():
         T = model._lever(model.offsets(state, np.array([node]), offset[None]))[0]  # point motion = T node motion
         C = T @ C_node @ T.T
-    else:  # the node itself: T = I (the same numbers; the lever's assembly was ~10 us)
+    else:  # the node itself: T = I (the same numbers without the lever's assembly)
         C = C_node
     if axes == "link":
         R = model.rotation_matrices(state)[node]

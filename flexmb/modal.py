@@ -15,7 +15,7 @@ The linearisation (SPACAR's convention for the eigenfrequencies of a configurati
 * **Mass.** The consistent mass (`flexmb.fe.mass`) at the deformed configuration: beams in their
   current co-rotated frames, the links' inertia tensors turned with the links.
 * **Held DOFs.** ``held="prescribed"`` (default) holds the fixed links and every prescribed DOF
-  (the actuated inputs held: the modes are the parasitic ones); ``"none"`` holds only the fixed
+  (the actuated inputs held: the modes are the parasitic ones); ``"fixed"`` (``"none"`` before 0.2) holds only the fixed
   links (the intended motion is free: its mode appears); ``"floating"`` holds nothing (the
   unsupported mechanism, with its rigid-body zero modes); a sequence of link names (all their
   DOFs) and ``(link, component)`` pairs holds the fixed links and those components, with
@@ -38,6 +38,7 @@ from scipy.linalg import lapack as _lapack
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ._warnings import renamed_keyword
 from .errors import ModelError, ParameterError
 from .fe.ideal import constrained
 from .ksd.linearisation import KSD_FIXED_INTERFACE_MODES
@@ -49,11 +50,11 @@ __all__ = ["Modes", "modes", "stiffness_and_mass", "full_tangent", "held_dofs", 
            "DENSE_BELOW_NONSYMMETRIC"]
 
 #: Free DOFs below which `modes` solves the symmetric eigenproblem dense (LAPACK ``eigh``); at and
-#: above, sparse shift-invert Lanczos (``eigsh``). Measured (6 modes, medians of 5, one BLAS
-#: thread): a 3D cantilever with 204 free DOFs 13.9 ms dense / 17.0 ms sparse, 300: 29.9 / 16.8.
+#: above, sparse shift-invert Lanczos (``eigsh``). The two break even between 204 and 300
+#: free DOFs (a 3D cantilever, 6 modes: BENCHMARKS.md, Timings moved from docstrings).
 DENSE_BELOW = 250
 #: The same for a non-symmetric tangent (LAPACK ``eig``, all eigenvalues, against Arnoldi ``eigs``):
-#: the Table 1 pivot at 75 deg with 77 free DOFs 12.3 / 16.5 ms, 95: 17.1 / 16.7, 131: 24.1 / 16.8.
+#: the two break even near 90 free DOFs (the Table 1 pivot at 75 deg).
 DENSE_BELOW_NONSYMMETRIC = 90
 
 
@@ -61,7 +62,7 @@ DENSE_BELOW_NONSYMMETRIC = 90
 def start_vector(n: int) -> np.ndarray:
     """ARPACK's start vector (n,): fixed pseudo-random (seed 0), so that repeated `modes` and
     `flexmb.buckling` calls on one solution give the same numbers. With ARPACK's own random
-    start, the conventional manipulator's buckling multipliers with ``held="none"`` scattered by
+    start, the conventional manipulator's buckling multipliers with ``held="fixed"`` scattered by
     2e-4 relative between calls (four multipliers within 2e-5 of each other, split into complex
     pairs by the dead moments' non-symmetric tangent part: ARPACK returned any of them)."""
     return np.random.default_rng(0).standard_normal(n)
@@ -149,8 +150,8 @@ def _dof_name(compiled, dof: int) -> str:
 _PLAUSIBLE_MASS = weakref.WeakKeyDictionary()  # models whose density fits E and the lengths (check_mass_units)
 
 
-def modes(solution, n: int = 6, held="prescribed") -> Modes:
-    """The ``n`` lowest undamped natural frequencies [Hz] and mass-normalised mode shapes of a
+def modes(solution, n_modes: int = 6, held="prescribed", *, n: int | None = None) -> Modes:
+    """The ``n_modes`` lowest undamped natural frequencies [Hz] and mass-normalised mode shapes of a
     converged equilibrium, linearised as the module notes state (dead loads, mass at the deformed
     state; ``held`` as there), on the solution's own linearisation (`flexmb.Solution.linearisation`
     with its mass-carrying coordinates): the full finite-element model's (``method="conventional"``,
@@ -167,13 +168,14 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
 
     Dense LAPACK below `DENSE_BELOW` coordinates (`DENSE_BELOW_NONSYMMETRIC` for a non-symmetric
     tangent), sparse shift-invert (``scipy.sparse.linalg.eigsh``, or ``eigs``) above. Raises
-    `ConvergenceError` for an unconverged solution, `ParameterError` for ``n`` outside [1, free
-    motions] (all of them: dense), `ModelError` for a mechanism with no free motion (all held) or
-    naming a free DOF without mass.
+    `ConvergenceError` for an unconverged solution, `ParameterError` for ``n_modes`` outside [1,
+    free motions] (all of them: dense), `ModelError` for a mechanism with no free motion (all held)
+    or naming a free DOF without mass. ``n``: the deprecated name of ``n_modes`` (a FutureWarning).
     """
+    n = renamed_keyword("modes", "n", n, "n_modes", n_modes, 6)
     lin = linearise(solution, held, modal=True, owner="modes")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ParameterError(f"modes: n={n!r} must be an integer in [1, the number of free motions]")
+        raise ParameterError(f"modes: n_modes={n!r} must be an integer in [1, the number of free motions]")
     compiled, model = solution.compiled, lin.model
     K, M, Z, free = lin.K, lin.M, lin.Z, lin.free
     _check_mass_units(solution, model)
@@ -181,9 +183,9 @@ def modes(solution, n: int = 6, held="prescribed") -> Modes:
     what = "free DOFs" if Z is None else "motions the hinges allow"
     if nf == 0:
         raise ModelError(f"modes: no free motion to vibrate: every DOF is held or fixed (held={held!r}; the "
-                         "default 'prescribed' holds the prescribed motions: held='none' releases them)")
+                         "default 'prescribed' holds the prescribed motions: held='fixed' releases them)")
     if n > nf:
-        raise ParameterError(f"modes: n={n!r} must be an integer in [1, {nf}] (the {what}: {nf})")
+        raise ParameterError(f"modes: n_modes={n!r} must be an integer in [1, {nf}] (the {what}: {nf})")
     _check_massive(M, Z, compiled, free)
     asym = abs(K - K.T).max()
     tol = max(10.0 * solution.tolerance, 1e-11 * abs(K).max())
@@ -269,13 +271,13 @@ def _normalised(vec, M, Z, free, n, size):
 
 def _link_rows(full, compiled, nd):
     """The links' reference points' rows of shapes ``full`` (n, DOFs): their nodes' DOFs (which
-    lead a KSD-reduced vector as they do the full one, `flexmb.ksd.properties`)."""
+    lead a KSD-reduced vector as they do the full one, `flexmb.ksd.reduced_model`)."""
     return {link: full[:, node * nd:(node + 1) * nd].copy() for link, node in compiled.link_node.items()}
 
 
 def _dense_eigenvalues(K, M, n):
-    """`_dense`'s eigenvalues alone for a symmetric problem (LAPACK without the vectors: 51 against
-    71 us for the KSD-reduced manipulator's 27 DOFs; the same to ~1e-15), the same mass check;
+    """`_dense`'s eigenvalues alone for a symmetric problem (LAPACK without the vectors; the same
+    to ~1e-15), the same mass check;
     None where it would fall back to the direct form (an unstable equilibrium)."""
     _definite_mass(M)
     sigma = _shift(K, M)
@@ -289,7 +291,7 @@ def _dense_eigenvalues(K, M, n):
 
 def _definite_mass(M) -> None:
     """Raise `ModelError` unless the dense ``M`` is positive definite (LAPACK ``dpotrf``: np.linalg.cholesky's
-    test, 10 us less)."""
+    test without its overhead)."""
     if _lapack.dpotrf(M, lower=1, clean=0)[1] != 0:
         raise ModelError("modes: the mass matrix on the free DOFs is singular (a combination of free directions "
                          "carries no mass); hold it or give the parts mass")
@@ -319,15 +321,14 @@ def _dense(K, M, n, symmetric):
 
 @functools.lru_cache(maxsize=64)
 def _sygvx_lwork(nf: int) -> int:
-    """LAPACK's optimal work size of ``dsygvx`` for order ``nf`` (a query per call cost ~10 us)."""
+    """LAPACK's optimal work size of ``dsygvx`` for order ``nf`` (queried once per order)."""
     return int(_lapack.dsygvx_lwork(nf, uplo="L")[0])
 
 
 def _highest_pairs(A, B, n, vectors: bool = True):
     """The ``n`` highest eigenpairs of ``A x = mu B x`` (``B`` definite): what
     ``scipy.linalg.eigh(A, B, subset_by_index=[nf - n, nf - 1])`` returns, by the same LAPACK
-    ``dsygvx`` called directly (scipy's checks cost 0.04 of its 0.15 ms at 36 DOFs, the
-    KSD-reduced manipulator's). Raises `numpy.linalg.LinAlgError` where eigh would."""
+    ``dsygvx`` called directly (without scipy's checks). Raises `numpy.linalg.LinAlgError` where eigh would."""
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
     if not (np.isfinite(A).all() and np.isfinite(B).all()):
         raise ValueError("array must not contain infs or NaNs")

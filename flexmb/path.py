@@ -3,8 +3,8 @@
 Arc-length continuation (`flexmb.solvers.arclength`) through limit points, snap-through and
 snap-back, with the stability of every point, the limit and bifurcation points located on the
 way (each once, with its multiplicity and critical modes) and, at a bifurcation, the switch onto
-the branch the device follows (`flexmb.solvers.branching`); the result is a `Path`, a sequence of
-`Solution` s like a `SweepResult`, whose `Path.snap` is the first instability.
+the branch the device follows (`flexmb.solvers.branching`); the result is an `EquilibriumPath`, a sequence of
+`Solution` s like a `SweepResult`, whose `EquilibriumPath.snap` is the first instability.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import attrs
 import numpy as np
 
 from . import _validate as v
+from ._warnings import renamed
 from .errors import ModelError, ParameterError, UnsupportedStrategyError
 from .linear import single_threaded
 from .plausibility import check
@@ -25,7 +26,7 @@ from .solvers.branching import BRANCHES
 from .sweeps import SweepResult
 from .table import Table
 
-__all__ = ["trace", "Path", "Critical"]
+__all__ = ["trace", "EquilibriumPath", "Critical"]
 
 #: Largest first arc-length step of `trace` (its load-factor increment): the constraint squares
 #: the step, and 1e150**2 = 1e300 is near the float range's end (1.8e308); a first step of
@@ -41,7 +42,7 @@ FIRST_MOTION = 0.05
 
 @attrs.frozen(eq=False)
 class Critical:
-    """A critical point of a `Path`: ``kind`` (``"limit"``: the load factor's extremum;
+    """A critical point of an `EquilibriumPath`: ``kind`` (``"limit"``: the load factor's extremum;
     ``"bifurcation"``: the stability changes without one), its ``load_factor`` and `Solution`,
     ``arc_length`` from the path's start (the dimensionless metric of `trace`), its
     ``multiplicity`` (the number of eigenvalues of the tangent that vanish there: 2 for the two
@@ -66,7 +67,7 @@ class Critical:
         return np.zeros((0, 0)) if self._modes is None else self._modes.copy()
 
 
-class Path(SweepResult):
+class EquilibriumPath(SweepResult):
     """The points of a `trace` in path order (a sequence of `Solution` s, the start at load
     factor 0 first), with ``load_factor`` (n,), ``stable`` (n,) bool, ``negative_eigenvalues``
     (n,) int, ``arc_length`` (n,), the located `critical` points, `snap`, ``message`` and
@@ -129,8 +130,8 @@ class Path(SweepResult):
         in path order: a list of `Solution` s (e.g. the zero crossings of a force-stroke curve,
         the second stable position of a bistable device)."""
         if not callable(response):
-            raise ParameterError(f"Path.crossings: response={response!r} must be a callable response(solution) -> float")
-        value = v.finite("Path.crossings", "value", value)
+            raise ParameterError(f"EquilibriumPath.crossings: response={response!r} must be a callable response(solution) -> float")
+        value = v.finite("EquilibriumPath.crossings", "value", value)
         g = np.array([float(response(s)) for s in self.solutions]) - value
         g[np.abs(g) <= 1e-9 * np.max(np.abs(g), initial=0.0)] = 0.0  # round-off (a reaction at rest)
         out = []
@@ -147,7 +148,7 @@ class Path(SweepResult):
     def __repr__(self) -> str:
         kinds = ", ".join(f"{c.kind}{'' if c.multiplicity == 1 else f' (x{c.multiplicity})'} at "
                           f"{c.load_factor:.6g}" for c in self.critical) or "no critical point"
-        return f"Path({len(self)} points, load factor {self.load_factor.min():.6g} ... {self.load_factor.max():.6g}, " \
+        return f"EquilibriumPath({len(self)} points, load factor {self.load_factor.min():.6g} ... {self.load_factor.max():.6g}, " \
                f"{kinds}; stopped by {self.stopped_by})"
 
     def table(self, links=None, points=()) -> Table:
@@ -162,7 +163,7 @@ class Path(SweepResult):
 
 def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_load_factor: float | None = None,
           stop=None, method: str = "conventional", progress: bool | None = None, branch: str = "stable",
-          start: Solution | None = None, **options) -> Path:
+          start: Solution | None = None, **options) -> EquilibriumPath:
     """The equilibrium path of ``mechanism``'s loads, prescribed motions and hinge motors scaled by
     a load factor ``lam`` (``lam = 1``: the mechanism as given; the path starts undeformed at 0,
     or at ``start``).
@@ -173,8 +174,8 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
     the free tangent (the negative eigenvalues are counted; with hinges, of the tangent on the
     motions they allow). Limit points (extrema of ``lam``) and bifurcation points (a change of
     stability without one) between two points are located on the path (regula falsi on the arc
-    length, to ``locate_tol``) and reported once each in `Path.critical`, with their multiplicity
-    and critical modes; `Path.snap` is the first instability.
+    length, to ``locate_tol``) and reported once each in `EquilibriumPath.critical`, with their multiplicity
+    and critical modes; `EquilibriumPath.snap` is the first instability.
 
     Parameters
     ----------
@@ -192,7 +193,7 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         A predicate ``stop(solution) -> bool`` called with every new point; True ends the path
         (that point included). It is tried on the start first, whose answer does not count:
         raising there or returning anything but a bool is refused (`ParameterError`); later, the
-        path ends there (``stopped_by="failure"``, the reason in `Path.message`, a UserWarning),
+        path ends there (``stopped_by="failure"``, the reason in `EquilibriumPath.message`, a UserWarning),
         its points kept.
     method
         ``"conventional"``: the full finite-element model (the only one with a tangent in every
@@ -214,8 +215,8 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         ``desired_iterations``, ``psi`` (0: cylindrical constraint), ``min_arc``, ``max_arc``,
         ``max_rotation``, ``locate_tol``, ``max_turn``.
 
-    Returns a `Path`. A path that cannot continue (no equilibrium within the smallest arc length)
-    ends there: the points reached are kept and `Path.message` says why (``stopped_by="failure"``);
+    Returns an `EquilibriumPath`. A path that cannot continue (no equilibrium within the smallest arc length)
+    ends there: the points reached are kept and `EquilibriumPath.message` says why (``stopped_by="failure"``);
     so does Ctrl-C (``stopped_by="interrupted"``, with a UserWarning).
     """
     owner = "trace"
@@ -229,7 +230,7 @@ def trace(mechanism, *, steps: int = 100, arc_length: float | None = None, max_l
         tracer = _follow(strategy, compiled, state, stop, max_load_factor, arc_length, steps, branch, progress,
                          start is None)
     _warn_implausible(tracer.sols)
-    path = Path(tracer.sols, tracer.points, tracer.critical, tracer.message, tracer.stopped_by, tracer)
+    path = EquilibriumPath(tracer.sols, tracer.points, tracer.critical, tracer.message, tracer.stopped_by, tracer)
     path.interrupted = tracer.stopped_by == "interrupted"
     path.wall_time = time.perf_counter() - t0
     return path
@@ -472,7 +473,7 @@ class _Tracer:
 
     def crossing(self, k: int, response, value: float, g_a: float, g_b: float) -> Solution:
         """The point between points ``k - 1`` and ``k`` where ``response`` equals ``value``
-        (`Path.crossings`; ``g_a``, ``g_b`` its excess at the ends of the step)."""
+        (`EquilibriumPath.crossings`; ``g_a``, ``g_b`` its excess at the ends of the step)."""
         a, b = self.starts[k], self.points[k]
         ds = self.metric.length(self.metric.difference(b.state, a.state), b.lam - a.lam)
 
@@ -521,7 +522,7 @@ class _Tracer:
 
 def _warn_implausible(sols) -> None:
     """The first implausible point warns (strain, yield), as a sweep's solutions do; not its
-    stability: a path reports that point by point (`Path.stable`), unstable points are what arc
+    stability: a path reports that point by point (`EquilibriumPath.stable`), unstable points are what arc
     length is for."""
     for sol in sols:
         with warnings.catch_warnings(record=True) as caught:
@@ -531,3 +532,7 @@ def _warn_implausible(sols) -> None:
             warnings.warn(f"trace, at load factor {sol.load_factor:.6g}: {caught[0].message}", caught[0].category,
                           stacklevel=3)
             break
+
+
+#: ``Path``, `EquilibriumPath`'s name until flexmb 0.2 (it shadowed ``pathlib.Path``): warns, kept one release
+__getattr__ = renamed("flexmb.path", {"Path": "flexmb.path.EquilibriumPath"})

@@ -38,7 +38,7 @@ import numpy as np
 from .errors import ModelError, UnsupportedStrategyError, require
 from .fe.model import State
 from .rotations import chain_rotation
-from .sections import properties
+from .sections import section_values
 
 __all__ = ["ExudynModel", "ExudynSolution", "NODE_TYPES", "LINEAR_SOLVERS"]
 
@@ -186,7 +186,7 @@ class ExudynModel:
             mbs.AddObject(ii.ObjectJointGeneric(markerNumbers=[marker0, marker1], constrainedAxes=[1] * 6))
             self.n_ties += 1
         # beams
-        E, G, A, Iy, Iz, It, ky, kz = properties(el.sections, ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
+        E, G, A, Iy, Iz, It, ky, kz = section_values(el.sections, ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
         shear = lambda k: np.where(np.isinf(k), _NO_SHEAR, k) * G * A  # noqa: E731
         C = np.zeros((len(ends), 6, 6))
         for i, v in enumerate((E * A, shear(ky), shear(kz), G * It, E * Iy, E * Iz)):
@@ -342,8 +342,7 @@ class ExudynModel:
 class _RotationOffset:
     """Exudyn's offset user function of a prescribed orientation: the Tait-Bryan xyz angles of the
     rotation chain ``w`` at load factor ``t``, cached per ``t`` (Exudyn asks again at every
-    residual and tangent of a step: 1047 calls on the manipulator at 45 deg, which uncached cost
-    47 ms of Exudyn's 385 ms CPU; cached, its solve takes 331 ms)."""
+    residual and tangent of a step: 1047 calls on the manipulator at 45 deg)."""
 
     def __init__(self, w, xyz):
         self.w, self.xyz, self.t, self.value = np.asarray(w, dtype=float), xyz, None, None

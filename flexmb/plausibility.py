@@ -1,4 +1,4 @@
-"""Warnings where a returned `Solution` is not what it looks like (issue 20, class 7): a solve
+"""Warnings where a returned `Solution` is not what it looks like: a solve
 that did not converge, strains a linear-elastic beam model cannot represent, a stress above the
 material's given yield stress, and the parasitic shortening the closed-form model leaves out.
 """
@@ -111,9 +111,8 @@ def check_mass_units(solution, model, stacklevel: int = 3) -> None:
 
 
 def peak_stress(model, state) -> np.ndarray:
-    """`flexmb.fe.stress.peak_normal_stress` of ``state``; with the compiled kernels one pass of
-    `flexmb.fe.stress_jit.peak_normal_stress` over `flexmb.fe.model.FEModel.stresses` (the
-    manipulator's 81 elements: ~17 -> ~1 us beyond the stresses, issue 21). `ModelError` for
+    """`flexmb.fe.stress.peak_normal_stress` of ``state``; with the numba kernels one pass of
+    `flexmb.fe.stress_jit.peak_normal_stress` over `flexmb.fe.model.FEModel.stresses`. `ModelError` for
     sections without extreme-fibre distances, as the numpy function."""
     tab = section_table(model.elements)  # built once per compiled model
     if not jit.enabled() or not tab.has_y or (model.dim == 3 and not tab.has_z):
@@ -142,7 +141,7 @@ _FACTORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _strains(solution, model, stacklevel: int) -> None:
-    try:  # the compiled path's plan, kept per model: one lookup
+    try:  # the numba path's plan, kept per model: one lookup
         plan = _PLANS[model] if jit.enabled() else None
     except (KeyError, TypeError):
         plan = None
@@ -160,7 +159,7 @@ def _strains(solution, model, stacklevel: int) -> None:
             return
         strain, over = sigma / tab.E, sigma / tab.yield_stress
         ks, ky = int(np.argmax(strain)), int(np.argmax(over))
-    else:  # one compiled call: stresses, peak stress and both argmaxes (`flexmb.plausibility_jit`)
+    else:  # one numba call: stresses, peak stress and both argmaxes (`flexmb.plausibility_jit`)
         kernel, args = plan[:2]
         state = solution.state
         sigma = np.empty(len(tab.E))
@@ -179,7 +178,7 @@ def _strains(solution, model, stacklevel: int) -> None:
 
 
 def _plan(model, tab):
-    """With the compiled kernels and sections with extreme-fibre distances, the kernel of
+    """With the numba kernels and sections with extreme-fibre distances, the kernel of
     `flexmb.plausibility_jit` for ``model``, its model arguments, the section table and its
     `_suspect` modulus, built once per model (kept weakly); None otherwise (the numpy path:
     `peak_stress`)."""

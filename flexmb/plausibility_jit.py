@@ -1,12 +1,10 @@
-"""The plausibility check's strains by compiled kernels (`flexmb.plausibility`): the elements'
+"""The plausibility check's strains by numba kernels (`flexmb.plausibility`): the elements'
 generalised stresses (`flexmb.fe.model_jit.assemble3d` / ``assemble2d`` without a tangent, the
 kernels `flexmb.fe.model.FEModel.stresses` runs), their peak normal stress
 (`flexmb.fe.stress_jit.peak_normal_stress`) and the elements of the largest strain and of the
 largest stress over the yield stress (numpy's argmax: the first NaN, else the first largest).
 The same kernels in the same order as the numpy-level calls, so the same floating-point results
-(tests/test_solve_fused.py holds them equal). The manipulator's 81 elements: the check
-~41 -> ~20 us of a KSD-reduced solve (16 us of it the element kernel), ~68 -> ~56 us after
-gc.collect.
+(tests/test_solve_fused.py holds them equal).
 """
 
 from __future__ import annotations
@@ -46,8 +44,8 @@ def strains(model, state, L0, A, ymax, Iz, zmax_Iy, ymax_Iz, circle, E, ys, sigm
     the generalised stresses by ``model.stresses`` (`flexmb.fe.model_jit.assemble3d` /
     ``assemble2d`` without a tangent: the specialisation every solve compiles anyway), then
     `flexmb.fe.stress_jit.peak_normal_stress` with the section factors. Three calls instead of one
-    fused kernel: a fused one compiled its own copy of the element kernel (issue 31: ~1/3 of the
-    first solve's compilation) to save ~5 us per check."""
+    fused kernel: a fused one compiled its own copy of the element kernel (a third of the
+    first solve's compilation) to save microseconds per check."""
     sig = np.ascontiguousarray(model.stresses(state)[1], dtype=float)
     peak_normal_stress(sig, L0, A, ymax, Iz, zmax_Iy, ymax_Iz, circle, model.dim, sigma)
     return _largest(sigma, E, ys)

@@ -326,7 +326,7 @@ class StaticProblem(BoundaryConditions):
     def roundoff_hint(self) -> str:
         """Why Newton may stop short here, or "": the model lies more than `FAR_FROM_ORIGIN` times
         its own size (`model_length`) from the origin, so the round-off of its absolute coordinates
-        (eps |x|) is a sizeable part of its elements' deformations (issue 32: a 0.1 m leaf 300 m
+        (eps |x|) is a sizeable part of its elements' deformations (measured: a 0.1 m leaf 300 m
         away stopped with "step halved below min_step"; at 100 m it converged to 2.4e-5 of the
         force scale, at the origin to 1.8e-8)."""
         x0 = self.model.x0
@@ -355,7 +355,7 @@ class StaticProblem(BoundaryConditions):
     def positive_definite(self, K_ff: sp.csr_array) -> bool | None:
         """Whether the tangent ``K_ff`` (this problem's pattern) is positive definite, from the
         pivots of the linear solver's factorisation (`flexmb.linear.TangentSolver.positive_definite`,
-        ~10x faster than a separate SuperLU); None where it cannot tell (hinges: their
+        not a separate SuperLU); None where it cannot tell (hinges: their
         multipliers make a saddle point, judged on `reduced_tangent`; small dense systems)."""
         if self.model.hinges is not None:
             return None

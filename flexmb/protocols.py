@@ -11,7 +11,7 @@ that an object has the attributes, not their types or meaning.
   (`flexmb.problem.StaticProblem`, `flexmb.closed_form.problem.LinkageProblem`).
 - `Strategy`: a solver configuration with one ``solve`` (`flexmb.solvers.Conventional`, ...).
 - `Linearisation`: a converged equilibrium linearised on its free coordinates
-  (`flexmb.linearisation.FELinearisation`, `flexmb.ksd.properties.ReducedLinearisation`), the one
+  (`flexmb.linearisation.FELinearisation`, `flexmb.ksd.reduced_model.ReducedLinearisation`), the one
   thing `flexmb.modes`, `flexmb.buckling`, `flexmb.compliance` and the design gradients read.
 - `Response`: a scalar of a solution with its derivative (the design layer, `flexmb.design`).
 """

@@ -74,7 +74,7 @@ class Solution:
         its joints' interior modes; the full model's are the same either way); ``owner``: the
         property named in error messages. This is the full finite-element model's
         (`flexmb.linearisation.FELinearisation`); a solution kind with another model overrides
-        it (KSD-reduced: `flexmb.ksd.properties.ReducedSolution`). Raises `ConvergenceError` for
+        it (KSD-reduced: `flexmb.ksd.reduced_model.ReducedSolution`). Raises `ConvergenceError` for
         an unconverged solution, `UnsupportedStrategyError` where the model has no beam elements."""
         from .linearisation import FELinearisation
 
@@ -211,7 +211,7 @@ class Solution:
         `flexmb.fe.stress.Stresses`: per element arrays, ``.joint(name)`` and ``.summary()``.
         A solution kind may give its joint elements' axial forces from its own model
         (`_element_axial_forces`: a converged KSD-reduced solution's from the EOBs,
-        `flexmb.ksd.properties.eob_axial_forces`), the moments from the state's positions."""
+        `flexmb.ksd.reduced_model.eob_axial_forces`), the moments from the state's positions."""
         from .fe.stress import element_stresses
 
         model = self.compiled.problem.model

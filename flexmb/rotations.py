@@ -33,7 +33,7 @@ def skew(w: np.ndarray) -> np.ndarray:
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a x b`` for arrays of 3-vectors (...,3), broadcast; np.cross's generic path is ~10x slower
+    """``a x b`` for arrays of 3-vectors (...,3), broadcast; np.cross's generic path is slower
     on the small batches of the Newton loop."""
     return (skew(a) @ np.asarray(b, dtype=_real_or_complex(b))[..., None])[..., 0]
 

@@ -10,9 +10,10 @@ import attrs
 import numpy as np
 
 from . import _validate as v
+from ._warnings import renamed
 from .errors import ParameterError
 
-__all__ = ["Section", "rectangle", "circle", "properties", "torsion_constant_rectangle", "shear_coefficient_rectangle",
+__all__ = ["Section", "rectangle", "circle", "section_values", "torsion_constant_rectangle", "shear_coefficient_rectangle",
            "shear_coefficient_circle", "SHAPES", "STEEL_DENSITY"]
 
 #: Cross-section shapes whose stresses `flexmb.fe.stress` can evaluate at the perimeter.
@@ -115,8 +116,8 @@ class Section:
                 raise ParameterError(f"Section: {name}={val!r} must be > 0 (valid range: (0, inf])")
 
 
-#: The section builders' default density [density]: steel, as the shipped joints' (issue 22: "a
-#: ``density`` parameter [density] on the shipped joints (steel default 7800)"), so a leaf given
+#: The section builders' default density [density]: steel, as the shipped joints' (their ``density``
+#: parameter [density], steel default 7800), so a leaf given
 #: ``section=rectangle(...)`` weighs what the same leaf without it does. In other units give
 #: ``density`` (mass per length cubed); 0 makes a massless section, which `flexmb.modes` refuses
 #: by name where it leaves a free direction without mass.
@@ -216,8 +217,8 @@ def _number(x):
     return complex(x) if v.is_complex(x) else float(x)
 
 
-def properties(sections, names) -> np.ndarray:
-    """The named properties (e.g. ``("E", "A")``) of a sequence of sections as a (len(names), n)
+def section_values(sections, names) -> np.ndarray:
+    """The named values (e.g. ``("E", "A")``) of a sequence of sections as a (len(names), n)
     float array (complex where a section's are: the complex step); each distinct section object is
     read once (a mesh repeats a few sections)."""
     distinct = {}
@@ -225,3 +226,7 @@ def properties(sections, names) -> np.ndarray:
     rows = [[getattr(s, n) for n in names] for _, s in distinct.values()]
     table = np.array(rows, dtype=v.real_or_complex(rows))
     return table.reshape(-1, len(names))[code].T
+
+
+#: ``properties``, `section_values`' name until flexmb 0.2: warns, kept one release
+__getattr__ = renamed("flexmb.sections", {"properties": "flexmb.sections.section_values"})

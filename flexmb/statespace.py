@@ -34,6 +34,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from . import _validate as v
+from ._warnings import renamed_keyword
 from .errors import MissingExtraError, ModelError, ParameterError, UnsupportedStrategyError, require
 from .modal import constrained, held_dofs, modes, solvable_problem, stiffness_and_mass
 from .units import label
@@ -128,10 +129,10 @@ def _name(spec) -> str:
     return f"{kind} {link}{'@' + str(point[0]) if point and isinstance(point[0], str) else ''}.{comp}"
 
 
-def state_space(solution, inputs, outputs, *, n: int = 6, damping=0.0, held="prescribed",
-                static_correction: bool = True) -> StateSpace:
-    """The state-space model of ``solution`` (a converged FE equilibrium) with ``n`` modes (see the
-    module notes). ``inputs``: ``("force", link, component[, point])`` (its share on held DOFs
+def state_space(solution, inputs, outputs, *, n_modes: int = 6, damping=0.0, held="prescribed",
+                static_correction: bool = True, n: int | None = None) -> StateSpace:
+    """The state-space model of ``solution`` (a converged FE equilibrium) with ``n_modes`` modes (see
+    the module notes; ``n``: its deprecated name, a FutureWarning). ``inputs``: ``("force", link, component[, point])`` (its share on held DOFs
     goes straight to their reactions) or ``("motion", link, component)`` of held DOFs; ``outputs``: ``("displacement", link, component[, point])`` or
     ``("reaction", link, component)`` of held DOFs; components of `COMPONENTS`; ``point`` a named
     point of the link or its undeformed global position. ``damping``: the modal damping ratio, a
@@ -140,15 +141,16 @@ def state_space(solution, inputs, outputs, *, n: int = 6, damping=0.0, held="pre
     """
     problem = solvable_problem(solution, "state_space")
     model = problem.model
+    n = renamed_keyword("state_space", "n", n, "n_modes", n_modes, 6)
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ParameterError(f"state_space: n={n!r} must be a whole number >= 1 (modes kept)")
+        raise ParameterError(f"state_space: n_modes={n!r} must be a whole number >= 1 (modes kept)")
     zeta = np.broadcast_to(np.asarray(damping, dtype=float), (n,)).copy() if np.ndim(damping) == 0 else \
         np.asarray(damping, dtype=float)
     if zeta.shape != (n,) or not np.all((zeta >= 0) & (zeta < 1)):
         raise ParameterError(f"state_space: damping={damping!r} must be a ratio in [0, 1), or {n} of them")
     ins = [_spec(solution, s, ("force", "motion"), "input") for s in _listed(inputs, "inputs")]
     outs = [_spec(solution, s, ("displacement", "reaction"), "output") for s in _listed(outputs, "outputs")]
-    md = modes(solution, n=n, held=held)
+    md = modes(solution, n_modes=n, held=held)
     nnd = model.n_node_dofs
     Phi = md.shapes.reshape(n, nnd)  # mass-normalised, zero on held DOFs
     lam = md.eigenvalues

@@ -83,7 +83,7 @@ def parameter_study(function, designs, *, executor: Executor | str | None = None
     ``"<exception type>: <message>"`` (its outputs are then NaN; its inputs are in its row).
 
     ``function`` returns a mapping of scalars (its keys become columns; e.g.
-    `flexmb.analysis.joint_properties`) or one scalar (column ``"value"``). Outputs named like
+    `flexmb.joint_characteristics.joint_characteristics`) or one scalar (column ``"value"``). Outputs named like
     an input or ``"error"`` are refused (`ParameterError`, carrying the whole table as
     ``exc.table`` with those outputs as ``"output.<name>"``).
 

@@ -68,7 +68,7 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
     caught = []  # each value's warnings (`_checked`), for the table's "warnings" column
     values, solutions = _plan(mechanism, values, motion, method, start, options, compiled_loop=not progress,
                               record=caught)
-    if isinstance(solutions, Sequence):  # run already, as compiled loops
+    if isinstance(solutions, Sequence):  # run already, as numba loops
         result = SweepResult(solutions, values, "force")
     else:
         bar = tqdm(solutions, total=len(values), desc="sweep", unit="solve", leave=False,
@@ -87,7 +87,7 @@ def sweep(mechanism, values, *, motion: tuple[str, str] | None = None, method: s
 
 def _until_interrupted(bar, total: int) -> list:
     """The solutions of ``bar`` (a tqdm over the sweep's generator) up to Ctrl-C: an interrupted
-    sweep returns those computed, with a UserWarning (a compiled loop runs at once: not these)."""
+    sweep returns those computed, with a UserWarning (a numba loop runs at once: not these)."""
     import warnings
 
     done = []
@@ -258,7 +258,7 @@ def _failed(strategy, compiled, value, exc: Exception, seconds: float) -> Soluti
 
 def _warm_starts(strategy) -> bool:
     """Whether the strategy's ``solve`` takes a starting ``state`` (Newton-type strategies);
-    known per solve function after the first look (inspect.signature costs ~40 us, once per solve before)."""
+    known per solve function after the first look (inspect.signature once, not per solve)."""
     import inspect
 
     solve = getattr(strategy, "solve", None)
@@ -276,7 +276,7 @@ _WARM: dict = {}
 
 def _compiled_force_sweep(strategy, compiled, values, warm):
     """A force sweep as compiled Newton loops (`flexmb.solvers.newton.Newton.sweep_forces`): the
-    gripper's 138-force opening-closing sweep in about 5 ms instead of 60 (BENCHMARKS.md); the
+    gripper's opening-closing sweep an order of magnitude faster (BENCHMARKS.md, Gripper); the
     same iterations and equilibria as the per-solve path (tests/test_closed_form_jit.py)."""
     return strategy.sweep_forces(compiled, values, warm, lambda value: _with_actuation(compiled, value))
 

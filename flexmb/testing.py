@@ -125,7 +125,7 @@ def perturbed_state(problem: StaticProblem, state: State, rng: np.random.Generat
     return model.apply_increment(state, du)
 
 
-# -- joint conformance suite (issue 6) -------------------------------------------------------
+# -- joint conformance suite -------------------------------------------------------
 #
 # Every check builds the smallest mechanism around one joint: link "A" fixed, link "B" free at the
 # joint's interface node B, the joint frame placed at ``origin`` with ``rotation``. The checks are
@@ -681,7 +681,7 @@ def check_strategies(joint, dim: int, motion: float = 0.2, **options) -> dict:
     return out
 
 
-# -- vibration invariants (issue 22): the joint's own mass, B free ------------------------------
+# -- vibration invariants: the joint's own mass, B free ------------------------------
 #
 # These checks linearise the joint mechanism with its leaves' own mass (the sections' density);
 # a joint without mass has nothing to check and returns None.
@@ -744,7 +744,7 @@ def check_modes_rigid_move(joint, dim: int, origin, rotation, *, motion: float =
     a = _massive_solution(joint, dim, motion=motion)
     b = _massive_solution(joint, dim, origin, rotation, motion=motion)
     n = min(n, len(a.compiled.problem.free) - 1)
-    fa, fb = modes(a, n=n).frequencies, modes(b, n=n).frequencies
+    fa, fb = modes(a, n_modes=n).frequencies, modes(b, n_modes=n).frequencies
     assert np.allclose(fb, fa, rtol=MODES_TOLERANCE, atol=MODES_TOLERANCE * np.abs(fa).max()), \
         f"{joint.kind} {dim}D: a rigid move changed the frequencies: {fa} -> {fb}"
     return fa
@@ -758,7 +758,7 @@ def check_floating_modes(joint, dim: int, rotation=None):
 
     sol = _massive_solution(joint, dim, rotation=rotation)
     k = 3 if dim == 2 else 6
-    md = modes(sol, n=k + 1, held="floating")
+    md = modes(sol, n_modes=k + 1, held="floating")
     lam = md.eigenvalues
     assert lam[k] > 0 and np.all(np.abs(lam[:k]) <= 1e-8 * lam[k]), \
         f"{joint.kind} {dim}D: floating eigenvalues {lam} are not {k} zeros and an elastic one"
@@ -780,7 +780,7 @@ def check_rayleigh(joint, dim: int, rotation=None, *, motion: float = 0.2, n: in
 
     sol = _massive_solution(joint, dim, rotation=rotation, motion=motion)
     n = min(n, len(sol.compiled.problem.free) - 1)
-    md = modes(sol, n=n)
+    md = modes(sol, n_modes=n)
     K, M = stiffness_and_mass(sol)
     phi = md.shapes.reshape(n, -1).T
     mass = np.einsum("ik,ik->k", phi, M @ phi)
@@ -811,10 +811,10 @@ def _real_parameters(joint) -> dict:
 
 def _mesh_numbers(joint, dim: int) -> dict:
     from .fe.build import _checked_mesh
-    from .sections import properties
+    from .sections import section_values
 
     mesh = _checked_mesh("under test", joint, dim)
-    rho, A = properties(mesh.sections, ("density", "A"))
+    rho, A = section_values(mesh.sections, ("density", "A"))
     out = {"points": mesh.points, "L0": mesh.L0, "S": mesh.S, "rho A": rho * A}
     if dim == 3:
         out.update(ny0=mesh.ny0, nz0=mesh.nz0)
@@ -1180,5 +1180,5 @@ def conformance_report(suite) -> ConformanceReport:
     return ConformanceReport(tuple(out))
 
 
-from .design.check import check_gradient, central_differences, taylor_test  # noqa: E402 (issue 28's checker)
+from .design.check import check_gradient, central_differences, taylor_test  # noqa: E402 (the design layer's checker)
 __all__ += ["check_gradient", "central_differences", "taylor_test"]

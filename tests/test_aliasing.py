@@ -103,7 +103,7 @@ def test_path_arrays_are_copies():
 
 def test_mode_arrays_are_read_only():
     sol = flexmb.solve(models.cross_flexure_pivot(elements_per_leaf=2, dim=2, rotation=0.1))
-    md = flexmb.modes(sol, n=2)
+    md = flexmb.modes(sol, n_modes=2)
     f = md.frequencies.copy()
     for name in ("frequencies", "eigenvalues", "shapes", "held"):
         with pytest.raises(ValueError, match="read-only"):
@@ -111,4 +111,4 @@ def test_mode_arrays_are_read_only():
     with pytest.raises(ValueError, match="read-only"):
         md.link_shapes["B"][0, 0] = 0.0
     assert md.held.dtype.kind == "i"  # DOF indices stay integers
-    np.testing.assert_array_equal(flexmb.modes(sol, n=2).frequencies, f)
+    np.testing.assert_array_equal(flexmb.modes(sol, n_modes=2).frequencies, f)

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from flexmb.fe import beam2d, beam3d
 from flexmb.rotations import expm_so3
-from flexmb.sections import properties, rectangle
+from flexmb.sections import section_values, rectangle
 from tolerances import FD_TANGENT
 
 SECTION = rectangle(0.02, 1e-3, 200e9, 76.9e9)  # a Table 1 outer leaf
@@ -205,8 +205,8 @@ def test_2d_element_is_the_planar_restriction_of_the_3d_element(seed):
 def test_section_properties_follow_the_element_order():
     """Each distinct section is read once; the table has one column per element, in order."""
     other = rectangle(0.01, 2e-3, 70e9, 26e9)
-    E, A, Iz = properties([SECTION, other, SECTION, other, other], ("E", "A", "Iz"))
+    E, A, Iz = section_values([SECTION, other, SECTION, other, other], ("E", "A", "Iz"))
     np.testing.assert_array_equal(E, [200e9, 70e9, 200e9, 70e9, 70e9])
     np.testing.assert_array_equal(A, [SECTION.A, other.A, SECTION.A, other.A, other.A])
     np.testing.assert_array_equal(Iz, [SECTION.Iz, other.Iz, SECTION.Iz, other.Iz, other.Iz])
-    assert properties([], ("E",)).shape == (1, 0)
+    assert section_values([], ("E",)).shape == (1, 0)

@@ -22,7 +22,7 @@ def test_compliance_at_a_point_in_link_axes():
 
 
 @pytest.mark.parametrize("response", [R.frequency(2), R.buckling(1), R.compliance("B", "z", "rx", point="tip"),
-                                      R.compliance("B", "y", "y", axes="link"), R.compliance("C", "x", "z", held="none")])
+                                      R.compliance("B", "y", "y", axes="link"), R.compliance("C", "x", "z", held="fixed")])
 def test_spatial_linearisation_gradients(response):
     # non-symmetric tangent (dead moment, loads at offsets): left vectors / K^-T in the derivatives
     c = check_gradient(spatial, SPATIAL, response, **TIGHT)
@@ -91,12 +91,12 @@ def test_repeated_eigenvalue_gives_the_one_sided_derivatives():
     # other: f_1's right derivative is the smaller, f_2's the larger; one-sided differences agree.
     p = {"t": 2e-3, "w": 2e-3}
     sol = flexmb.solve(_square_wire(p))
-    f = flexmb.modes(sol, n=2).frequencies
+    f = flexmb.modes(sol, n_modes=2).frequencies
     assert abs(f[1] - f[0]) <= 1e-9 * f[0]  # repeated
     ev = evaluate(_square_wire, p, [R.frequency(1), R.frequency(2)], **TIGHT)
     assert np.all(np.isfinite(ev.jacobian))
     h = 1e-9
-    fwd = {k: (flexmb.modes(flexmb.solve(_square_wire({**p, k: p[k] + h})), n=2).frequencies - f) / h for k in p}
+    fwd = {k: (flexmb.modes(flexmb.solve(_square_wire({**p, k: p[k] + h})), n_modes=2).frequencies - f) / h for k in p}
     for i in range(2):
         for k in p:
             assert ev.gradient(i)[k] == pytest.approx(fwd[k][i], rel=1e-4), (i, k)

@@ -45,7 +45,7 @@ def test_columns_are_the_per_configuration_properties(swept):
     held = kw["held"]
     for k, sol in enumerate(res):
         np.testing.assert_array_equal([t["f1"][k], t["f2"][k], t["f3"][k]],
-                                      flexmb.modes(sol, n=3, held=held).frequencies)
+                                      flexmb.modes(sol, n_modes=3, held=held).frequencies)
         assert t["buckling"][k] == flexmb.buckling(sol, held=held)[0]
         C = flexmb.compliance(sol, "B", held=held)
         assert (t["C.B.x.x"][k], t["C.B.z.z"][k], t["C.B.rx.ry"][k]) == (C[0, 0], C[2, 2], C[3, 4])
@@ -85,10 +85,10 @@ def test_any_sequence_of_solutions_and_failures_keep_the_other_rows(swept, monke
     sols = [res[0], bad, res[1], res[2]]
     real = dp.modes
 
-    def flaky(sol, n, held):
+    def flaky(sol, n_modes, held):
         if sol is res[2]:
             raise flexmb.ModelError("modes: the tangent is singular here")
-        return real(sol, n=n, held=held)
+        return real(sol, n_modes=n_modes, held=held)
 
     monkeypatch.setattr(dp, "modes", flaky)
     t = flexmb.properties(sols, ("modes", "stress"), n_modes=2, held=[("B", "rz")])
@@ -97,7 +97,7 @@ def test_any_sequence_of_solutions_and_failures_keep_the_other_rows(swept, monke
     assert np.isnan(t["f1"][3]) and np.isfinite(t["von_mises"][3])
     assert t["property_errors"][3] == "modes: modes: the tangent is singular here"
     assert t["property_errors"][0] == t["property_errors"][2] == ""
-    assert t["f1"][2] == real(res[1], n=2, held=[("B", "rz")]).frequencies[0]
+    assert t["f1"][2] == real(res[1], n_modes=2, held=[("B", "rz")]).frequencies[0]
 
 
 def test_bad_requests_name_what_is_wrong(swept):
@@ -110,7 +110,7 @@ def test_bad_requests_name_what_is_wrong(swept):
         flexmb.properties(res, ("compliance",), compliance_entries=[("B", "w", "x")])
     with pytest.raises(flexmb.ParameterError, match="must be a flexmb.Solution"):
         flexmb.properties([1, 2], ("modes",))
-    with pytest.raises(flexmb.ParameterError, match="n=99"):  # strict on the first converged row
+    with pytest.raises(flexmb.ParameterError, match="n_modes=99"):  # strict on the first converged row
         flexmb.properties(res, ("modes",), n_modes=99)
 
 
@@ -165,7 +165,7 @@ def test_properties_of_a_traced_path():
     m.add_joint("A", "B", J, name="pivot")
     m.apply_force("B", -1200.0 * J.interface_b(3) / np.linalg.norm(J.interface_b(3)))
     path = flexmb.trace(m, max_load_factor=1.0, steps=60, progress=False)
-    t = flexmb.properties(path, ("buckling", "stress"), held="none")
+    t = flexmb.properties(path, ("buckling", "stress"), held="fixed")
     assert {"load_factor", "stable", "buckling", "von_mises"} <= set(t)
     first = [c for c in path.critical if c.kind == "bifurcation"][0]
     critical = first.load_factor
@@ -183,7 +183,7 @@ def test_default_properties_of_a_ksd_reduced_solution_keep_all_it_has():
     assert sol.converged
     with pytest.warns(UserWarning, match="NaN for buckling of ksd-reduced"):
         t = flexmb.properties([sol], n_modes=2)
-    np.testing.assert_array_equal([t["f1"][0], t["f2"][0]], flexmb.modes(sol, n=2).frequencies)
+    np.testing.assert_array_equal([t["f1"][0], t["f2"][0]], flexmb.modes(sol, n_modes=2).frequencies)
     assert t["von_mises"][0] == sol.stresses().von_mises.max() > 0.0
     assert np.isnan(t["buckling"][0])
     assert t["property_errors"][0].startswith("buckling: ") and "method='ksd-full'" in t["property_errors"][0]
@@ -203,6 +203,6 @@ def test_a_ksd_reduced_sweep_with_properties_keeps_its_rows():
     t = res.table()
     assert all(res.table()["converged"])
     for k, sol in enumerate(res):
-        assert t["f1"][k] == flexmb.modes(sol, n=2, held=[("B", "rz")]).frequencies[0]
+        assert t["f1"][k] == flexmb.modes(sol, n_modes=2, held=[("B", "rz")]).frequencies[0]
     assert np.isnan(t["buckling1"]).all() and np.isnan(t["buckling2"]).all()
     assert all(e.startswith("buckling: buckling need the full FE equilibrium") for e in t["property_errors"])

@@ -121,7 +121,7 @@ def test_estimate_of_flexmb_properties_by_name():
     est = flexmb.discretisation_error(m2, ("modes", "stress"), property_options={"n_modes": 1}, levels=2)
     assert est.names[0] == "f1" and "von_mises" in est.names
     assert est["f1"]["values"][0] > est["f1"]["values"][-1] > 0  # a coarse mesh is too stiff
-    direct = flexmb.discretisation_error(m2, lambda s: {"f1": flexmb.modes(s, n=1).frequencies[0],
+    direct = flexmb.discretisation_error(m2, lambda s: {"f1": flexmb.modes(s, n_modes=1).frequencies[0],
                                                         "von_mises": s.stresses().summary()["von_mises"]}, levels=2)
     for name in ("f1", "von_mises"):  # the same numbers as the functions the columns come from
         np.testing.assert_allclose(est[name]["values"], direct[name]["values"], rtol=1e-12)

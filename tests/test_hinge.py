@@ -370,7 +370,7 @@ def test_hinged_euler_columns_buckle_at_their_closed_form_loads(dim, top, c, sec
     for n_el in (16, 32):
         sol = flexmb.solve(_column(dim, top, n_el))
         assert sol.converged and sol.stable, sol.message
-        lam = flexmb.buckling(sol, n=2)  # multipliers of the 1 N load
+        lam = flexmb.buckling(sol, n_buckling=2)  # multipliers of the 1 N load
         err.append(lam[0] / P - 1.0)
         assert lam[1] / lam[0] == pytest.approx(second, rel=2e-2)
     assert 0 < err[1] < 2e-3
@@ -392,7 +392,7 @@ def test_double_pendulum_on_sprung_hinges_vibrates_at_its_closed_form_frequencie
     m.add_joint("ground", "arm1", "hinge", k=k1, origin=[0.0, 0.0] + z)
     m.add_joint("arm1", "arm2", "hinge", k=k2, origin=list(p2) + z)
     sol = flexmb.solve(m)
-    modes = flexmb.modes(sol, n=1)
+    modes = flexmb.modes(sol, n_modes=1)
     perp = lambda r: np.array([-r[1], r[0]])  # noqa: E731 (velocity of r per unit spin)
     V1 = np.stack([perp(c1), np.zeros(2)], 1)  # arm1's centre velocity per (theta1', theta2')
     V2 = np.stack([perp(p2), perp(c2 - p2)], 1)

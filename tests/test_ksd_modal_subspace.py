@@ -10,7 +10,7 @@ import pytest
 
 import flexmb
 import flexmb.modal as modal
-from flexmb.ksd import properties
+from flexmb.ksd import reduced_model
 from flexmb.ksd import joint_mass as jm
 from flexmb.ksd.joint_mass import joint_mass
 from flexmb.models import cross_flexure_pivot, fourbar, manipulator
@@ -19,13 +19,13 @@ from flexmb.models import cross_flexure_pivot, fourbar, manipulator
 def _frequencies(sol, n, table, **kw):
     """`flexmb.modes` of a KSD-reduced solution with the joints' span tabulated (``table``) or
     their Ritz eigenproblems solved at the configuration (the reference path)."""
-    original = properties.reduced_modal_model  # what the KSD-reduced linearisation calls
-    properties.reduced_modal_model = functools.partial(original, table=table)
+    original = reduced_model.reduced_modal_model  # what the KSD-reduced linearisation calls
+    reduced_model.reduced_modal_model = functools.partial(original, table=table)
     try:
-        properties._NEAR.pop(sol, None)
-        return flexmb.modes(sol, n=n, **kw).frequencies
+        reduced_model._NEAR.pop(sol, None)
+        return flexmb.modes(sol, n_modes=n, **kw).frequencies
     finally:
-        properties.reduced_modal_model = original
+        reduced_model.reduced_modal_model = original
 
 
 def _pivot_with_stage(deg, mass):
@@ -64,14 +64,14 @@ def test_the_kept_span_keeps_whole_ties_at_the_cut():
     the solution. Unturned against a stroke of 1e-10 m: measured 5e-10 relative; choosing 6 of
     the 7 per configuration (before) moved them 1.7e-5."""
     sol = flexmb.solve(fourbar(5), method="ksd-reduced", raise_on_failure=True)
-    red, _ = properties.near(sol)
+    red, _ = reduced_model.near(sol)
     tpl, _, idx = red.groups[0]
     joint = {k: j for k, j, *_ in sol.compiled.joints}[red.joint_names[idx[0]]]
     counts = joint_mass(tpl, joint).cut(6)
     assert [c.tolist() for c in counts] == [[3, 2, 2]]
-    f0 = flexmb.modes(sol, n=6).frequencies
+    f0 = flexmb.modes(sol, n_modes=6).frequencies
     for d in (1e-10, -1e-10):
-        f = flexmb.modes(flexmb.solve(fourbar(5, displacement=d), method="ksd-reduced"), n=6).frequencies
+        f = flexmb.modes(flexmb.solve(fourbar(5, displacement=d), method="ksd-reduced"), n_modes=6).frequencies
         np.testing.assert_allclose(f, f0, rtol=1e-8)
 
 
@@ -85,7 +85,7 @@ def test_modes_of_a_turned_pivot_with_a_massive_stage(deg):
     of their largest entry (measured 0.11-0.96 %)."""
     m = _pivot_with_stage(deg, 2.0)
     full, red = flexmb.solve(m), flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
-    a, b = flexmb.modes(full, n=3), flexmb.modes(red, n=3)
+    a, b = flexmb.modes(full, n_modes=3), flexmb.modes(red, n_modes=3)
     np.testing.assert_allclose(b.frequencies, a.frequencies, rtol=0.01)
     np.testing.assert_allclose(_frequencies(red, 3, True), _frequencies(red, 3, False), rtol=1e-7)
     for u, v in zip(a.shapes.reshape(3, -1), b.shapes.reshape(3, -1)):
@@ -119,7 +119,7 @@ def test_a_refused_table_falls_back_to_the_per_configuration_eigensolve(monkeypa
     its avoided crossing at 0 deg) its joint's table is refused, the reason recorded, and
     `condensed_subspace` gives exactly the Ritz eigenproblems solved per configuration."""
     sol = flexmb.solve(manipulator("joint", np.radians(10.0)), method="ksd-reduced", raise_on_failure=True)
-    red, _ = properties.near(sol)
+    red, _ = reduced_model.near(sol)
     tpl, _, idx = red.groups[0]
     joint = {k: j for k, j, *_ in sol.compiled.joints}[red.joint_names[idx[0]]]
     monkeypatch.setattr(jm, "_JOINT_MASS", weakref.WeakKeyDictionary())
@@ -145,10 +145,10 @@ def test_a_planar_cross_flexure_turned_where_the_alignment_degenerates():
     1.5 % of the conventional ones (measured +1.02, +1.26, +0.42 %)."""
     m = cross_flexure_pivot(5, dim=2, rotation=np.radians(62.6))
     red = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
-    f = flexmb.modes(red, n=6).frequencies
+    f = flexmb.modes(red, n_modes=6).frequencies
     np.testing.assert_allclose(f, _frequencies(red, 6, False), rtol=1e-12)
-    np.testing.assert_allclose(f[:3], flexmb.modes(flexmb.solve(m), n=3).frequencies, rtol=0.015)
-    r, _ = properties.near(red)
+    np.testing.assert_allclose(f[:3], flexmb.modes(flexmb.solve(m), n_modes=3).frequencies, rtol=0.015)
+    r, _ = reduced_model.near(red)
     tpl, _, idx = r.groups[0]
     data = joint_mass(tpl, {k: j for k, j, *_ in red.compiled.joints}[r.joint_names[idx[0]]])
     assert data.table(6) is None and "alignment's smallest singular value" in data.refused[6]
@@ -161,7 +161,7 @@ def test_the_interior_recovery_is_read_only_when_the_shapes_are():
     links' rows equal to ``link_shapes`` (and a pickled copy's), the joints' internal nodes moving (recovered; their
     agreement with the full model: `test_modes_of_a_turned_pivot_with_a_massive_stage`)."""
     sol = flexmb.solve(manipulator("joint", np.radians(-17.0)), method="ksd-reduced", raise_on_failure=True)
-    red, _ = properties.near(sol)
+    red, _ = reduced_model.near(sol)
     tpl, _, idx = red.groups[0]
     joint = {k: j for k, j, *_ in sol.compiled.joints}[red.joint_names[idx[0]]]
     theta = np.radians([-17.0, 3.3, 40.1])
@@ -169,7 +169,7 @@ def test_the_interior_recovery_is_read_only_when_the_shapes_are():
     lazy = jm.condensed_subspace(tpl, joint, theta, 6, recovery=False)
     for a, b in zip(eager[:3] + eager[3], lazy[:3] + lazy[3]()):
         np.testing.assert_array_equal(a, b)
-    result = flexmb.modes(sol, n=4)
+    result = flexmb.modes(sol, n_modes=4)
     assert callable(result._shapes)
     import pickle
 
@@ -205,9 +205,9 @@ def test_a_heavy_stage_pivot_through_the_fast_paths_equals_the_reference_paths(d
     lin = sol.linearisation(owner="compliance")
     rhs = np.eye(len(lin.free))[:, :3]
     np.testing.assert_array_equal(lin.solve(rhs), sla.solve(lin.K, rhs))  # the kept factorisation's first solve
-    at, N = properties.eob_axial_forces(sol)
+    at, N = reduced_model.eob_axial_forces(sol)
     kernels("numpy")
-    at0, N0 = properties.eob_axial_forces(sol)
+    at0, N0 = reduced_model.eob_axial_forces(sol)
     model, joints = sol.compiled.problem.model, sol.compiled.joint_elements
     vm, vm0 = (element_stresses(model, sol.state, joints, axial=(a, n)).von_mises for a, n in ((at, N), (at0, N0)))
     np.testing.assert_allclose(vm, vm0, rtol=1e-12)
@@ -219,10 +219,10 @@ def test_deferred_vectors_equal_the_eager_solve(monkeypatch):
     equal the eager solve's (vectors with the values) to 1e-12 relative, the shapes and link
     shapes bit for bit (the same call solves them)."""
     sol = flexmb.solve(manipulator("joint", np.radians(28.0)), method="ksd-reduced", raise_on_failure=True)
-    lazy = flexmb.modes(sol, n=6)
+    lazy = flexmb.modes(sol, n_modes=6)
     assert callable(lazy._link_shapes) and callable(lazy._shapes)
     monkeypatch.setattr(modal, "_dense_eigenvalues", lambda K, M, n: None)
-    eager = flexmb.modes(sol, n=6)
+    eager = flexmb.modes(sol, n_modes=6)
     assert not callable(eager._link_shapes)
     np.testing.assert_allclose(lazy.frequencies, eager.frequencies, rtol=1e-12)
     np.testing.assert_array_equal(lazy.shapes, eager.shapes)
@@ -236,6 +236,6 @@ def test_joints_whose_chains_keep_no_fixed_interface_mode_give_modes():
     zero-size maximum). Now its KSD-reduced modes come out and match the conventional model's
     first four to 0.1 % (measured 0.03 %: 221.48 / 221.42 Hz, 471.77 / 471.68 Hz)."""
     m = fourbar(1, displacement=0.3)
-    red = flexmb.modes(flexmb.solve(m, method="ksd-reduced", raise_on_failure=True), n=4).frequencies
-    full = flexmb.modes(flexmb.solve(m, raise_on_failure=True), n=4).frequencies
+    red = flexmb.modes(flexmb.solve(m, method="ksd-reduced", raise_on_failure=True), n_modes=4).frequencies
+    full = flexmb.modes(flexmb.solve(m, raise_on_failure=True), n_modes=4).frequencies
     np.testing.assert_allclose(red, full, rtol=1e-3)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import flexmb
-from flexmb.ksd.properties import link_poses, near, reduced_tangent
+from flexmb.ksd.reduced_model import link_poses, near, reduced_tangent
 from flexmb.models import cross_flexure_pivot, fourbar, manipulator
 from tolerances import FD_TANGENT
 
@@ -48,7 +48,7 @@ def test_at_rest_the_reduced_compliance_is_the_full_models(dim):
     material stiffness is exact statically, Craig & Bampton 1968): the reduced compliance equals
     the full model's to roundoff (measured 4e-12), with the intended rotation free (a planar
     and a spatial cross flexure, not in the paper)."""
-    red, full = _pair(cross_flexure_pivot(5, dim=dim), "B", held="none")
+    red, full = _pair(cross_flexure_pivot(5, dim=dim), "B", held="fixed")
     assert _relative(red, full) < 1e-9
 
 
@@ -78,11 +78,11 @@ def test_manipulator_compliance_over_the_range_of_motion():
 
 
 def test_intended_compliance_of_a_turned_pivot_with_its_rotation_released():
-    """A planar cross flexure (5 el./leaf) turned 0.3 rad, released (``held="none"``): KSD-reduced
+    """A planar cross flexure (5 el./leaf) turned 0.3 rad, released (``held="fixed"``): KSD-reduced
     gives the rotation compliance 1.46 % too large (measured; peer: the conventional solution) -
     the tangent of the reduced model is the EOB's material stiffness, without the leaves' stress
     stiffening. The documented size of the approximation, checked so a change shows."""
-    red, full = _pair(cross_flexure_pivot(5, dim=2, rotation=0.3), "B", held="none")
+    red, full = _pair(cross_flexure_pivot(5, dim=2, rotation=0.3), "B", held="fixed")
     assert 0.010 < red[2, 2] / full[2, 2] - 1.0 < 0.020
 
 
@@ -104,7 +104,7 @@ def test_reduced_mass_keeps_the_mechanisms_mass():
     translation of the whole KSD-reduced manipulator carries the full model's total mass
     (u^T M u, the full model's consistent mass `flexmb.fe.mass` as the peer) to roundoff."""
     from flexmb.fe.mass import mass_matrix
-    from flexmb.ksd.properties import reduced_mass
+    from flexmb.ksd.reduced_model import reduced_mass
 
     m = manipulator("joint", np.radians(30.0))
     red = flexmb.solve(m, method="ksd-reduced")
@@ -118,13 +118,13 @@ def test_reduced_mass_keeps_the_mechanisms_mass():
 
 
 def test_intended_modes_of_the_reduced_mechanism():
-    """With the inputs released (``held="none"``) the lowest modes are the intended motions, which
+    """With the inputs released (``held="fixed"``) the lowest modes are the intended motions, which
     the condensed joints carry: four-bar (5 el./leaf) at d = 0.1 m, measured -0.65 %, -0.17 %,
     -0.43 %; manipulator's joint case at 30 deg -0.27 %, -0.27 %, -0.06 % (the peer: the full
     model's modes at the conventional solution)."""
     for m, bound in ((fourbar(5, displacement=0.1), 0.01), (manipulator("joint", np.radians(30.0)), 0.005)):
-        a = flexmb.modes(flexmb.solve(m), n=3, held="none")
-        b = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n=3, held="none")
+        a = flexmb.modes(flexmb.solve(m), n_modes=3, held="fixed")
+        b = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n_modes=3, held="fixed")
         np.testing.assert_allclose(b.frequencies, a.frequencies, rtol=bound)
 
 
@@ -138,8 +138,8 @@ def test_parasitic_modes_over_the_manipulators_range_of_motion():
 
     for deg in (-45.0, 0.0, 30.0):
         m = manipulator("joint", np.radians(deg))
-        a = flexmb.modes(flexmb.solve(m), n=3)
-        b = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n=3)
+        a = flexmb.modes(flexmb.solve(m), n_modes=3)
+        b = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n_modes=3)
         np.testing.assert_allclose(b.frequencies, a.frequencies, rtol=0.01)
         # the shapes on every FE node (joint interiors from the Craig-Bampton transformation) are
         # the full model's: modal assurance criterion on the diagonal measured above 0.999
@@ -155,8 +155,8 @@ def test_four_bar_modes_over_its_stroke():
     (54 deg: the EOB's material stiffness lacks the leaves' stress stiffening, as the compliance)."""
     for d, bound in ((0.05, 0.003), (0.1, 0.006), (0.2, 0.025)):
         m = fourbar(5, displacement=d)
-        a = flexmb.modes(flexmb.solve(m), n=3)
-        b = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n=3)
+        a = flexmb.modes(flexmb.solve(m), n_modes=3)
+        b = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n_modes=3)
         np.testing.assert_allclose(b.frequencies, a.frequencies, rtol=bound)
 
 
@@ -172,7 +172,7 @@ def test_reduced_axial_forces_come_from_the_eobs():
     el./leaf) at d = 0.3 m, the largest 169 N at the conventional solution; the EOBs' within
     1.4 N of it (measured), step 4's positions 2620 N."""
     from flexmb.fe.stress import section_resultants
-    from flexmb.ksd.properties import eob_axial_forces
+    from flexmb.ksd.reduced_model import eob_axial_forces
 
     m = fourbar(5, displacement=0.3)
     red, full = flexmb.solve(m, method="ksd-reduced"), flexmb.solve(m)
@@ -234,7 +234,7 @@ def test_joint_mass_is_the_consistent_mass_at_the_near_configuration(dim):
     from flexmb.fe.mass import mass_matrix
     from flexmb.fe.model import State
     from flexmb.ksd.joint_mass import joint_mass
-    from flexmb.ksd.properties import full_eobs
+    from flexmb.ksd.reduced_model import full_eobs
 
     for rotation in (0.0, 0.6):
         sol = flexmb.solve(cross_flexure_pivot(5, dim=dim, rotation=rotation), method="ksd-reduced")
@@ -285,9 +285,9 @@ def test_buckling_of_a_reduced_solution_points_to_ksd_full():
     m.prescribe("B", rotation=(0.0, 0.0, 0.0))
     m.apply_force("B", -100.0 * axis)
     with pytest.raises(flexmb.UnsupportedStrategyError, match="method='ksd-full'"):
-        flexmb.buckling(flexmb.solve(m, method="ksd-reduced"), held="none")
-    full = flexmb.buckling(flexmb.solve(m, method="ksd-full"), held="none")[0]
-    assert full == pytest.approx(flexmb.buckling(flexmb.solve(m), held="none")[0], rel=1e-6)
+        flexmb.buckling(flexmb.solve(m, method="ksd-reduced"), held="fixed")
+    full = flexmb.buckling(flexmb.solve(m, method="ksd-full"), held="fixed")[0]
+    assert full == pytest.approx(flexmb.buckling(flexmb.solve(m), held="fixed")[0], rel=1e-6)
     assert 100.0 * full == pytest.approx(961.0, rel=0.002)
 
 
@@ -300,9 +300,9 @@ def test_manipulator_modes_at_the_19_positions(deg):
     +0.07 %) and KSD-full's equal to them (same
     equilibrium, measured 1e-11; BENCHMARKS.md's properties section)."""
     m = manipulator("joint", np.radians(float(deg)))
-    conventional = flexmb.modes(flexmb.solve(m), n=6).frequencies
-    full = flexmb.modes(flexmb.solve(m, method="ksd-full"), n=6).frequencies
-    reduced = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n=6).frequencies
+    conventional = flexmb.modes(flexmb.solve(m), n_modes=6).frequencies
+    full = flexmb.modes(flexmb.solve(m, method="ksd-full"), n_modes=6).frequencies
+    reduced = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n_modes=6).frequencies
     np.testing.assert_allclose(full, conventional, rtol=1e-8)
     np.testing.assert_allclose(reduced, conventional, rtol=0.01)
     assert np.all(reduced[:3] <= conventional[:3] * (1 + 2e-5))
@@ -331,9 +331,9 @@ def test_modes_of_a_turned_pivot_with_a_block(dim):
                                      (60.0, 0.015, (-0.055, -0.040))):
         m = _pivot_with_block(dim, deg)
         full, red = flexmb.solve(m), flexmb.solve(m, method="ksd-reduced")
-        a, b = flexmb.modes(full, n=2).frequencies, flexmb.modes(red, n=2).frequencies
+        a, b = flexmb.modes(full, n_modes=2).frequencies, flexmb.modes(red, n_modes=2).frequencies
         assert np.abs(b / a - 1).max() < parasitic, deg
-        a, b = flexmb.modes(full, n=1, held="none").frequencies[0], flexmb.modes(red, n=1, held="none").frequencies[0]
+        a, b = flexmb.modes(full, n_modes=1, held="fixed").frequencies[0], flexmb.modes(red, n_modes=1, held="fixed").frequencies[0]
         assert intended[0] < b / a - 1 < intended[1], deg
 
 
@@ -342,7 +342,7 @@ def test_tabulated_axial_forces_are_the_eobs():
     EOB assembled at the near configuration, within 1e-7 N (measured 9e-9 N at the four-bar's
     170 N, d = 0.3 m; 6e-11 N of 10 N on the manipulator's location case at 45 deg), though they
     are small differences of large element forces."""
-    from flexmb.ksd.properties import eob_axial_forces, full_eobs, node_displacements
+    from flexmb.ksd.reduced_model import eob_axial_forces, full_eobs, node_displacements
 
     for m in (fourbar(5, displacement=0.3), manipulator("location", np.radians(45.0))):
         sol = flexmb.solve(m, method="ksd-reduced")
@@ -359,7 +359,7 @@ def test_the_properties_of_a_solve_with_a_database_folder_use_that_folders_data(
     from flexmb import database
     import scipy.linalg
 
-    from flexmb.ksd.properties import eob_axial_forces, reduced_modal_model
+    from flexmb.ksd.reduced_model import eob_axial_forces, reduced_modal_model
     from flexmb.modal import KSD_FIXED_INTERFACE_MODES
 
     m = cross_flexure_pivot(3, dim=2, rotation=0.5)
@@ -375,8 +375,8 @@ def test_the_properties_of_a_solve_with_a_database_folder_use_that_folders_data(
     K, M, _ = reduced_modal_model(own, KSD_FIXED_INTERFACE_MODES, tmp_path)
     free = np.r_[3, 4, 6:len(K)]  # link A fixed (DOFs 0-2), B's rotation prescribed (DOF 5)
     frequencies = np.sqrt(scipy.linalg.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True)[:3]) / (2 * np.pi)
-    np.testing.assert_allclose(flexmb.modes(own, n=3).frequencies, frequencies, rtol=1e-9)
-    assert not np.allclose(flexmb.modes(own, n=3).frequencies, flexmb.modes(shipped, n=3).frequencies, rtol=1e-6)
+    np.testing.assert_allclose(flexmb.modes(own, n_modes=3).frequencies, frequencies, rtol=1e-9)
+    assert not np.allclose(flexmb.modes(own, n_modes=3).frequencies, flexmb.modes(shipped, n_modes=3).frequencies, rtol=1e-6)
     for got, expected in zip(own._element_axial_forces(), eob_axial_forces(own, tmp_path)):  # Solution.stresses' axial forces
         np.testing.assert_array_equal(got, expected)
     assert not np.allclose(flexmb.compliance(own, "B"), flexmb.compliance(shipped, "B"), rtol=1e-6, atol=0)
@@ -389,7 +389,7 @@ def test_properties_refuse_a_database_folder_that_vanished_after_the_solve(tmp_p
     import shutil
 
     from flexmb import database
-    from flexmb.ksd import properties
+    from flexmb.ksd import reduced_model
 
     m = cross_flexure_pivot(3, dim=2, rotation=0.3)
     joint = m.joints["cross_flexure"]
@@ -400,10 +400,10 @@ def test_properties_refuse_a_database_folder_that_vanished_after_the_solve(tmp_p
     sol = flexmb.solve(m, method="ksd-reduced", database=folder)
     assert sol.converged
     del sol.stages["eob"]["near"]  # the solve's step 2 not kept: near() reads the database again
-    properties._NEAR.pop(sol, None)
+    reduced_model._NEAR.pop(sol, None)
     shutil.rmtree(folder)
     with pytest.raises(flexmb.ParameterError, match="fits.*no longer exists"):
-        flexmb.modes(sol, n=3)
+        flexmb.modes(sol, n_modes=3)
 
 
 def _loaded_pivot_2d():
@@ -416,12 +416,12 @@ def _loaded_pivot_2d():
 @pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
 @pytest.mark.parametrize("case", ["manipulator", "four-bar", "planar pivot"])
 def test_compiled_modal_assembly_equals_the_numpy_one(case, kernels):
-    """`reduced_modal_model` assembled by `flexmb.ksd.properties_jit` (joint by joint) and by the
+    """`reduced_modal_model` assembled by `flexmb.ksd.reduced_model_jit` (joint by joint) and by the
     numpy path ((J, 2 nd, 6 n_links) arrays) on the same solution: stiffness, mass and the
     recovered shapes of random reduced vectors equal to 1e-12 of their largest entries (the same
     sums in another order), and so the frequencies (3D manipulator, planar four-bar, a loaded
     planar pivot)."""
-    from flexmb.ksd import properties
+    from flexmb.ksd import reduced_model
 
     m = {"manipulator": lambda: manipulator("joint", np.radians(35)), "four-bar": lambda: fourbar(5, displacement=0.1),
          "planar pivot": _loaded_pivot_2d}[case]()
@@ -429,10 +429,10 @@ def test_compiled_modal_assembly_equals_the_numpy_one(case, kernels):
     got = {}
     for mode in ("numpy", "numba"):
         kernels(mode)
-        properties._NEAR.pop(sol, None)
-        K, M, to_full = properties.reduced_modal_model(sol, 6)
+        reduced_model._NEAR.pop(sol, None)
+        K, M, to_full = reduced_model.reduced_modal_model(sol, 6)
         v = np.random.default_rng(3).standard_normal((len(K), 4))
-        got[mode] = (K, M, to_full(v), flexmb.modes(sol, n=6).frequencies)
+        got[mode] = (K, M, to_full(v), flexmb.modes(sol, n_modes=6).frequencies)
     for a, b in zip(got["numpy"], got["numba"]):
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-12 * np.abs(a).max())
     np.testing.assert_allclose(got["numba"][3], got["numpy"][3], rtol=1e-12)
@@ -445,7 +445,7 @@ def test_properties_reuse_the_solves_step_2(case, kernels):
     largest entries: the compiled solve looks the table up by its own kernel, equal to scipy's to
     1e-13), and the same modes and stresses (1e-10) whether or not the solve kept them, with the
     compiled kernels and without."""
-    from flexmb.ksd import properties
+    from flexmb.ksd import reduced_model
 
     m = manipulator("joint", np.radians(-25)) if case == "manipulator" else _loaded_pivot_2d()
     for mode in ("numpy", "auto"):
@@ -454,7 +454,7 @@ def test_properties_reuse_the_solves_step_2(case, kernels):
         red, kept = near(sol)
         assert kept[1] is sol.stages["eob"]["near"][2]  # taken, not rebuilt
         step1 = (sol.stages["kinematics"]["theta"], sol.stages["kinematics"]["p_hat"])
-        built = properties.near_configuration(red, step1=step1)
+        built = reduced_model.near_configuration(red, step1=step1)
         # the preload F_hat = K (gaps) is a difference of terms of size |K| |p_hat| (measured
         # 7e-12 N apart at 0.15 N: 1e-16 of those terms)
         scale = [1.0, np.abs(built[1]).max() * np.abs(built[3]).max(), 1.0, 1.0, 1.0]
@@ -462,10 +462,10 @@ def test_properties_reuse_the_solves_step_2(case, kernels):
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * max(c, np.abs(b).max()))
         for a, b in zip(kept[0], built[0]):
             np.testing.assert_allclose(a.recover, b.recover, rtol=0, atol=1e-12 * np.abs(b.recover).max())
-        f, vm = flexmb.modes(sol, n=4).frequencies, sol.stresses().von_mises
-        properties._NEAR.pop(sol)
+        f, vm = flexmb.modes(sol, n_modes=4).frequencies, sol.stresses().von_mises
+        reduced_model._NEAR.pop(sol)
         del sol.stages["eob"]["near"]
-        np.testing.assert_allclose(flexmb.modes(sol, n=4).frequencies, f, rtol=1e-10)
+        np.testing.assert_allclose(flexmb.modes(sol, n_modes=4).frequencies, f, rtol=1e-10)
         np.testing.assert_allclose(sol.stresses().von_mises, vm, rtol=0, atol=1e-10 * vm.max())
 
 
@@ -493,23 +493,23 @@ def test_compiled_spline_evaluation_is_scipys(kernels):
 @pytest.mark.skipif(not flexmb.jit._AVAILABLE, reason="numba not installed")
 @pytest.mark.parametrize("case", ["manipulator", "four-bar", "planar pivot"])
 def test_compiled_eob_axial_forces_equal_the_numpy_ones(case, kernels):
-    """`flexmb.ksd.properties_jit.eob_axial` (node displacements and tabulated axial forces in one
+    """`flexmb.ksd.reduced_model_jit.eob_axial` (node displacements and tabulated axial forces in one
     pass per joint) against the numpy path (`node_displacements`, `eob_forces.axial_forces`): the
     axial forces equal to 1e-14 of their terms' size ``sum |A q| + |c0|`` (the forces are a
     difference of terms up to 3.5e5 times larger, four-bar at d = 0.2 m; measured 4e-16) and
     the peak von Mises stresses they give (the same stress kernels) to 1e-12 relative."""
     from flexmb.fe.stress import element_stresses
-    from flexmb.ksd import eob_forces, properties
+    from flexmb.ksd import eob_forces, reduced_model
 
     m = {"manipulator": lambda: manipulator("joint", 0.3), "four-bar": lambda: fourbar(5, displacement=0.2),
          "planar pivot": _loaded_pivot_2d}[case]()
     sol = flexmb.solve(m, method="ksd-reduced", raise_on_failure=True)
-    at, got = properties.eob_axial_forces(sol)
+    at, got = reduced_model.eob_axial_forces(sol)
     kernels("numpy")
-    at0, want = properties.eob_axial_forces(sol)
+    at0, want = reduced_model.eob_axial_forces(sol)
     red, (_, _, _, p_hat, _, theta) = near(sol)
     scale = 0.0
-    for (tpl, _, idx), q in zip(red.groups, properties.node_displacements(sol)):
+    for (tpl, _, idx), q in zip(red.groups, reduced_model.node_displacements(sol)):
         p = eob_forces.force_table(tpl)(theta[idx])
         scale = max(scale, float((np.abs(p["A"] * q[:, tpl.element_dofs]).sum(-1) + np.abs(p["c0"])).max()))
     np.testing.assert_array_equal(at, at0)

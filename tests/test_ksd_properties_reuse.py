@@ -9,7 +9,7 @@ import scipy.linalg as sla
 
 import flexmb
 from flexmb.ksd.joint_mass import _lowest
-from flexmb.ksd.properties import reduced_tangent
+from flexmb.ksd.reduced_model import reduced_tangent
 from flexmb.modal import _highest_pairs
 from flexmb.models import manipulator
 
@@ -20,7 +20,7 @@ def test_compliance_after_modes_is_the_compliance_of_a_fresh_solution():
     the paper's table has but no other test; the end link at its named-point-free reference)."""
     m = manipulator("joint", np.radians(-20.0))
     first = flexmb.solve(m, method="ksd-reduced")
-    flexmb.modes(first, n=6)
+    flexmb.modes(first, n_modes=6)
     after_modes = flexmb.compliance(first, "link3")
     alone = flexmb.compliance(flexmb.solve(m, method="ksd-reduced"), "link3")
     np.testing.assert_allclose(after_modes, alone, rtol=1e-12, atol=1e-12 * np.abs(alone).max())

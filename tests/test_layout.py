@@ -32,7 +32,7 @@ LAYERS = [
     ("builders", ["flexmb.boundary", "flexmb.fe.build", "flexmb.fe.joint_points", "flexmb.closed_form", "flexmb.closed_form.build"]),
     ("mechanism", ["flexmb.mechanism", "flexmb.files"]),
     ("results and joint data", ["flexmb.linearisation", "flexmb.results", "flexmb.database.eob_format", "flexmb.database.store", "flexmb.ksd", "flexmb.ksd.*"]),
-    ("strategies and analysis", ["flexmb.plausibility_jit", "flexmb.plausibility", "flexmb.solvers", "flexmb.solvers.*", "flexmb.analysis", "flexmb.modal",
+    ("strategies and analysis", ["flexmb.plausibility_jit", "flexmb.plausibility", "flexmb.solvers", "flexmb.solvers.*", "flexmb.analysis", "flexmb.joint_characteristics", "flexmb.modal",
                                  "flexmb.linearised", "flexmb.statespace", "flexmb.peers", "flexmb.design", "flexmb.design.*", "flexmb.testing_ksd", "flexmb.testing", "flexmb.database", "flexmb.database.training",
                                  "flexmb.models"]),
     ("workflows", ["flexmb.sweeps", "flexmb.study", "flexmb.table", "flexmb.design_properties", "flexmb.path",

@@ -47,7 +47,7 @@ def test_euler_buckling_fixed_free_and_fixed_guided(dim):
         P = 1e-3 * _euler(s, 1.0, factor)
         err = []
         for n in (4, 8, 16):
-            lam = flexmb.buckling(flexmb.solve(_column(dim, n, P, guided)), n=2)
+            lam = flexmb.buckling(flexmb.solve(_column(dim, n, P, guided)), n_buckling=2)
             err.append(lam[0] * P / _euler(s, 1.0, factor) - 1)
         if not guided:
             assert lam[1] / lam[0] == pytest.approx(9.0, rel=2e-2)
@@ -63,11 +63,11 @@ def test_buckling_multiplier_scales_inversely_with_the_load_on_a_linear_path():
     so the residual tolerance (5e-7 N) is 1e-6 of the load."""
     s = flexmb.rectangle(0.01, 1e-3, **STEEL)
     P = 0.3 * _euler(s, 1.0, 0.25)
-    a = flexmb.buckling(flexmb.solve(_column(3, 8, P)), n=2)
-    b = flexmb.buckling(flexmb.solve(_column(3, 8, 2 * P)), n=2)
+    a = flexmb.buckling(flexmb.solve(_column(3, 8, P)), n_buckling=2)
+    b = flexmb.buckling(flexmb.solve(_column(3, 8, 2 * P)), n_buckling=2)
     np.testing.assert_allclose(2 * b, a, rtol=1e-6)
     Q = flexmb.rotations.expm_so3(np.array([0.3, -0.5, 0.8]))
-    c = flexmb.buckling(flexmb.solve(_column(3, 8, P, Q=Q)), n=2)
+    c = flexmb.buckling(flexmb.solve(_column(3, 8, P, Q=Q)), n_buckling=2)
     np.testing.assert_allclose(c, a, rtol=1e-7)
 
 
@@ -139,8 +139,8 @@ def test_linearised_properties_refuse_bad_input():
         flexmb.compliance(sol, "tip", "probe")
     with pytest.raises(flexmb.ParameterError, match="point"):
         flexmb.compliance(sol, "tip", point=(1.0, 2.0, 3.0))
-    with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
-        flexmb.buckling(sol, n=7)  # every one of the 6 free DOFs' multipliers can be asked for (was [1, 5])
+    with pytest.raises(flexmb.ParameterError, match=r"n_buckling=7 must be an integer in \[1, 6\]"):
+        flexmb.buckling(sol, n_buckling=7)  # every one of the 6 free DOFs' multipliers can be asked for (was [1, 5])
     with pytest.raises(flexmb.UnsupportedStrategyError):
         flexmb.buckling(flexmb.solve(flexmb.models.gripper(), method="newton"))
 
@@ -153,24 +153,24 @@ def test_sparse_buckling_equals_dense(monkeypatch):
     s = flexmb.rectangle(0.01, 1e-3, **STEEL)
     sol = flexmb.solve(_column(3, 45, 0.3 * _euler(s, 1.0, 0.25)))
     assert len(sol.compiled.problem.free) >= linearised.DENSE_BELOW
-    sparse = flexmb.buckling(sol, n=3)
+    sparse = flexmb.buckling(sol, n_buckling=3)
     monkeypatch.setattr(linearised, "DENSE_BELOW", 10**6)
-    np.testing.assert_allclose(sparse, flexmb.buckling(sol, n=3), rtol=1e-9)
+    np.testing.assert_allclose(sparse, flexmb.buckling(sol, n_buckling=3), rtol=1e-9)
 
 
 def test_support_ratios_are_compliance_with_the_intended_rotation_released():
-    """`flexmb.analysis.support_ratios` is `compliance(..., held="none")` of node B: its inverse
+    """`flexmb.joint_characteristics.support_ratios` is `compliance(..., held="fixed")` of node B: its inverse
     equals the FE tangent statically condensed onto B (`joint_stiffness`, an independent
     Schur-complement route), turned into B's frame, to 1e-9 of the diagonal (a cross flexure of
     another size than Table 1's, at 20 deg)."""
-    from flexmb.analysis import joint_stiffness, support_ratios
+    from flexmb.joint_characteristics import joint_stiffness, support_ratios
     from flexmb.ksd.geometry import rz
 
     J = flexmb.joint("cross_flexure", length=0.04, width_inner=0.012, width_outer=0.006,
                       thickness=0.3e-3, elements_per_leaf=3)
     K, sol = joint_stiffness(J, np.radians(20.0))
     T = np.kron(np.eye(2), rz(np.radians(20.0)))
-    C = T.T @ flexmb.compliance(sol, "B", held="none") @ T
+    C = T.T @ flexmb.compliance(sol, "B", held="fixed") @ T
     np.testing.assert_allclose(np.linalg.inv(C), K, atol=1e-9 * np.abs(np.diag(K)).max())
     r = support_ratios(J, np.radians(20.0))
     assert r["k_rotation"] == pytest.approx(1.0 / C[5, 5], rel=1e-12)
@@ -239,9 +239,9 @@ def test_sparse_non_symmetric_buckling_equals_dense(monkeypatch):
         return flexmb.solve(m)
 
     base, sol = pushed(0.0), pushed(1.0)
-    dense = flexmb.buckling(sol, n=2, held="none", base=base)
+    dense = flexmb.buckling(sol, n_buckling=2, held="fixed", base=base)
     monkeypatch.setattr(linearised, "DENSE_BELOW", 0)
-    np.testing.assert_allclose(flexmb.buckling(sol, n=2, held="none", base=base), dense, rtol=1e-8)
+    np.testing.assert_allclose(flexmb.buckling(sol, n_buckling=2, held="fixed", base=base), dense, rtol=1e-8)
 
 
 def test_dense_solve_is_scipys_bit_for_bit_with_its_singular_and_ill_conditioned_tests():

@@ -110,7 +110,7 @@ def test_cantilever_bending_frequencies_converge_at_fourth_order(dim):
     exact = BETA_L**2 / (2 * np.pi) * np.sqrt(s.E * s.Iz / (RHO * s.A * L**4))
     errors = []
     for n_el in (4, 8, 16):
-        md = flexmb.modes(flexmb.solve(_leaf_mechanism(dim, n_el, section=s)), n=8, held="none")
+        md = flexmb.modes(flexmb.solve(_leaf_mechanism(dim, n_el, section=s)), n_modes=8, held="fixed")
         f = md.frequencies if dim == 2 else md.frequencies[_dominant(md) == 1]
         errors.append(f[:3] / exact - 1)
     errors = np.array(errors)
@@ -130,7 +130,7 @@ def test_cantilever_torsion_and_axial_frequencies_converge_at_second_order():
     f_ax = np.array([1, 3]) / (4 * L) * np.sqrt(s.E / RHO)
     err_t, err_a = [], []
     for n_el in (8, 16):
-        md = flexmb.modes(flexmb.solve(_leaf_mechanism(3, n_el, section=s, length=L)), n=40, held="none")
+        md = flexmb.modes(flexmb.solve(_leaf_mechanism(3, n_el, section=s, length=L)), n_modes=40, held="fixed")
         kind = _dominant(md)
         err_t.append(md.frequencies[kind == 3][:2] / f_tor - 1)
         err_a.append(md.frequencies[kind == 0][:2] / f_ax - 1)
@@ -173,7 +173,7 @@ def test_thick_cantilever_gets_the_timoshenko_correction():
     s = flexmb.rectangle(w, h, density=RHO, **STEEL)
     errors = []
     for n_el in (16, 32):
-        md = flexmb.modes(flexmb.solve(_leaf_mechanism(2, n_el, section=s, length=L)), n=6, held="none")
+        md = flexmb.modes(flexmb.solve(_leaf_mechanism(2, n_el, section=s, length=L)), n_modes=6, held="fixed")
         bend = md.frequencies[np.argmax((md.shapes ** 2).sum(axis=1)[:, :2], axis=1) == 1][:3]
         exact = _timoshenko_cantilever(s, L, bend)
         errors.append(bend / exact - 1)
@@ -218,10 +218,10 @@ def test_rigid_body_on_massless_springs():
         k_x = 2 * 12 * s.E * s.Iz / (L**3 * (1 + phi))
         k_y = 2 * s.E * s.A / L
         k_rot = 2 * (s.E * s.A * a**2 + s.E * s.Iz * (4 + phi) / (1 + phi)) / L
-        md = flexmb.modes(sol, n=1, held=[("s", "rotation")])
+        md = flexmb.modes(sol, n_modes=1, held=[("s", "rotation")])
         np.testing.assert_allclose(md.frequencies, np.sqrt(k_x / 0.5) / (2 * np.pi), rtol=1e-10)
         assert md.link_shapes["s"][0] == pytest.approx([1 / np.sqrt(0.5), 0.0, 0.0], abs=1e-9)  # m phi^2 = 1
-        md = flexmb.modes(sol, n=1, held=[("s", "x")])
+        md = flexmb.modes(sol, n_modes=1, held=[("s", "x")])
         expected = np.sqrt(k_y / 0.5) if J == 1e-4 else np.sqrt(k_rot / J)
         np.testing.assert_allclose(md.frequencies, expected / (2 * np.pi), rtol=1e-10)
 
@@ -230,9 +230,9 @@ def test_parallel_guide_in_mm_mN_kg_units_gives_the_same_frequencies():
     """A case no paper contains: the guide with steel leaves (density 7800 kg/m^3, 4 elements per
     leaf) in mm, mN and kg (consistent: 1 mN = 1 kg mm/s^2; E in mN/mm^2 = kPa, density in
     kg/mm^3) has the same frequencies [Hz] as in SI."""
-    si = flexmb.modes(flexmb.solve(_parallel_guide(density=RHO, elements=4)[0]), n=6, held="none")
+    si = flexmb.modes(flexmb.solve(_parallel_guide(density=RHO, elements=4)[0]), n_modes=6, held="fixed")
     mm = flexmb.modes(flexmb.solve(_parallel_guide(scale=1e-3, force_unit=1e-3, density=RHO, elements=4)[0]),
-                      n=6, held="none")
+                      n_modes=6, held="fixed")
     np.testing.assert_allclose(mm.frequencies, si.frequencies, rtol=1e-9)
     # shapes normalised by phi^T M phi = 1 with M in kg: the translations' numbers (per unit of
     # the modal coordinate, kg^1/2 times the length unit) do not depend on the length unit
@@ -304,8 +304,8 @@ def test_mass_symmetric_positive_definite_and_rayleigh_quotients():
     Rayleigh quotient phi^T K phi / phi^T M phi equals omega^2 (symmetric and non-symmetric cases)."""
     sol = flexmb.solve(_pivot(60.0, elements=3))
     K, M = stiffness_and_mass(sol)
-    for held in ("prescribed", [("B", "rz")], "none"):
-        md = flexmb.modes(sol, n=6, held=held)
+    for held in ("prescribed", [("B", "rz")], "fixed"):
+        md = flexmb.modes(sol, n_modes=6, held=held)
         free = np.setdiff1d(np.arange(K.shape[0]), md.held)
         Kf, Mf = K.toarray()[np.ix_(free, free)], M.toarray()[np.ix_(free, free)]
         assert np.array_equal(Mf, Mf.T)
@@ -328,8 +328,8 @@ def test_frequencies_unchanged_by_a_rigid_move_of_the_whole_mechanism():
     origin = np.array([0.3, -0.1, 0.2])
     ref = flexmb.solve(_pivot(45.0, elements=3))
     moved = flexmb.solve(_pivot(45.0, elements=3, Q=Q, origin=origin))
-    for held in ("prescribed", "none"):
-        a, b = flexmb.modes(ref, n=6, held=held), flexmb.modes(moved, n=6, held=held)
+    for held in ("prescribed", "fixed"):
+        a, b = flexmb.modes(ref, n_modes=6, held=held), flexmb.modes(moved, n_modes=6, held=held)
         np.testing.assert_allclose(b.frequencies, a.frequencies, rtol=1e-7)
         # B's shapes turn with the mechanism
         for k in range(6):
@@ -343,7 +343,7 @@ def test_releasing_everything_gives_the_rigid_body_zero_modes():
     for dim, zeros in ((2, 3), (3, 6)):
         sol = flexmb.solve(_leaf_mechanism(dim, 4, length=0.1, thickness=1e-3, tip_mass=0.1,
                                            tip_inertia=1e-5 if dim == 2 else 1e-5 * np.eye(3)))
-        md = flexmb.modes(sol, n=zeros + 1, held="floating")
+        md = flexmb.modes(sol, n_modes=zeros + 1, held="floating")
         assert np.all(np.abs(md.frequencies[:zeros]) < 1e-4 * md.frequencies[zeros]), md.frequencies
         assert md.frequencies[zeros] > 1.0
 
@@ -352,12 +352,12 @@ def test_modes_of_ksd_full_equal_conventional():
     """KSD-full reaches the same equilibrium as the conventional method (to its tolerance), so
     the same modes (Dwarshuis et al. 2020, step 5 is the full model)."""
     m = _pivot(30.0, elements=3)
-    a = flexmb.modes(flexmb.solve(m, method="conventional"), n=6)
-    b = flexmb.modes(flexmb.solve(m, method="ksd-full"), n=6)
+    a = flexmb.modes(flexmb.solve(m, method="conventional"), n_modes=6)
+    b = flexmb.modes(flexmb.solve(m, method="ksd-full"), n_modes=6)
     np.testing.assert_allclose(b.frequencies, a.frequencies, rtol=1e-6)
     # KSD-reduced (issue 22 item 6, tests/test_ksd_properties.py): the reduced mechanism's modes,
     # measured within 0.27 % of these six (the joint's Craig-Bampton mass, 6 fixed-interface modes)
-    c = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n=6)
+    c = flexmb.modes(flexmb.solve(m, method="ksd-reduced"), n_modes=6)
     np.testing.assert_allclose(c.frequencies, a.frequencies, rtol=5e-3)
 
 
@@ -374,7 +374,7 @@ def test_a_dead_moment_leaves_half_its_skew_matrix_in_the_tangent():
     m = sol.reaction("B")[3:]
     assert np.linalg.norm(m) > 1.0  # the moment that holds 75 deg [N m]
     np.testing.assert_allclose(0.5 * (Kr - Kr.T), -0.5 * skew(m), atol=1e-9 * np.linalg.norm(m))
-    md = flexmb.modes(sol, n=2, held=[("B", "rz")])
+    md = flexmb.modes(sol, n_modes=2, held=[("B", "rz")])
     assert not md.symmetric
     free = np.setdiff1d(np.arange(K.shape[0]), md.held)
     Kf, Mf = K.toarray()[np.ix_(free, free)], M.toarray()[np.ix_(free, free)]
@@ -382,7 +382,7 @@ def test_a_dead_moment_leaves_half_its_skew_matrix_in_the_tangent():
     shift = sym[0] / md.frequencies[0] - 1
     assert 5e-4 < abs(shift) < 1e-2, shift
     # with everything prescribed held, no free rotation carries a dead moment: symmetric
-    assert flexmb.modes(sol, n=2).symmetric
+    assert flexmb.modes(sol, n_modes=2).symmetric
 
 
 def test_mass_is_taken_at_the_deformed_configuration():
@@ -431,7 +431,7 @@ def test_cross_flexure_intended_mode_matches_the_condensed_pivot():
             MB = np.diag([1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3])
             lam = np.sort(sla.eigvals(KB, MB).real)
             f_cond = np.sqrt(lam[0]) / (2 * np.pi)
-            md = flexmb.modes(sol, n=1, held="none")
+            md = flexmb.modes(sol, n_modes=1, held="fixed")
             assert md.frequencies[0] < f_cond
             assert md.frequencies[0] == pytest.approx(f_cond, rel=tol)
             assert abs(md.link_shapes["B"][0, 5]) > 0.5 * np.abs(md.link_shapes["B"][0]).max()  # turns about z
@@ -471,8 +471,8 @@ def test_bad_inertia_is_refused_naming_the_link(inertia, match):
 
 def test_modes_refuse_bad_requests():
     sol = flexmb.solve(_leaf_mechanism(2, 2, length=0.1, thickness=1e-3))  # 2 free nodes: 6 DOFs
-    with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
-        flexmb.modes(sol, n=7)  # all 6 free DOFs' modes can be asked for (was [1, 5])
+    with pytest.raises(flexmb.ParameterError, match=r"n_modes=7 must be an integer in \[1, 6\]"):
+        flexmb.modes(sol, n_modes=7)  # all 6 free DOFs' modes can be asked for (was [1, 5])
     with pytest.raises(flexmb.ParameterError, match="held"):
         flexmb.modes(sol, held="everything")
     with pytest.raises(flexmb.ParameterError, match="component 'rz'"):
@@ -497,21 +497,21 @@ def test_a_free_direction_without_mass_is_named():
     free but carry no mass; the error names the link and the components."""
     sol = flexmb.solve(_leaf_mechanism(3, 1, length=0.1, thickness=1e-3, density=0.0))
     with pytest.raises(flexmb.ModelError, match=r"no mass: link 'tip' x, link 'tip' y"):
-        flexmb.modes(sol, n=2, held="none")
+        flexmb.modes(sol, n_modes=2, held="fixed")
     sol = flexmb.solve(_leaf_mechanism(3, 1, length=0.1, thickness=1e-3, density=0.0, tip_mass=1.0))
     with pytest.raises(flexmb.ModelError, match=r"link 'tip' rx"):  # mass, but no inertia
-        flexmb.modes(sol, n=2, held="none")
+        flexmb.modes(sol, n_modes=2, held="fixed")
 
 
 def test_held_rotation_components_are_global_spins():
     """In 3D a held rotation component is a zero spin about that global axis: holding rx, ry, rz
     is holding "rotation"; the held components of every shape are exactly zero, the others not."""
     sol = flexmb.solve(_pivot(30.0, elements=3))
-    a = flexmb.modes(sol, n=4, held=[("B", "rx"), ("B", "ry"), ("B", "rz")])
-    b = flexmb.modes(sol, n=4, held=[("B", "rotation")])
+    a = flexmb.modes(sol, n_modes=4, held=[("B", "rx"), ("B", "ry"), ("B", "rz")])
+    b = flexmb.modes(sol, n_modes=4, held=[("B", "rotation")])
     np.testing.assert_array_equal(a.held, b.held)
     np.testing.assert_allclose(a.frequencies, b.frequencies, rtol=1e-12)
-    c = flexmb.modes(sol, n=4, held=[("B", "rz")])
+    c = flexmb.modes(sol, n_modes=4, held=[("B", "rz")])
     assert np.all(c.link_shapes["B"][:, 5] == 0.0)
     assert np.abs(c.link_shapes["B"][:, 3:5]).max() > 1.0
 
@@ -523,14 +523,14 @@ def test_sparse_shift_invert_equals_dense(monkeypatch):
     equal up to sign."""
     import flexmb.modal as modal
 
-    cases = [(flexmb.solve(_leaf_mechanism(3, 80, length=0.1, thickness=1e-3)), "none", True),
+    cases = [(flexmb.solve(_leaf_mechanism(3, 80, length=0.1, thickness=1e-3)), "fixed", True),
              (flexmb.solve(_pivot(75.0, elements=8)), [("B", "rz")], False)]
     for sol, held, symmetric in cases:
-        sparse = flexmb.modes(sol, n=6, held=held)
+        sparse = flexmb.modes(sol, n_modes=6, held=held)
         assert sparse.solver == "sparse" and sparse.symmetric == symmetric
         monkeypatch.setattr(modal, "DENSE_BELOW", 10**6)
         monkeypatch.setattr(modal, "DENSE_BELOW_NONSYMMETRIC", 10**6)
-        dense = flexmb.modes(sol, n=6, held=held)
+        dense = flexmb.modes(sol, n_modes=6, held=held)
         monkeypatch.undo()
         assert dense.solver == "dense"
         np.testing.assert_allclose(sparse.frequencies, dense.frequencies, rtol=1e-9)
@@ -585,7 +585,7 @@ def test_cross_flexure_leaves_vibrate_clamped_clamped_at_zero_degrees():
     the 1 kg block nearly still: the clamped-clamped Euler-Bernoulli frequency (beta L = 4.7300,
     Blevins 1979 Table 8-1) f = 22.373/(2 pi) sqrt(E t^2/(12 rho L^4)) = 520.5 Hz; 5 el./leaf
     give 520.2-520.3 Hz (shear, rotary inertia and the mesh: -0.05 %)."""
-    md = flexmb.modes(flexmb.solve(_pivot(0.0, elements=5)), n=4, held=[("B", "rz")])
+    md = flexmb.modes(flexmb.solve(_pivot(0.0, elements=5)), n_modes=4, held=[("B", "rz")])
     f_cc = 4.73004074**2 / (2 * np.pi) * np.sqrt(200e9 * 1e-3**2 / (12 * RHO * 0.1**4))
     np.testing.assert_allclose(md.frequencies[1:4], f_cc, rtol=2e-3)
     assert np.abs(md.link_shapes["B"][1:4, :3]).max() < 0.02 * np.abs(md.shapes[1:4]).max()
@@ -599,11 +599,11 @@ def test_dead_forces_keep_the_tangent_symmetric_dead_moments_do_not():
         m = _leaf_mechanism(dim, 4, length=0.1, width=0.02, thickness=1e-3, tip_mass=0.1,
                             tip_inertia=1e-5 if dim == 2 else 1e-5 * np.eye(3))
         m.apply_force("tip", (0.0, 20.0, 5.0)[:dim], point=(0.12, 0.01, 0.02)[:dim])
-        assert flexmb.modes(flexmb.solve(m), n=2).symmetric
+        assert flexmb.modes(flexmb.solve(m), n_modes=2).symmetric
         moment = 3.0 if dim == 2 else np.array([0.5, -1.0, 3.0])
         m.apply_moment("tip", moment)
         sol = flexmb.solve(m)
-        assert flexmb.modes(sol, n=2).symmetric == (dim == 2)
+        assert flexmb.modes(sol, n_modes=2).symmetric == (dim == 2)
         if dim == 3:
             K = stiffness_and_mass(sol)[0].toarray()
             r = sol.compiled.problem.model.node_dofs[sol.compiled.link_node["tip"]][3:]
@@ -638,17 +638,17 @@ def test_a_one_dof_mechanism_has_its_one_mode(dim):
     # f = sqrt(k / (J + m r^2)) / (2 pi): a compound pendulum on a torsion spring (closed form,
     # parallel-axis theorem); the valid n is [1, 1] (before: "n must be in [1, 0]")
     sol = flexmb.solve(_pendulum(dim))
-    md = flexmb.modes(sol, n=1)
+    md = flexmb.modes(sol, n_modes=1)
     assert md.frequencies == pytest.approx([np.sqrt(5.0 / (1e-4 + 0.2 * 0.05**2)) / (2 * np.pi)], rel=1e-10)
-    with pytest.raises(flexmb.ParameterError, match=r"n=2 must be an integer in \[1, 1\]"):
-        flexmb.modes(sol, n=2)
+    with pytest.raises(flexmb.ParameterError, match=r"n_modes=2 must be an integer in \[1, 1\]"):
+        flexmb.modes(sol, n_modes=2)
 
 
 @pytest.mark.parametrize("n", [0, -1, 1.0, True, "3"])
 def test_modes_refuse_a_count_that_is_not_a_positive_integer(n):
     sol = flexmb.solve(_pendulum(2))
-    with pytest.raises(flexmb.ParameterError, match=r"modes: n=.* must be an integer"):
-        flexmb.modes(sol, n=n)
+    with pytest.raises(flexmb.ParameterError, match=r"modes: n_modes=.* must be an integer"):
+        flexmb.modes(sol, n_modes=n)
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -657,12 +657,12 @@ def test_a_mechanism_without_a_free_motion_has_no_modes_and_says_so(dim):
     m.prescribe("arm", rotation=0.3 if dim == 2 else [0.0, 0.0, 0.3])  # held by default: nothing moves
     sol = flexmb.solve(m)
     with pytest.raises(flexmb.ModelError, match="no free motion.*held"):
-        flexmb.modes(sol, n=1)
+        flexmb.modes(sol, n_modes=1)
     # released, the arm swings again about the turned pivot (the spring's moment k theta is a
     # follower of the arm: the frequency is unchanged by the turn). 3D: the hinge's axis rows,
     # dropped at build as dependent on the prescribed orientation, keep the released arm on its
     # axis (without them it tilted freely: -0.00015 Hz)
-    md = flexmb.modes(sol, n=1, held="none")
+    md = flexmb.modes(sol, n_modes=1, held="fixed")
     assert md.frequencies == pytest.approx([np.sqrt(5.0 / (1e-4 + 0.2 * 0.05**2)) / (2 * np.pi)], rel=1e-9)
 
 
@@ -670,11 +670,11 @@ def test_every_mode_of_a_small_model_can_be_asked_for():
     # a leaf of 2 elements: 6 free DOFs, 6 modes (dense), the same lowest ones as n=3 (sparse path
     # not taken below DENSE_BELOW); n = 7 is out of [1, 6]
     sol = flexmb.solve(_leaf_mechanism(2, 2, length=0.1, thickness=1e-3))
-    all_ = flexmb.modes(sol, n=6)
+    all_ = flexmb.modes(sol, n_modes=6)
     assert len(all_.frequencies) == 6 and np.all(np.diff(all_.frequencies) > 0)
-    assert flexmb.modes(sol, n=3).frequencies == pytest.approx(all_.frequencies[:3], rel=1e-10)
-    with pytest.raises(flexmb.ParameterError, match=r"n=7 must be an integer in \[1, 6\]"):
-        flexmb.modes(sol, n=7)
+    assert flexmb.modes(sol, n_modes=3).frequencies == pytest.approx(all_.frequencies[:3], rel=1e-10)
+    with pytest.raises(flexmb.ParameterError, match=r"n_modes=7 must be an integer in \[1, 6\]"):
+        flexmb.modes(sol, n_modes=7)
 
 
 @pytest.mark.parametrize("make", [lambda **kw: flexmb.rectangle(0.01, 1e-4, **STEEL, **kw),
@@ -684,7 +684,7 @@ def test_section_builders_default_to_the_joints_steel_and_massless_leaves_are_na
     # or circle() weighs the same by default (circle and rectangle defaulted to 0: massless)
     assert make().density == flexmb.LeafSpring().density == 7800.0
     sol = flexmb.solve(_leaf_mechanism(3, 4, length=0.1, section=make()))
-    md = flexmb.modes(sol, n=1)
+    md = flexmb.modes(sol, n_modes=1)
     s = make()  # the closed form: a clamped-free beam's first bending frequency (BETA_L above)
     f1 = BETA_L[0] ** 2 / (2 * np.pi * 0.1**2) * np.sqrt(s.E * min(s.Iy, s.Iz) / (7800.0 * s.A))
     assert md.frequencies[0] == pytest.approx(f1, rel=2e-2)  # 4 Timoshenko elements
@@ -692,7 +692,7 @@ def test_section_builders_default_to_the_joints_steel_and_massless_leaves_are_na
     # 6, 3 internal nodes' 18) are counted and named
     sol = flexmb.solve(_leaf_mechanism(3, 4, length=0.1, section=make(density=0.0)))
     with pytest.raises(flexmb.ModelError, match=r"24 free direction\(s\) carry no mass: link 'tip' x.*sections\) density"):
-        flexmb.modes(sol, n=1)
+        flexmb.modes(sol, n_modes=1)
 
 
 def test_a_density_in_kg_per_m3_with_lengths_in_mm_warns_at_the_modes():
@@ -710,12 +710,12 @@ def test_a_density_in_kg_per_m3_with_lengths_in_mm_warns_at_the_modes():
         return flexmb.solve(m)
 
     with pytest.warns(flexmb.PlausibilityWarning, match=r"density=7800 .*joint 'leaf_spring_0'.*mass per length cubed"):
-        wrong = flexmb.modes(leaf(7800.0), n=1)
+        wrong = flexmb.modes(leaf(7800.0), n_modes=1)
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        right = flexmb.modes(leaf(7.8e-9), n=1)  # t/mm^3: quiet
-        flexmb.modes(flexmb.solve(_leaf_mechanism(2, 4, length=0.05, thickness=5e-4)), n=1)  # SI: quiet
+        right = flexmb.modes(leaf(7.8e-9), n_modes=1)  # t/mm^3: quiet
+        flexmb.modes(flexmb.solve(_leaf_mechanism(2, 4, length=0.05, thickness=5e-4)), n_modes=1)  # SI: quiet
     # the same leaf, the density 1e12 x too large: the frequency 1e6 x too low (f ~ 1/sqrt(rho))
     assert wrong.frequencies[0] == pytest.approx(right.frequencies[0] * np.sqrt(7.8e-9 / 7800.0), rel=1e-9)
 
@@ -728,24 +728,24 @@ def test_buckling_counts_the_motions_the_hinges_allow_as_modes_does(dim):
     m.apply_force("arm", [-1.0, 0.0] + [0.0] * (dim - 2))
     sol = flexmb.solve(m)
     # the pendulum pushed towards its pivot: k_eff = k - P r = 5 - 0.05 > 0, lam = k / (P r) = 100
-    assert flexmb.buckling(sol, n=1) == pytest.approx([100.0], rel=1e-9)
-    with pytest.raises(flexmb.ParameterError, match=r"buckling: n=2 must be an integer in \[1, 1\]"):
-        flexmb.buckling(sol, n=2)
+    assert flexmb.buckling(sol, n_buckling=1) == pytest.approx([100.0], rel=1e-9)
+    with pytest.raises(flexmb.ParameterError, match=r"buckling: n_buckling=2 must be an integer in \[1, 1\]"):
+        flexmb.buckling(sol, n_buckling=2)
     m.prescribe("arm", rotation=0.0 if dim == 2 else [0.0, 0.0, 0.0])
     with pytest.raises(flexmb.ModelError, match="buckling: no free motion"):
-        flexmb.buckling(flexmb.solve(m), n=1)
+        flexmb.buckling(flexmb.solve(m), n_buckling=1)
 
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_compliance_of_a_released_pendulum_is_its_spring_about_the_pivot(dim):
-    # the pendulum's turn prescribed to 0.3 rad and released (held="none"): a force at the arm's
+    # the pendulum's turn prescribed to 0.3 rad and released (held="fixed"): a force at the arm's
     # centre (r = 0.05 from the pivot, at 0.3 rad) turns it by (r x F)/k: C = q q^T / k with
     # q = r (-sin 0.3, cos 0.3) the point's motion per unit turn (closed form); the turn 1/k.
     # 3D: the hinge's axis rows, dropped at build as dependent on the prescribed orientation,
     # hold again (the tangent was singular: ModelError)
     m = _pendulum(dim)
     m.prescribe("arm", rotation=0.3 if dim == 2 else [0.0, 0.0, 0.3])
-    C = flexmb.compliance(flexmb.solve(m), "arm", held="none")
+    C = flexmb.compliance(flexmb.solve(m), "arm", held="fixed")
     q = 0.05 * np.array([-np.sin(0.3), np.cos(0.3)])
     xy = [0, 1]
     np.testing.assert_allclose(C[np.ix_(xy, xy)], np.outer(q, q) / 5.0, rtol=1e-9, atol=1e-15)
@@ -797,7 +797,7 @@ def test_the_density_check_warns_at_every_modes_call_of_a_wrong_model():
     f = []
     for _ in range(3):
         with pytest.warns(flexmb.PlausibilityWarning, match=r"density=7800 .*mass per length cubed"):
-            f.append(flexmb.modes(sol, n=2).frequencies)
+            f.append(flexmb.modes(sol, n_modes=2).frequencies)
     np.testing.assert_array_equal(f[0], f[2])
     from flexmb import modal
 

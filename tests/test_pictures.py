@@ -43,7 +43,7 @@ def guide():
 
 @pytest.fixture(scope="module")
 def guide_modes(guide):
-    return flexmb.modes(guide, n=3)
+    return flexmb.modes(guide, n_modes=3)
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +51,7 @@ def planar_modes():
     """The planar cross-flexure pivot turned 0.3 rad, its steel leaves' own mass only (SI)."""
     sol = flexmb.solve(flexmb.models.cross_flexure_pivot(elements_per_leaf=3, dim=2, rotation=0.3),
                        method="conventional")
-    return flexmb.modes(sol, n=2)
+    return flexmb.modes(sol, n_modes=2)
 
 
 def _faces(coll) -> np.ndarray:
@@ -207,7 +207,7 @@ def test_frequency_plot_draws_the_f_columns_over_the_stroke(guide):
         np.testing.assert_array_equal(ln.get_ydata(), table[ln.get_gid()])
     assert ax.get_xlabel() == "stage stroke [mm]" and ax.get_ylabel() == "frequency [Hz]"
     # the 5 mm configuration is the fixture's: same first frequency
-    assert table["f1"][-1] == pytest.approx(flexmb.modes(guide, n=1).frequencies[0], rel=1e-9)
+    assert table["f1"][-1] == pytest.approx(flexmb.modes(guide, n_modes=1).frequencies[0], rel=1e-9)
 
 
 def test_frequency_plot_in_degrees_lists_only_drawn_curves():
@@ -341,7 +341,7 @@ def test_round_wires_are_drawn_as_tubes_of_their_diameter():
 
 def test_round_wire_mode_file_holds_the_wires_as_prisms_of_their_cross_section(tmp_path):
     sol = flexmb.solve(wire_guide())
-    md = flexmb.modes(sol, n=2)
+    md = flexmb.modes(sol, n_modes=2)
     model = sol.compiled.problem.model
     mesh = meshio.read(export.write_mode(md, 0, tmp_path / "wire_mode.vtu"))
     hexes = np.concatenate([c.data for c in mesh.cells if c.type == "hexahedron"])

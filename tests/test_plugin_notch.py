@@ -364,10 +364,10 @@ def _check_study(table):
 def test_a_study_on_the_process_pool_returns_converged_and_warnings(notch, capfd):
     import functools
 
-    from flexmb.analysis import joint_properties
+    from flexmb.joint_characteristics import joint_characteristics
     from flexmb.study import parameter_study
 
-    table = parameter_study(functools.partial(joint_properties, KIND), _designs(), max_workers=2)
+    table = parameter_study(functools.partial(joint_characteristics, KIND), _designs(), max_workers=2)
     _check_study(table)
     assert "PlausibilityWarning" not in capfd.readouterr().err  # recorded in the worker, not printed
     frame = table.to_pandas()
@@ -377,14 +377,14 @@ def test_a_study_on_the_process_pool_returns_converged_and_warnings(notch, capfd
 def test_a_study_on_a_dask_local_cluster_returns_converged_and_warnings(notch):
     import functools
 
-    from flexmb.analysis import joint_properties
+    from flexmb.joint_characteristics import joint_characteristics
     from flexmb.study import parameter_study
 
     distributed = pytest.importorskip("distributed")
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=2, processes=True, dashboard_address=":0")
     with cluster, distributed.Client(cluster) as client:
         client.run(lambda path: sys.path.insert(0, path) or registry.refresh(), sys.path[0])  # the plugin there too
-        table = parameter_study(functools.partial(joint_properties, KIND), _designs(), executor=client.get_executor())
+        table = parameter_study(functools.partial(joint_characteristics, KIND), _designs(), executor=client.get_executor())
     _check_study(table)
 
 

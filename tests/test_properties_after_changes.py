@@ -21,13 +21,13 @@ def test_modes_and_solutions_pickle_after_a_conventional_solve_of_the_same_mecha
     m = manipulator("joint", np.radians(20))
     for method in ("conventional", "ksd-reduced"):
         sol = flexmb.solve(m, method=method, raise_on_failure=True)
-        result = flexmb.modes(sol, n=4)
+        result = flexmb.modes(sol, n_modes=4)
         copied = pickle.loads(pickle.dumps(result))
         np.testing.assert_array_equal(copied.frequencies, result.frequencies)
         np.testing.assert_array_equal(copied.shapes, result.shapes)
         again = pickle.loads(pickle.dumps(sol))
         np.testing.assert_allclose(flexmb.compliance(again, "link3"), flexmb.compliance(sol, "link3"), rtol=1e-12)
-        np.testing.assert_allclose(flexmb.modes(again, n=4).frequencies, result.frequencies, rtol=1e-9)
+        np.testing.assert_allclose(flexmb.modes(again, n_modes=4).frequencies, result.frequencies, rtol=1e-9)
 
 
 def test_compliance_with_a_free_rigid_body_motion_is_refused_on_the_sparse_path_too():
@@ -37,14 +37,14 @@ def test_compliance_with_a_free_rigid_body_motion_is_refused_on_the_sparse_path_
     free DOFs go to the sparse solver, whose answer had a backward error of 1e-16 (the
     normwise test cannot see a singular K) but solved K x = e to a relative residual of 23: it
     returned 2.8e7 (compiled kernels) or 2.4e9 (numpy) m/N as compliance. Both now raise
-    `ModelError`; held="none" (the ground held, the joints' turns free: closed form, the
+    `ModelError`; held="fixed" (the ground held, the joints' turns free: closed form, the
     joints' rotational stiffness) still answers, the same with both kernels to 1e-6."""
     m = manipulator("joint", np.radians(20))
     for method in ("ksd-reduced", "conventional"):
         sol = flexmb.solve(m, method=method, raise_on_failure=True)
         with pytest.raises(flexmb.ModelError, match="singular"):
             flexmb.compliance(sol, "link3", held="floating")
-        assert np.isfinite(flexmb.compliance(sol, "link3", held="none")).all()
+        assert np.isfinite(flexmb.compliance(sol, "link3", held="fixed")).all()
 
 
 def test_a_replaced_os_environ_names_the_user_folder_the_next_solve_reads(tmp_path):
@@ -78,14 +78,14 @@ def test_sparse_buckling_and_modes_repeat_exactly():
     """ARPACK starts from a fixed vector (`flexmb.modal.start_vector`): repeated `buckling` and
     `modes` of one solution on the sparse path give the same numbers. Reference: the first call.
     (With ARPACK's random start the conventional manipulator's first multiplier with
-    held="none" scattered 415.27-415.36 between calls: four multipliers within 2e-5 of each other,
+    held="fixed" scattered 415.27-415.36 between calls: four multipliers within 2e-5 of each other,
     split into complex pairs by the dead moments' non-symmetric tangent part.)"""
     import flexmb.modal as modal
 
     sol = flexmb.solve(manipulator("joint", np.radians(30)))
     assert sol.compiled.problem.model.n_dofs - 12 > modal.DENSE_BELOW  # the sparse (ARPACK) path, two links fixed at most
-    first = flexmb.buckling(sol, n=2, held="none")
-    f = flexmb.modes(sol, n=6, held="none").frequencies
+    first = flexmb.buckling(sol, n_buckling=2, held="fixed")
+    f = flexmb.modes(sol, n_modes=6, held="fixed").frequencies
     for _ in range(2):
-        np.testing.assert_array_equal(flexmb.buckling(sol, n=2, held="none"), first)
-        np.testing.assert_array_equal(flexmb.modes(sol, n=6, held="none").frequencies, f)
+        np.testing.assert_array_equal(flexmb.buckling(sol, n_buckling=2, held="fixed"), first)
+        np.testing.assert_array_equal(flexmb.modes(sol, n_modes=6, held="fixed").frequencies, f)

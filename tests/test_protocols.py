@@ -145,10 +145,10 @@ def test_a_third_strategy_gets_modes_buckling_and_compliance(toys, build):
     toy, ref = flexmb.solve(m, "toy-newton"), flexmb.solve(m)
     assert toy.converged and toy.method == "toy-newton"
     link = "B" if "B" in toy.compiled.link_node else "top"
-    for held in ("prescribed", "none"):
-        np.testing.assert_allclose(flexmb.modes(toy, n=4, held=held).frequencies,
-                                   flexmb.modes(ref, n=4, held=held).frequencies, rtol=1e-7)
-        np.testing.assert_allclose(flexmb.buckling(toy, n=2, held=held), flexmb.buckling(ref, n=2, held=held),
+    for held in ("prescribed", "fixed"):
+        np.testing.assert_allclose(flexmb.modes(toy, n_modes=4, held=held).frequencies,
+                                   flexmb.modes(ref, n_modes=4, held=held).frequencies, rtol=1e-7)
+        np.testing.assert_allclose(flexmb.buckling(toy, n_buckling=2, held=held), flexmb.buckling(ref, n_buckling=2, held=held),
                                    rtol=1e-7)
         C = flexmb.compliance(ref, link, held=held)
         np.testing.assert_allclose(flexmb.compliance(toy, link, held=held), C, rtol=1e-7, atol=1e-9 * np.abs(C).max())
@@ -165,13 +165,13 @@ def test_a_solution_kind_with_its_own_linearisation_gets_the_properties(toys, bu
     toy, ref = flexmb.solve(m, "toy-scaled"), flexmb.solve(m)
     assert isinstance(toy.linearisation(), protocols.Linearisation)
     link = "B" if "B" in toy.compiled.link_node else "top"
-    for held in ("prescribed", "none"):
-        a, b = flexmb.modes(toy, n=4, held=held), flexmb.modes(ref, n=4, held=held)
+    for held in ("prescribed", "fixed"):
+        a, b = flexmb.modes(toy, n_modes=4, held=held), flexmb.modes(ref, n_modes=4, held=held)
         np.testing.assert_allclose(a.frequencies, b.frequencies, rtol=1e-9)
         np.testing.assert_allclose(a.shapes, b.shapes, rtol=0, atol=1e-7 * np.abs(b.shapes).max())
         np.testing.assert_allclose(a.link_shapes[link], b.link_shapes[link], rtol=0,
                                    atol=1e-7 * np.abs(b.shapes).max())
-        np.testing.assert_allclose(flexmb.buckling(toy, n=2, held=held), flexmb.buckling(ref, n=2, held=held),
+        np.testing.assert_allclose(flexmb.buckling(toy, n_buckling=2, held=held), flexmb.buckling(ref, n_buckling=2, held=held),
                                    rtol=1e-9)
         C = flexmb.compliance(ref, link, held=held)
         np.testing.assert_allclose(flexmb.compliance(toy, link, held=held), C, rtol=1e-8, atol=1e-11 * np.abs(C).max())
@@ -189,7 +189,7 @@ def test_the_linearisation_exposes_what_a_derivative_needs():
         m = fourbar(n, displacement=0.1)
         m.apply_moment("top", [0.0, 3.0, 0.0])
         sol = flexmb.solve(m)
-        lin = sol.linearisation(held="none")
+        lin = sol.linearisation(held="fixed")
         assert isinstance(lin, protocols.Linearisation) and not lin.dense and lin.Z is None
         assert (lin.K.shape[0] >= SPARSE_FROM) == (n == 5)
         K, M = stiffness_and_mass(sol)

@@ -45,7 +45,7 @@ def test_static_gain_equals_the_compliance(solved):
         extra = () if point is None else (point,)
         ins = [("force", "B", c, *extra) for c in cs]
         outs = [("displacement", "B", c, *extra) for c in cs]
-        ss = flexmb.state_space(solved, ins, outs, n=4)
+        ss = flexmb.state_space(solved, ins, outs, n_modes=4)
         C = flexmb.compliance(solved, "B", point=point)
         np.testing.assert_allclose(ss.static_gain(), C, rtol=1e-9, atol=1e-9 * np.abs(C).max())
         # and at 0 Hz the frequency response is the same
@@ -54,8 +54,8 @@ def test_static_gain_equals_the_compliance(solved):
 
 def test_poles_are_the_modes_times_i_two_pi(solved):
     n = 5
-    ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n=n)
-    f = flexmb.modes(solved, n=n).frequencies
+    ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n_modes=n)
+    f = flexmb.modes(solved, n_modes=n).frequencies
     expected = np.sort(np.concatenate([2j * np.pi * f, -2j * np.pi * f]).imag)
     poles = ss.poles()
     np.testing.assert_allclose(poles.real, 0.0, atol=1e-9 * np.abs(poles).max())
@@ -65,12 +65,12 @@ def test_poles_are_the_modes_times_i_two_pi(solved):
 
 def test_damped_poles_and_the_gain_do_not_depend_on_the_damping(solved):
     zeta = np.array([0.01, 0.02, 0.05])
-    ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n=3, damping=zeta)
-    w = 2 * np.pi * flexmb.modes(solved, n=3).frequencies
+    ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n_modes=3, damping=zeta)
+    w = 2 * np.pi * flexmb.modes(solved, n_modes=3).frequencies
     expected = np.concatenate([w * (-zeta + 1j * np.sqrt(1 - zeta**2)), w * (-zeta - 1j * np.sqrt(1 - zeta**2))])
     got = ss.poles()
     np.testing.assert_allclose(np.sort_complex(got), np.sort_complex(expected), rtol=1e-9)
-    undamped = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n=3)
+    undamped = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n_modes=3)
     np.testing.assert_allclose(ss.static_gain(), undamped.static_gain(), rtol=1e-12)
 
 
@@ -88,7 +88,7 @@ def test_motion_inputs_and_reaction_outputs_match_finite_differences():
     r0, h = 0.3, 1e-4
     sol = flexmb.solve(pivot(r0))
     ss = flexmb.state_space(sol, [("motion", "B", "rotation")],
-                            [("reaction", "B", "rotation"), ("displacement", "B", "x")], n=4, damping=0.02)
+                            [("reaction", "B", "rotation"), ("displacement", "B", "x")], n_modes=4, damping=0.02)
     plus, minus = flexmb.solve(pivot(r0 + h), rtol=1e-13), flexmb.solve(pivot(r0 - h), rtol=1e-13)
     dM = (plus.reaction("B")[2] - minus.reaction("B")[2]) / (2 * h)
     dx = (plus.pose("B")[0][0] - minus.pose("B")[0][0]) / (2 * h)
@@ -114,7 +114,7 @@ def test_a_point_force_on_a_link_with_a_held_rotation_and_its_reaction():
 
     sol = flexmb.solve(pivot())
     ss = flexmb.state_space(sol, [("force", "B", "y", "side"), ("force", "B", "rotation")],
-                            [("reaction", "B", "rotation"), ("displacement", "B", "y")], n=3)
+                            [("reaction", "B", "rotation"), ("displacement", "B", "y")], n_modes=3)
     G = ss.static_gain()
     h = 1e-3
     for j, (kw, key) in enumerate(((dict(force=h), dict(force=-h)), (dict(moment=h), dict(moment=-h)))):
@@ -130,7 +130,7 @@ def test_a_point_force_on_a_link_with_a_held_rotation_and_its_reaction():
 def test_python_control_statespace(solved):
     control = pytest.importorskip("control")
     ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x"), ("displacement", "B", "y")],
-                            n=3, damping=0.01)
+                            n_modes=3, damping=0.01)
     sys_ = ss.to_control()
     assert isinstance(sys_, control.StateSpace)
     assert sys_.input_labels == ["force_B_x"] and sys_.output_labels == ["displacement_B_x", "displacement_B_y"]
@@ -139,7 +139,7 @@ def test_python_control_statespace(solved):
 
 def test_a_bode_plot_with_unit_labels(solved, tmp_path):
     pytest.importorskip("matplotlib")
-    ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n=3, damping=0.02)
+    ss = flexmb.state_space(solved, [("force", "B", "x")], [("displacement", "B", "x")], n_modes=3, damping=0.02)
     mag, phase = ss.plot()
     assert "[m/N]" in mag.get_legend().get_texts()[0].get_text() and phase.get_xlabel() == "frequency [Hz]"
     mag.figure.savefig(tmp_path / "bode.png")
@@ -181,10 +181,10 @@ def test_with_hinges_forces_in_displacements_out(dim):
         sol = flexmb.solve(m)
     cs = comps(dim)
     ss = flexmb.state_space(sol, [("force", "coupler", c) for c in cs], [("displacement", "coupler", c) for c in cs],
-                            n=2)
+                            n_modes=2)
     C = flexmb.compliance(sol, "coupler")
     np.testing.assert_allclose(ss.static_gain(), C, rtol=1e-9, atol=1e-9 * np.abs(C).max())
-    f = flexmb.modes(sol, n=2).frequencies
+    f = flexmb.modes(sol, n_modes=2).frequencies
     np.testing.assert_allclose(np.sort(ss.poles().imag), np.sort(np.r_[-2 * np.pi * f, 2 * np.pi * f]), rtol=1e-9)
     with pytest.raises(flexmb.UnsupportedStrategyError, match="with hinges the inputs are forces"):
-        flexmb.state_space(sol, [("force", "coupler", "x")], [("reaction", "ground", "x")], n=2)
+        flexmb.state_space(sol, [("force", "coupler", "x")], [("reaction", "ground", "x")], n_modes=2)

@@ -8,8 +8,8 @@ import pytest
 
 import flexmb
 from flexmb import models
-from flexmb.analysis import joint_properties
 from flexmb.errors import ModelError, ParameterError
+from flexmb.joint_characteristics import joint_characteristics
 from flexmb.study import grid, parameter_study
 from flexmb.table import Table, read_csv
 
@@ -117,7 +117,7 @@ def test_table_rejects_ragged_columns_and_unknown_names():
 
 # -- parameter studies -------------------------------------------------------------------------
 
-STIFFNESS = functools.partial(joint_properties, "cross_flexure", rotation=0.2, elements_per_leaf=2)
+STIFFNESS = functools.partial(joint_characteristics, "cross_flexure", rotation=0.2, elements_per_leaf=2)
 DESIGNS = grid(thickness=[0.2e-3, 0.3e-3], angle=[0.6, 0.9])
 
 
@@ -133,7 +133,7 @@ def test_grid_varies_the_last_name_fastest():
 def test_study_rows_are_the_designs_in_order_with_their_outputs(serial):
     np.testing.assert_array_equal(serial["thickness"], [0.2e-3, 0.2e-3, 0.3e-3, 0.3e-3])
     np.testing.assert_array_equal(serial["angle"], [0.6, 0.9, 0.6, 0.9])
-    one = joint_properties("cross_flexure", rotation=0.2, elements_per_leaf=2, thickness=0.3e-3, angle=0.9)
+    one = joint_characteristics("cross_flexure", rotation=0.2, elements_per_leaf=2, thickness=0.3e-3, angle=0.9)
     assert serial["k_rotation"][3] == one["k_rotation"]
     # bending stiffness ~ t^3 (E I / L with I = w t^3 / 12): 1.5x thicker -> ~3.4x stiffer
     assert serial["k_rotation"][2] / serial["k_rotation"][0] == pytest.approx(1.5 ** 3, rel=0.02)

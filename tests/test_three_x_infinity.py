@@ -5,7 +5,7 @@ import pytest
 
 import flexmb
 from flexmb import database as db
-from flexmb.analysis import support_ratios
+from flexmb.joint_characteristics import support_ratios
 from flexmb.rotations import logm_so3
 from flexmb.testing import joint_mechanism
 

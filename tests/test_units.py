@@ -37,8 +37,8 @@ def physical(system: str) -> dict:
     u = units.SYSTEMS[system]
     sol = flexmb.solve(guided_stage(system))
     assert sol.converged
-    md = flexmb.modes(sol, n=2, held="none")
-    C = flexmb.compliance(sol, "block", held="none")
+    md = flexmb.modes(sol, n_modes=2, held="fixed")
+    C = flexmb.compliance(sol, "block", held="fixed")
     return {"position": u.to_si("length", sol.pose("block")[0]),
             "force": u.to_si("force", sol.reaction("block")[:2]),
             "moment": u.to_si("moment", sol.reaction("block")[2]),

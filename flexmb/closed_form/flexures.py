@@ -81,7 +81,7 @@ class FlexureSet:
 
     def compiled_arrays(self) -> tuple:
         """The constants in the argument order of `flexmb.closed_form.linkage_jit` (fi ... nl),
-        contiguous and typed for the compiled loops."""
+        contiguous and typed for the numba loops."""
         c = self._c
         if "jit" not in c:  # built once: the flexures never change
             c["jit"] = (np.ascontiguousarray(self.i, dtype=np.int64), np.ascontiguousarray(self.j, dtype=np.int64),

@@ -1,9 +1,9 @@
-"""The closed-form linkage residual, tangent terms and Newton loop as compiled loops.
+"""The closed-form linkage residual, tangent terms and Newton loop as numba loops.
 
 The formulas of `flexmb.closed_form.flexures` and `flexmb.closed_form.problem` term by term
 (Cammarata et al. 2022, Eqs. 1-28 and A2-A13), one flexure at a time with complex scalars
-instead of ~60 numpy calls on arrays of a few flexures: 50 us -> about 2 us per evaluation on
-the gripper (issue 21). tests/test_closed_form_jit.py holds both paths equal to 1e-12.
+instead of ~60 numpy calls on arrays of a few flexures (the call overhead dominated the
+evaluation: BENCHMARKS.md, Gripper). tests/test_closed_form_jit.py holds both paths equal to 1e-12.
 
 Arrays (F flexures, L loads, N links, n = 3 N DOFs): ``pos`` (N, 2), ``ang`` (N,); the flexure
 constants of `FlexureSet` (``fi``, ``fj`` int64; ``s_i``, ``s_j``, ``b_j``, ``b_jc`` (conjugate),
@@ -98,8 +98,8 @@ def evaluate(pos, ang, fi, fj, s_i, s_j, b_j, b_jc, b_ia_f, arm, p_hat, K, nl, l
 def _solve_in_place(A, b):
     """``b <- A^-1 b`` by Gaussian elimination with partial pivoting (LAPACK getrf/getrs's
     algorithm; ``A`` overwritten); False on an exactly zero pivot (LAPACK's info > 0). Written
-    out because numba's ``np.linalg.solve`` costs ~10 s of cold compile time on a busy 2-core
-    host, this loop ~0.3 s, for the 9 x 9 systems of a linkage."""
+    out because numba's ``np.linalg.solve`` costs far more cold compile time than this loop, for
+    the 9 x 9 systems of a linkage."""
     n = b.shape[0]
     for k in range(n):
         p = k

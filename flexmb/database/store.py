@@ -16,7 +16,7 @@ Element and internal-node orientations (Eq. 3.1) are angles [rad] in 2D and rota
 [rad] in 3D (Sec. 3.1), one row per element or node and component (element-major: e0x, e0y, e0z,
 e1x, ...). Version 1 stored 3D orientations as angles about z only; such files are refused.
 Version 3 adds ``eob_table``: the EOB condensation tabulated against theta for the training joint
-(`flexmb.database.eob_format`, issue 21); a version 2 file is read as version 3 without a table
+(`flexmb.database.eob_format`); a version 2 file is read as version 3 without a table
 (its data are unchanged: KSD then condenses per solve, as before) and `flexmb train` rewrites it.
 """
 
@@ -173,7 +173,7 @@ def mesh_hash(joint, dim: int) -> str:
 def _mesh_facts(joint, dim: int) -> tuple[str, int]:
     """(`mesh_hash`, number of elements) of the joint's mesh; cached per joint value, as joints
     are frozen values: building the mesh took ~60 % of a KSD-reduced manipulator solve when it
-    was done on every solve (issue 21)."""
+    was done on every solve."""
     return _cached_mesh_facts(joint, dim) if hashable(joint) else _compute_mesh_facts(joint, dim)
 
 
@@ -549,7 +549,7 @@ def search_path(folder=None) -> list[Path]:
 
 def file_name(kind: str, dim: int, key: dict) -> str:
     """The key-only file name ``<kind>-<dim>d-<key items>.json`` (keys sorted): the shipped files'
-    and those of flexmb before issue 32, still read (`locate`), no longer written by training."""
+    and those older flexmb wrote, still read (`locate`), no longer written by training."""
     parts = "-".join(f"{k}{_fmt(v)}" for k, v in sorted(key.items()))
     return f"{kind}-{dim}d-{parts}.json"
 

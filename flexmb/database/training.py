@@ -198,7 +198,7 @@ def _powers(owner: str, name: str, value, least: int) -> tuple:
 def migrate(path) -> JointData:
     """Rewrite the database file ``path`` (version 2 or 3) as version 3 with the EOB condensation
     of its training joint tabulated (the joint rebuilt from the recorded kind and parameters;
-    the kinematic fits are kept as they are). How the shipped data were migrated (issue 21)."""
+    the kinematic fits are kept as they are). How the shipped data were migrated."""
     from ..registry import joint as make_joint
 
     data = load(path)
@@ -224,7 +224,7 @@ def verify(joint, dim: int, folder=None, *, samples: int = 3) -> JointData:
     within the residual each fit states (plus 1e-8 for the solves' tolerance). The checksum and
     `load`'s content checks catch damaged files; this catches a file edited consistently, e.g.
     element rotations scaled and the checksum recomputed. `DatabaseError` naming the worst fit.
-    Costs ``samples`` solves (0.3 s for the 3D cross flexure at 3 el./leaf)."""
+    Costs ``samples`` solves."""
     data = shipped(joint, dim, folder)
     idx = np.unique(np.linspace(0, len(data.samples) - 1, max(int(samples), 1)).round().astype(int))
     run = simulate(joint, dim, data.samples[idx])

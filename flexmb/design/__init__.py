@@ -1,5 +1,5 @@
 """The design layer: parameters, differentiable responses, adjoint/direct gradients and the
-gradient checker (issue 28). See `flexmb.design.evaluate` for the entry points."""
+gradient checker. See `flexmb.design.evaluate` for the entry points."""
 
 from __future__ import annotations
 

@@ -86,7 +86,7 @@ class Sensitivity:
     @functools.cached_property
     def _dense(self) -> np.ndarray | None:
         """The full tangent as a dense array for small models (`DENSE_BELOW`: blocks and rows are
-        read from it ~10x faster than sliced from the CSR matrix), else None."""
+        read from it faster than sliced from the CSR matrix), else None."""
         return self.K.toarray() if self.model.n_dofs < DENSE_BELOW else None
 
     def block(self, rows: np.ndarray, cols: np.ndarray):

@@ -116,7 +116,7 @@ class _Frequency:
         nf = solution.compiled.problem.model.n_dofs - len(held_dofs(solution, self.held, "frequency"))
         n = min(self.k + 2, nf)
         while True:
-            m = modes(solution, n=n, held=self.held)
+            m = modes(solution, n_modes=n, held=self.held)
             idx = _cluster(m.eigenvalues, self.k)
             if idx[-1] < n - 1 or n == nf:
                 return m, idx
@@ -183,14 +183,14 @@ class _Buckling:
         return f"buckling({self.k})"
 
     def value(self, solution) -> float:
-        return float(_buckling(solution, n=self.k, held=self.held)[self.k - 1])
+        return float(_buckling(solution, n_buckling=self.k, held=self.held)[self.k - 1])
 
     def gradient(self, sens, method: str = "auto") -> np.ndarray:
         sol = sens.solution
         lin = sol.linearisation(self.held, owner="buckling")  # K_t and K_m on the free DOFs
         free = lin.free
         n = min(self.k + 2, len(free))
-        mu = _buckling(sol, n=n, held=self.held)
+        mu = _buckling(sol, n_buckling=n, held=self.held)
         if not np.isfinite(mu[self.k - 1]):
             raise ModelError(f"buckling({self.k}): no {self.k}-th positive multiplier (inf): no derivative")
         idx = _cluster(mu, self.k)

@@ -177,8 +177,8 @@ def _copy_mechanism(mech):
     """A copy of a `flexmb.Mechanism` that its methods can change without touching ``mech``: its
     graph (links, joints, placements: `Mechanism.add_link`, `add_joint`, `fix`), loads (`apply_force`,
     `apply_moment`, `clear_loads`), prescribed motions (`prescribe`) and points (`add_point`) in new
-    containers, their immutable items shared (~10 us; ``copy.deepcopy`` took 1-4 ms on the 3D hinge's
-    builds). Another class of mechanism is deep-copied."""
+    containers, their immutable items shared (``copy.deepcopy`` took over a hundred times longer on the 3D
+    hinge's builds). Another class of mechanism is deep-copied."""
     if not all(hasattr(mech, k) for k in ("graph", "_loads", "_prescribed", "_points")):
         return copy.deepcopy(mech)
     out = copy.copy(mech)

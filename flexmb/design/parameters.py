@@ -204,9 +204,9 @@ def model_numbers(compiled, field: str) -> np.ndarray:
     model, el, loads = problem.model, problem.model.elements, problem.loads
     rigid = model.rigid_masses
     if field == "rho_A":
-        from ..sections import properties
+        from ..sections import section_values
 
-        rho, A = properties(el.sections, ("density", "A"))
+        rho, A = section_values(el.sections, ("density", "A"))
         return rho * A
     if field == "local_mass":
         from ..fe.mass import local_mass
@@ -267,9 +267,9 @@ def numbers_field(nums: dict, field: str, dim: int) -> np.ndarray:
     `model_numbers` reads it from a compiled model (complex where the numbers are)."""
     rigid, loads = nums["rigid"], nums["loads"]
     if field == "rho_A":
-        from ..sections import properties
+        from ..sections import section_values
 
-        rho, A = properties(nums["sections"], ("density", "A"))
+        rho, A = section_values(nums["sections"], ("density", "A"))
         return rho * A
     if field == "local_mass":
         from ..fe.mass import local_mass

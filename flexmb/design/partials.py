@@ -5,7 +5,7 @@ numbers and the state, by complex step through the numpy element kernels.
 ``h`` is the directional derivative to round-off, without the cancellation of a difference (Squire
 & Trapp 1998; Martins, Sturdza & Alonso 2003). The numpy twins of the beam kernels
 (`flexmb.fe.beam2d`, `flexmb.fe.beam3d`) carry complex numbers (no modulus, no comparison on the
-perturbed values); the compiled kernels stay float64. A direction is evaluated only on the
+perturbed values); the numba kernels stay float64. A direction is evaluated only on the
 elements and load rows it changes, and all directions in one batched kernel call.
 
 Directions: ``rates`` holds ``d(field)/dp_k`` of `flexmb.design.parameters.MODEL_FIELDS` (K, ...);

@@ -4,7 +4,7 @@ KSD-reduced (Dwarshuis et al. 2020, steps 1-4) solves the reduced mechanism's eq
 ``r(q, loads) = 0`` on the links' DOFs with each joint's condensed EOB stiffness about its near
 configuration (steps 1-2: kinematics and database, which do not read the loads). A load parameter
 moves only ``r``'s applied-load part, so ``dq/dp = -K_red^-1 dr/dp`` with the reduced tangent
-(`flexmb.ksd.properties.reduced_tangent`: the exact Jacobian of step 3's residual, dead loads'
+(`flexmb.ksd.reduced_model.reduced_tangent`: the exact Jacobian of step 3's residual, dead loads'
 stiffness included) and the loads' rates. Parameters that change a joint, a placement, a mass or a
 prescribed motion also change steps 1-2 (the joint's database entry, its frame, its near
 configuration): refused by name (`flexmb.UnsupportedStrategyError`), as are the responses of the
@@ -19,7 +19,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ConvergenceError, ModelError, UnsupportedStrategyError
-from ..ksd.properties import reduced_tangent
+from ..ksd.reduced_model import reduced_tangent
 from .partials import residual_rates
 
 __all__ = ["ReducedSensitivity", "RESPONSES"]

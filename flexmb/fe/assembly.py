@@ -9,7 +9,7 @@ from .. import jit
 
 __all__ = ["SparsePattern", "PartitionedPattern", "node_pattern", "scatter_add"]
 
-#: Patterns with at least this many entries expand their rows by a compiled pass
+#: Patterns with at least this many entries expand their rows by a numba pass
 #: (`flexmb.fe.assembly_jit.repeat_rows`; smaller ones by numpy: no compilation for them)
 COMPILED_FROM = 200_000
 #: Elements per pass of `node_pattern`'s slot computation: its temporaries stay at ~40 MB (3D)
@@ -50,9 +50,8 @@ class PartitionedPattern:
     ``-1`` dropped (a prescribed row, or a prescribed column of a prescribed row).
 
     Built once per problem; `split` sums values into the two data arrays (``np.bincount``; the
-    compiled assembly, `flexmb.fe.model_jit`, scatters at the same slots), `matrices` wraps them
-    as CSR without re-checking the structure (a per-iteration constructor cost otherwise, ~0.05
-    ms). The matrices it returns share their index arrays, which nobody may modify.
+    numba assembly, `flexmb.fe.model_jit`, scatters at the same slots), `matrices` wraps them
+    as CSR without re-checking the structure (a per-iteration constructor cost otherwise). The matrices it returns share their index arrays, which nobody may modify.
     """
 
     def __init__(self, rows: np.ndarray, cols: np.ndarray, slot_f: np.ndarray, slot_p: np.ndarray):
@@ -101,7 +100,7 @@ class PartitionedPattern:
         """``(K_ff, K_fp)`` as CSR arrays holding ``data_ff`` and ``data_fp`` (not copied)."""
         out = []
         for M, data in zip(self._templates, (data_ff, data_fp)):
-            new = object.__new__(type(M))  # copy.copy without its protocol (~3x faster)
+            new = object.__new__(type(M))  # copy.copy without its protocol
             new.__dict__.update(M.__dict__)
             new.data = data
             out.append(new)
@@ -144,7 +143,7 @@ def _block_template(G: sp.csr_array, count: np.ndarray, start: np.ndarray, row_c
     seg = _ragged(start[G.indices], width)  # every node's row pattern, concatenated
     n_rows, n_cols = int(row_count.sum()), int(count.sum())
     nnz = int(np.dot(row_len, row_count))
-    if jit.enabled() and nnz >= COMPILED_FROM:  # one compiled pass instead of four over every entry
+    if jit.enabled() and nnz >= COMPILED_FROM:  # one numba pass instead of four over every entry
         from . import assembly_jit
 
         indices, indptr = np.empty(nnz, dtype=np.int64), np.empty(n_rows + 1, dtype=np.int64)

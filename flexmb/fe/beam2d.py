@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import jit
-from ..sections import properties, shear_factor
+from ..sections import section_values, shear_factor
 
 __all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "numpy_deformation_gradient",
            "internal_force_and_tangent", "hypot_atan2"]
@@ -25,8 +25,8 @@ __all__ = ["local_stiffness", "numpy_internal_force_and_tangent", "numpy_deforma
 def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     """Local stiffness ``S`` (E, 3, 3): ``EA/L0`` and the in-plane bending block of Eq. (A.15) with ``Iz``."""
     L0 = np.asarray(L0, dtype=complex if np.iscomplexobj(L0) else float)  # complex: the complex step
-    E, G, A, Iz, ky = properties(sections, ("E", "G", "A", "Iz", "ky"))
-    if np.iscomplexobj(L0) or np.iscomplexobj(E):  # the complex step (`properties` is complex when any is)
+    E, G, A, Iz, ky = section_values(sections, ("E", "G", "A", "Iz", "ky"))
+    if np.iscomplexobj(L0) or np.iscomplexobj(E):  # the complex step (`section_values` is complex when any is)
         phi = shear_factor(12.0 * E * Iz, ky, G * A * L0**2)
     else:
         phi = 12.0 * E * Iz / (ky * G * A * L0**2)

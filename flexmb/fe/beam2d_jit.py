@@ -1,4 +1,4 @@
-"""The planar co-rotational beam of `flexmb.fe.beam2d` as one compiled loop over the elements.
+"""The planar co-rotational beam of `flexmb.fe.beam2d` as one numba loop over the elements.
 
 The same formulas term by term (see `beam2d`); tests/test_kernels.py holds both paths equal to
 1e-12 in deformed states.

@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import jit
 from ..rotations import cross, skew
-from ..sections import properties, shear_factor
+from ..sections import section_values, shear_factor
 
 __all__ = ["local_stiffness", "deformations", "internal_force", "internal_force_and_tangent",
            "numpy_internal_force_and_tangent", "numpy_deformation_gradient", "length"]
@@ -34,7 +34,7 @@ def local_stiffness(sections, L0: np.ndarray) -> np.ndarray:
     ``sections`` is a sequence of `flexmb.sections.Section`, one per element; ``L0`` [m] (E,).
     """
     L0 = np.asarray(L0, dtype=complex if np.iscomplexobj(L0) else float)  # complex: the complex step
-    E, G, A, Iy, Iz, It, ky, kz = properties(sections, ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
+    E, G, A, Iy, Iz, It, ky, kz = section_values(sections, ("E", "G", "A", "Iy", "Iz", "It", "ky", "kz"))
     S = np.zeros((len(L0), 6, 6), dtype=np.result_type(L0, E, G, A, Iy, Iz, It, ky, kz))
     S[:, 0, 0] = E * A / L0
     S[:, 1, 1] = G * It / L0**3

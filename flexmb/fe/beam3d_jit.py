@@ -1,4 +1,4 @@
-"""The 3D co-rotational beam of `flexmb.fe.beam3d` as one compiled loop over the elements.
+"""The 3D co-rotational beam of `flexmb.fe.beam3d` as one numba loop over the elements.
 
 The same formulas, term by term: deformations of Eq. (A.4), ``D`` from (A.9)-(A.10), the
 material part ``D^T S D`` and the geometric part ``sum_i sigma_i dD_i/dq`` (see `beam3d` for the
@@ -112,7 +112,7 @@ def _kernel(xp, xq, Rp, Rq, ny0, nz0, L0, S, tangent, sg_given, sg_in, F, K, e_o
     V = np.empty((4, 3))
     pz, qz, py, qy = V[0], V[1], V[2], V[3]
     # the helpers' integer and flag arguments read from arrays, not written as constants: numba
-    # compiles a helper once per combination of literal arguments (issue 31: _rot_chord 8 times)
+    # compiles a helper once per combination of literal arguments (_rot_chord was compiled 8 times)
     # (the torsion row 1 with blocks 3 and 9; the chord rows 2-5 with their signs and blocks; pass 2)
     lay = np.array([1, 3, 9, 0])
     rows, coefs, blocks = np.array([2, 3, 4, 5]), np.array([-1.0, 1.0, 1.0, -1.0]), np.array([3, 9, 3, 9])

@@ -12,7 +12,7 @@ A torsional spring ``k`` adds the energy ``k theta^2 / 2`` of the relative angle
 (2D: ``theta_B - theta_A``, unbounded; 3D: ``atan2((R_A p_y).(R_B p_x), (R_A p_x).(R_B p_x))``
 plus the whole turns the increments that led to the state took it past pi: the state carries
 ``theta`` (`flexmb.fe.model.State.hinge_angles`, `Hinges.advance`), since a rotation matrix has no
-turn count; issue 19: a spring k = 2 turned 4 rad held +4.57 N m, taken at 4 - 2 pi, for -8).
+turn count; e.g. a spring k = 2 turned 4 rad held +4.57 N m, taken at 4 - 2 pi, for -8).
 
 Each constraint row ``c_i`` enters the residual as ``s_i c_i`` on its multiplier's row and the
 multiplier's force ``s_i g_i^T mu_i`` on the links' rows (``g_i`` its gradient in the solver's
@@ -351,7 +351,7 @@ def constrained(model, free: np.ndarray, K, state=None):
     first order (rows of ``K``'s multiplier-node block), or ``(free, None)`` without hinges.
     ``state``: the rows dropped at build time (`Hinges.dropped_rows`) hold too; dependent only
     while the prescribed DOFs are held, they keep a released link on its hinge's axis (without
-    them a 3D pendulum whose turn was prescribed swung at 0 Hz with ``held="none"``)."""
+    them a 3D pendulum whose turn was prescribed swung at 0 Hz with ``held="fixed"``)."""
     if model.hinges is None:
         return free, None
     fn, fm = free[free < model.n_node_dofs], free[free >= model.n_node_dofs]

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..rotations import cross, rot2
-from ..sections import properties, shear_factor
+from ..sections import section_values, shear_factor
 from .assembly import SparsePattern
 from .beam2d import hypot_atan2
 from .beam3d import length as _length
@@ -77,7 +77,7 @@ def local_mass(sections, L0: np.ndarray, dim: int) -> np.ndarray:
     cross-section's principal axes), shape (E, 6, 6) in 2D (``[u, v, theta]`` per node) or
     (E, 12, 12) in 3D (``[u, v, w, theta_x, theta_y, theta_z]`` per node) [kg, kg m, kg m^2]."""
     L0 = np.asarray(L0, dtype=complex if np.iscomplexobj(L0) else float)  # complex: the complex step
-    rho, E, G, A, Iy, Iz, ky, kz = properties(sections, ("density", "E", "G", "A", "Iy", "Iz", "ky", "kz"))
+    rho, E, G, A, Iy, Iz, ky, kz = section_values(sections, ("density", "E", "G", "A", "Iy", "Iz", "ky", "kz"))
     nE = len(L0)
     nd = 3 if dim == 2 else 6
     M = np.zeros((nE, 2 * nd, 2 * nd), dtype=np.result_type(L0, rho, E, G, A, Iy, Iz, ky, kz))

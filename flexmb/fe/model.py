@@ -327,7 +327,7 @@ class FEModel:
 
     @functools.cached_property
     def _element_data(self):
-        """The element arrays the compiled kernels take, contiguous: 3D ``ny0, nz0, L0, S``; 2D
+        """The element arrays the numba kernels take, contiguous: 3D ``ny0, nz0, L0, S``; 2D
         ``alpha0, L0, S``."""
         el = self.elements
         data = (el.ny0, el.nz0) if self.dim == 3 else (el.alpha0,)
@@ -342,7 +342,7 @@ class FEModel:
         (None without ``pattern``), ``F`` (E, 2 ndof) master end forces, deformations, stresses and
         `largest_by_kind` of ``F``. ``geometric_stress``: the stresses (E, modes) of the geometric
         stiffness, or a function of the elements' own returning them (None: their own). One
-        compiled pass (`flexmb.fe.model_jit`) when `flexmb.jit.enabled`, else `element_response`
+        numba pass (`flexmb.fe.model_jit`) when `flexmb.jit.enabled`, else `element_response`
         and ``np.bincount``: equal to 1e-12 (tests/test_kernels.py)."""
         el = self.elements
         nE, n2 = len(el.L0), 2 * self.ndof

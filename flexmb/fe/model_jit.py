@@ -1,4 +1,4 @@
-"""`flexmb.fe.model.FEModel.assemble` as compiled loops: the elements' end points from their
+"""`flexmb.fe.model.FEModel.assemble` as numba loops: the elements' end points from their
 master nodes, the beam kernel, the transfer to the masters and the scatter into the residual
 and the tangent's CSR data, in one call per evaluation.
 
@@ -109,7 +109,7 @@ def assemble3d(pos, rot, master, offset, moved, ny0, nz0, L0, S, tangent, sg_giv
                     Kk[o + 3 + i, o + 3 + j] += dv[i] * fv[j] - (df if i == j else 0.0)
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
     nd = Fm.shape[1] // 2  # ndof 6, dim 3 read from the array: literal constants would make numba
-    _largest_rows(Fm, nd, nd // 2, largest)  # compile a second specialisation (issue 31)
+    _largest_rows(Fm, nd, nd // 2, largest)  # compile a second specialisation
 
 
 @njit
@@ -157,7 +157,7 @@ def assemble2d(pos, rot, master, offset, moved, alpha0, L0, S, tangent, sg_given
                 Kk[o + 2, col] += -d1 * Kk[o, col] + d0 * Kk[o + 1, col]
             Kk[o + 2, o + 2] -= d0 * f0 + d1 * f1
         _scatter(k, dofs, slots, Fm, Kk, tangent, r, data_ff, data_fp)
-    nd = Fm.shape[1] // 2  # ndof 3, dim 2 from the array: not literals (one specialisation, issue 31)
+    nd = Fm.shape[1] // 2  # ndof 3, dim 2 from the array: not literals (one specialisation)
     _largest_rows(Fm, nd, nd - 1, largest)
 
 
@@ -229,7 +229,7 @@ def largest_by_kind(v, ndof, dim, out):
 @njit
 def _largest_rows(F, ndof, dim, out):
     """`largest_by_kind` of ``F.ravel()`` (F (E, n), rows of whole nodes) without the ravel, whose
-    numba implementation (a reshape with its error messages) costs ~3 s of a first compilation."""
+    numba implementation (a reshape with its error messages) adds seconds to a first compilation."""
     out[0] = 0.0
     out[1] = 0.0
     for e in range(F.shape[0]):

@@ -45,7 +45,7 @@ import numpy as np
 from .. import jit
 from .._validate import positive
 from ..errors import ModelError, ParameterError
-from ..sections import properties
+from ..sections import section_values
 from . import stress_jit
 
 __all__ = ["peak_normal_stress", "section_table", "SectionTable", "section_resultants", "stress_points", "perimeter_peaks", "element_stresses", "Stresses",
@@ -55,8 +55,7 @@ __all__ = ["peak_normal_stress", "section_table", "SectionTable", "section_resul
 #: corners, where the torsional shear falls from its peak to zero within a thickness; a circle:
 #: evenly spaced). Measured against 16 times as many on random combinations of all six section
 #: forces: never high, at most 9e-6 low (tests/test_stress.py; 512 points: 1.4 % low on a
-#: 20 x 1 rectangle, the coarse search missing the peak). ~0.01 ms per element end (the
-#: manipulator's 162: 1.7 ms, loaded host).
+#: 20 x 1 rectangle, the coarse search missing the peak).
 PERIMETER_POINTS = 2048
 #: The coarse search's stride (`perimeter_peaks`).
 COARSE_STEP = 16
@@ -105,7 +104,7 @@ def section_table(elements) -> SectionTable:
     """The `SectionTable` of ``elements`` (a frozen `flexmb.fe.model.BeamElements` whose sections
     are a tuple: it cannot change), built on first use and kept while the batch lives: the
     manipulator's plausibility check read its 81 sections' attributes in three Python loops on
-    every solve, 0.1 ms of a 1.2 ms KSD-reduced solve."""
+    every solve (a visible share of a KSD-reduced solve)."""
     try:
         return _TABLES[elements]
     except (KeyError, TypeError):
@@ -113,7 +112,7 @@ def section_table(elements) -> SectionTable:
     # stresses are recovered at each element's stress section (`flexmb.JointMesh.stress_sections`:
     # the thinnest of a variable section), its mass read from its own
     sections = getattr(elements, "stress_sections", None) or elements.sections
-    E, A, Iz = properties(sections, ("E", "A", "Iz"))  # what every beam element reads
+    E, A, Iz = section_values(sections, ("E", "A", "Iz"))  # what every beam element reads
     # a plugin section may lack the others (a planar one Iy; density, shape and fibres are optional)
     Iy = np.array([getattr(s, "Iy", np.nan) for s in sections], dtype=float)
     rho = np.array([getattr(s, "density", 0.0) for s in elements.sections], dtype=float)
@@ -284,7 +283,7 @@ def _points_key(section) -> tuple:
 
 @functools.lru_cache(maxsize=256)
 def _units(key, Iy, Iz, points: int, step: int) -> tuple[np.ndarray, np.ndarray]:
-    """`_points`'s per-point fields as the compiled search reads them (8, P): ``z/Iy``, ``y/Iz``
+    """`_points`'s per-point fields as the numba search reads them (8, P): ``z/Iy``, ``y/Iz``
     (as `_fields` divides them), then ``tau_T``, ``tau_Vy``, ``tau_Vz`` (two components each),
     padded by ``step`` points on each side with those one period away (8, P + 2 step: each fine
     window contiguous); their coarse points (every ``step``-th), contiguous; and each field's
@@ -324,7 +323,7 @@ def perimeter_peaks(section, resultants):
     r = np.asarray(resultants, dtype=float)
     n = len(r)
     r = r.reshape(-1, r.shape[-1])
-    if jit.enabled() and len(r):  # the same search compiled (flexmb.fe.stress_jit): 1.5 -> 0.1 ms, manipulator
+    if jit.enabled() and len(r):  # the same search compiled (flexmb.fe.stress_jit)
         if r.shape[-1] == 6:
             rows = np.ascontiguousarray(r)
         else:  # planar: [N, Vy, Mz], no Vz, T, My (as below)
@@ -485,10 +484,9 @@ def _plan(tab: SectionTable, n_elements: int):
 
 def _peaks(model, state, tab, kt, axial):
     """Per element its peak normal, shear and von Mises stresses times ``kt`` (`element_stresses`):
-    one compiled pass over the elements' generalised stresses (`stress_jit.element_peaks`, the
+    one numba pass over the elements' generalised stresses (`stress_jit.element_peaks`, the
     per-group path's numbers to the last bit: tests/test_stress.py) when `flexmb.jit.enabled` and
-    every section's shape is known, else per group of equal sections (`perimeter_peaks`). The
-    manipulator's 81 elements: 0.17 -> 0.07 ms (steady; the generalised stresses' assembly ~0.03 ms more)."""
+    every section's shape is known, else per group of equal sections (`perimeter_peaks`)."""
     el = model.elements
     nE = len(el.L0)
     plan = _plan(tab, nE) if jit.enabled() and nE else None

@@ -4,16 +4,15 @@ the peak normal stress of every element (`peak_normal_stress`).
 `perimeter_search`: the same coarse-then-fine search over a section's perimeter points, row by
 row, the same floating-point operations in the same order (the numpy path's results to the last
 bit; tests/test_stress.py holds them equal to 1e-12). The numpy path builds (rows, points)
-temporaries for the coarse points and gathers the fine windows: 1.5 ms of the manipulator's 2 ms
-`Solution.stresses` (162 element ends, two sections); compiled ~0.12 ms, now ~0.07 ms (contiguous
-fine windows, lane-wise maxima, the NaN search only where a value could be NaN, an element's
-second end reusing its shear peak, the helpers inlined), of which the coarse points (vectorised,
-`_coarse`) ~0.015 ms, the coarse maxima ~0.02 ms. `element_peaks` goes from the elements'
+temporaries for the coarse points and gathers the fine windows, most of `Solution.stresses`;
+the numba search keeps the fine windows contiguous, takes lane-wise maxima, searches NaN only
+where a value could be NaN, lets an element's second end reuse its shear peak and inlines the
+helpers (coarse points vectorised in `_coarse`). `element_peaks` goes from the elements'
 generalised stresses to their peaks in one call (`flexmb.fe.stress.element_stresses`).
 
 `peak_normal_stress`: `flexmb.fe.stress.peak_normal_stress`'s terms for the plausibility check
 every solve runs (`flexmb.plausibility.peak_stress`): numpy's ~12 calls on the manipulator's 81
-elements cost ~17 us of a ~0.3 ms KSD-reduced solve, this loop ~1 us (issue 21); held equal to
+elements were a visible share of a KSD-reduced solve, this loop a small one; held equal to
 the numpy function in tests/test_kernels.py.
 """
 
@@ -26,8 +25,7 @@ from ..jit import njit
 
 def _inlined(fn):
     """`flexmb.jit.njit` with ``inline="always"``: the search's helpers inlined into their callers
-    at numba's level (LLVM left them as calls: the manipulator's 108 element ends of one section
-    59 -> 47 us)."""
+    at numba's level (LLVM left them as calls)."""
     if not jit._AVAILABLE:  # pragma: no cover - the numpy path is used then
         return fn
     import numba
@@ -70,8 +68,7 @@ def _argmax3(coarse, n, best):
 @_inlined
 def _first_max(a, n):
     """numpy's argmax of ``a[:n]`` holding no NaN (the first largest): the largest value over
-    eight independent running maxima (no loop-carried compare chain: the manipulator's 162 element
-    ends' coarse maxima 55 -> ~30 us), then the first index holding it among the lanes that reach it."""
+    eight independent running maxima (no loop-carried compare chain), then the first index holding it among the lanes that reach it."""
     if n < 16:
         b = 0
         for p in range(1, n):
@@ -229,8 +226,7 @@ def perimeter_search(units, coarse_units, umax, rows, A, Iy, Iz, step, out):
     with a NaN: numpy's first NaN), each fine window evaluated in one loop LLVM vectorises and then
     reduced (`_window_max`; a NaN anywhere gives NaN, as numpy); a row whose ``Vy, Vz, T`` equal
     the previous row's (an element's other end) reuses its ``|tau|^2`` peak, the same arithmetic
-    on the same numbers. The manipulator's 162 element ends: 118 -> ~70 us, the same numbers to
-    the last bit."""
+    on the same numbers, the same numbers to the last bit."""
     coarse = np.empty((3, coarse_units.shape[1]))
     fine = np.empty(2 * step + 1)
     best = np.empty(3, dtype=np.int64)
@@ -298,6 +294,6 @@ def peaks_per_element(out, per, normal, shear, vm):
     """`perimeter_search`'s rows (R, 3) reduced over each element's ``per`` consecutive rows
     (its ends) as numpy's ``max`` (a NaN gives NaN): the peak ``|sigma_x|`` into ``normal``, the
     square roots of the peak ``|tau|^2`` and von Mises squared into ``shear`` and ``vm`` (R / per,)
-    (numpy's reshape, max and two sqrt: ~7 of ~50 us per section group)."""
+    (instead of numpy's reshape, max and two sqrt)."""
     for e in range(len(normal)):
         _reduce_rows(out, e * per, per, 1.0, normal, shear, vm, e)

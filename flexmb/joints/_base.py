@@ -182,7 +182,7 @@ def _material_keyword(name: str):
 
 @attrs.frozen(kw_only=True, cache_hash=True)
 class MaterialJoint(Joint):
-    """A joint made of one `flexmb.Material` (issue 27 item 4): the base of the shipped flexures.
+    """A joint made of one `flexmb.Material`: the base of the shipped flexures.
 
     ``material``: a `flexmb.Material` or a catalogue name (`flexmb.materials.CATALOGUE`, SI; in a
     mechanism with declared units give it to `flexmb.Mechanism.add_joint`, which resolves it in

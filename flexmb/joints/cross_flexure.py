@@ -54,8 +54,8 @@ class CrossFlexure(MaterialJoint):
         turned 20 deg, converged-mesh reference by Richardson from 16/32/64 el./leaf,
         ``benchmarks/bench_discretisation.py``): centre shift +5.6 / +0.79 / +0.50 % at 3 / 8 /
         10 el./leaf (the same at 45 and 75 deg), support stiffness +2.2 / +0.16 %, moment +0.72
-        / +0.03 % at 3 / 10; 3.0 -> 8.6 ms per solve of the pivot at 20 deg (5 -> 6 Newton
-        iterations; host at load 6). Table 1 and the
+        / +0.03 % at 3 / 10; 5 -> 6 Newton iterations per solve of the pivot at 20 deg (the
+        time: BENCHMARKS.md, Cost of the new defaults). Table 1 and the
         four-bar of the paper use 1-5 (`flexmb.models` states them); the shipped database holds
         1-5 and 10. `flexmb.discretisation_error` estimates the error of any mesh.
     gap
@@ -82,7 +82,7 @@ class CrossFlexure(MaterialJoint):
         if v.real(v.finite(owner, "gap", self.gap)) < 0:
             raise ParameterError(f"{owner}: gap={self.gap!r} m must be >= 0")
         # the mesh's points are start + ((end - start) k) / n, k <= n, on every leaf: finite when its
-        # ends and n times its span are (checked without meshing: ~0.1 ms of every joint's construction)
+        # ends and n times its span are (checked without meshing, on every joint's construction)
         with np.errstate(over="ignore", invalid="ignore"):
             ends = np.array([(a, b, (b - a) * self.elements_per_leaf) for a, b, _ in self.leaves(3)])
         if not np.all(np.isfinite(ends)):

@@ -41,7 +41,8 @@ class LeafSpring(MaterialJoint):
         guide of two 0.1 m leaves 1 mm thick pushed 10 mm, converged-mesh reference by
         Richardson from 16/32/64 elements, ``benchmarks/bench_discretisation.py``): parasitic
         drop -5.0 / -0.55 %, support stiffness along the leaves +7.4 / +0.5 %, actuation force
-        +0.34 / +0.04 % at 4 / 12 elements; 6.1 -> 6.0 ms per solve (5 Newton iterations).
+        +0.34 / +0.04 % at 4 / 12 elements; 5 Newton iterations either way (the time: BENCHMARKS.md, Cost of
+        the new defaults).
     section
         Optional `Section` that replaces the rectangle (e.g. to switch off shear with ``ky = kz = inf``);
         its own material (``E``, ``G``, ``density``, ``yield_stress``) and sizes then apply: a

@@ -73,8 +73,8 @@ class ThreeXInfinity(MaterialJoint):
         evidence for the default (turned 45 deg under a 10 N axial load, converged-mesh
         reference by Richardson from 8/16/32 el./leaf, ``benchmarks/bench_discretisation.py``):
         drift of node B off the axis +5.6 / +0.35 %, axial support stiffness +10.4 / +0.64 %,
-        moment +0.13 / +0.01 % at 3 / 12 el./leaf; 8.4 -> 28 ms per solve (7 -> 14 Newton
-        iterations; host at load 6). The manipulator
+        moment +0.13 / +0.01 % at 3 / 12 el./leaf; 7 -> 14 Newton iterations per solve (the
+        time: BENCHMARKS.md, Cost of the new defaults). The manipulator
         of the paper (`flexmb.models.manipulator`) keeps 3, the mesh of the shipped database
         (KSD on another mesh needs ``flexmb train three_x_infinity --elements N``).
 

@@ -7,10 +7,9 @@ displacements ``q`` with coefficients that depend on the element's rotation and 
 the intended rotation alone, plus ``-a . T^T q_hat``, which is linear in node B's near position
 ``p`` (the markers' gaps move with the nodes' near positions). `axial_forces` splines the
 coefficients, the constant and its ``p`` gradient (`flexmb.ksd.splined`, one table per joint
-template), so no EOB need be assembled per configuration (an `EOBTemplate.evaluate` is ~1 ms
-for the manipulator's three joints; tabulated, the forces take ~0.1 ms; with the compiled kernels
-`flexmb.ksd.properties_jit.eob_axial` builds the node displacements and sums the forces in one
-pass: the manipulator's `eob_axial_forces` 72 -> 40 us, its KSD-reduced ``stresses`` ~0.35 ms).
+template), so no EOB need be assembled per configuration (`EOBTemplate.evaluate` costs ten times the
+tabulated forces); with the numba kernels `flexmb.ksd.reduced_model_jit.eob_axial` builds the node
+displacements and sums the forces in one pass.
 """
 
 from __future__ import annotations

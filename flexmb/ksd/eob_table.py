@@ -1,9 +1,9 @@
-"""The EOB condensation tabulated against the intended rotation (issue 21 item 4).
+"""The EOB condensation tabulated against the intended rotation.
 
 KSD-reduced needs per joint the condensed stiffness and force of node B with node A held
 (Eq. 2.4) and the recovery of the internal nodes (Eq. 2.6): `flexmb.ksd.eob.EOBTemplate.evaluate`
-assembles the EOB and solves the interior (Craig-Bampton) for them, ~1 ms for the manipulator's
-three joints. They depend on theta alone, up to terms exactly linear in node B's near position,
+assembles the EOB and solves the interior (Craig-Bampton) for them, most of a KSD-reduced solve
+(BENCHMARKS.md, KSD-reduced with the tabulated EOB condensation). They depend on theta alone, up to terms exactly linear in node B's near position,
 so they are sampled once on a grid (`tabulate`, stored in the joint's database file,
 `flexmb.database.eob_format`) and interpolated (`Lookup`).
 
@@ -178,7 +178,7 @@ class Lookup:
         the end of the range was decided by roundoff: the manipulator's location case at 45 deg
         reaches 45 deg plus 4e-16 rad or minus 5e-16 by the order of step 1's sums, and the
         direct evaluation there (differing by the table's 1e-9) moved node positions by 2e-12
-        relative and cost ~1 ms more."""
+        relative and cost a direct condensation more."""
         lo, hi = self.range
         return all(lo - SLACK <= t <= hi + SLACK for t in np.ravel(theta).tolist())  # a few joints: no ufuncs
 

@@ -1,4 +1,4 @@
-"""An a-posteriori estimate of KSD-reduced's error (issue 32).
+"""An a-posteriori estimate of KSD-reduced's error.
 
 KSD-reduced (Dwarshuis et al. 2020, steps 1-4) takes every joint's element orientations from the
 unloaded kinematics (the database fits, Sec. 2.2) and linearises its unintended deformation about

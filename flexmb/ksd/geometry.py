@@ -60,9 +60,9 @@ _compose3d = None  # flexmb.fe.model_jit.compose3d, bound on first use
 
 def compose(w: np.ndarray, R: np.ndarray) -> np.ndarray:
     """``exp(skew(w)) R`` for stacks of spins [rad] (..., 3) and rotations (..., 3, 3) of the same
-    leading shape (Eq. A.8). With the compiled kernels `flexmb.fe.model_jit.compose3d` (the same
+    leading shape (Eq. A.8). With the numba kernels `flexmb.fe.model_jit.compose3d` (the same
     Rodrigues terms as `flexmb.rotations.expm_so3`, equal to 1e-15): numpy's calls on a few 3x3
-    matrices cost 12-19 us each, the compiled update 3-4 us (issue 21)."""
+    matrices cost several times the numba update."""
     global _compose3d
     if not jit.enabled():
         return expm_so3(w) @ R
@@ -95,7 +95,7 @@ def rz(angle: np.ndarray) -> np.ndarray:
 def intended_angle(R: np.ndarray):
     """Rotation about z of ``R`` (..., 3, 3) [rad] and its gradient with respect to a spin
     ``omega`` (``dR = skew(omega) R``), shape (..., 3). Exact for any tilt (atan2 of the
-    in-plane block). A stack (J, 3, 3) with the compiled kernels: `flexmb.ksd.reduced_jit.intended_angle`."""
+    in-plane block). A stack (J, 3, 3) with the numba kernels: `flexmb.ksd.reduced_jit.intended_angle`."""
     if R.ndim == 3 and jit.enabled():
         from . import reduced_jit
 
@@ -152,7 +152,7 @@ class JointFrames:
     def relative(self, poses: LinkPoses):
         """``p`` (J, 3), ``R_rel`` (J, 3, 3) and ``dict`` of intermediate vectors: the frame axes
         ``F`` and ``Ft = F^T`` (J, 3, 3), node B's arms ``rb`` from link b and ``ra`` from link a (J, 3).
-        With the compiled kernels `flexmb.ksd.reduced_jit.relative` (~8 -> ~2 us on the manipulator)."""
+        With the numba kernels `flexmb.ksd.reduced_jit.relative`."""
         if jit.enabled():
             from . import reduced_jit
 

@@ -1,5 +1,5 @@
-"""A joint's mass condensed on its interface nodes for KSD-reduced free vibration (issue 22
-item 6): the Craig-Bampton reduction (Craig & Bampton 1968) of the joint's consistent mass with
+"""A joint's mass condensed on its interface nodes for KSD-reduced free vibration: the
+Craig-Bampton reduction (Craig & Bampton 1968) of the joint's consistent mass with
 its EOB's stiffness, tabulated against the intended rotation.
 
 At an EOB near configuration every element is rigidly rotated (Eq. 3.2), so the joint's mass is
@@ -21,15 +21,14 @@ the mode shapes are, ``recovery=False``) interpolates ``M_b``, ``X`` and, per ch
 the kept fixed-interface modes' span in an aligned basis (`_JointMass.modal_parts`: its
 stiffness ``Q^T K Q``, coupling and interior shapes) over the trained range
 (`flexmb.ksd.splined`, built once per joint template on first use): no eigenproblem per
-configuration (the three 54 x 54 Ritz problems were 0.4 of the manipulator's 1.1 ms ``modes``;
-now 0.5 ms in all). The frequencies depend on the span alone; measured against the Ritz
+configuration (the three 54 x 54 Ritz problems were a third of the manipulator's ``modes``). The frequencies depend on the span alone; measured against the Ritz
 eigenproblems solved at the configuration (``table=False``) between grid points: manipulator
 f1-f6 5.8e-11, four-bar 2.5e-13 relative. Over three_x_infinity's +-45 deg the gap above the
 6th mode stays open but narrow (``omega_7^2 / omega_6^2`` >= 1.00085, at 0 deg, an avoided
 crossing in a cluster of the leaves' modes 3-9): the span turns quickly there, and the table
 takes the finest grid (0.125 deg; interior shapes 5e-7, coupling 9e-8, stiffness 2e-10 of their
 largest entries), sampled from the smooth Ritz projections' table (`_JointMass.ritz_table`,
-1 deg): the first ``modes`` of the manipulator, tables built, 0.72 s against 0.21 s. The 2D cross
+1 deg), which builds in a third of the time. The 2D cross
 flexure's (three chains, +-75 deg): >= 1.099, 0.5 deg grid. A template whose kept span is not
 smooth over the range (a crossing at the cut: `span_check`, thresholds `GAP_MIN`, `ALIGN_MIN`,
 `NEIGHBOUR_MIN` with the measured margins) gets no table: its Ritz eigenproblems are solved per
@@ -275,8 +274,7 @@ class _JointMass:
         """Over the trained range (`flexmb.ksd.splined.SplinedTable`): ``Mb``, ``X`` and, with
         kept modes, `modal_parts` aligned (``Kq``, ``C``, ``Phi``): no eigenproblem per
         configuration. Sampled from `ritz_table` (where the kept span turns quickly the grid
-        is fine: assembling the joint at each of its points took three_x_infinity's build 3.6 s,
-        against 0.5 s). None where `span_check` refuses it (the reason in ``refused``)."""
+        is fine: assembling the joint at each of its points took seven times as long). None where `span_check` refuses it (the reason in ``refused``)."""
         if n_fixed not in self._tables:
             ritz = self.ritz_table(n_fixed)
             if not sum(c.sum() for c in self.cut(n_fixed)):
@@ -359,9 +357,8 @@ _JOINT_MASS = weakref.WeakKeyDictionary()
 
 def _lowest(S: np.ndarray, m: int):
     """The lowest ``m`` eigenpairs of symmetric matrices ``S`` (..., r, r): eigenvalues (..., m),
-    vectors (..., r, m). LAPACK ``dsyevr`` for the wanted ones only: on the manipulator's three
-    54 x 54 Ritz problems 0.47 ms against numpy's batched ``eigh`` (all pairs) 0.65 ms (eigenvalues
-    equal to 5e-14 relative)."""
+    vectors (..., r, m). LAPACK ``dsyevr`` for the wanted ones only, faster than numpy's batched ``eigh`` (all pairs) on
+    the manipulator's three 54 x 54 Ritz problems (eigenvalues equal to 5e-14 relative)."""
     r = S.shape[-1]
     m = min(m, r)
     flat = S.reshape(-1, r, r)

@@ -198,7 +198,7 @@ def _compiled_arrays(red: ReducedMechanism) -> dict:
 
 
 def compiled_constraints(red: ReducedMechanism, poses: LinkPoses):
-    """`ReducedMechanism.constraint_equations` (no hinges) through the compiled kernel of step 1,
+    """`ReducedMechanism.constraint_equations` (no hinges) through the numba kernel of step 1,
     `flexmb.ksd.reduced_jit.constraints`: values (m,), Jacobian (m, 6 n_links), ``theta`` (J,),
     ``p`` (J, 3) (tests hold it equal to the numpy path and to finite differences)."""
     from .reduced_jit import constraints
@@ -239,7 +239,7 @@ def _kinematics_call(red: ReducedMechanism) -> tuple:
 
 def _solve_compiled(red: ReducedMechanism, tol: float, max_iter: int, max_rotation: float, stop_beyond_half_turn: bool):
     """`solve_kinematics` through `flexmb.ksd.reduced_jit.kinematics` (no hinges): the same steps in
-    one compiled call (the manipulator's joint case: ~200 -> ~20 us, issue 21). The kernel keeps
+    one numba call. The kernel keeps
     the residuals of the first 64 ``max_iter`` iterations (the manipulator needs ~5); beyond that
     (a motion of many turns: the 2D pivot turned 300 rad with max_iter=2, 191 iterations) it runs
     again with room for all, so info's ``history`` holds every iteration, as the numpy loop's."""
@@ -298,7 +298,7 @@ def solve_kinematics(red: ReducedMechanism, *, tol: float = 1e-10, max_iter: int
     motion reached (``load_factor``: 1 unless stopped beyond half a turn), the 3D hinges' angles
     (``hinge_angles``, turns counted; None in 2D or without hinges), the equations
     kept/removed and the largest residual of the removed (redundant) equations at the solution.
-    With the compiled kernels and no hinges the same steps run in one call (`_solve_compiled`).
+    With the numba kernels and no hinges the same steps run in one call (`_solve_compiled`).
     """
     if red.hinges is None and jit.enabled():
         poses, theta, p, c, iterations, res, lam, history = _solve_compiled(red, tol, max_iter, max_rotation,

@@ -1,4 +1,4 @@
-"""Where a KSD solve's joint data came from (issue 32): per joint, the database file read and
+"""Where a KSD solve's joint data came from: per joint, the database file read and
 whether it lay in the ``database=`` folder, the user's data folder or the shipped data
 (`flexmb.database.store.source`). A KSD `Solution` carries it as ``stages["setup"]["files"]``."""
 

@@ -47,7 +47,7 @@ _KERNELS: list = []
 
 
 def kernels():
-    """`flexmb.ksd.reduced_jit`, imported on first use (it imports numba, ~1 s: not with flexmb) and
+    """`flexmb.ksd.reduced_jit`, imported on first use (it imports numba: not with flexmb) and
     kept: a function-level relative import costs a Python call per use (Python 3.11 checks the
     importer's ``__package__`` against ``__spec__.parent``), six per KSD-reduced solve."""
     if not _KERNELS:
@@ -58,7 +58,7 @@ def kernels():
 
 
 def _with_lookup(tpl: EOBTemplate, joint) -> EOBTemplate:
-    """``tpl`` with its database's tabulated condensation attached when it applies (issue 21)."""
+    """``tpl`` with its database's tabulated condensation attached when it applies."""
     tpl.lookup = lookup_for(tpl, joint)
     return tpl
 
@@ -123,14 +123,14 @@ def _database_file(joint, dim: int, folder) -> tuple:
     old modification time back (`os.utime` sets the status-change time) changes it; equal
     signatures mean `template` reads the same file as when they were taken. One ``access`` per
     candidate (`flexmb.database.store.candidate_names`, two per folder) searched (a folder without the file:
-    no exception), an ``lstat`` where the file is, a ``stat`` where it is a link (~6 us for the
-    shipped data; `template` reads and parses the file, ~150 us)."""
+    no exception), an ``lstat`` where the file is, a ``stat`` where it is a link (far cheaper than
+    `template`'s reading and parsing the file)."""
     folder = None if folder is None else os.fspath(folder)
     environment = _environment()
     folders = _folders(folder, environment)
     for path in _candidates(folder, environment, _file_names(joint, dim)):
         if _ACCESS and not os.access(path, os.F_OK, follow_symlinks=False):
-            continue  # as `locate` (os.path.lexists): nothing there; no exception raised (~50 us after other work)
+            continue  # as `locate` (os.path.lexists): nothing there; no exception raised
         try:
             st = os.lstat(path)
         except FileNotFoundError:  # nothing there, not even a broken link: the next folder
@@ -367,8 +367,8 @@ class ReducedMechanism:
         return out
 
     def rebind(self, compiled) -> ReducedMechanism | None:
-        """This set-up for ``compiled``, another mechanism of the same structure (issue 31: a design
-        loop's new mechanism): the same links, joints (equal values, on the same sides), prescribed
+        """This set-up for ``compiled``, another mechanism of the same structure (a design loop's new
+        mechanism): the same links, joints (equal values, on the same sides), prescribed
         DOFs and loaded links, no hinges, with other link positions, joint placements, prescribed
         values and loads. Templates, constraint sets, groups and index maps are shared; the numbers
         (links' reference positions, joint frames, loads, moves) are recomputed and what steps 1-4
@@ -466,7 +466,7 @@ class ReducedMechanism:
         return vals, (jac if jacobian == "deferred" else jac()), theta, p
 
     def tabulated_plan(self):
-        """KSD-reduced's compiled path with every joint's condensation tabulated, prepared once per
+        """KSD-reduced's numba path with every joint's condensation tabulated, prepared once per
         set-up (kept on the set-up; `with_values` drops it): per group of joints its indices,
         `flexmb.ksd.eob_table.Lookup.kernel_args` split around the per-solve arguments, its internal
         nodes' count and FE nodes; per joint the rotations [rad] within which a solve takes this
@@ -503,7 +503,7 @@ class ReducedMechanism:
         near position ``p_hat`` (J, 3), condensed on node B with node A held (Craig-Bampton,
         Eq. 2.5). Returns ``K`` (J, 6, 6) and ``F_hat`` (J, 6) in the joint frames (inactive planar
         rows zero), per group of joints its EOB (an `flexmb.ksd.eob.EOB`, or with ``compiled`` the
-        arrays ``[recover, internal positions, internal rotations or angles]`` the compiled step 4
+        arrays ``[recover, internal positions, internal rotations or angles]`` the numba step 4
         reads) and how many joints were looked up. ``lookup``: a group whose rotations its
         tabulated condensation covers reads it (`flexmb.ksd.eob_table`) instead of evaluating its
         EOB (not for KSD-full, whose step 5 needs the EOBs' element fields)."""
@@ -514,7 +514,7 @@ class ReducedMechanism:
         for tpl, _, idx in self.groups:
             if lookup and tpl.lookup is not None and tpl.lookup.covers(theta[idx]):
                 tabulated += len(idx)
-                if compiled:  # tabulated, one compiled call (flexmb.ksd.reduced_jit.eob_lookup)
+                if compiled:  # tabulated, one numba call (flexmb.ksd.reduced_jit.eob_lookup)
                     eobs.append(list(tpl.lookup.compiled(theta, p_hat, idx, K, Fh)[2:]))
                     continue
                 e = tpl.lookup(theta[idx], p_hat[idx, :dim])  # tabulated (flexmb.ksd.eob_table)
@@ -576,8 +576,8 @@ class ReducedMechanism:
         condensed stiffness on node B (node A held) about its near pose ``p_hat`` (J, 3),
         ``R_hat`` (J, 3, 3), in the joint frame. ``tangent="deferred"`` returns a function that
         computes the Jacobian when called (a converged Newton iterate never needs it).
-        With the compiled kernels one pass of `flexmb.ksd.reduced_jit.equilibrium` (the same terms;
-        the tangent always, ~2 us more)."""
+        With the numba kernels one pass of `flexmb.ksd.reduced_jit.equilibrium` (the same terms;
+        the tangent always)."""
         if jit.enabled():
             return self._equilibrium_compiled(poses, K, F_hat, p_hat, R_hat, tangent)
         fr = self.frames
@@ -626,8 +626,8 @@ class ReducedMechanism:
         return True, d, np.concatenate([self.load_force, self.load_moment + cross(d, self.load_force)], axis=1)
 
     def _equilibrium_compiled(self, poses: LinkPoses, K, F_hat, p_hat, R_hat, tangent):
-        """`equilibrium` through `flexmb.ksd.reduced_jit.equilibrium` (manipulator: ~50 us of numpy per
-        evaluation and ~30 us per tangent, issue 21)."""
+        """`equilibrium` through `flexmb.ksd.reduced_jit.equilibrium` (numpy's calls
+        on (J, 3, 3) stacks otherwise)."""
         n = 6 * self.n_links
         fr = self.frames
         offset, d, loads = self._loads(poses)
@@ -669,7 +669,7 @@ class ReducedMechanism:
         ``displacements``, per group of joints the node displacements (Jg, N nd) from the EOBs'
         near poses (`eob_axial_stress` reads them; else an empty list). ``eobs`` as
         `condensed_joints` returns them (its compiled arrays: `fe_state_compiled`)."""
-        if eobs and isinstance(eobs[0], list):  # the compiled path's arrays
+        if eobs and isinstance(eobs[0], list):  # the numba path's arrays
             return self.fe_state_compiled(poses, [(idx, *e) for (_, _, idx), e in zip(self.groups, eobs)], p_hat,
                                           R_hat), []
         dim = self.dim
@@ -735,7 +735,7 @@ class ReducedMechanism:
                 continue
             nodes = self._group_nodes[id(idx)] if id(idx) in self._group_nodes else np.array(
                 [self.joint_nodes[j] for j in idx])  # (Jg, n)
-            pos[nodes] = (oA[idx, None] + _embed(xl, dim) @ np.swapaxes(F[idx], 1, 2))[..., :dim]  # matmul: einsum ~8 us more
+            pos[nodes] = (oA[idx, None] + _embed(xl, dim) @ np.swapaxes(F[idx], 1, 2))[..., :dim]  # matmul, not einsum
             if dim == 2:  # global rotation from rest = side-A link's angle + angle in the joint frame
                 rot[nodes] = poses.angle[self.frames.a[idx]][:, None] + Rl
             else:
@@ -750,7 +750,7 @@ class ReducedMechanism:
         group: ``internal`` holds per group ``(idx, recover, x_int, rot_int)`` (step 2's recovery
         (Jg, n_i nd, nd + 1) and the internal nodes' near poses: positions (Jg, n_i, dim),
         rotations (Jg, n_i, 3, 3) in 3D or angles (Jg, n_i) in 2D), ``p_hat``, ``R_hat`` (J, 3),
-        (J, 3, 3) node B's near pose (the manipulator: ~95 -> ~15 us)."""
+        (J, 3, 3) node B's near pose."""
         kernel = kernels().internal
         try:
             x0, rot0, frames, none = self._state_arrays

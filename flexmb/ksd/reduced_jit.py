@@ -1,12 +1,12 @@
 """Compiled KSD kernels of the reduced mechanism: step 3's equilibrium residual and tangent in one
 pass, the joints' relative poses (steps 1, 3 and 4) and their intended rotations (step 1); and
-whole stages, each one call (issue 21: with ~850 Python calls per solve the call overhead was
+whole stages, each one call (with ~850 Python calls per solve the call overhead was
 most of KSD-reduced's time): step 1's kinematic solve (`kinematics`), step 2's tabulated
 condensation (`eob_lookup`), step 3's Newton loop (`reduced_newton`) and step 4 (`internal`).
 
 The same formulas as `flexmb.ksd.reduced.ReducedMechanism.equilibrium` (the numpy path, kept and
-tested equal to 1e-12 in tests/test_kernels.py), written term by term over the J joints: numpy's
-~60 calls on (J, 3, 3) stacks cost ~50 us per evaluation on the manipulator (issue 21).
+tested equal to 1e-12 in tests/test_kernels.py), written term by term over the J joints instead of numpy's
+~60 calls on (J, 3, 3) stacks.
 """
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ def equilibrium(p, Rrel, F_all, Ft_all, rb_all, ra_all, K, Fh, p_hat, R_hat, col
         for i in range(3):
             for c in range(12):
                 tmp[i, c] = Dq[i, 0] * Jr[3, c] + Dq[i, 1] * Jr[4, c] + Dq[i, 2] * Jr[5, c]
-        for i in range(3):  # Jr[3:] = tmp, element by element (no array assignment: issue 31)
+        for i in range(3):  # Jr[3:] = tmp, element by element (no array assignment: slow to compile)
             for c in range(12):
                 Jr[3 + i, c] = tmp[i, c]
         for i in range(6):
@@ -244,7 +244,7 @@ def _move(x, R, angle, dz):
 @njit
 def _copy3(src, dst):
     """``dst[:] = src`` for (n, 3, 3) arrays, element by element: numba's array assignment brings
-    its broadcasting checks and their error messages, ~5 s of a first compilation (issue 31)."""
+    its broadcasting checks and their error messages, seconds of a first compilation."""
     for l in range(src.shape[0]):
         for i in range(3):
             for j in range(3):
@@ -266,7 +266,7 @@ def _prescribe(x, R, angle, X0, lt, ct, vt, lr, W, lam):
     """`flexmb.ksd.reduced.ReducedMechanism.with_prescribed` in place."""
     for i in range(len(lt)):
         x[lt[i], ct[i]] = X0[lt[i], ct[i]] + lam * vt[i]
-    if len(lr):  # element by element, no array expressions (their broadcasting compiles ~5 s, issue 31)
+    if len(lr):  # element by element, no array expressions (their broadcasting compiles for seconds)
         w = np.empty((len(lr), 3))
         out = np.empty((len(lr), 3, 3))
         eye = np.zeros((len(lr), 3, 3))
@@ -442,7 +442,7 @@ def kinematics_in_range(x0, R0, angle0, jac0, path_theta, largest, step_rotation
                         cols, tol, max_iter, max_rotation, stop_beyond_half_turn, n_equations, room, order, lo, hi):
     """`kinematics` from the rest poses ``x0``, ``R0``, ``angle0`` and Jacobian ``jac0`` (read, not
     changed) with its outputs allocated here (a solve's Python wrapper made ten numpy calls for
-    them, ~6 us each after other work has evicted the caches), the intended rotations and
+    them, each slow after other work has evicted the caches), the intended rotations and
     positions put back in the joints' ``order``, and whether every rotation lies within ``lo``,
     ``hi`` (J,). Returns (status, iterations, residual, load factor, within, x, R, angle, c,
     theta, p, history (iterations, at most room), and step 2's zeroed stiffness (J, 6, 6) and
@@ -564,7 +564,7 @@ def deboor_basis(t, k, n, xi, h, hh):
     ``h`` (``hh``: scratch of the same size), by de Boor's recursion (scipy's ``_deBoor_D``);
     returns the interval ``l`` with ``t[l] <= xi < t[l + 1]`` among the ``n`` coefficients' (the
     last one closed, outside the base interval the end pieces): ``h[i]`` multiplies coefficient
-    ``l - k + i``. Shared by `bspline` and `flexmb.ksd.properties_jit.bspline_rows`."""
+    ``l - k + i``. Shared by `bspline` and `flexmb.ksd.reduced_model_jit.bspline_rows`."""
     l = k
     while l < n - 1 and xi >= t[l + 1]:
         l += 1
@@ -620,7 +620,7 @@ def eob_lookup(t, c, k, theta_all, b_all, at, root, powers, ocoef, emb, K, Fh, r
     v = np.empty((J, c.shape[1]))
     bspline(t, c, k, theta, v)
     eye = np.zeros((ni, 3, 3))
-    w = np.empty((ni, 3))  # a joint's internal rotation vectors (a copy: numba's reshape would compile ~3 s)
+    w = np.empty((ni, 3))  # a joint's internal rotation vectors (a copy: numba's reshape would compile for seconds)
     tp = np.empty(len(powers))
     for i in range(ni):
         eye[i, 0, 0] = eye[i, 1, 1] = eye[i, 2, 2] = 1.0

@@ -20,8 +20,8 @@ FINEST_DEG = 0.125  # finest grid step [deg]
 DEGREE = 7  # spline degree
 #: Interpolation error accepted, relative to each array's largest entry. Measured on the condensed
 #: mass of three_x_infinity at 40 random rotations against direct condensation: 1 deg grid (built
-#: in 1.0 s, once per joint template and process; loaded host), M_b 1.8e-9, omega^2 2e-12; the 2D
-#: cross flexure 0.5 deg (0.15 s), M_b 1.7e-8. 1e-9 would take 0.5 deg and 2.6 s for
+#: once per joint template and process), M_b 1.8e-9, omega^2 2e-12; the 2D cross flexure
+#: 0.5 deg, M_b 1.7e-8. 1e-9 would take a 0.5 deg grid and build times 2.6 times as long for
 #: three_x_infinity, far below the reduction's own error (the frequencies' 0.2-0.6 %).
 TOL = 1e-7
 
@@ -53,11 +53,11 @@ class SplinedTable:
                 break
             step /= 2
         self.step, self._spline = step, spline
-        # knots, coefficients (contiguous) and degree as the compiled evaluation reads them
-        # (BSpline's ``c`` is a property: 7 us per read)
+        # knots, coefficients (contiguous) and degree as the numba evaluation reads them
+        # (BSpline's ``c`` is a property, computed per read)
         self._tck = (spline.t, np.ascontiguousarray(spline.c), int(spline.k))
         self._shapes = {name: v.shape[1:] for name, v in parts.items()}
-        self._slices, at = [], 0  # each array's columns among the spline's (np.prod per call: 20 us)
+        self._slices, at = [], 0  # each array's columns among the spline's (not np.prod per call)
         for name, shape in self._shapes.items():
             size = int(np.prod(shape))
             self._slices.append((name, shape, at, at + size))
@@ -97,12 +97,12 @@ class SplinedTable:
     def __call__(self, theta: np.ndarray, names: tuple | None = None) -> dict:
         theta = np.asarray(theta, dtype=float)
         spline, tck, slices = (self._spline, self._tck, self._slices) if names is None else self._part(tuple(names))
-        if jit.enabled() and theta.ndim == 1:  # compiled, row by row (flexmb.ksd.properties_jit)
-            from . import properties_jit
+        if jit.enabled() and theta.ndim == 1:  # compiled, row by row (flexmb.ksd.reduced_model_jit)
+            from . import reduced_model_jit
 
             t, c, k = tck
             flat = np.empty((len(theta), c.shape[1]))
-            properties_jit.bspline_rows(t, c, k, theta, flat)
+            reduced_model_jit.bspline_rows(t, c, k, theta, flat)
         else:
             flat = spline(theta)
         J = len(flat)

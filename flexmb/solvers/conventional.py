@@ -98,7 +98,7 @@ REFERENCE_STRESS_ITERATIONS = 4  # ... and for at most this many correctors, in 
 #: the tangent predictor (Newton iterations; four-bar d = 0.3 m at 5/10/20 el./leaf; single cross
 #: flexures 3 / 6 el./leaf, 5-75 deg every 10, 2D and 3D; manipulator joint and location at
 #: +-15/45 deg): 0.03: 21/21/22, 142 / 180, 334; 0.1: 23/22/24, 120 / 152, 338; 0.3: 19/23/25,
-#: 102 / 134, 388; none: 18/32/28, 96 / 108, 392; before issue 31 (neither): 18/47/43, 96 / 109, 549.
+#: 102 / 134, 388; none: 18/32/28, 96 / 108, 392; before both (neither): 18/47/43, 96 / 109, 549.
 PREDICTOR_STRETCH = 0.1
 RATE_STEP = 1e-4  # the load-factor difference of the path rate's prescribed motion (central) and loads
 INTERMEDIATE_RTOL = 1e-5
@@ -182,7 +182,7 @@ class Conventional:
         44 -> 70), a second-order first predictor from a chord step (the chord grows as the
         step cubed on the four-bar: it sized the first step to 0.01) and the reference stresses
         for a fixed number of correctors (1-10: four-bar 18-52, erratic). The tangent predictor
-        and the first step's stretch bound (issue 31, benchmarks/bench_meshes.py): four-bar at
+        and the first step's stretch bound (benchmarks/bench_meshes.py): four-bar at
         5/10/20/40 el./leaf 23/22/24/24 iterations (before 18/47/43/43: each step started from
         a residual of 1e5-2e7 N, the first one was cut and the secant extrapolation rejected),
         manipulator joint case at -45/45 deg 29/34 (47/46), location case 89/89 (148/123; its
@@ -230,7 +230,7 @@ def _translation(model, du: np.ndarray, length: float) -> float:
 
 def _size(model, du: np.ndarray, length: float) -> float:
     """Size of an increment: the largest nodal translation over ``length`` or rotation [rad]."""
-    translation, rotation = model.largest_motion(du)  # one compiled pass (FEModel.largest_motion)
+    translation, rotation = model.largest_motion(du)  # one numba pass (FEModel.largest_motion)
     return max(translation / length, rotation)
 
 

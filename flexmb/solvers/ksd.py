@@ -108,7 +108,7 @@ def _reachable(red: ReducedMechanism) -> None:
                             f"{', '.join(sorted({str(tpl.data.path) for tpl, _, _ in red.groups}))})")
 
 
-_TOL_TEXT: dict = {}  # tolerances as messages print them (a float's formatting: ~10 us after other work)
+_TOL_TEXT: dict = {}  # tolerances as messages print them (a float's formatting, once)
 
 
 @attrs.frozen(kw_only=True)
@@ -166,32 +166,30 @@ class _KSD:
     def share_setup(self, base, compiled) -> None:
         """Give ``compiled`` (``base`` with other prescribed values: a motion sweep's value) the
         set-up of ``base`` moved to its values (`ReducedMechanism.with_values`), built once on
-        ``base``; nothing when ``compiled`` differs otherwise. The manipulator's location case
-        swept over 19 end-point positions (+-30 mm):
-        the set-up 0.53 -> 0.08 ms per value, the sweep 2.97 -> 2.60 ms per value (medians of 40
-        interleaved, load 2.5; step 1 from rest, ~12 constraint evaluations, is most of the rest)."""
+        ``base``; nothing when ``compiled`` differs otherwise. In a sweep step 1 from rest (~12
+        constraint evaluations) is then most of each value's time."""
         moved = reduced_mechanism(base, self.database).with_values(compiled)
         if moved is not None:
             compiled.derived[setup_key(self.database)] = moved
 
     def solve(self, compiled) -> Solution:
         if self._compiled_path(compiled):  # no BLAS call but the direct EOBs', which enter it themselves
-            sol = self._solve(compiled)  # (entering costs ~11 us, 3 % of the manipulator's solve)
+            sol = self._solve(compiled)  # (entering it is a visible share of a small solve)
         else:
             with single_threaded():  # small dense systems throughout (flexmb.linear.single_threaded)
                 sol = self._solve(compiled)
-        return sol if self.full else check(sol, self.error_tol, self.strict_error)  # issue 32: its error
+        return sol if self.full else check(sol, self.error_tol, self.strict_error)  # its estimated error
 
     def _compiled_path(self, compiled) -> bool:
         """Whether steps 1-4 run as compiled stages (`flexmb.ksd.reduced_jit`): KSD-reduced with the
-        compiled kernels and no hinges (those keep the numpy loops)."""
+        numba kernels and no hinges (those keep the numpy loops)."""
         return not self.full and jit.enabled() and getattr(compiled.problem.model, "hinges", None) is None
 
     def _solve(self, compiled) -> Solution:
         watch, stages = Stopwatch(), {}
         times = watch.times
         red = reduced_mechanism(compiled, self.database)
-        stages["setup"] = {"files": files(red)}  # which database file each joint's data came from (issue 32)
+        stages["setup"] = {"files": files(red)}  # which database file each joint's data came from
         watch.lap("setup")
 
         if self.strict_range:
@@ -211,13 +209,13 @@ class _KSD:
                 raise ConvergenceError(sol.message, sol) from None
             return sol
         _check_range(red, theta, self.strict_range, info["load_factor"])
-        stages["kinematics"] = {**info, "theta": theta.copy(), "p_hat": p_hat.copy()}  # flexmb.ksd.properties.near
+        stages["kinematics"] = {**info, "theta": theta.copy(), "p_hat": p_hat.copy()}  # flexmb.ksd.reduced_model.near
         watch.lap("kinematics")
 
         K, Fh, eobs, tabulated = red.condensed_joints(theta, p_hat, lookup=not self.full, compiled=compiled_path)
         R_hat = rz(theta)
         stages["eob"] = {"joints": len(theta), "tabulated": tabulated}  # step 2: EOBs built, of them looked up
-        if not self.full:  # step 2's EOBs, kept for flexmb.ksd.properties.near (not rebuilt)
+        if not self.full:  # step 2's EOBs, kept for flexmb.ksd.reduced_model.near (not rebuilt)
             stages["eob"]["near"] = (red, eobs, K, Fh)
         watch.lap("eob")
         return self._steps_3_4(compiled, red, poses, K, Fh, p_hat, R_hat, eobs, info, stages, watch)
@@ -225,13 +223,10 @@ class _KSD:
     def _tabulated_steps(self, compiled, red, plan, step1, stages, watch) -> Solution:
         """Steps 2-4 of KSD-reduced with every joint tabulated and in range
         (`ReducedMechanism.tabulated_plan`), from step 1's ``(poses, theta, p_hat, info)``: the kernels of the general
-        compiled path (`flexmb.ksd.reduced_jit`: `eob_lookup` per group, `reduced_newton`,
+        numba path (`flexmb.ksd.reduced_jit`: `eob_lookup` per group, `reduced_newton`,
         `internal`) with their outputs allocated inside (`eob_lookup_new`, `reduced_newton_near`,
-        `internal_state`): the same numbers with ~25 fewer numpy calls per solve, each ~5 us after
-        other work has evicted the caches. The manipulator's joint case at 45 deg, whole
-        `flexmb.solve` (medians of 60 interleaved, loaded host): 0.30 -> 0.16 ms steady, 0.62 ->
-        0.43 ms after a conventional solve, 0.98 -> 0.68 ms after gc.collect (cache misses: a
-        solve after an 8 MB sweep of memory takes 0.47 ms, with no page faults)."""
+        `internal_state`): the same numbers with ~25 fewer numpy calls per solve, each slow after
+        other work has evicted the caches."""
         times = watch.times
         groups, _, _, frames, loads, nodes, reference, dofs = plan
         kernel = kernels()
@@ -314,11 +309,11 @@ class _KSD:
             problem = compiled.problem
             # the kept problem's sparsity pattern and LDL^T analysis, built once on it so that every
             # solve's continued copy shares them (flexmb.problem: copies share what their original
-            # computed first); the manipulator at 45 deg: KSD-full 22.6 -> 12.9 ms per solve
+            # computed first)
             problem._pattern, problem._tangent_solver  # noqa: B018 (built on first access)
             start = problem.continued_from(state)
             geometric = red.eob_axial_stress(eobs, q_nodes)
-            if self.error_tol is not None:  # the error of the step 1-4 start (issue 32)
+            if self.error_tol is not None:  # the error of the step 1-4 start
                 stages["estimate"] = estimate_at(compiled, state, red.reaction_vector(r3), geometric, self.error_tol)
             out = newton_steps(start, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
                                min_step=self.min_step, initial_step=1.0, max_rotation=self.max_rotation,
@@ -376,8 +371,8 @@ class _KSD:
         return poses, res < self.tol, history, r[:n] if hinged else r, mu, angles
 
     def _reduced_compiled(self, red, poses, K, Fh, p_hat, R_hat):
-        """`_reduced` without hinges through `flexmb.ksd.reduced_jit.reduced_newton` (the manipulator's
-        joint case: ~60 -> ~15 us)."""
+        """`_reduced` without hinges through `flexmb.ksd.reduced_jit.reduced_newton` (the numpy loop's
+        calls otherwise)."""
         x, R, angle = poses.x, poses.R, poses.angle  # step 1's, fresh per solve: moved in place
         if not (x.flags.writeable and R.flags.writeable and angle.flags.writeable):  # the rest poses (kept)
             x, R, angle = x.copy(), R.copy(), angle.copy()

@@ -116,7 +116,7 @@ class Newton:
                             np.array(history), cur, r, watch.times, None)
 
     def run_compiled(self, problem: LinkageProblem, start: State, K0: np.ndarray | None = None):
-        """The iterations of `solve` as one compiled loop (`flexmb.closed_form.linkage_jit.newton`)
+        """The iterations of `solve` as one numba loop (`flexmb.closed_form.linkage_jit.newton`)
         from the prescribed ``start``; ``K0`` the constant tangent if already known. Returns
         (converged, message, history, final state, last residual, wall times)."""
         from ..closed_form import linkage_jit
@@ -201,7 +201,7 @@ class Newton:
         problem = compiled.problem
         final = cur if converged else start
         r = r if converged else problem.evaluate(start, tangent=False)[0]
-        if watch is not None:  # started by the caller: the total includes the compiled loop's set-up
+        if watch is not None:  # started by the caller: the total includes the numba loop's set-up
             times["total"] = watch.total()
         sol = Solution(method=self.name, converged=converged, iterations=len(history),
                        residual_history=history, load_factor=1.0 if converged else 0.0,

@@ -25,9 +25,8 @@ def interleaved(mechanism, methods, repeats: int, consecutive: int = 1, clock: s
     sweep or optimisation loop that solves one method repeatedly).
 
     ``clock="wall"``: what a user waits; ``"cpu"``: the process's CPU time, which does not count the
-    waits for a core on a busy machine. Measured with `flexmb demo` on this 2-core host with the
-    other core busy (load 3.4): medians of 5 wall times of KSD-reduced's 2 ms manipulator solve were
-    2 or 6 ms by position (a lost time slice), printing speed-ups of 5-21x for one method."""
+    waits for a core on a busy machine. With `flexmb demo` on a 2-core host with the other core busy, medians of 5 wall
+    times of one solve differed threefold by position (a lost time slice)."""
     if clock not in CLOCKS:
         raise ParameterError(f"clock={clock!r}; valid: {', '.join(CLOCKS)}")
     now = CLOCKS[clock]

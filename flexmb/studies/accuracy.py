@@ -1,4 +1,4 @@
-"""KSD-reduced's estimated error against its true error (issue 32, `flexmb.ksd.estimate`).
+"""KSD-reduced's estimated error against its true error (`flexmb.ksd.estimate`).
 
 Every case is solved with KSD-reduced (which estimates its own error) and with the conventional
 method (the true answer, to its 5e-7 residual); the true error is KSD-reduced's difference from it,
@@ -29,7 +29,7 @@ __all__ = ["cases", "compare", "study", "agrees", "RESOLUTION", "FACTOR"]
 #: without load: KSD-reduced's reactions and the conventional ones differ by 4e-10 N m, its own
 #: estimate says 1e-7). An estimate and a truth both below it agree.
 RESOLUTION = 1e-5
-#: The estimate must lie within this factor of the true error (issue 32).
+#: The estimate must lie within this factor of the true error.
 FACTOR = 3.0
 
 

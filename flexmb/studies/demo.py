@@ -25,9 +25,8 @@ ANGLES_DEG = np.arange(5, 76, 5)
 
 def cross_flexure_curve(elements_per_leaf: int, angles_deg=ANGLES_DEG, dim: int = 3, **joint_params):
     """M / M_lin (Eq. 4.3) at each angle [deg], total Newton iterations, wall time [s] of the
-    solves. One untimed solve first: the first solve of a session loads the compiled kernels, and
-    `flexmb demo` had printed 0.41 s for 1 el./leaf against 0.035 s for the same solves warm (0.044 s
-    at 3 el./leaf)."""
+    solves. One untimed solve first: the first solve of a session loads the numba kernels, and
+    `flexmb demo` had printed ten times the warm time for 1 el./leaf."""
     def pivot(deg):
         return models.cross_flexure_pivot(elements_per_leaf=elements_per_leaf, dim=dim, rotation=np.radians(deg),
                                           **joint_params)

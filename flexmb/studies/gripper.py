@@ -58,7 +58,7 @@ def opening_closing(material: str = "silicon", model: str = "partial-nonlinear",
     """The sweep from the opening force to the closing force (or ``upper``): forces, end-effector
     positions, convergence, iterations and wall time [s] per force, and the total time, timed
     after an untimed sweep of two forces: a session's first compiled sweep loads its kernels, and
-    `flexmb demo` had printed 23 ms for the linear model's 131 forces against 2.5 ms warm."""
+    `flexmb demo` had printed ten times the warm time."""
     scale = _scale(material)
     upper = closing_force(material, model, method) if upper is None else upper
     forces = np.linspace(OPENING_FORCE * scale, upper, points)

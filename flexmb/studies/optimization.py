@@ -1,4 +1,4 @@
-"""Three design optimisations beyond the papers (issue 28), each against a derivative-free
+"""Three design optimisations beyond the papers, each against a derivative-free
 baseline: the problems, a runner and the comparison table (examples/optimize_*.py,
 benchmarks/bench_optimize.py, docs/design.md).
 

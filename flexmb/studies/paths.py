@@ -1,4 +1,4 @@
-"""Path-following cases (issue 19): Lee's frame, DaDeppo & Schmidt's deep arch, the Euler strut,
+"""Path-following cases: Lee's frame, DaDeppo & Schmidt's deep arch, the Euler strut,
 a von Mises truss and Qiu's double curved-beam bistable, with their closed-form references.
 
 Every member is a chain of straight co-rotational beam elements: one ``leaf_spring`` joint of
@@ -212,7 +212,7 @@ def qiu_force(travel, span: float = 3e-3, rise: float = 1.2e-4, thickness: float
     return np.where(inside, line, cubic) * 2.0 * E * I * rise / span**3
 
 
-# -- snap-through design cases (issue 29): builders; their references are in tests/test_snap.py ---------------
+# -- snap-through design cases: builders; their references are in tests/test_snap.py ---------------
 
 #: The device: two steel leaves 50 x 10 x 0.5 mm inclined at 10 deg (mm, N, MPa), rise 8.68 mm
 LEAF = dict(L=50.0, t=0.5, w=10.0, E=200000.0, alpha=math.radians(10.0))

@@ -10,7 +10,7 @@ model at the answer, as KSD step 5 starts:
 1. one assembly of the full model's residual ``r`` and tangent ``K`` at step 4's configuration,
    the geometric stiffness of the joints' elements taken with the EOBs' axial forces (step 4's
    node positions are exact to first order only: their axial forces are spoilt, up to 15x the
-   converged ones, `flexmb.ksd.properties.eob_axial_forces`);
+   converged ones, `flexmb.ksd.reduced_model.eob_axial_forces`);
 2. one Newton correction ``du_f = -K_ff^-1 r_f``: the links' translations and rotations change by
    ``du`` at their nodes, the reactions (prescribed DOFs) by the linearised
    ``r_p + K_pf du_f - R`` (``K_pf = K_fp^T``; ``R`` KSD-reduced's reactions);
@@ -274,7 +274,7 @@ def _largest(rows: np.ndarray) -> float:
 def estimate(solution, tolerance: float | None = DEFAULT_TOLERANCE) -> ErrorEstimate:
     """The estimated error of a converged KSD-reduced ``solution`` (`estimate_at` at its
     configuration, the joints' geometric stiffness from their EOBs' axial forces)."""
-    from .properties import eob_axial_forces
+    from .reduced_model import eob_axial_forces
 
     elements, axial = eob_axial_forces(solution)
 

@@ -2,6 +2,8 @@
 
 from . import accuracy, export, models, plot, study, testing
 from .errors import (
+    AccuracyError,
+    AccuracyWarning,
     ConvergenceError,
     ConvergenceWarning,
     DiscretisationWarning,
@@ -43,6 +45,8 @@ from ._warnings import renamed as _renamed
 
 __all__ = [
     "accuracy",
+    "AccuracyError",
+    "AccuracyWarning",
     "design",
     "responses",
     "value_and_grad",

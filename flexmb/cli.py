@@ -10,6 +10,8 @@ Errors are one line on stderr (``--debug`` for a traceback), and so is each warn
 - 2 a usage error: an unknown command or option, a value of the wrong type or outside its range
   (``--step 0``, ``--range -5``, ``--elements 0``), ``--param``/``--option`` without ``=VALUE``,
   an ``--out`` folder that cannot be created or is the shipped data;
+- 1 also when the output cannot be written (``flexmb solve fourbar --json > /dev/full``): one
+  line on stderr, no traceback;
 - 141 the reader of the output went away (``flexmb solve fourbar --json | head -c1``): nothing
   more is printed, as for a process ended by SIGPIPE (128 + 13).
 
@@ -174,6 +176,7 @@ def _train(args) -> int:
     params = dict(_parse_params(args.param))
     range_deg = None if args.range is None else (-args.range, args.range)
     first = _trainable(args.kind, params)
+    _check_sampling(first, args.range, args.step)
     dims = args.dim or [d for d in (2, 3) if d in first.dims]  # a spatial joint: 3D
     for dim in dims:
         for j in _training_joints(args.kind, params, args.elements, dim):
@@ -182,8 +185,8 @@ def _train(args) -> int:
             except ParameterError as exc:
                 raise _UsageError(str(exc)) from None
             data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
-            name = database.file_name(j.kind, dim, data.key)
-            path = database.save(data, out / name)
+            path = database.write(data, out)  # named by the design (store.design_file_name), never another's
+            name = database.file_name(j.kind, dim, data.key)  # the shipped data's (key-only) name
             res = ", ".join(f"{k} {f.max_residual:.1e}" for k, f in data.functions.items())
             print(f"{path}: {len(data.samples)} runs; max fit residuals: {res}, elements "
                   f"{data.elements.max_residual:.1e} rad, nodes {data.nodes.max_residual:.1e} rad")
@@ -191,6 +194,29 @@ def _train(args) -> int:
                 print(f"  (for KSD this file takes precedence over the shipped data of the same joint when found "
                       f"first; search order: {', '.join(map(str, database.search_path(out)))}; delete it to go back)")
     return 0
+
+
+#: Most training runs one ``flexmb train`` does per mesh (``--range`` over ``--step``): 100 000
+#: FE solves are hours; ``--step 1e-9`` (1.5e11 runs) asked for 1.09 TiB before this check.
+MAX_TRAINING_RUNS = 100_000
+
+
+def _check_sampling(joint, range_deg: float | None, step: float | None) -> None:
+    """Refuse (`_UsageError`, exit 2) a ``--step`` so small that the sampling of ``--range`` (the
+    joint's own range and step where not given, `flexmb.database.training_settings`) exceeds
+    `MAX_TRAINING_RUNS`."""
+    from . import database
+
+    try:
+        opt = database.training_settings(joint, range_deg=None if range_deg is None else (-range_deg, range_deg),
+                                         step_deg=step)
+    except ParameterError as exc:
+        raise _UsageError(str(exc)) from None
+    (lo, hi), step = opt["range_deg"], opt["step_deg"]
+    runs = (hi - lo) / step + 1
+    if runs > MAX_TRAINING_RUNS:
+        raise _UsageError(f"--step {step:g}: {runs:.3g} training runs over [{lo:g}, {hi:g}] deg, more than "
+                          f"{MAX_TRAINING_RUNS}; use --step {(hi - lo) / (MAX_TRAINING_RUNS - 1):.3g} or more")
 
 
 def _trainable(kind: str, params: dict, **mesh):
@@ -306,7 +332,17 @@ def _parse_params(items, flag: str = "--param") -> list[tuple[str, object]]:
         if not sep or not key:
             raise _UsageError(f"{flag} {item!r}: expected NAME=VALUE, e.g. {flag} angle=0.6")
         out.append((key, [_number(x) for x in val.split(",")] if "," in val else _number(val)))
+    _once_each(out, flag)
     return out
+
+
+def _once_each(pairs: list, flag: str) -> None:
+    """Refuse a name given twice (``--param rotation=0.3 --param rotation=0.6``): which one was meant?"""
+    seen = {}
+    for key, value in pairs:
+        if key in seen:
+            raise _UsageError(f"{flag} {key} is given twice ({key}={seen[key]!r} and {key}={value!r}); give it once")
+        seen[key] = value
 
 
 def _number(text: str):
@@ -408,6 +444,21 @@ def solution_report(sol, **extra) -> dict:
     out.update(method=sol.method, converged=bool(sol.converged), message=sol.message, iterations=int(sol.iterations),
                load_factor=float(sol.load_factor), wall_time={k: float(v) for k, v in sol.wall_time.items()},
                residual_history=[float(r) for r in sol.residual_history], links=links)
+    out.update(_ksd_report(sol))
+    return out
+
+
+def _ksd_report(sol) -> dict:
+    """What a KSD solution adds to `solution_report`: ``"database"``, per joint the database file
+    its data came from and whether it lay in the ``database=`` folder, the user's or the shipped
+    data (`flexmb.ksd.provenance`); ``"error_estimate"`` (`flexmb.ksd.estimate`) when made."""
+    out = {}
+    files = sol.stages.get("setup", {}).get("files")
+    if files is not None:
+        out["database"] = {name: dict(entry) for name, entry in files.items()}
+    estimate = sol.stages.get("estimate")
+    if estimate is not None:
+        out["error_estimate"] = estimate.to_json()
     return out
 
 
@@ -709,6 +760,7 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(func=_bench)
     args = parser.parse_args(argv)
     np.set_printoptions(precision=4, suppress=True)
+    stdout, sys.stdout = sys.stdout, _CheckedOutput(sys.stdout)
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _one_line_warning
@@ -718,11 +770,16 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:
         _silence_stdout()
         return 141
+
     except FlexmbError as exc:
-        if args.debug:
+        if isinstance(exc, _OutputError):
+            _silence_stdout()
+        elif args.debug:
             raise
         print(f"flexmb: error: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, _UsageError) else 1
+    finally:
+        sys.stdout = stdout
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -730,6 +787,36 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     lines with the source line)."""
     text = " ".join(str(message).split())
     print(f"flexmb: warning: {category.__name__}: {text}", file=sys.stderr if file is None else file)
+
+
+class _OutputError(FlexmbError):
+    """The standard output cannot be written (a full disk, ``> /dev/full``): exit code 1."""
+
+
+class _CheckedOutput:
+    """The standard output while a command runs: a failed write or flush raises `_OutputError`
+    (one line, no traceback) instead of an `OSError`; a closed pipe stays `BrokenPipeError`
+    (exit code 141). Everything else is the stream's own."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def _checked(self, method, *args):
+        try:
+            return method(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise _OutputError(f"cannot write the output: {exc.strerror or exc}") from None
+
+    def write(self, text):
+        return self._checked(self._stream.write, text)
+
+    def flush(self):
+        return self._checked(self._stream.flush)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
 
 
 def _silence_stdout() -> None:

@@ -17,6 +17,8 @@ __all__ = [
     "DiscretisationWarning",
     "PlausibilityWarning",
     "ExtrapolationWarning",
+    "AccuracyError",
+    "AccuracyWarning",
 ]
 
 
@@ -62,6 +64,20 @@ class ConvergenceError(FlexmbError):
 class DatabaseError(FlexmbError):
     """A joint database file is missing, corrupted, stale (trained on another mesh or format), or
     was asked for data it does not hold."""
+
+
+class AccuracyError(FlexmbError):
+    """An approximate strategy's estimated error is above the tolerance asked for (KSD-reduced with
+    ``strict_error=True``, `flexmb.ksd.estimate`); ``solution`` holds the answer refused."""
+
+    def __init__(self, message: str, solution=None):
+        super().__init__(message)
+        self.solution = solution
+
+
+class AccuracyWarning(UserWarning):
+    """An approximate strategy's estimated error is above the tolerance (KSD-reduced's
+    ``error_tol``, `flexmb.ksd.estimate`): the answer is returned, but is off by more than asked."""
 
 
 class ExtrapolationWarning(UserWarning):

@@ -5,6 +5,7 @@ and round-trips through CSV."""
 from __future__ import annotations
 
 import csv
+import io
 import os
 import re
 from collections.abc import Mapping
@@ -17,16 +18,18 @@ from .errors import ModelError, ParameterError, require
 __all__ = ["Table", "read_csv", "column"]
 
 
-class Table(Mapping):
+class Table(dict):
     """Columns ``name -> 1-D array``, all of one length, in insertion order. Names are text:
     two names with the same text (``1`` and ``"1"``) are refused, never merged.
 
     A read-only mapping: ``table["force"]`` is a numpy array (a copy), ``list(table)`` the column names,
-    ``len(table)`` their number and `n_rows` the number of rows.
+    ``len(table)`` their number and `n_rows` the number of rows. A `dict` underneath, so that
+    ``pandas.DataFrame(table)`` reads it as columns (pandas 3 takes only a dict so; any other
+    mapping became one column of names); the methods that would change it raise `TypeError`.
     """
 
     def __init__(self, columns: Mapping):
-        self._columns = {}
+        super().__init__()
         n = None
         for name, values in columns.items():
             if isinstance(values, np.ndarray) or not _scalars(values):
@@ -38,29 +41,48 @@ class Table(Mapping):
             if n is not None and len(a) != n:
                 raise ParameterError(f"Table: column {name!r} has {len(a)} rows, the others {n}")
             n = len(a)
-            if str(name) in self._columns:
+            if dict.__contains__(self, str(name)):
                 raise ParameterError(f"Table: two columns are named {str(name)!r}; column names must be distinct "
                                      "as text")
-            self._columns[str(name)] = a
+            a.flags.writeable = False  # dict's own readers ({**table}, pandas) get the column itself
+            dict.__setitem__(self, str(name), a)
         self.n_rows = 0 if n is None else n
+
+    @property
+    def _columns(self) -> dict:
+        """The columns themselves (not copies), in order."""
+        return dict(dict.items(self))
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
-            return self._columns[name].copy()  # a copy: the table is not changed through it
-        except KeyError:
-            raise ModelError(f"no column {name!r}; columns: {', '.join(self._columns)}") from None
+            return dict.__getitem__(self, name).copy()  # a copy: the table is not changed through it
+        except (KeyError, TypeError):
+            raise ModelError(f"no column {name!r}; columns: {', '.join(self)}") from None
 
-    def __contains__(self, name) -> bool:
-        return name in self._columns
+    def get(self, name, default=None):
+        return self[name] if dict.__contains__(self, name) else default
 
-    def __iter__(self):
-        return iter(self._columns)
+    def values(self):
+        return [self[k] for k in self]
 
-    def __len__(self) -> int:
-        return len(self._columns)
+    def items(self):
+        return [(k, self[k]) for k in self]
 
     def __repr__(self) -> str:
-        return f"Table({self.n_rows} rows: {', '.join(self._columns)})"
+        return f"Table({self.n_rows} rows: {', '.join(self)})"
+
+    def __reduce__(self):
+        return type(self), (self._columns,)
+
+    def copy(self) -> Table:
+        return Table(self._columns)
+
+    def _read_only(self, *args, **kwargs):
+        """Refused with `TypeError`: a Table is read-only (build a new one)."""
+        raise TypeError("a flexmb Table is read-only: build a new one, e.g. Table({**table, 'name': values})")
+
+    __setitem__ = __delitem__ = __ior__ = _read_only
+    clear = pop = popitem = setdefault = update = _read_only
 
     def to_pandas(self):
         """The table as a `pandas.DataFrame` (columns in order, each a copy; text stays text, so an
@@ -71,16 +93,17 @@ class Table(Mapping):
         return pandas.DataFrame({name: values.copy() for name, values in self._columns.items()})
 
     def to_csv(self, path) -> Path:
-        """Write the columns to ``path`` (comma-separated, a header row of names, floats with 17
-        significant digits so `read_csv` gives the same numbers back). Returns the path."""
+        """Write the columns to ``path`` as UTF-8 (comma-separated, a header row of names, floats
+        with 17 significant digits so `read_csv` gives the same numbers back, text in quotes so
+        that a text ``"1"`` or ``"True"`` comes back as text). Returns the path."""
         path = _path("to_csv", path)
         try:
-            with path.open("w", newline="") as f:
-                w = csv.writer(f)
+            with path.open("w", newline="", encoding="utf-8") as f:
+                w = csv.writer(f, quoting=csv.QUOTE_NONNUMERIC)  # numbers and booleans bare, the rest quoted
                 w.writerow(self._columns)
                 cols = [c.tolist() for c in self._columns.values()]
                 for row in zip(*cols):
-                    w.writerow([repr(v) if isinstance(v, float) else v for v in row])
+                    w.writerow(row)  # a float as repr writes it: the shortest text that reads back exactly
         except OSError as exc:
             raise ParameterError(f"to_csv: cannot write {str(path)!r}: {exc.strerror or exc}") from None
         return path
@@ -122,7 +145,8 @@ def read_csv(path) -> Table:
     """Read a `Table.to_csv` file back: columns of integers, floats (``nan``/``inf`` included),
     booleans or text, each as the narrowest of those that holds every entry. A number is read as
     one only when written as Python writes it: ``7``, ``-7``, ``0.25``, ``1e-05``; text such as
-    ``007``, ``+7``, ``1_000`` or `` 7`` stays text.
+    ``007``, ``+7``, ``1_000`` or `` 7`` stays text. A column with a quoted cell is text: `Table.to_csv`
+    quotes text, so a text column holding ``1``, ``2`` or ``True`` comes back as text.
 
     The file is read as UTF-8. `ParameterError` when it cannot be read or is not a regular file
     (a folder, FIFO or device), is not UTF-8 text, or is
@@ -133,7 +157,8 @@ def read_csv(path) -> Table:
         if path.exists() and not path.is_file():  # a folder, FIFO or device: opening could block or never end
             raise ParameterError(f"read_csv: {str(path)!r} is not a regular file")
         with path.open(newline="", encoding="utf-8") as f:
-            reader = csv.reader(f)
+            text = f.read()
+            reader = csv.reader(io.StringIO(text, newline=""))
             try:
                 rows = list(reader)
             except csv.Error as exc:
@@ -150,7 +175,42 @@ def read_csv(path) -> Table:
     head, body = rows[0], rows[1:]
     if any(len(r) != len(head) for r in body):
         raise ParameterError(f"read_csv: {str(path)!r}: every row must have {len(head)} fields")
-    return Table({name: _parse([r[i] for r in body]) for i, name in enumerate(head)})
+    quoted = _quoted_fields(text)
+    if [len(r) for r in quoted] != [len(r) for r in rows]:  # not the csv module's reading: no quotes known
+        quoted = [[False] * len(r) for r in rows]
+    return Table({name: _parse([r[i] for r in body], any(q[i] for q in quoted[1:]))
+                  for i, name in enumerate(head)})
+
+
+def _quoted_fields(text: str) -> list[list[bool]]:
+    """Per record of the CSV ``text`` (the `csv` module's default dialect), whether each field
+    began with a quote: text `Table.to_csv` wrote (quoted) as opposed to a number (bare)."""
+    rows, row, quoted, inside, start, i, n = [], [], False, False, True, 0, len(text)
+    while i < n:
+        c = text[i]
+        if inside:
+            if c == '"':
+                if text.startswith('"', i + 1):
+                    i += 1  # a doubled quote inside quotes
+                else:
+                    inside = False
+        elif c == '"' and start:
+            quoted = inside = True
+        elif c == ",":
+            row.append(quoted)
+            quoted, start, i = False, True, i + 1
+            continue
+        elif c in "\r\n":
+            rows.append(row + [quoted] if row or quoted or not start else [])  # an empty line: no field
+            row = []
+            i += 2 if c == "\r" and text.startswith("\n", i + 1) else 1
+            quoted, start = False, True
+            continue
+        start = False
+        i += 1
+    if row or quoted or not start:  # the last record has no line end
+        rows.append(row + [quoted])
+    return rows
 
 
 def _path(owner: str, path) -> Path:
@@ -164,7 +224,11 @@ _INT = re.compile(r"-?(0|[1-9][0-9]*)")
 _FLOAT = re.compile(r"-?(0|[1-9][0-9]*)(\.[0-9]+)?([eE][-+]?[0-9]+)?|-?inf|nan")
 
 
-def _parse(cells: list[str]) -> np.ndarray:
+def _parse(cells: list[str], text: bool = False) -> np.ndarray:
+    """A column's cells as the narrowest of booleans, integers, floats and text that holds them
+    all; ``text``: a cell of it was quoted in the file (`Table.to_csv` quotes text): text."""
+    if text:
+        return np.array(cells, dtype=object)
     if cells and all(c in ("True", "False") for c in cells):
         return np.array([c == "True" for c in cells])
     for kind, form in ((int, _INT), (float, _FLOAT)):

@@ -66,7 +66,7 @@ def trained_shape(joint, dim: int) -> KSDShape:
     """``joint``'s database trained with its own settings (`flexmb.Joint.training`) in ``dim``
     into a temporary folder (kept for the process, removed at exit; never the user's data
     folder). Trained once per joint value and dimension."""
-    from .database import file_name, save, train
+    from .database import train, write
 
     key = (joint, dim) if _hashable(joint) else None
     if key is not None and key in _TRAINED:
@@ -74,7 +74,7 @@ def trained_shape(joint, dim: int) -> KSDShape:
     folder = tempfile.mkdtemp(prefix="flexmb-kit-")
     _FOLDERS.append(folder)
     data = train(joint, dim)
-    save(data, f"{folder}/{file_name(joint.kind, dim, data.key)}")
+    write(data, folder)  # named by the design (flexmb.database.store.design_file_name)
     shape = KSDShape(joint, folder, trained=True)
     if key is not None:
         _TRAINED[key] = shape

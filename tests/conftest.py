@@ -1,5 +1,7 @@
 import os
+import shutil
 import tempfile
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -12,16 +14,82 @@ settings.register_profile("dev", max_examples=25, deadline=None)
 settings.register_profile("thorough", max_examples=500, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
-# issue 31: the compiled kernels' cache in a folder of the system's temporary directory (kept between runs),
-# never the user's cache folder (numba reads NUMBA_CACHE_DIR when first imported, after this)
-os.environ.setdefault("NUMBA_CACHE_DIR", os.path.join(tempfile.gettempdir(), "flexmb-tests-numba-cache"))
+
+# -- the sealed suite (issue 32) ---------------------------------------------------------------
+# A user's trained joint data in ~/.local/share/flexmb/database (where `flexmb train` writes by
+# default) took precedence over the shipped data in the suite's KSD solves and failed 6 tests on
+# one machine. The suite therefore runs with its home, data, cache and config folders, the joint
+# database folder and numba's cache in temporary folders: it reads none of the user's files and
+# writes none (an unwritable home is fine). Set here, when pytest imports this file, before any
+# test module imports flexmb: numba picks a kernel's cache folder when the kernel is decorated,
+# at import. numba's cache goes to one folder per user under the system's temporary folder, kept
+# between runs (compiling every kernel again costs ~40 s of CPU per run; numba keys its cache on
+# the source file's path and time stamp, so checkouts do not mix; issue 31 had set it so too, when
+# not set); everything else is new per run.
+_RUN = Path(tempfile.mkdtemp(prefix="flexmb-tests-"))
+_UID = os.getuid() if hasattr(os, "getuid") else "user"
+
+
+def _numba_cache() -> Path:
+    """numba's cache for the suite: kept between runs in the temporary folder, unless another user
+    owns that folder (a shared /tmp): then a new one for this run."""
+    kept = Path(tempfile.gettempdir()) / f"flexmb-tests-{_UID}" / "numba"
+    try:
+        kept.mkdir(parents=True, exist_ok=True)
+        if not hasattr(os, "getuid") or kept.parent.stat().st_uid == os.getuid():
+            return kept
+    except OSError:
+        pass
+    return _RUN / "numba"
+
+
+SEALED = {
+    "HOME": _RUN / "home",
+    "USERPROFILE": _RUN / "home",  # Windows' Path.home()
+    "LOCALAPPDATA": _RUN / "home" / "AppData" / "Local",
+    "XDG_DATA_HOME": _RUN / "data",
+    "XDG_CACHE_HOME": _RUN / "cache",
+    "XDG_CONFIG_HOME": _RUN / "config",
+    "MPLCONFIGDIR": _RUN / "config" / "matplotlib",
+    "FLEXMB_DATABASE": _RUN / "data" / "flexmb" / "database",
+    "NUMBA_CACHE_DIR": _numba_cache(),
+}
+#: the variables as the run found them (for tests that need the user's, e.g. to show what is sealed)
+UNSEALED = {k: os.environ.get(k) for k in SEALED}
+if os.environ.get("FLEXMB_TESTS_UNSEALED") != "1":  # the proof's control run (tests/test_sealed.py) only
+    for _key, _path in SEALED.items():
+        if _key not in ("FLEXMB_DATABASE", "MPLCONFIGDIR"):  # folders created by whoever writes them
+            _path.mkdir(parents=True, exist_ok=True)
+        os.environ[_key] = str(_path)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def sealed_environment():
+    """The suite's home, data, cache and config folders, joint database folder and numba cache
+    (`SEALED`), kept for the whole session: a test that changes one of them (monkeypatch) gets it
+    back after; the run's folders are removed at the end. Yields `SEALED`."""
+    if os.environ.get("FLEXMB_TESTS_UNSEALED") == "1":
+        yield {}
+        return
+    with pytest.MonkeyPatch.context() as mp:
+        for key, path in SEALED.items():
+            mp.setenv(key, str(path))
+        numba = __import__("sys").modules.get("numba")
+        if numba is not None:  # numba reads NUMBA_CACHE_DIR when imported: imported after the lines above
+            mp.setattr(numba.config, "CACHE_DIR", str(SEALED["NUMBA_CACHE_DIR"]))
+        yield dict(SEALED)
+    shutil.rmtree(_RUN, ignore_errors=True)
 
 
 def pytest_report_header(config):
-    """Which kernels the run uses (CI runs the suite with both: .ci/run)."""
+    """Which kernels the run uses (CI runs the suite with both: .ci/run), and where the suite's
+    home and data folders are (sealed from the user's)."""
     from flexmb import jit
 
-    return f"flexmb kernels: {'compiled (numba)' if jit.enabled() else 'numpy'} (FLEXMB_KERNELS to choose)"
+    sealed = "not sealed (FLEXMB_TESTS_UNSEALED=1)" if os.environ.get("FLEXMB_TESTS_UNSEALED") == "1" else \
+        f"sealed in {_RUN} (numba cache {SEALED['NUMBA_CACHE_DIR']})"
+    return [f"flexmb kernels: {'compiled (numba)' if jit.enabled() else 'numpy'} (FLEXMB_KERNELS to choose)",
+            f"flexmb home and data folders: {sealed}"]
 
 
 @pytest.fixture

@@ -250,7 +250,12 @@ def test_train_writes_the_elements_asked_for(tmp_path, capsys):
     """``--elements 2`` trains 2 el./leaf (main silently trained the default 3 for ``--elements 0``,
     which is now refused above)."""
     assert cli.main(["train", "--dim", "2", "--elements", "2", "--range", "10", "--out", str(tmp_path)]) == 0
-    assert [p.name for p in tmp_path.iterdir()] == ["cross_flexure-2d-angle0.785398-elements_per_leaf2.json"]
+    import flexmb
+    from flexmb.database import store
+
+    name = store.joint_file_name(flexmb.CrossFlexure(elements_per_leaf=2), 2)  # the design's own name (issue 32)
+    assert name.startswith("cross_flexure-2d-angle0.785398-elements_per_leaf2-")
+    assert [p.name for p in tmp_path.iterdir()] == [name]
 
 
 @pytest.mark.slow
@@ -327,9 +332,17 @@ def test_train_by_default_reproduces_the_shipped_cross_flexure_databases(tmp_pat
     assert flexmb.CrossFlexure().elements_per_leaf == 24
     assert cli.main(["train", "--out", str(tmp_path)]) == 0
     shipped = sorted(p.name for p in database.data_path().glob("cross_flexure-*.json"))
-    assert sorted(p.name for p in tmp_path.iterdir()) == shipped and len(shipped) == 14
+    # written under the design's own name: the shipped file's stem, then the hash of the joint's
+    # parameters (today's, which add density, nu and yield_stress to those the shipped files record)
+    trained = {}
     for name in shipped:
-        new, old = database.load(tmp_path / name), database.load(database.data_path() / name)
+        data = database.load(database.data_path() / name)
+        joint = flexmb.CrossFlexure(elements_per_leaf=data.key["elements_per_leaf"])
+        trained[name] = database.store.joint_file_name(joint, data.dim)
+        assert trained[name].startswith(name[:-len(".json")] + "-")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(trained.values()) and len(shipped) == 14
+    for name in shipped:
+        new, old = database.load(tmp_path / trained[name]), database.load(database.data_path() / name)
         for fit in [*old.functions, "elements", "nodes"]:
             a, b = (new.function(fit), old.function(fit)) if fit in old.functions else \
                 (getattr(new, fit), getattr(old, fit))
@@ -341,8 +354,9 @@ def test_train_a_spatial_joint_by_default_in_3d_only(tmp_path, capsys):
     was 2 and 3 for every joint); now the joint's own dimensions and meshes: the shipped 3 and
     its default 24 el./leaf."""
     assert cli.main(["train", "three_x_infinity", "--range", "5", "--step", "5", "--out", str(tmp_path)]) == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == [
-        f"three_x_infinity-3d-angle0.785398-elements_per_leaf{n}-length_ratio0.625-stages3.json" for n in (24, 3)]
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert [n.rpartition("-")[0] for n in names] == [
+        f"three_x_infinity-3d-angle0.785398-elements_per_leaf{n}-length_ratio0.625-stages3" for n in (24, 3)]
 
 
 def test_the_training_command_a_missing_database_names_builds_that_database(tmp_path):

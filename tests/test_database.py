@@ -352,7 +352,7 @@ def test_train_without_out_writes_the_user_folder_not_the_shipped_data(monkeypat
     assert cli.main(["train", "--dim", "2", "--elements", "1", "--range", "20", "--step", "10"]) == 0
     assert _shipped_files() == before
     j = flexmb.CrossFlexure(elements_per_leaf=1)
-    written = tmp_path / "user" / db.file_name(j.kind, 2, j.database_key())
+    written = tmp_path / "user" / db.store.joint_file_name(j, 2)  # named by the design (issue 32)
     assert db.load(written).range == pytest.approx(np.radians((-20, 20)))
     out = capsys.readouterr().out
     assert str(written) in out and "takes precedence over the shipped" in out

@@ -235,5 +235,5 @@ def test_run_passes_on_the_scripts_exit(tmp_path_factory, capsys, code):
 
 def test_the_user_folder_gets_only_the_trained_file(tmp_path, capsys):
     assert cli.main(["train", "--dim", "2", "--elements", "1", "--range", "10"]) == 0
-    assert [p.name for p in (tmp_path / "user").iterdir()] == [NAME]
+    assert [p.name for p in (tmp_path / "user").iterdir()] == [db.store.joint_file_name(JOINT, 2)]  # the design's name
     assert os.environ["FLEXMB_DATABASE"] == str(tmp_path / "user")

@@ -26,11 +26,11 @@ import numpy as np
 
 from ..errors import DatabaseError
 
-__all__ = ["EOBTable", "to_json", "from_json", "write_values", "plain_parameters", "NAMES", "SUFFIX"]
+__all__ = ["EOBTable", "to_json", "from_json", "sample_bytes", "plain_parameters", "NAMES", "SUFFIX"]
 
 #: The tabulated quantities, in column order (see the module docstring).
 NAMES = ("K_T", "F0", "G", "RK", "r0", "rG", "P0")
-#: Side file of a database file ``<stem>.json``: ``<stem>.eob.bin``.
+#: Suffix of a database file's side file (`flexmb.database.store.side_file_name`; the shipped one: ``<stem>.eob.bin``).
 SUFFIX = ".eob.bin"
 
 _LOADED: dict[str, np.ndarray] = {}  # samples by SHA-256: read once per content
@@ -96,7 +96,8 @@ class EOBTable:
         return out
 
 
-def _bytes(table: EOBTable) -> bytes:
+def sample_bytes(table: EOBTable) -> bytes:
+    """The side file's content: the samples as little-endian float64, row-major."""
     return np.ascontiguousarray(table.values, dtype="<f8").tobytes()
 
 
@@ -106,16 +107,7 @@ def to_json(table: EOBTable | None, values_file: str):
         return None
     return {"parameters": table.parameters, "theta": np.asarray(table.theta, float).tolist(),
             "degree": int(table.degree), "layout": [list(x) for x in table.layout], "values_file": values_file,
-            "values_sha256": hashlib.sha256(_bytes(table)).hexdigest(), "shape": [len(table.theta), table.width]}
-
-
-def write_values(table: EOBTable | None, path: Path) -> None:
-    """Write the samples of ``table`` to the side file ``path`` (atomically; nothing for None)."""
-    if table is None:
-        return
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_bytes(_bytes(table))
-    tmp.replace(path)
+            "values_sha256": hashlib.sha256(sample_bytes(table)).hexdigest(), "shape": [len(table.theta), table.width]}
 
 
 def from_json(d, folder: Path | None, parameters_check) -> EOBTable | None:

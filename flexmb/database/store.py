@@ -27,6 +27,7 @@ import hashlib
 import json
 import math
 import os
+import secrets
 import stat
 import sys
 import warnings
@@ -41,8 +42,9 @@ from .._version import __version__
 from . import eob_format
 from ..errors import DatabaseError, ExtrapolationWarning
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "Polynomial", "JointData", "save", "load", "mesh_hash", "data_path",
-           "shipped", "user_path", "search_path", "locate", "read_bytes", "ENVIRONMENT", "MAX_BYTES"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "Polynomial", "JointData", "save", "write", "load", "mesh_hash", "data_path",
+           "shipped", "user_path", "search_path", "locate", "read_bytes", "ENVIRONMENT", "MAX_BYTES", "file_name",
+           "design_hash", "design_file_name", "joint_file_name", "candidate_names", "side_file", "source", "SOURCES"]
 
 FORMAT = "flexmb-joint-database"
 FORMAT_VERSION = 3
@@ -118,13 +120,15 @@ class JointData:
     nodes: Polynomial
     flexmb_version: str = ""
     eob_table: object = None  # a flexmb.database.eob_format.EOBTable, or None (version 2, or not tabulated)
+    #: the file the data were read from (`load`); None when built in memory (`flexmb.database.train`)
+    path: str | None = None
 
     def check_range(self, theta, *, strict: bool = False) -> None:
         """Warn (``ExtrapolationWarning``) or, with ``strict``, raise when ``theta`` leaves the range."""
         t = np.atleast_1d(np.asarray(theta, dtype=float))
         lo, hi = self.range
         if np.any((t < lo - 1e-12) | (t > hi + 1e-12)):
-            msg = (f"{self.kind} database ({self.dim}D, {self.key}): intended rotation "
+            msg = (f"{self.kind} database {self.path or ''} ({self.dim}D, {self.key}): intended rotation "
                    f"{np.degrees(t[(t < lo) | (t > hi)][0]):.2f} deg is outside the trained range "
                    f"[{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg")
             if strict:
@@ -140,9 +144,9 @@ class JointData:
 
     def to_json(self, values_file: str | None = None) -> dict:
         """The whole record as a JSON-ready dict (format name and version, joint, fits, checksum);
-        ``values_file`` names the EOB table's side file (default: that of `file_name`)."""
-        if values_file is None:
-            values_file = file_name(self.kind, self.dim, self.key)[:-len(".json")] + eob_format.SUFFIX
+        ``values_file`` names the EOB table's side file (default: `side_file_name` of the design's file)."""
+        if values_file is None and self.eob_table is not None:
+            values_file = side_file_name(design_file_name(self.kind, self.dim, self.key, self.parameters), self.eob_table)
 
         body = {"format": FORMAT, "format_version": FORMAT_VERSION, "flexmb_version": __version__,
                 "kind": self.kind, "dim": self.dim, "parameters": self.parameters, "key": self.key,
@@ -187,24 +191,89 @@ def _compute_mesh_facts(joint, dim: int) -> tuple[str, int]:
 _cached_mesh_facts = functools.lru_cache(maxsize=256)(_compute_mesh_facts)
 
 
+def side_file_name(name: str, table) -> str:
+    """The EOB table's side file of the database file ``name``: ``<stem>.<sha256 of its samples,
+    16 digits>.eob.bin``. Named by content, so a database file always finds the samples its
+    checksum covers, whichever of two concurrent writers renamed last."""
+    digest = hashlib.sha256(eob_format.sample_bytes(table)).hexdigest()[:16]
+    return f"{name[:-len('.json')] if name.endswith('.json') else name}.{digest}{eob_format.SUFFIX}"
+
+
+def _temporary(path: Path) -> Path:
+    """A temporary name beside ``path``, unique per process, thread and call (two writers of one
+    folder never share one)."""
+    return path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+
+
+def _atomic_write(path: Path, payload: bytes) -> None:
+    """``payload`` to ``path`` through a unique temporary file and `os.replace`: a reader sees the
+    old file or the new one, never half of one (POSIX rename; Windows' MoveFileEx)."""
+    tmp = _temporary(path)
+    try:
+        with open(tmp, "xb") as f:
+            f.write(payload)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def save(data: JointData, path) -> Path:
     """Write ``data`` as JSON to ``path`` (format of `JointData.to_json`); returns the path.
 
-    The file is written next to ``path`` under a temporary name and renamed over it, so a reader
-    never sees half a file and a failed write leaves the old file as it was. `DatabaseError` when
-    the folder cannot be written."""
+    The EOB table's samples go first to their side file, named by content (`side_file_name`);
+    then the JSON is written under a temporary name unique to this call and renamed over
+    ``path``, so a reader never sees half a file, a failed write leaves the old file as it was and
+    two concurrent writers leave one whole file (the last rename's) whose side file exists. The
+    side file the replaced JSON named is removed when no longer named. `DatabaseError` when the
+    folder cannot be written. `write` names the file by the design; this writes where told."""
     path = Path(path)
-    side = path.with_name(path.stem + eob_format.SUFFIX)  # the EOB table's samples, written first
-    text = json.dumps(data.to_json(side.name), indent=1, sort_keys=True) + "\n"
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    side = None if data.eob_table is None else path.with_name(side_file_name(path.name, data.eob_table))
+    text = json.dumps(data.to_json(None if side is None else side.name), indent=1, sort_keys=True) + "\n"
     try:
-        eob_format.write_values(data.eob_table, side)
-        tmp.write_text(text)
-        os.replace(tmp, path)
+        old = side_file(path)
+        if side is not None and not side.exists():
+            _atomic_write(side, eob_format.sample_bytes(data.eob_table))
+        _atomic_write(path, text.encode("utf-8"))
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
         raise DatabaseError(f"cannot write joint database {path}: {exc.strerror or exc}") from None
+    if old is not None and (side is None or old != side):
+        old.unlink(missing_ok=True)
     return path
+
+
+def side_file(path) -> Path | None:
+    """The EOB side file the database file ``path`` names (None: no file there, no table, not
+    readable as a database body)."""
+    path = Path(path)
+    try:
+        name = json.loads(path.read_bytes())["eob_table"]["values_file"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    if isinstance(name, str) and Path(name).name == name and name.endswith(eob_format.SUFFIX):
+        return path.with_name(name)
+    return None
+
+
+def write(data: JointData, folder) -> Path:
+    """Write ``data`` into ``folder`` under its design's name (`design_file_name`: kind, dimension,
+    key and a hash of the training joint's full parameters) and return the path: what
+    ``flexmb train`` does. Atomic as `save`. Replaces only a file of the same design (retraining);
+    a file there holding another design (a hash collision, a file renamed by hand) is refused with
+    a `DatabaseError` naming both, never replaced."""
+    folder = Path(folder)
+    path = folder / design_file_name(data.kind, data.dim, data.key, data.parameters)
+    if os.path.lexists(path):
+        try:
+            held = load(path)
+        except DatabaseError:
+            held = None  # damaged or unreadable: replaced by the same design's new training
+        if held is not None and (held.kind, held.dim, held.parameters) != (data.kind, data.dim, data.parameters):
+            raise DatabaseError(f"joint database {path} holds another design ({held.kind} {held.dim}D "
+                                f"{held.parameters}), not {data.kind} {data.dim}D {data.parameters}; it is not "
+                                "replaced: move it away or train into another folder")
+    return save(data, path)
 
 
 def read_bytes(path) -> bytes:
@@ -240,7 +309,7 @@ def load(path) -> JointData:
     and checksum, then its content (types, shapes, finite values, consistent sizes, ranges and
     the consistency of its fits, `_validate`); `DatabaseError` naming the first fault otherwise."""
     path = Path(path)
-    return _parse(read_bytes(path), str(path))
+    return _parse(read_bytes(path), str(path))  # `JointData.path`: ``str(path)``
 
 
 @functools.lru_cache(maxsize=64)
@@ -266,7 +335,7 @@ def _parse(raw: bytes, where: str) -> JointData:
         raise DatabaseError(f"joint database {where} is corrupted (checksum mismatch): it was edited or damaged; "
                             "re-create it with `flexmb train`")
     try:
-        data = _validate(body)
+        data = _validate(body, where)
         table = _eob_table(body, Path(where).parent)
         return data if table is None else attrs.evolve(data, eob_table=table)
     except _Invalid as exc:
@@ -358,7 +427,7 @@ def _plain_dict(value, name: str) -> dict:
     return value
 
 
-def _validate(body: dict) -> JointData:
+def _validate(body: dict, where: str | None = None) -> JointData:
     """`JointData` from a checksummed body after checking every field (types, shapes, finite values,
     consistent sizes, ranges) and the consistency of its fits: the positions of B at rest (D/D0
     - 1 = 0 at theta = 0), D/D0 - 1 against the norm of the position fits at every sample (both
@@ -417,7 +486,7 @@ def _validate(body: dict) -> JointData:
         a.flags.writeable = False  # shared by every reader of this content (`_parse` caches it)
     return JointData(kind=kind, dim=dim, parameters=parameters, key=key, mesh_hash=mesh,
                      range=(float(rng[0]), float(rng[1])), samples=samples, length=length, functions=functions,
-                     elements=elements, nodes=nodes, flexmb_version=version)
+                     elements=elements, nodes=nodes, flexmb_version=version, path=where)
 
 
 def _eob_table(body: dict, folder: Path):
@@ -447,8 +516,16 @@ def user_path() -> Path:
     ``%LOCALAPPDATA%\\flexmb\\database`` on Windows. The folder need not exist."""
     env = os.environ.get(ENVIRONMENT)
     if env:
-        return Path(env).expanduser()
-    home = Path.home()
+        try:
+            return Path(env).expanduser()
+        except RuntimeError:  # "~nosuchuser/x": Python cannot expand it
+            raise DatabaseError(f"{ENVIRONMENT}={env!r}: cannot expand {env.split(os.sep)[0]!r} (no such user's home "
+                                "folder); give an absolute path") from None
+    try:
+        home = Path.home()
+    except RuntimeError:  # no HOME and no password entry for this user
+        raise DatabaseError(f"the user data folder is unknown: no home folder (set HOME or {ENVIRONMENT} to a "
+                            "folder)") from None
     if sys.platform == "win32":
         base = Path(os.environ.get("LOCALAPPDATA") or home / "AppData" / "Local")
     elif sys.platform == "darwin":
@@ -471,7 +548,8 @@ def search_path(folder=None) -> list[Path]:
 
 
 def file_name(kind: str, dim: int, key: dict) -> str:
-    """The file name of a database: ``<kind>-<dim>d-<key items>.json`` (keys sorted)."""
+    """The key-only file name ``<kind>-<dim>d-<key items>.json`` (keys sorted): the shipped files'
+    and those older flexmb wrote, still read (`locate`), no longer written by training."""
     parts = "-".join(f"{k}{_fmt(v)}" for k, v in sorted(key.items()))
     return f"{kind}-{dim}d-{parts}.json"
 
@@ -480,21 +558,71 @@ def _fmt(v) -> str:
     return f"{v:.6g}" if isinstance(v, float) else str(v)
 
 
+def design_hash(kind: str, dim: int, parameters: dict) -> str:
+    """16 hex digits of the SHA-256 of the canonical JSON of the training joint's kind, dimension and
+    full plain parameters (`flexmb.database.eob_format.plain_parameters` of its `describe`, as
+    `JointData.parameters` records them): two designs share a file name only by a hash collision."""
+    blob = json.dumps({"kind": kind, "dim": int(dim), "parameters": parameters}, sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def design_file_name(kind: str, dim: int, key: dict, parameters: dict) -> str:
+    """The file name `write` gives a design's data: `file_name`'s stem, then `design_hash`
+    (``cross_flexure-2d-angle0.785398-elements_per_leaf2-<16 hex>.json``)."""
+    return f"{file_name(kind, dim, key)[:-len('.json')]}-{design_hash(kind, dim, parameters)}.json"
+
+
+def joint_file_name(joint, dim: int) -> str:
+    """`design_file_name` of ``joint`` in ``dim`` (its key and plain parameters)."""
+    return design_file_name(joint.kind, dim, joint.database_key(), eob_format.plain_parameters(joint.describe()))
+
+
+def candidate_names(joint, dim: int) -> tuple[str, str]:
+    """The names `locate` tries in each folder, in order: the design's own (`joint_file_name`),
+    then the key-only `file_name` (the shipped data, older trainings)."""
+    return joint_file_name(joint, dim), file_name(joint.kind, dim, joint.database_key())
+
+
+#: Where a database file was found (`source`): the ``database=`` folder, the user's, the shipped data.
+SOURCES = ("database=", "user", "shipped")
+
+
+def source(path, folder=None) -> str:
+    """Which of `SOURCES` the file ``path`` came from: ``"database="`` when it lies in ``folder``
+    (KSD's ``database=`` option), ``"shipped"`` in `data_path`, ``"user"`` in `user_path`; where
+    a folder is several of these, the first in search order."""
+    where = Path(path).parent
+    for name, f in zip(SOURCES, (folder, user_path(), data_path())):
+        if f is not None and _same_folder(where, Path(f)):
+            return name
+    return "file"  # elsewhere: a file given by path (`load`)
+
+
+def _same_folder(a: Path, b: Path) -> bool:
+    try:
+        return a == b or os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
 def locate(joint, dim: int, folder=None) -> Path:
-    """The database file of ``joint`` in ``dim``: the first of `search_path` holding its
-    `file_name`; `DatabaseError` naming the folders searched and the training command otherwise."""
+    """The database file of ``joint`` in ``dim``: in each folder of `search_path` in turn, the
+    design's own file, then the key-only name (`candidate_names`); `DatabaseError` naming the
+    folders searched and the training command otherwise."""
     key = joint.database_key()
-    name = file_name(joint.kind, dim, key)
+    names = candidate_names(joint, dim)
     folders = search_path(folder)
     for f in folders:
-        if os.path.lexists(f / name):
-            return f / name
+        for name in names:
+            if os.path.lexists(f / name):
+                return f / name
     params = "".join(f" --param {k}={v}" for k, v in _train_params(joint, key).items())
     elements = f" --elements {key['elements_per_leaf']}" if "elements_per_leaf" in key else ""
     present = sorted({p.name for f in folders if f.is_dir() for p in f.glob(f"{joint.kind}-*.json")})
-    raise DatabaseError(f"no trained data for {joint.kind} ({dim}D, {key}) in {', '.join(map(str, folders))}; train "
-                        f"it with `flexmb train {joint.kind} --dim {dim}{elements}{params} --out FOLDER` and solve "
-                        f"with database=FOLDER, or without --out into {user_path()} (present: {present})")
+    raise DatabaseError(f"no trained data for {joint.kind} ({dim}D, {key}, design {names[0][-21:-5]}) in "
+                        f"{', '.join(map(str, folders))}; train it with `flexmb train {joint.kind} --dim {dim}{elements}"
+                        f"{params} --out FOLDER` and solve with database=FOLDER, or without --out into {user_path()} "
+                        f"(present: {present})")
 
 
 def _train_params(joint, key: dict) -> dict:
@@ -525,6 +653,10 @@ def shipped(joint, dim: int, folder=None) -> JointData:
     if data.kind != joint.kind or data.dim != dim or data.key != key:
         raise DatabaseError(f"joint database {path} holds {data.kind} {data.dim}D {data.key}, not {joint.kind} "
                             f"{dim}D {key}")
+    if path.name != file_name(joint.kind, dim, key) and path.name != design_file_name(data.kind, dim, key,
+                                                                                      data.parameters):
+        raise DatabaseError(f"joint database {path} holds the data of another design ({data.parameters}) than its "
+                            "name says (renamed by hand?); re-create it with `flexmb train`")
     if data.mesh_hash != mesh_hash(joint, dim):
         raise DatabaseError(f"joint database {path} is stale: it was trained on another mesh of {joint.kind} "
                             f"(flexmb {data.flexmb_version or '?'}); re-train with `flexmb train {joint.kind} --dim {dim}`")

@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import jit
 from .._validate import hashable
-from ..database.store import ENVIRONMENT, file_name, search_path, shipped
+from ..database.store import ENVIRONMENT, candidate_names, search_path, shipped
 from ..errors import DatabaseError, ModelError, UnsupportedStrategyError
 from ..fe.ideal import row_names
 from ..fe.model import State
@@ -90,9 +90,9 @@ def _folders(folder, environment: tuple) -> tuple:
 
 
 @functools.lru_cache(maxsize=256)
-def _candidates(folder, environment: tuple, name: str) -> tuple:
-    """The paths `template` tries for the file ``name``, in `search_path`'s order."""
-    return tuple(os.path.join(f, name) for f in _folders(folder, environment))
+def _candidates(folder, environment: tuple, names: tuple) -> tuple:
+    """The paths `template` tries for the files ``names`` (`candidate_names`), in `search_path`'s order."""
+    return tuple(os.path.join(f, name) for f in _folders(folder, environment) for name in names)
 
 
 _ENVIRON_OWNER = os.environ  # the mapping whose storage `_ENVIRON` is (a replaced os.environ is read through)
@@ -116,21 +116,19 @@ def _environment() -> tuple:
     return tuple(os.environ.get(k) for k in _SEARCH_INPUTS)
 
 
-def _database_file(joint, dim: int, folder, name: str | None = None) -> tuple:
+def _database_file(joint, dim: int, folder) -> tuple:
     """Where `template` finds ``joint``'s database and in what state: the folders searched, the
     file found (None if none) and its identity and times (device, inode, size, modification and
     status-change times [ns]). A file replaced (a new inode), rewritten (new times) or given its
     old modification time back (`os.utime` sets the status-change time) changes it; equal
-    signatures mean `template` reads the same file as when they were taken. ``name``: the file's
-    name when known (`_file_name`). One ``access`` per folder searched (a folder without the file:
+    signatures mean `template` reads the same file as when they were taken. One ``access`` per
+    candidate (`flexmb.database.store.candidate_names`, two per folder) searched (a folder without the file:
     no exception), an ``lstat`` where the file is, a ``stat`` where it is a link (far cheaper than
     `template`'s reading and parsing the file)."""
     folder = None if folder is None else os.fspath(folder)
     environment = _environment()
-    if name is None:
-        name = _file_name(joint, dim)
     folders = _folders(folder, environment)
-    for path in _candidates(folder, environment, name):
+    for path in _candidates(folder, environment, _file_names(joint, dim)):
         if _ACCESS and not os.access(path, os.F_OK, follow_symlinks=False):
             continue  # as `locate` (os.path.lexists): nothing there; no exception raised
         try:
@@ -148,16 +146,16 @@ def _database_file(joint, dim: int, folder, name: str | None = None) -> tuple:
     return folders, None, None
 
 
-def _file_name(joint, dim: int) -> str:
-    """`flexmb.database.store.file_name` of ``joint`` (kept per joint value: it is immutable)."""
+def _file_names(joint, dim: int) -> tuple:
+    """`flexmb.database.store.candidate_names` of ``joint`` (kept per joint value: it is immutable)."""
     if hashable(joint):
-        return _cached_file_name(joint, dim)
-    return file_name(joint.kind, dim, joint.database_key())
+        return _cached_file_names(joint, dim)
+    return candidate_names(joint, dim)
 
 
 @functools.lru_cache(maxsize=256)
-def _cached_file_name(joint, dim: int) -> str:
-    return file_name(joint.kind, dim, joint.database_key())
+def _cached_file_names(joint, dim: int) -> tuple:
+    return candidate_names(joint, dim)
 
 
 def _embed(v: np.ndarray, dim: int) -> np.ndarray:
@@ -399,8 +397,7 @@ class ReducedMechanism:
         """Whether the joint databases this set-up was built from are still the ones `template`
         would read (same folders searched, same file, same bytes); False when one changed or is gone."""
         for jt, _, signature in self._templates:
-            if signature is None or signature[2] is None or _database_file(
-                    jt, self.dim, self.folder, signature[1].rpartition(os.sep)[2]) != signature:
+            if signature is None or signature[2] is None or _database_file(jt, self.dim, self.folder) != signature:
                 return False
         return True
 

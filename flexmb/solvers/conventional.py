@@ -621,4 +621,4 @@ class Report:
         """Not converged: the step was halved below ``min_step``."""
         return self._fields(False, f"not converged: step halved below min_step={min_step:g} at load factor "
                                    f"{lam:.6g} (the last converged step); the residual history shows the failed "
-                                   "iterations", state, lam)
+                                   "iterations" + self.problem.roundoff_hint(), state, lam)

@@ -31,6 +31,8 @@ from .. import jit
 from ..ksd.geometry import ACTIVE, LinkPoses, rz
 from ..ksd.linearisation import ReducedSolution
 from ..ksd.kinematics import _gesv, _norm, kinematics_in_range, solve_kinematics
+from ..ksd.estimate import DEFAULT_TOLERANCE, check, estimate_at
+from ..ksd.provenance import files
 from ..ksd.reduced import ReducedMechanism, kernels, reduced_mechanism, setup_key
 from .._timing import Stopwatch
 from ..linear import single_threaded
@@ -58,7 +60,8 @@ def _check_range(red: ReducedMechanism, theta: np.ndarray, strict: bool, reached
         lo, hi = tpl.data.range
         for j in idx:
             if not lo - 1e-9 <= theta[j] <= hi + 1e-9:  # 1e-9 rad: the kinematic solve's roundoff
-                trained = f"outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg"
+                trained = (f"outside its trained range [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg of "
+                           f"{tpl.data.path}")
                 head = f"joint {red.joint_names[j]!r} ({tpl.data.kind}): the requested motion ({_requested(red)}) turns it"
                 beyond = max(lo - theta[j], theta[j] - hi)  # [rad]: at 2 decimals 45 + 1e-6 rad reads 45.00 deg
                 msg = (f"{head} to {np.degrees(theta[j]):.2f} deg, {beyond:.2g} rad {trained}" if reached >= 1.0 - 1e-14 else
@@ -101,7 +104,8 @@ def _reachable(red: ReducedMechanism) -> None:
     if rot.size and rot.max() > reach + 2 * np.pi:
         raise DatabaseError(f"KSD: a prescribed rotation of {rot.max():.6g} rad is beyond the trained ranges of all the "
                             f"mechanism's joints together and a full turn ({reach:.4g} + 2 pi rad), so outside its trained "
-                            "range; use method='conventional' or retrain with `flexmb train --range`")
+                            "range; use method='conventional' or retrain with `flexmb train --range` (data: "
+                            f"{', '.join(sorted({str(tpl.data.path) for tpl, _, _ in red.groups}))})")
 
 
 _TOL_TEXT: dict = {}  # tolerances as messages print them (a float's formatting, once)
@@ -129,6 +133,14 @@ class _KSD:
         Step control of step 5, as `Conventional`.
     raise_on_failure
         Raise `ConvergenceError` instead of returning ``converged=False``.
+    error_tol
+        KSD-reduced: the relative error above which its answer is flagged, estimated from the full
+        model at the answer (`flexmb.ksd.estimate`; ``Solution.stages["estimate"]``): an
+        `AccuracyWarning`, or with ``strict_error`` an `AccuracyError`. Default 0.01 (1 %); None:
+        no estimate (it costs one assembly and one solve of the full model). KSD-full records the
+        estimate of its step 1-4 start.
+    strict_error
+        Refuse (`AccuracyError`) a KSD-reduced answer whose estimated error is above ``error_tol``.
     """
 
     name: ClassVar[str] = ""
@@ -147,6 +159,9 @@ class _KSD:
     min_step: float = attrs.field(default=1e-5, validator=v.unit_interval_option)
     max_rotation: float | None = attrs.field(default=1.0, validator=attrs.validators.optional(v.positive_option))
     raise_on_failure: bool = attrs.field(default=False, validator=v.flag_option)
+    error_tol: float | None = attrs.field(default=DEFAULT_TOLERANCE,
+                                          validator=attrs.validators.optional(v.positive_option))
+    strict_error: bool = attrs.field(default=False, validator=v.flag_option)
 
     def share_setup(self, base, compiled) -> None:
         """Give ``compiled`` (``base`` with other prescribed values: a motion sweep's value) the
@@ -159,9 +174,11 @@ class _KSD:
 
     def solve(self, compiled) -> Solution:
         if self._compiled_path(compiled):  # no BLAS call but the direct EOBs', which enter it themselves
-            return self._solve(compiled)  # (entering it is a visible share of a small solve)
-        with single_threaded():  # small dense systems throughout (flexmb.linear.single_threaded)
-            return self._solve(compiled)
+            sol = self._solve(compiled)  # (entering it is a visible share of a small solve)
+        else:
+            with single_threaded():  # small dense systems throughout (flexmb.linear.single_threaded)
+                sol = self._solve(compiled)
+        return sol if self.full else check(sol, self.error_tol, self.strict_error)  # its estimated error
 
     def _compiled_path(self, compiled) -> bool:
         """Whether steps 1-4 run as compiled stages (`flexmb.ksd.reduced_jit`): KSD-reduced with the
@@ -172,6 +189,7 @@ class _KSD:
         watch, stages = Stopwatch(), {}
         times = watch.times
         red = reduced_mechanism(compiled, self.database)
+        stages["setup"] = {"files": files(red)}  # which database file each joint's data came from
         watch.lap("setup")
 
         if self.strict_range:
@@ -186,7 +204,7 @@ class _KSD:
         except ConvergenceError as exc:  # step 1 failed: a non-converged Solution, as every strategy
             watch.lap("kinematics")
             watch.total()
-            sol = self.solution_type.failed(self.name, compiled, f"{self.name}: {exc}", times)
+            sol = self.solution_type.failed(self.name, compiled, f"{self.name}: {exc}", times, stages)
             if self.raise_on_failure:
                 raise ConvergenceError(sol.message, sol) from None
             return sol
@@ -294,9 +312,12 @@ class _KSD:
             # computed first)
             problem._pattern, problem._tangent_solver  # noqa: B018 (built on first access)
             start = problem.continued_from(state)
+            geometric = red.eob_axial_stress(eobs, q_nodes)
+            if self.error_tol is not None:  # the error of the step 1-4 start
+                stages["estimate"] = estimate_at(compiled, state, red.reaction_vector(r3), geometric, self.error_tol)
             out = newton_steps(start, state, tol=self.tol, max_iter=self.max_iter, divergence=self.divergence,
                                min_step=self.min_step, initial_step=1.0, max_rotation=self.max_rotation,
-                               first_geometric_stress=red.eob_axial_stress(eobs, q_nodes),
+                               first_geometric_stress=geometric,
                                control="paper")  # measured: the continuation's path-deviation bound
             # stops step 5 of the manipulator's location case at -45 deg (load factor 0.157), and
             # step 5 converges in its first step on every other benchmark case: Fig. 18 kept here

@@ -22,14 +22,14 @@ def test_a_cantilever_in_tension_does_not_buckle():
     for force, expected in ((1.0, np.inf), (-1.0, np.pi**2 * 200e9 * 0.02 * 0.001**3 / 12 / (4 * 0.1**2))):
         m = models.cantilever(dim=2, elements=16)
         m.apply_force("tip", (force, 0.0))
-        lam = flexmb.buckling(flexmb.solve(m), n=1)
+        lam = flexmb.buckling(flexmb.solve(m), n_buckling=1)
         if np.isinf(expected):
             assert np.all(np.isinf(lam))
         else:
             assert lam[0] == pytest.approx(expected, rel=2e-3)
     m = models.cantilever(dim=3, elements=16)
     m.apply_force("tip", (1000.0, 0.0, 0.0))
-    assert np.all(np.isinf(flexmb.buckling(flexmb.solve(m), n=3)))
+    assert np.all(np.isinf(flexmb.buckling(flexmb.solve(m), n_buckling=3)))
 
 
 def _leaf_at(x: float):

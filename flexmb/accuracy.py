@@ -498,6 +498,21 @@ def _scales(values: np.ndarray, kinds: np.ndarray | None = None, least=None) -> 
     return out
 
 
+def _least(solution, force: float, L: float) -> dict:
+    """Per kind, the size below which a quantity is round-off, not judged: reactions (forces,
+    moments over the model length) within ``ROUNDOFF_RESIDUALS`` times the solve's residual
+    tolerance or 1e-6 of the force scale (the unloaded four-bar's ground reaction, 4.7e-9 N at a
+    2.2e-8 N tolerance, read 530 % before), displacements 1e-9 of the model length."""
+    tol = float(getattr(solution, "tolerance", 0.0) or 0.0)
+    tol = tol if np.isfinite(tol) else 0.0
+    reaction = max(1e-6 * force, ROUNDOFF_RESIDUALS * tol)
+    return {0: reaction, 1: reaction, 2: 1e-9 * L}
+
+
+#: Reactions below this many residual tolerances are round-off (`_least`).
+ROUNDOFF_RESIDUALS = 10.0
+
+
 def _solve_quantities(solution, L: float) -> tuple[list, np.ndarray, np.ndarray]:
     """(names, values, kinds) of a solve: the prescribed components of the reactions (kinds 0:
     forces, 1: moments over the model length) and the free components of the links'
@@ -546,7 +561,7 @@ def estimate(solution) -> Estimate:
         names, q, kinds = _solve_quantities(full, L)
         _, qc, _ = _solve_quantities(comp, L)
         force = float(getattr(full.compiled.problem, "force_scale", 0.0) or 0.0)
-        least = {0: 1e-6 * force, 2: 1e-9 * L}  # below: round-off (an undeformed state's reactions)
+        least = _least(full, force, L)
         out = Estimate("solve", tuple(names), q, qc, ratio, _scales(q, kinds, least),
                        (_elements(full.compiled), _elements(comp.compiled)), _STATE["target"],
                        basis="" if full is solution else REDUCED_BASIS)
@@ -629,7 +644,7 @@ def critical_estimate(critical, tracer) -> Estimate:
         names, q, kinds = _solve_quantities(full, L)
         _, qc, _ = _solve_quantities(comp, L)
         force = float(getattr(full.compiled.problem, "force_scale", 0.0) or 0.0)
-        least = {0: 1e-6 * force, 2: 1e-9 * L}
+        least = _least(full, force, L)
         names, kinds = ["load factor"] + names, np.concatenate([[3], kinds])
         q, qc = np.concatenate([[critical.load_factor], q]), np.concatenate([[comp.load_factor], qc])
         out = Estimate("critical", tuple(names), q, qc, ratio, _scales(q, kinds, least),

@@ -11,23 +11,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from flexmb.studies import example_arguments
-from flexmb.studies.optimization import RUNS, comparison_table, compare, manipulator
+from flexmb.studies.optimization import manipulator, run_example
 
 
 def main(out: Path | None = None, quick: bool = False) -> dict:
     """Optimise with SLSQP on flexmb's design gradients and with the derivative-free COBYLA on plain
     solves from the same start (``quick``: 0 and +-30 deg, COBYLA to 60 evaluations), print both side by side and write each
     run's history as CSV into ``out`` (None: nothing written)."""
-    problem = manipulator(quick)
-    runs = (RUNS[0], ("COBYLA (derivative-free)", "cobyla", None, {"max_iter": 60 if quick else 400}))
-    results = compare(problem, runs)
-    print(comparison_table(problem, results))
-    if out is not None:
-        Path(out).mkdir(parents=True, exist_ok=True)
-        for tag, (label, *_) in zip(("gradients", "cobyla"), runs):
-            path = results[label][0].history.to_csv(Path(out) / f"optimize_manipulator_{tag}.csv")
-            print(f"history written to {path}")
-    return {"problem": problem, "result": results[runs[0][0]][0], "baseline": results[runs[1][0]][0]}
+    return run_example(manipulator(quick), "optimize_manipulator", out, 60 if quick else 400)
 
 
 if __name__ == "__main__":

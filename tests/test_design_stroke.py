@@ -20,6 +20,7 @@ from flexmb.design.derived import reciprocal, support_stiffness
 from flexmb.design.stroke import (Aggregate, Stroke, StrokePoint, at, evaluate_stroke, ks_max, ks_min, mean,
                                   solve_configuration, total)
 from flexmb.errors import ConvergenceError, ModelError, ParameterError
+from flexmb.studies.optimization import stage_build
 
 from design_cases import PIVOT, PIVOT_BOUNDS, pivot
 
@@ -115,27 +116,7 @@ def test_ks_aggregate_bounds_and_its_gradient_in_the_values():
 
 
 # -- beyond the papers: a double-parallelogram stage in mm, N, MPa over +-5 mm ---------------------------
-CLEARANCE = 5.0  # [mm] between the outer and inner leaves
-
-
-def stage(p: dict) -> flexmb.Mechanism:
-    """A folded double-parallelogram stage (mm, N, MPa, t): outer leaves from the ground at x =
-    +-d/2 up to the intermediate body, inner leaves from it down to the stage at +-(d/2 - 5 mm);
-    the stage's x prescribed (the stroke), a tool point 30 mm beside its centre."""
-    t, L, d = p["t"], p["L"], p["d"]
-    m = flexmb.Mechanism(dim=2)
-    m.add_link("ground", fixed=True)
-    m.add_link("intermediate", position=(0.0, L))
-    m.add_link("stage", position=(0.0, 0.0))
-    leaf = dict(length=L, thickness=t, width=10.0, E=210000.0, G=80769.0, elements=6, density=7.85e-9)
-    for s in (-1, 1):
-        m.add_joint("ground", "intermediate", "leaf_spring", origin=(s * d / 2, 0.0), rotation=np.pi / 2,
-                    name=f"outer{s:+d}", **leaf)
-        m.add_joint("stage", "intermediate", "leaf_spring", origin=(s * (d / 2 - CLEARANCE), 0.0),
-                    rotation=np.pi / 2, name=f"inner{s:+d}", **leaf)
-    m.add_point("stage", "tool", (30.0, 0.0))
-    m.prescribe("stage", x=0.0)
-    return m
+stage = stage_build  # the study's builder (flexmb.studies.optimization): the same stage, written once
 
 
 STAGE = dict(t=0.5, L=60.0, d=40.0)

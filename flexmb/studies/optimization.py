@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import time
+from pathlib import Path
 
 import attrs
 import numpy as np
@@ -236,3 +237,19 @@ def comparison_table(problem: Problem, results: dict) -> str:
                     f"{t / t_first:10.2f}")
     rows.append("best: " + ", ".join(f"{k}={v:.6g}" for k, v in first.p.items()))
     return "\n".join(rows)
+
+
+def run_example(problem: Problem, name: str, out=None, cobyla_evaluations: int = 400) -> dict:
+    """The optimisation examples' run: SLSQP on flexmb's design gradients (`RUNS`' first) and the
+    derivative-free COBYLA (at most ``cobyla_evaluations``) from the same start, printed side by
+    side; each run's history written as ``<name>_gradients.csv`` / ``<name>_cobyla.csv`` into
+    ``out`` (None: nothing written). Returns ``{"problem", "result", "baseline"}``."""
+    runs = (RUNS[0], ("COBYLA (derivative-free)", "cobyla", None, {"max_iter": cobyla_evaluations}))
+    results = compare(problem, runs)
+    print(comparison_table(problem, results))
+    if out is not None:
+        Path(out).mkdir(parents=True, exist_ok=True)
+        for tag, (label, *_) in zip(("gradients", "cobyla"), runs):
+            path = results[label][0].history.to_csv(Path(out) / f"{name}_{tag}.csv")
+            print(f"history written to {path}")
+    return {"problem": problem, "result": results[runs[0][0]][0], "baseline": results[runs[1][0]][0]}

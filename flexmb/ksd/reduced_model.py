@@ -25,7 +25,7 @@ from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
 from .eob_forces import axial_forces, force_table
 from .joint_mass import condensed_subspace
-from ..rotations import unskew
+from ..rotations import skew, unskew
 from .geometry import ACTIVE, LinkPoses, rz
 from .kinematics import solve_kinematics
 from . import reduced_model_jit
@@ -353,3 +353,82 @@ def _recovery(red, st, parts, G, pos, F, at, n: int, model, compiled: bool):
         return out
 
     return to_full
+
+
+# -- step 3 in complex arithmetic (the design gradients' complex step) ---------------------------
+#: ``Q.reshape(9) @ _DUNSKEW`` = ``0.5 (trace(Q) I - Q)`` flattened, d unskew(Q) / d omega (dQ = skew(omega) Q)
+_DUNSKEW = 0.5 * (np.outer(np.eye(3).ravel(), np.eye(3).ravel()) - np.eye(9))
+
+#: The numbers step 3's residual reads besides the fixed layout of a `ReducedMechanism`: the links'
+#: positions ``x`` (n_links, 3) [m] and rotations ``R`` (n_links, 3, 3), the joints' frames ``s_a``,
+#: ``s_b`` (J, 3) [m] and ``P`` (J, 3, 3), their near configuration ``K`` (J, 6, 6), ``Fh`` (J, 6),
+#: ``p_hat`` (J, 3), ``R_hat`` (J, 3, 3), and the dead loads ``force``, ``moment``, ``offset`` (L, 3).
+STEP3_INPUTS = ("x", "R", "s_a", "s_b", "P", "K", "Fh", "p_hat", "R_hat", "force", "moment", "offset")
+
+
+def _unskew(S: np.ndarray) -> np.ndarray:
+    """Axial vector of the skew part of ``S`` (..., 3, 3), complex-safe (`flexmb.rotations.unskew` is float)."""
+    return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]],
+                          axis=-1)
+
+
+def relative_pose(red: ReducedMechanism, x, R, s_a, s_b, P):
+    """The joints' relative poses ``p`` (J, 3), ``R_rel`` (J, 3, 3) and the frame axes and arms
+    (``F``, ``Ft``, ``rb``, ``ra``) of `flexmb.ksd.geometry.JointFrames.relative`, from explicit
+    frame numbers and in complex arithmetic (a complex step through the placements)."""
+    a, b = red.frames.a, red.frames.b
+    Ra, Rb = R[a], R[b]
+    o_a = x[a] + (Ra @ s_a[..., None])[..., 0]
+    rb = (Rb @ s_b[..., None])[..., 0]
+    o_b = x[b] + rb
+    F = Ra @ P
+    Ft = np.swapaxes(F, 1, 2)
+    p = (Ft @ (o_b - o_a)[..., None])[..., 0]
+    return p, Ft @ Rb @ P, {"F": F, "Ft": Ft, "rb": rb, "ra": o_b - x[a]}
+
+
+def step3(red: ReducedMechanism, inputs: dict, tangent: bool = True):
+    """KSD step 3's residual (6 n_links,) and tangent (6 n_links, 6 n_links) of
+    `ReducedMechanism.equilibrium` (the same terms, its numpy path) from the numbers `STEP3_INPUTS`,
+    in complex arithmetic: the complex step of the design gradients through the joints' frames, their
+    near configuration and the loads (`flexmb.design.reduced`). ``tangent`` False: None for it."""
+    g = inputs
+    p, Rrel, geo = relative_pose(red, g["x"], g["R"], g["s_a"], g["s_b"], g["P"])
+    Q = Rrel @ np.swapaxes(g["R_hat"], 1, 2)
+    xi = np.concatenate([p - g["p_hat"], _unskew(Q)], axis=1)
+    w = (g["K"] @ xi[..., None])[..., 0] + g["Fh"]
+    fm = (geo["F"][:, None] @ w.reshape(-1, 2, 3, 1))[..., 0]  # force and moment on B, global axes
+    S = skew(np.concatenate([fm, geo["rb"][:, None], geo["ra"][:, None]], axis=1))  # of f, mB, rb, ra
+    f = fm[:, 0]
+    m = fm[:, 1:] + (S[:, 2:] @ fm[:, :1, :, None])[..., 0]  # moments about b and a
+    d = (g["R"][red.load_node] @ g["offset"][..., None])[..., 0]
+    loads = np.concatenate([g["force"], g["moment"] + (skew(d) @ g["force"][..., None])[..., 0]], axis=1)
+    n = 6 * red.n_links
+    r = np.zeros(n, dtype=complex)
+    np.add.at(r, red._r_at, np.concatenate([np.concatenate([f, m[:, 0], -f, -m[:, 1]], axis=1).ravel(),
+                                            -loads.ravel()]))
+    if not tangent:
+        return r, None
+    Jrel = red.frames.relative_jacobian(geo).astype(complex)
+    Jrel[:, 3:] = (Q.reshape(-1, 1, 9) @ _DUNSKEW).reshape(-1, 3, 3) @ Jrel[:, 3:]
+    D = geo["F"][:, None] @ (g["K"] @ Jrel).reshape(-1, 2, 3, 12)  # d(f, mB)
+    D[..., 3:6] -= S[:, :2]  # F turns with link a
+    dm = D[:, 1:] + S[:, 2:] @ D[:, :1]
+    dm[..., 9:12] += (S[:, 0] @ S[:, 2])[:, None]
+    dm[:, 1, :, 0:3] += S[:, 0]
+    dm[:, 1, :, 6:9] -= S[:, 0]
+    entries = [np.concatenate([-D[:, 0], -dm[:, 1], D[:, 0], dm[:, 0]], axis=1).ravel(),
+               -(skew(g["force"]) @ skew(d)).ravel()]  # d(d x f)/dphi of loads at offset points
+    T = np.zeros(n * n, dtype=complex)
+    np.add.at(T, red._K_at, np.concatenate(entries))
+    return r, T.reshape(n, n)
+
+
+def step3_inputs(solution, database=None) -> dict:
+    """`STEP3_INPUTS` of a KSD-reduced solution: its links' poses, the joints' frames, its near
+    configuration (`near`) and the loads (3D form, float)."""
+    red, (_, K, Fh, p_hat, R_hat, _) = near(solution, database)
+    poses = link_poses(red, solution.state)
+    fr = red.frames
+    return {"x": poses.x, "R": poses.R, "s_a": fr.s_a, "s_b": fr.s_b, "P": fr.P, "K": K, "Fh": Fh, "p_hat": p_hat,
+            "R_hat": R_hat, "force": red.load_force, "moment": red.load_moment, "offset": red.load_offset}

@@ -141,7 +141,7 @@ def test_a_compliance_without_the_state_s_part_is_caught(monkeypatch):
     # the tangent's rate along the parameters only (dK/dp without dK/dz z'): the checker fails
     original = reduced.ReducedSensitivity._complex
     _mutant_caught(monkeypatch, support_stiffness("fore", "rx"), (reduced.ReducedSensitivity, "_complex"),
-                   lambda self, k, state=None: original(self, k))
+                   lambda self, state=None: original(self))
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -150,7 +150,7 @@ def test_the_complex_step3_is_the_reduced_equilibrium(dim):
     # loaded four-bar's solution (dead force at an offset point: the load's tangent term)
     sol = flexmb.solve(fourbar(P, dim), **OPTIONS)
     red, (_, K, Fh, p_hat, R_hat, _) = reduced_model.near(sol)
-    r, T = reduced_model.step3(red, reduced_model.step3_inputs(sol))
+    r, T = (a[0] for a in reduced_model.step3(red, {k: v[None] for k, v in reduced_model.step3_inputs(sol).items()}))
     r0, T0 = red.equilibrium(reduced_model.link_poses(red, sol.state), K, Fh, p_hat, R_hat, tangent=True)
     np.testing.assert_allclose(r.real, r0, rtol=0, atol=1e-12 * np.abs(r0).max())
     np.testing.assert_allclose(T.real, T0, rtol=0, atol=1e-13 * np.abs(T0).max())
@@ -165,3 +165,17 @@ def test_ksd_reduced_refuses_placements_of_joints_without_a_table_naming_them():
 
     with pytest.raises(UnsupportedStrategyError, match="'bottom_left'.*evaluated directly.*ksd-full"):
         evaluate(build, {"W": 0.4}, R.reaction("top", "x"), **OPTIONS)
+
+
+def test_the_manipulator_s_configure_carries_the_complex_step():
+    # manipulator_configure computes the prescribed end point without float(): no parameter's
+    # boundary rates fall back to central differences of the build (two real builds each)
+    from flexmb.design.evaluate import DesignPoint
+
+    point = DesignPoint(_manipulator, MANIPULATOR)
+    rates = point.rates(None)
+    fallen, fallback = [], rates.fallback
+    rates.fallback = lambda k: fallen.append(k) or fallback(k)
+    ev = point.evaluate(R.reaction("link3", "x"), configure=_turned, **TIGHT)
+    assert fallen == [] and np.all(np.isfinite(ev.jacobian))
+    assert all(method == "complex step" for method, _ in rates.methods)

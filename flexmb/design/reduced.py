@@ -58,12 +58,15 @@ _H = 1e-30
 _EZ = skew(np.array([0.0, 0.0, 1.0]))
 
 
+#: The model fields of the kinds KSD-reduced does not follow (a joint's dimensions or material, masses).
+REFUSED_FIELDS = ("S", "L0", "rho_A", "rigid_mass", "rigid_inertia", "rigid_offset")
+
+
 def _refuse_kinds(solution, rates) -> None:
-    """Refuse parameters that change a joint or a mass, naming each with its kind."""
-    bad = [(name, rates.kind(k)) for k, name in enumerate(rates.names)
-           if not set(rates.kind(k).split(" and ")) <= set(KINDS + ("nothing",))]
+    """Refuse parameters that change a joint or a mass, naming each with its kind (`KINDS` pass)."""
+    bad = [k for k in range(len(rates.names)) if any(np.any(rates.rate(f)[k] != 0.0) for f in REFUSED_FIELDS)]
     if bad:
-        listed = ", ".join(f"{name!r} ({kind})" for name, kind in bad)
+        listed = ", ".join(f"{rates.names[k]!r} ({rates.kind(k)})" for k in bad)
         raise UnsupportedStrategyError(
             f"design gradients with KSD-reduced (method {solution.method!r}) follow placements, loads and prescribed "
             f"motion (the joints' databases stay valid); the parameters {listed} change a joint's database entry or "
@@ -130,17 +133,20 @@ class ReducedSensitivity(Sensitivity):
         also be given on all the full model's free DOFs (a link's load, `flexmb.responses.compliance`):
         zero on the joints' internal nodes (else refused), the answer then on those rows too."""
         rhs = np.asarray(rhs, dtype=float)
-        n_full = self.model.n_dofs - len(self.prescribed)
-        if len(rhs) == len(self.free) or len(rhs) != n_full:
+        if len(rhs) == len(self.free) or len(rhs) != self.model.n_dofs - len(self.prescribed):
             return sla.lu_solve(self._lu, rhs, trans=1 if transpose else 0)
-        full_free = np.setdiff1d(np.arange(self.model.n_dofs), self.prescribed)
-        on_links = full_free < len(self.links)  # the links' free DOFs lead the full free ones
+        on_links = self._on_links
         if np.any(rhs[~on_links] != 0.0):
             raise UnsupportedStrategyError("a load on the joints' internal nodes: KSD-reduced recovers them from the "
                                            "EOBs (step 4), not differentiable with KSD-reduced")
         out = np.zeros_like(rhs)
         out[on_links] = sla.lu_solve(self._lu, rhs[on_links], trans=1 if transpose else 0)
         return out
+
+    @functools.cached_property
+    def _on_links(self) -> np.ndarray:
+        """Which of the full model's free DOFs are the links' (they lead)."""
+        return np.setdiff1d(np.arange(self.model.n_dofs), self.prescribed) < len(self.links)
 
     # -- the rates through steps 1-3 -----------------------------------------------------------
     @functools.cached_property
@@ -163,16 +169,17 @@ class ReducedSensitivity(Sensitivity):
             shared[key] = {"s_a": s_a.reshape(-1, J, 3), "s_b": s_b.reshape(-1, J, 3), "P": P.reshape(-1, J, 3, 3)}
         return shared[key]
 
-    def _complex(self, k: int, state=None) -> dict:
-        """`STEP3_INPUTS` with parameter ``k``'s rates as imaginary parts (`_H`); ``state``: the links'
-        rates (6 n_links,) too (translations, spins)."""
-        g = dict(self._inputs)
-        rates = {**{f: r[k] for f, r in self._frame_rates.items()}, **{f: r[k] for f, r in self._near_rates.items()},
-                 **{f: r[k] for f, r in self._load_rates.items()}}
+    def _complex(self, state=None) -> dict:
+        """`STEP3_INPUTS` stacked over the parameters (K, ...), each parameter's rates as imaginary
+        parts (`_H`); ``state``: the links' rates (K, 6 n_links) too (translations, spins)."""
+        g = self._inputs
+        rates = {**self._frame_rates, **self._near_rates, **self._load_rates}
         if state is not None:
-            dz = state.reshape(-1, 6)
-            rates["x"], rates["R"] = dz[:, :3], skew(dz[:, 3:]) @ g["R"]
-        return {f: g[f] + 1j * _H * rates[f] if f in rates else g[f] for f in g}
+            dz = state.reshape(len(state), -1, 6)
+            rates["x"], rates["R"] = dz[..., :3], skew(dz[..., 3:]) @ g["R"]
+        K = len(self.names)
+        return {f: g[f] + 1j * _H * rates[f] if f in rates else np.broadcast_to(g[f], (K,) + g[f].shape) + 0j
+                for f in g}
 
     @functools.cached_property
     def _load_rates(self) -> dict:
@@ -205,12 +212,11 @@ class ReducedSensitivity(Sensitivity):
         if np.abs(theta1 - theta).max() > 1e-8:
             raise ModelError("KSD-reduced design gradients: step 1 solved again does not reach the solution's near "
                              f"configuration (intended rotations {theta1} against {theta} rad)")
-        rel = np.zeros((J, 6, nK))
-        for k in range(nK):  # the relative poses' rates at step 1's poses, fixed: the frames'
-            fr = {f: self._inputs[f] + 1j * _H * r[k] for f, r in self._frame_rates.items()}
-            p, Rrel, _ = relative_pose(red, poses.x, poses.R, fr["s_a"], fr["s_b"], fr["P"])
-            rel[:, :3, k] = p.imag / _H
-            rel[:, 3:, k] = _unskew(Rrel.imag / _H @ np.swapaxes(Rrel.real, 1, 2))
+        fr = {f: self._inputs[f] + 1j * _H * r for f, r in self._frame_rates.items()}  # (K, J, ...)
+        p, Rrel, _ = relative_pose(red, poses.x, poses.R, fr["s_a"], fr["s_b"], fr["P"])
+        # the relative poses' rates at step 1's poses held fixed: the frames' (J, 6, K)
+        rel = np.concatenate([p.imag / _H, _unskew(Rrel.imag / _H @ np.swapaxes(Rrel.real, -1, -2))], axis=-1)
+        rel = np.moveaxis(rel, 0, -1)
         dtheta, dp = kinematics_rates(red, poses, rel, pres)
         out["p_hat"], out["R_hat"] = np.moveaxis(dp, -1, 0), np.einsum("ab,jbc,jk->kjac", _EZ, R_hat, dtheta)
         _condensation_rates(red, theta, p_hat, dtheta, dp, out)
@@ -222,9 +228,8 @@ class ReducedSensitivity(Sensitivity):
         configuration and the loads (the complex step through step 3)."""
         red = self.red
         out = np.zeros((self.model.n_dofs, len(self.names)))
-        for k in range(len(self.names)):
-            r, _ = step3(red, self._complex(k), tangent=False)
-            out[red.fe_dofs, k] = r.imag[red.emb_dofs] / _H
+        r, _ = step3(red, self._complex(), tangent=False)
+        out[red.fe_dofs] = r.imag[:, red.emb_dofs].T / _H
         return out
 
     def tangent_forms(self, V: np.ndarray, W: np.ndarray | None = None, material: bool = False) -> np.ndarray:
@@ -236,13 +241,10 @@ class ReducedSensitivity(Sensitivity):
                                            "method='ksd-full'")
         if "tangent" not in self._blocks:
             red, du = self.red, self.state_rates
-            blocks = []
-            for k in range(len(self.names)):
-                dz = np.zeros(6 * red.n_links)
-                dz[red.emb_dofs] = du[red.fe_dofs, k]
-                T = step3(red, self._complex(k, dz))[1].imag / _H
-                blocks.append(T[np.ix_(red.emb_dofs, red.emb_dofs)])
-            self._blocks["tangent"] = np.array(blocks)
+            dz = np.zeros((len(self.names), 6 * red.n_links))
+            dz[:, red.emb_dofs] = du[red.fe_dofs].T
+            T = step3(red, self._complex(dz))[1].imag / _H
+            self._blocks["tangent"] = T[:, red.emb_dofs][:, :, red.emb_dofs]
         W = V if W is None else W
         n = len(self.links)
         return np.einsum("ia,kij,jb->kab", V[:n], self._blocks["tangent"], W[:n])

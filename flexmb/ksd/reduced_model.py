@@ -373,60 +373,65 @@ def _unskew(S: np.ndarray) -> np.ndarray:
 
 
 def relative_pose(red: ReducedMechanism, x, R, s_a, s_b, P):
-    """The joints' relative poses ``p`` (J, 3), ``R_rel`` (J, 3, 3) and the frame axes and arms
-    (``F``, ``Ft``, ``rb``, ``ra``) of `flexmb.ksd.geometry.JointFrames.relative`, from explicit
-    frame numbers and in complex arithmetic (a complex step through the placements)."""
+    """The joints' relative poses ``p`` (..., J, 3), ``R_rel`` (..., J, 3, 3) and the frame axes and
+    arms (``F``, ``Ft``, ``rb``, ``ra``) of `flexmb.ksd.geometry.JointFrames.relative`, from explicit
+    frame numbers, stacked along leading axes and in complex arithmetic (a complex step through the
+    placements): ``x`` (..., n_links, 3), ``R`` (..., n_links, 3, 3), ``s_a``, ``s_b`` (..., J, 3),
+    ``P`` (..., J, 3, 3)."""
     a, b = red.frames.a, red.frames.b
-    Ra, Rb = R[a], R[b]
-    o_a = x[a] + (Ra @ s_a[..., None])[..., 0]
+    Ra, Rb = R[..., a, :, :], R[..., b, :, :]
+    o_a = x[..., a, :] + (Ra @ s_a[..., None])[..., 0]
     rb = (Rb @ s_b[..., None])[..., 0]
-    o_b = x[b] + rb
+    o_b = x[..., b, :] + rb
     F = Ra @ P
-    Ft = np.swapaxes(F, 1, 2)
+    Ft = np.swapaxes(F, -1, -2)
     p = (Ft @ (o_b - o_a)[..., None])[..., 0]
-    return p, Ft @ Rb @ P, {"F": F, "Ft": Ft, "rb": rb, "ra": o_b - x[a]}
+    return p, Ft @ Rb @ P, {"F": F, "Ft": Ft, "rb": rb, "ra": o_b - x[..., a, :]}
 
 
 def step3(red: ReducedMechanism, inputs: dict, tangent: bool = True):
-    """KSD step 3's residual (6 n_links,) and tangent (6 n_links, 6 n_links) of
-    `ReducedMechanism.equilibrium` (the same terms, its numpy path) from the numbers `STEP3_INPUTS`,
-    in complex arithmetic: the complex step of the design gradients through the joints' frames, their
-    near configuration and the loads (`flexmb.design.reduced`). ``tangent`` False: None for it."""
+    """KSD step 3's residuals (B, 6 n_links) and tangents (B, 6 n_links, 6 n_links) of
+    `ReducedMechanism.equilibrium` (the same terms, its numpy path) for B sets of the numbers
+    `STEP3_INPUTS` stacked along a leading axis, in complex arithmetic: the complex step of the
+    design gradients through the joints' frames, their near configuration and the loads, all
+    parameters in one pass (`flexmb.design.reduced`). ``tangent`` False: None for it."""
     g = inputs
+    B, J = len(g["K"]), len(red.joint_names)
     p, Rrel, geo = relative_pose(red, g["x"], g["R"], g["s_a"], g["s_b"], g["P"])
-    Q = Rrel @ np.swapaxes(g["R_hat"], 1, 2)
-    xi = np.concatenate([p - g["p_hat"], _unskew(Q)], axis=1)
+    Q = Rrel @ np.swapaxes(g["R_hat"], -1, -2)
+    xi = np.concatenate([p - g["p_hat"], _unskew(Q)], axis=-1)
     w = (g["K"] @ xi[..., None])[..., 0] + g["Fh"]
-    fm = (geo["F"][:, None] @ w.reshape(-1, 2, 3, 1))[..., 0]  # force and moment on B, global axes
-    S = skew(np.concatenate([fm, geo["rb"][:, None], geo["ra"][:, None]], axis=1))  # of f, mB, rb, ra
-    f = fm[:, 0]
-    m = fm[:, 1:] + (S[:, 2:] @ fm[:, :1, :, None])[..., 0]  # moments about b and a
-    d = (g["R"][red.load_node] @ g["offset"][..., None])[..., 0]
-    loads = np.concatenate([g["force"], g["moment"] + (skew(d) @ g["force"][..., None])[..., 0]], axis=1)
+    fm = (geo["F"][:, :, None] @ w.reshape(B, J, 2, 3, 1))[..., 0]  # force and moment on B, global axes
+    S = skew(np.concatenate([fm, geo["rb"][:, :, None], geo["ra"][:, :, None]], axis=2))  # of f, mB, rb, ra
+    f = fm[:, :, 0]
+    m = fm[:, :, 1:] + (S[:, :, 2:] @ fm[:, :, :1, :, None])[..., 0]  # moments about b and a
+    d = (g["R"][:, red.load_node] @ g["offset"][..., None])[..., 0]
+    loads = np.concatenate([g["force"], g["moment"] + (skew(d) @ g["force"][..., None])[..., 0]], axis=-1)
     n = 6 * red.n_links
-    r = np.zeros(n, dtype=complex)
-    np.add.at(r, red._r_at, np.concatenate([np.concatenate([f, m[:, 0], -f, -m[:, 1]], axis=1).ravel(),
-                                            -loads.ravel()]))
+    r = np.zeros((n, B), dtype=complex)
+    np.add.at(r, red._r_at, np.concatenate([np.concatenate([f, m[:, :, 0], -f, -m[:, :, 1]], axis=-1).reshape(B, -1),
+                                            -loads.reshape(B, -1)], axis=1).T)
     if not tangent:
-        return r, None
-    Jrel = red.frames.relative_jacobian(geo).astype(complex)
-    Jrel[:, 3:] = (Q.reshape(-1, 1, 9) @ _DUNSKEW).reshape(-1, 3, 3) @ Jrel[:, 3:]
-    D = geo["F"][:, None] @ (g["K"] @ Jrel).reshape(-1, 2, 3, 12)  # d(f, mB)
-    D[..., 3:6] -= S[:, :2]  # F turns with link a
-    dm = D[:, 1:] + S[:, 2:] @ D[:, :1]
-    dm[..., 9:12] += (S[:, 0] @ S[:, 2])[:, None]
-    dm[:, 1, :, 0:3] += S[:, 0]
-    dm[:, 1, :, 6:9] -= S[:, 0]
-    entries = [np.concatenate([-D[:, 0], -dm[:, 1], D[:, 0], dm[:, 0]], axis=1).ravel(),
-               -(skew(g["force"]) @ skew(d)).ravel()]  # d(d x f)/dphi of loads at offset points
-    T = np.zeros(n * n, dtype=complex)
-    np.add.at(T, red._K_at, np.concatenate(entries))
-    return r, T.reshape(n, n)
+        return r.T, None
+    flat = {k: geo[k].reshape(B * J, *geo[k].shape[2:]) for k in ("Ft", "ra", "rb")}
+    Jrel = red.frames.relative_jacobian(flat).reshape(B, J, 6, 12).astype(complex)
+    Jrel[:, :, 3:] = (Q.reshape(B, J, 1, 9) @ _DUNSKEW).reshape(B, J, 3, 3) @ Jrel[:, :, 3:]
+    D = geo["F"][:, :, None] @ (g["K"] @ Jrel).reshape(B, J, 2, 3, 12)  # d(f, mB)
+    D[..., 3:6] -= S[:, :, :2]  # F turns with link a
+    dm = D[:, :, 1:] + S[:, :, 2:] @ D[:, :, :1]
+    dm[..., 9:12] += (S[:, :, 0] @ S[:, :, 2])[:, :, None]
+    dm[:, :, 1, :, 0:3] += S[:, :, 0]
+    dm[:, :, 1, :, 6:9] -= S[:, :, 0]
+    blocks = np.concatenate([-D[:, :, 0], -dm[:, :, 1], D[:, :, 0], dm[:, :, 0]], axis=2)  # (B, J, 12, 12)
+    entries = np.concatenate([blocks.reshape(B, -1), -(skew(g["force"]) @ skew(d)).reshape(B, -1)], axis=1)
+    T = np.zeros((n * n, B), dtype=complex)  # d(d x f)/dphi of loads at offset points last
+    np.add.at(T, red._K_at, entries.T)
+    return r.T, T.T.reshape(B, n, n)
 
 
 def step3_inputs(solution, database=None) -> dict:
     """`STEP3_INPUTS` of a KSD-reduced solution: its links' poses, the joints' frames, its near
-    configuration (`near`) and the loads (3D form, float)."""
+    configuration (`near`) and the loads (3D form, float; `step3` takes them with a leading axis)."""
     red, (_, K, Fh, p_hat, R_hat, _) = near(solution, database)
     poses = link_poses(red, solution.state)
     fr = red.frames

@@ -408,11 +408,10 @@ def step3(red: ReducedMechanism, inputs: dict, tangent: bool = True):
     d = (g["R"][:, red.load_node] @ g["offset"][..., None])[..., 0]
     loads = np.concatenate([g["force"], g["moment"] + (skew(d) @ g["force"][..., None])[..., 0]], axis=-1)
     n = 6 * red.n_links
-    r = np.zeros((n, B), dtype=complex)
-    np.add.at(r, red._r_at, np.concatenate([np.concatenate([f, m[:, :, 0], -f, -m[:, :, 1]], axis=-1).reshape(B, -1),
-                                            -loads.reshape(B, -1)], axis=1).T)
+    r = _summed(red._r_at, np.concatenate([np.concatenate([f, m[:, :, 0], -f, -m[:, :, 1]], axis=-1).reshape(B, -1),
+                                           -loads.reshape(B, -1)], axis=1), n)
     if not tangent:
-        return r.T, None
+        return r, None
     flat = {k: geo[k].reshape(B * J, *geo[k].shape[2:]) for k in ("Ft", "ra", "rb")}
     Jrel = red.frames.relative_jacobian(flat).reshape(B, J, 6, 12).astype(complex)
     Jrel[:, :, 3:] = (Q.reshape(B, J, 1, 9) @ _DUNSKEW).reshape(B, J, 3, 3) @ Jrel[:, :, 3:]
@@ -424,9 +423,16 @@ def step3(red: ReducedMechanism, inputs: dict, tangent: bool = True):
     dm[:, :, 1, :, 6:9] -= S[:, :, 0]
     blocks = np.concatenate([-D[:, :, 0], -dm[:, :, 1], D[:, :, 0], dm[:, :, 0]], axis=2)  # (B, J, 12, 12)
     entries = np.concatenate([blocks.reshape(B, -1), -(skew(g["force"]) @ skew(d)).reshape(B, -1)], axis=1)
-    T = np.zeros((n * n, B), dtype=complex)  # d(d x f)/dphi of loads at offset points last
-    np.add.at(T, red._K_at, entries.T)
-    return r.T, T.T.reshape(B, n, n)
+    return r, _summed(red._K_at, entries, n * n).reshape(B, n, n)  # d(d x f)/dphi of loads at offsets last
+
+
+def _summed(at: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """``out[b, at[i]] += values[b, i]`` (B, n), complex: `np.bincount` of the real and imaginary parts
+    over the B rows at once (`np.add.at` is many times slower)."""
+    B = len(values)
+    flat = (np.arange(B)[:, None] * n + at[:values.shape[1]]).ravel()
+    v = values.ravel()
+    return (np.bincount(flat, v.real, minlength=B * n) + 1j * np.bincount(flat, v.imag, minlength=B * n)).reshape(B, n)
 
 
 def step3_inputs(solution, database=None) -> dict:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import jit
 from ..fe import beam2d, beam3d
 from ..rotations import rot2, skew
 
@@ -92,6 +93,8 @@ def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool
     the complex deformations and generalised stresses ``(e, sigma)`` instead."""
     el, dim, nd = model.elements, model.dim, model.ndof
     masters = model.point_master[el.ends[rows]]  # (B, 2)
+    if du_end is None and jit.enabled():
+        return _compiled_rows(model, state, rates, cols, rows, du, tangent, material, stresses)
     if du_end is None:
         du_end = [None, None]
         if du is not None:
@@ -138,6 +141,50 @@ def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool
     K[:, dim:nd, dim:nd] += G[:, 0]
     K[:, nd + dim:, nd + dim:] += G[:, 1]
     return Fm, K
+
+
+def _rate_rows(rates, field: str, cols, index, shape) -> np.ndarray:
+    """The rates of ``field`` at ``index`` per batch row (zeros where the field does not move)."""
+    r = None if rates is None else rates.rate(field)
+    if r is None or not r.size:
+        return np.zeros(shape)
+    return r[(cols,) + index] if isinstance(index, tuple) else r[cols, index]
+
+
+def _compiled_rows(model, state, rates, cols, rows, du, tangent: bool, material: bool, stresses: bool):
+    """`_elements` by the compiled rows of `flexmb.fe.beam_step_jit` (one pass per row: the complex
+    state, offsets, element, levers): the same numbers as the numpy path."""
+    from ..fe import beam_step_jit
+
+    el, dim, nd = model.elements, model.dim, model.ndof
+    ends = el.ends[rows]
+    masters = model.point_master[ends]  # (B, 2)
+    B = len(rows)
+    if du is None:
+        du_end = np.zeros((B, 2, nd))
+    else:
+        nodal = du[: model.n_node_dofs].reshape(model.n_nodes, nd, -1)
+        du_end = np.stack([nodal[masters[:, i], :, cols] for i in range(2)], axis=1)
+    s = model.point_offset[ends]
+    ds = _rate_rows(rates, "point_offset", cols[:, None], ends, s.shape)
+    L0, S = el.L0[rows], el.S[rows]
+    data = [L0, _rate_rows(rates, "L0", cols, rows, L0.shape), S, _rate_rows(rates, "S", cols, rows, S.shape)]
+    x = state.positions[masters]
+    if dim == 2:
+        a0 = np.asarray(el.alpha0, dtype=float)[rows]
+        F, K, e, sig = beam_step_jit.rows_2d(x, state.rotations[masters], du_end, s, ds, a0,
+                                             _rate_rows(rates, "alpha0", cols, rows, a0.shape), *data, H, tangent,
+                                             material)
+    else:
+        frames = []
+        for field in ("ny0", "nz0"):
+            v = np.asarray(getattr(el, field), dtype=float)[rows]
+            frames += [v, _rate_rows(rates, field, cols, rows, v.shape)]
+        F, K, e, sig = beam_step_jit.rows_3d(x, state.rotations[masters], du_end, s, ds, *frames, *data, H, tangent,
+                                             material)
+    if stresses:
+        return e, sig, _complex(L0, data[1])
+    return F, K
 
 
 def _load_rows(problem, rates, du):

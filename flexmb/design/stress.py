@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import ModelError, ParameterError
 from ..fe.stress import PERIMETER_POINTS, TORSION_TERMS, stress_points
 from .base import Response
-from .partials import H, _complex, _element_hits, _elements
+from .partials import H, _element_hits, _elements
 
 __all__ = ["stress", "stress_units", "DEFAULT_RHO"]
 
@@ -120,22 +120,62 @@ def _rim(fp, fq, a, b, long, corner):
     return tau_p, tau_q
 
 
+def _resultants(e, sig, L0, dim) -> np.ndarray:
+    """The section resultants (B, 8) ``[N, T, Vy, Vz, My_p, My_q, Mz_p, Mz_q]`` of B elements from their
+    deformations, generalised stresses and lengths (`flexmb.fe.stress.section_resultants`);
+    complex-safe."""
+    l = L0 + e[:, 0]
+    r = np.zeros((len(L0), 8), dtype=np.result_type(e, sig, L0))
+    r[:, 0] = sig[:, 0]
+    if dim == 2:
+        r[:, 2] = L0 * (sig[:, 1] - sig[:, 2]) / l
+        r[:, 6:8] = L0[:, None] * sig[:, 1:3]
+    else:
+        r[:, 1], r[:, 2], r[:, 3] = L0 * sig[:, 1], L0 * (sig[:, 4] - sig[:, 5]) / l, L0 * (sig[:, 3] - sig[:, 2]) / l
+        r[:, 4:6], r[:, 6:8] = L0[:, None] * sig[:, 2:4], L0[:, None] * sig[:, 4:6]
+    return r
+
+
+def _stress_parts(r, units, inv_A):
+    """The normal stress ``sx`` and the shear vector ``(t0, t1)`` (B, 2, P) at the points of both ends
+    from the resultants ``r`` (B, 8) (`_resultants`) and the unit fields."""
+    u = units[:, None]  # (B, 1, P, 8)
+    c = lambda j: r[:, j, None, None]
+    sx = (r[:, 0] * inv_A)[:, None, None] + r[:, 4:6, None] * u[..., 0] - r[:, 6:8, None] * u[..., 1]
+    t0 = c(1) * u[..., 2] + c(2) * u[..., 4] + c(3) * u[..., 6]
+    t1 = c(1) * u[..., 3] + c(2) * u[..., 5] + c(3) * u[..., 7]
+    return sx, t0, t1
+
+
 def _von_mises(e, sig, L0, units, inv_A, dim):
     """von Mises stress (B, 2, P) at the points of both ends from deformations, generalised
     stresses and lengths of B elements (`flexmb.fe.stress.section_resultants`); complex-safe."""
-    l = L0 + e[:, 0]
-    if dim == 2:
-        N, Vy, T, Vz = sig[:, 0], L0 * (sig[:, 1] - sig[:, 2]) / l, 0.0, 0.0
-        My, Mz = np.zeros_like(sig[:, 1:3]), L0[:, None] * sig[:, 1:3]
-    else:
-        N, Vy, Vz, T = sig[:, 0], L0 * (sig[:, 4] - sig[:, 5]) / l, L0 * (sig[:, 3] - sig[:, 2]) / l, L0 * sig[:, 1]
-        My, Mz = L0[:, None] * sig[:, 2:4], L0[:, None] * sig[:, 4:6]
-    u = units[:, None]  # (B, 1, P, 8)
-    c = lambda a: np.asarray(a)[:, None, None] if np.ndim(a) else a
-    sx = c(N * inv_A) + My[:, :, None] * u[..., 0] - Mz[:, :, None] * u[..., 1]
-    t0 = c(T) * u[..., 2] + c(Vy) * u[..., 4] + c(Vz) * u[..., 6]
-    t1 = c(T) * u[..., 3] + c(Vy) * u[..., 5] + c(Vz) * u[..., 7]
+    sx, t0, t1 = _stress_parts(_resultants(e, sig, L0, dim), units, inv_A)
     return np.sqrt(sx * sx + 3.0 * (t0 * t0 + t1 * t1))
+
+
+def _aggregate_rates(r, units, inv_A, w):
+    """The weighted sum ``J = sum_i w_i sigma_i``'s partial derivatives (the weights held) with respect
+    to the resultants (B, 8), the unit fields (B, P, 8) and ``1/A`` (B,) of B elements: the chain
+    rule through ``sigma = sqrt(sx^2 + 3 (t0^2 + t1^2))`` (`_stress_parts`: linear in each), exact.
+    A point at zero stress (no derivative of the root) adds nothing."""
+    sx, t0, t1 = _stress_parts(r, units, inv_A)
+    vm = np.sqrt(sx * sx + 3.0 * (t0 * t0 + t1 * t1))
+    k = np.divide(w, vm, out=np.zeros_like(vm), where=vm > 0.0)
+    gx, g0, g1 = k * sx, 3.0 * k * t0, 3.0 * k * t1  # (B, 2, P)
+    dr = np.zeros_like(r)
+    dr[:, 0] = inv_A * gx.sum(axis=(1, 2))
+    dr[:, 4:6] = np.einsum("bep,bp->be", gx, units[..., 0])
+    dr[:, 6:8] = -np.einsum("bep,bp->be", gx, units[..., 1])
+    for j, (a, b) in enumerate(((2, 3), (4, 5), (6, 7))):
+        dr[:, 1 + j] = np.einsum("bep,bp->b", g0, units[..., a]) + np.einsum("bep,bp->b", g1, units[..., b])
+    du = np.zeros_like(units)
+    du[..., 0] = np.einsum("bep,be->bp", gx, r[:, 4:6])
+    du[..., 1] = -np.einsum("bep,be->bp", gx, r[:, 6:8])
+    G0, G1 = g0.sum(axis=1), g1.sum(axis=1)  # (B, P): the shear's resultants are the same at both ends
+    for j, (a, b) in enumerate(((2, 3), (4, 5), (6, 7))):
+        du[..., a], du[..., b] = G0 * r[:, 1 + j, None], G1 * r[:, 1 + j, None]
+    return dr, du, r[:, 0] * gx.sum(axis=(1, 2))
 
 
 @attrs.frozen
@@ -208,33 +248,30 @@ class _Stress(Response):
         w = np.exp(self.rho * (vm - ks) / s)  # d KS / d sigma_i (sums to 1)
         # elements whose every weight is below WEIGHT_FLOOR add nothing at double precision: left out
         keep = w.reshape(len(rows), -1).max(axis=1) > WEIGHT_FLOOR
-        rows, vm, w = rows[keep], vm[keep], w[keep]
-        # the state: dKS/du = (D T)^T g per element, g = dKS/de by complex step over the deformations
-        # (sigma = S e and the chord l = L0 + e_1 move with them), D = de/dq from the kernel's twin
+        rows, w = rows[keep], w[keep]
         el = model.elements
         e, sig = model.stresses(sens.solution.state)
         e, S, L0 = e[rows], el.S[rows], el.L0[rows]
+        # KS's partials with respect to each element's resultants, unit fields and 1/A (analytic)
+        dr, dunit, dinv_A = _aggregate_rates(_resultants(e, sig[rows], L0, model.dim), units[rows], inv_A[rows], w)
+        # the state: dKS/du = (D T)^T g per element, g = dKS/de = dr . d(resultants)/de (complex step over the
+        # deformations: sigma = S e and the chord l = L0 + e_1 move with them), D = de/dq from the kernel's twin
         nm = e.shape[1]
         ec = np.repeat(e, nm, axis=0) + (1j * H) * np.tile(np.eye(nm), (len(rows), 1))
-        sc = np.einsum("bij,bj->bi", np.repeat(S, nm, axis=0), ec)
         rr = np.repeat(np.arange(len(rows)), nm)
-        vm_c = _von_mises(ec, sc, L0[rr], units[rows][rr], inv_A[rows][rr], model.dim)
-        g = np.einsum("bep,bep->b", vm_c.imag / H, w[rr]).reshape(len(rows), nm)
+        rc = _resultants(ec, np.einsum("bij,bj->bi", S[rr], ec), L0[rr], model.dim)
+        g = np.einsum("bj,bj->b", rc.imag / H, dr[rr]).reshape(len(rows), nm)
         DT = _deformation_gradient(model, sens.state, rows)  # (B, modes, 2 ndof) in master DOFs
         dJ_du = np.zeros(model.n_dofs)
         np.add.at(dJ_du, model.element_dofs[rows], np.einsum("bm,bmj->bj", g, DT))
-        # the model numbers: elements' data, offsets and stress fields, per parameter
-        rates = sens.rates
-        hit = _element_hits(model, rates, None)[:, rows]
+        # the model numbers: the stress fields' rates, and the elements' data and offsets per parameter
         du_units, dinv = self._field_rates(sens, rows)
-        hit |= np.any(du_units != 0.0, axis=(2, 3)) | (dinv != 0.0)
-        cols, sub = np.nonzero(hit)
-        dJ_dN = np.zeros(len(sens.names))
+        dJ_dN = np.einsum("kbpj,bpj->k", du_units, dunit) + dinv @ dinv_A
+        cols, sub = np.nonzero(_element_hits(model, sens.rates, None)[:, rows])
         if len(cols):
-            e, sig, L0 = _elements(model, sens.state, rates, cols, rows[sub], None, tangent=False, stresses=True)
-            vmc = _von_mises(e, sig, L0, _complex(units[rows[sub]], du_units[cols, sub]),
-                             _complex(inv_A[rows[sub]], dinv[cols, sub]), model.dim)
-            np.add.at(dJ_dN, cols, np.einsum("bep,bep->b", vmc.imag / H, w[sub]))
+            e, sig, L0 = _elements(model, sens.state, sens.rates, cols, rows[sub], None, tangent=False, stresses=True)
+            rc = _resultants(e, sig, L0, model.dim)
+            np.add.at(dJ_dN, cols, np.einsum("bj,bj->b", rc.imag / H, dr[sub]))
         return dJ_du, dJ_dN
 
     def _field_rates(self, sens, rows):

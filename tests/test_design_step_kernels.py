@@ -138,6 +138,49 @@ def test_compiled_rows_equal_the_numpy_complex_path(dim):
     assert K is None and _rel(F[valid], _reference(dim, cplx)[0][valid]) < 1e-12
 
 
+def _float_mass(dim, base):
+    """`flexmb.fe.mass.element_mass` of the rows (each on nodes of its own; float or complex)."""
+    from flexmb.fe.mass import element_mass
+    from flexmb.fe.model import State
+
+    n = len(base["local"])
+    el = types.SimpleNamespace(ends=np.arange(2 * n).reshape(-1, 2), ny0=base.get("ny0"), L0=np.ones(n))
+    view = partials._RowModel(dim, base["s"].reshape(-1, dim), el)
+    rot = base["R"].reshape(-1, 3, 3) if dim == 3 else base["th"].reshape(-1)
+    return element_mass(view, State(base["x"].reshape(-1, dim), rot), base["local"])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compiled_mass_rows_are_the_derivatives_of_the_element_mass(dim):
+    from flexmb.fe import beam_step_jit
+    from flexmb.fe.mass import local_mass
+    from flexmb.sections import rectangle
+
+    rng = np.random.default_rng(20 + dim)
+    base, rate, du = _rows(dim, rng, n=20, turn=0.5)
+    n = len(base["L0"])
+    base["local"] = local_mass([rectangle(0.01, 5e-4, 200e9, 77e9, density=7800.0)] * n, base["L0"], dim)
+    rate["local"] = rng.normal(size=base["local"].shape) * np.abs(base["local"])
+    args = (base["x"], base["R"] if dim == 3 else base["th"], du, base["s"], rate["s"])
+    if dim == 3:
+        M = beam_step_jit.mass_rows_3d(*args, base["ny0"], rate["ny0"], base["local"], rate["local"], H)
+    else:
+        M = beam_step_jit.mass_rows_2d(*args, base["local"], rate["local"], H)
+    assert _rel(M.real, _float_mass(dim, base)) < 1e-13
+    h = 1e-6
+    fd = (_float_mass(dim, _moved(dim, base, rate, du, h)) - _float_mass(dim, _moved(dim, base, rate, du, -h))) / (2 * h)
+    assert _rel(M.imag / H, fd) < 1e-6
+    cplx = {k: (v + 1j * H * rate[k] if k in rate else v) for k, v in base.items()}
+    cplx["x"] = base["x"] + 1j * H * du[..., :dim]
+    if dim == 3:
+        w = du[..., 3:].reshape(-1, 3)
+        cplx["R"] = base["R"] + 1j * H * (skew(w) @ base["R"].reshape(-1, 3, 3)).reshape(base["R"].shape)
+    else:
+        cplx["th"] = base["th"] + 1j * H * du[..., 2]
+    ref = _float_mass(dim, cplx)  # the numpy complex path
+    assert _rel(M.real, ref.real) < 1e-13 and _rel(M.imag, ref.imag) < 1e-12
+
+
 def _mm_leaf(p: dict) -> flexmb.Mechanism:
     """A leaf spring in mm-N-MPa (no paper's case): 40 mm long, 0.3 mm thick, steel (E in MPa),
     its free end turned 0.5 rad about a skew axis, a 2 N dead load at an offset point."""
@@ -173,8 +216,9 @@ def test_design_rows_equal_under_both_kernels(case):
                                 for mat in (False, True)]
             results[kernels].append(partials._elements(model, state, rates, cols, rows, None, tangent=False,
                                                        stresses=True))
+            results[kernels].append([b for part in partials.mass_blocks(problem, state, rates, du) for b in part])
         finally:
             jit.use("numba" if previous else "numpy")
     for a, b in zip(results["numba"], results["numpy"]):
         for x, y in zip(a, b):
-            assert _rel(x.real, y.real) < 1e-12 and _rel(x.imag, y.imag) < 1e-10
+            assert _rel(np.real(x), np.real(y)) < 1e-12 and _rel(np.imag(x), np.imag(y)) < 1e-10

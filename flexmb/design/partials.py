@@ -324,7 +324,9 @@ def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
     hit = _changed(rates.rate("local_mass"))
     cols, rows = np.nonzero(hit | _element_hits(m, rates, du))
     nodal = du[: m.n_node_dofs].reshape(m.n_nodes, nd, -1)
-    if len(rows):
+    if len(rows) and jit.enabled():
+        out.append((cols, m.element_dofs[rows], _compiled_mass_rows(m, state, rates, cols, rows, nodal)))
+    elif len(rows):
         ends = el.ends[rows]  # (B, 2) points
         masters = m.point_master[ends]
         off = _complex(m.point_offset[ends], rates.rate("point_offset")[cols[:, None], ends])
@@ -349,6 +351,29 @@ def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
             Mr = rigid_mass(_RowModel(m.dim, np.zeros((len(rows), m.dim), dtype=complex)), st, body).imag / H
             out.append((cols, m.node_dofs[rigid.node[rows]], Mr))
     return out
+
+
+def _compiled_mass_rows(model, state, rates, cols, rows, nodal) -> np.ndarray:
+    """`mass_blocks`' element rows (B, 2 ndof, 2 ndof) by `flexmb.fe.beam_step_jit` (the complex step's
+    derivative: imaginary parts over `H`)."""
+    from ..fe import beam_step_jit
+
+    el = model.elements
+    ends = el.ends[rows]
+    masters = model.point_master[ends]
+    du_end = np.stack([nodal[masters[:, i], :, cols] for i in range(2)], axis=1)
+    s = model.point_offset[ends]
+    ds = _rate_rows(rates, "point_offset", cols[:, None], ends, s.shape)
+    local = rates.compiled_numbers("local_mass")[rows]
+    dlocal = _rate_rows(rates, "local_mass", cols, rows, local.shape)
+    x = state.positions[masters]
+    if model.dim == 2:
+        M = beam_step_jit.mass_rows_2d(x, state.rotations[masters], du_end, s, ds, local, dlocal, H)
+    else:
+        ny0 = np.asarray(el.ny0, dtype=float)[rows]
+        M = beam_step_jit.mass_rows_3d(x, state.rotations[masters], du_end, s, ds, ny0,
+                                       _rate_rows(rates, "ny0", cols, rows, ny0.shape), local, dlocal, H)
+    return M.imag / H
 
 
 def _contract(out: np.ndarray, cols: np.ndarray, dofs: np.ndarray, blocks: np.ndarray, V, W) -> None:

@@ -19,7 +19,7 @@ import numpy as np
 from ..jit import njit
 from .beam3d_jit import _cross, _rot_chord, _rot_rot
 
-__all__ = ["rows_3d", "rows_2d"]
+__all__ = ["rows_3d", "rows_2d", "mass_rows_3d", "mass_rows_2d"]
 
 #: `flexmb.fe.beam3d_jit`'s layout of the helpers' calls: the torsion row and its blocks, the chord
 #: rows 2-5 with their signs and blocks, the two passes (read from arrays: one compiled helper each)
@@ -170,20 +170,8 @@ def _rows_3d(x, R, du, s, ds, ny0, dny0, nz0, dnz0, L0, dL0, S, dS, h, tangent, 
     Rc = np.zeros((2, 3, 3), dtype=np.complex128)
     xe = np.zeros((2, 3), dtype=np.complex128)
     d = np.zeros((2, 3), dtype=np.complex128)
-    sa = np.zeros(3, dtype=np.complex128)
     for b in range(L0.shape[0]):
-        for i in range(2):
-            w0, w1, w2 = du[b, i, 3], du[b, i, 4], du[b, i, 5]
-            for k in range(3):  # R + i h skew(dphi) R: column k gains dphi x R[:, k]
-                r0, r1, r2 = R[b, i, 0, k], R[b, i, 1, k], R[b, i, 2, k]
-                Rc[i, 0, k] = r0 + ih * (w1 * r2 - w2 * r1)
-                Rc[i, 1, k] = r1 + ih * (w2 * r0 - w0 * r2)
-                Rc[i, 2, k] = r2 + ih * (w0 * r1 - w1 * r0)
-            for a in range(3):
-                sa[a] = s[b, i, a] + ih * ds[b, i, a]
-            for a in range(3):
-                d[i, a] = Rc[i, a, 0] * sa[0] + Rc[i, a, 1] * sa[1] + Rc[i, a, 2] * sa[2]
-                xe[i, a] = x[b, i, a] + ih * du[b, i, a] + d[i, a]
+        _moved_ends_3d(x[b], R[b], du[b], s[b], ds[b], ih, Rc, d, xe)
         Kb = K[b] if tangent else K[0]
         _element_3d(xe[0], xe[1], Rc[0], Rc[1], ny0[b] + ih * dny0[b], nz0[b] + ih * dnz0[b], L0[b] + ih * dL0[b],
                     S[b] + ih * dS[b], tangent, material, F[b], Kb, e[b], sig[b], w)
@@ -258,6 +246,124 @@ def _rows_2d(x, th, du, s, ds, alpha0, dalpha0, L0, dL0, S, dS, h, tangent, mate
                 Kb[3 * i + 2, c] += -d[i, 1] * Kb[3 * i, c] + d[i, 0] * Kb[3 * i + 1, c]
             if not material:
                 Kb[3 * i + 2, 3 * i + 2] += G[i]
+
+
+@njit
+def _congruence(L, T, n, out):
+    """``out = T^T L T`` (2 n, 2 n) for the block-diagonal ``T`` of the two ends' blocks ``T[0]``,
+    ``T[1]`` (n, n)."""
+    tmp = np.zeros((2 * n, 2 * n), dtype=np.complex128)
+    for J in range(2):
+        for r in range(2 * n):
+            for b in range(n):
+                v = 0.0j
+                for c in range(n):
+                    v += L[r, J * n + c] * T[J, c, b]
+                tmp[r, J * n + b] = v
+    for I in range(2):
+        for a in range(n):
+            for c in range(2 * n):
+                v = 0.0j
+                for m in range(n):
+                    v += T[I, m, a] * tmp[I * n + m, c]
+                out[I * n + a, c] = v
+
+
+@njit
+def _mass_rows_3d(x, R, du, s, ds, ny0, dny0, local, dlocal, h, M):
+    ih = 1j * h
+    Rc = np.zeros((2, 3, 3), dtype=np.complex128)
+    xe = np.zeros((2, 3), dtype=np.complex128)
+    d = np.zeros((2, 3), dtype=np.complex128)
+    lam = np.zeros((3, 3), dtype=np.complex128)
+    T = np.zeros((2, 6, 6), dtype=np.complex128)
+    for b in range(M.shape[0]):
+        _moved_ends_3d(x[b], R[b], du[b], s[b], ds[b], ih, Rc, d, xe)
+        _frame_3d(xe, Rc, ny0[b] + ih * dny0[b], lam)
+        for i in range(2):  # T_i = blk(lam) (I, -skew(d_i); 0, I)
+            T[i, :, :] = 0.0
+            for a in range(3):
+                for c in range(3):
+                    T[i, a, c] = T[i, 3 + a, 3 + c] = lam[a, c]
+                T[i, a, 3] = lam[a, 2] * d[i, 1] - lam[a, 1] * d[i, 2]  # lam (-skew(d)): columns e_k x d
+                T[i, a, 4] = lam[a, 0] * d[i, 2] - lam[a, 2] * d[i, 0]
+                T[i, a, 5] = lam[a, 1] * d[i, 0] - lam[a, 0] * d[i, 1]
+        _congruence(local[b] + ih * dlocal[b], T, 6, M[b])
+
+
+@njit
+def _moved_ends_3d(x, R, du, s, ds, ih, Rc, d, xe):
+    """The two ends of one row moved by ``i h du``: rotations ``Rc``, current offsets ``d = Rc s``
+    (``s + i h ds``) and points ``xe = x + i h dx + d``."""
+    for i in range(2):
+        w0, w1, w2 = du[i, 3], du[i, 4], du[i, 5]
+        for k in range(3):  # R + i h skew(dphi) R: column k gains dphi x R[:, k]
+            r0, r1, r2 = R[i, 0, k], R[i, 1, k], R[i, 2, k]
+            Rc[i, 0, k] = r0 + ih * (w1 * r2 - w2 * r1)
+            Rc[i, 1, k] = r1 + ih * (w2 * r0 - w0 * r2)
+            Rc[i, 2, k] = r2 + ih * (w0 * r1 - w1 * r0)
+        for a in range(3):
+            d[i, a] = (Rc[i, a, 0] * (s[i, 0] + ih * ds[i, 0]) + Rc[i, a, 1] * (s[i, 1] + ih * ds[i, 1])
+                       + Rc[i, a, 2] * (s[i, 2] + ih * ds[i, 2]))
+            xe[i, a] = x[i, a] + ih * du[i, a] + d[i, a]
+
+
+@njit
+def _frame_3d(xe, Rc, ny0, lam):
+    """`flexmb.fe.mass`'s co-rotated frame (rows: chord, mean section y, their cross), analytic."""
+    ex = xe[1] - xe[0]
+    ex = ex / np.sqrt(ex[0] * ex[0] + ex[1] * ex[1] + ex[2] * ex[2])
+    y = np.zeros(3, dtype=np.complex128)
+    for a in range(3):
+        for c in range(3):
+            y[a] += (Rc[0, a, c] + Rc[1, a, c]) * ny0[c]
+    y = y - (y[0] * ex[0] + y[1] * ex[1] + y[2] * ex[2]) * ex
+    for _ in range(2):  # normalised twice, as `flexmb.fe.mass._frames_3d`
+        y = y / np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])
+    for a in range(3):
+        lam[0, a], lam[1, a] = ex[a], y[a]
+    _cross(ex, y, lam[2], 0)
+
+
+@njit
+def _mass_rows_2d(x, th, du, s, ds, local, dlocal, h, M):
+    ih = 1j * h
+    d = np.zeros((2, 2), dtype=np.complex128)
+    xe = np.zeros((2, 2), dtype=np.complex128)
+    T = np.zeros((2, 3, 3), dtype=np.complex128)
+    for b in range(M.shape[0]):
+        for i in range(2):
+            t = th[b, i] + ih * du[b, i, 2]
+            c, sn = np.cos(t), np.sin(t)
+            sx, sy = s[b, i, 0] + ih * ds[b, i, 0], s[b, i, 1] + ih * ds[b, i, 1]
+            d[i, 0], d[i, 1] = c * sx - sn * sy, sn * sx + c * sy
+            for a in range(2):
+                xe[i, a] = x[b, i, a] + ih * du[b, i, a] + d[i, a]
+        Lx, Ly = xe[1, 0] - xe[0, 0], xe[1, 1] - xe[0, 1]
+        beta = np.arctan2(Ly.real, Lx.real) + 1j * (Lx.real * Ly.imag - Ly.real * Lx.imag) / (Lx.real**2 + Ly.real**2)
+        cb, sb = np.cos(beta), np.sin(beta)
+        for i in range(2):  # T_i = [[rot2(beta)^T, 0], [0, 1]] (I, lever (-d_y, d_x))
+            T[i, 0, 0], T[i, 0, 1], T[i, 1, 0], T[i, 1, 1] = cb, sb, -sb, cb
+            T[i, 0, 2] = -cb * d[i, 1] + sb * d[i, 0]
+            T[i, 1, 2] = sb * d[i, 1] + cb * d[i, 0]
+            T[i, 2, 0], T[i, 2, 1], T[i, 2, 2] = 0.0, 0.0, 1.0
+        _congruence(local[b] + ih * dlocal[b], T, 3, M[b])
+
+
+def mass_rows_3d(x, R, du, s, ds, ny0, dny0, local, dlocal, h: float) -> np.ndarray:
+    """Complex element mass matrices (B, 12, 12) in global axes and master DOFs of B 3D rows
+    (`flexmb.fe.mass.element_mass` of each element moved along its direction: `rows_3d`'s arguments,
+    ``local`` (B, 12, 12) the local mass with its rate ``dlocal``)."""
+    M = np.zeros((len(local), 12, 12), dtype=np.complex128)
+    _mass_rows_3d(_f(x), _f(R), _f(du), _f(s), _f(ds), _f(ny0), _f(dny0), _f(local), _f(dlocal), float(h), M)
+    return M
+
+
+def mass_rows_2d(x, th, du, s, ds, local, dlocal, h: float) -> np.ndarray:
+    """`mass_rows_3d` in the plane (B, 6, 6): master angles ``th`` (B, 2), ``du`` (B, 2, 3)."""
+    M = np.zeros((len(local), 6, 6), dtype=np.complex128)
+    _mass_rows_2d(_f(x), _f(th), _f(du), _f(s), _f(ds), _f(local), _f(dlocal), float(h), M)
+    return M
 
 
 def _outputs(B: int, n: int, modes: int, tangent: bool):

@@ -103,6 +103,19 @@ def _moved(dim, base, rate, du, h):
     return out
 
 
+def _complex_rows(dim, base, rate, du):
+    """The rows' data as partials' numpy path moves them: ``+ i H`` times each rate, the master nodes'
+    translations, rotations ``R + i H skew(dphi) R`` (2D: ``theta + i H dtheta``)."""
+    cplx = {k: (v + 1j * H * rate[k] if k in rate else v.astype(complex)) for k, v in base.items()}
+    cplx["x"] = base["x"] + 1j * H * du[..., :dim]
+    if dim == 3:
+        w = du[..., 3:].reshape(-1, 3)
+        cplx["R"] = base["R"] + 1j * H * (skew(w) @ base["R"].reshape(-1, 3, 3)).reshape(base["R"].shape)
+    else:
+        cplx["th"] = base["th"] + 1j * H * du[..., 2]
+    return cplx
+
+
 @pytest.mark.parametrize("material", [False, True])
 @pytest.mark.parametrize("dim", [2, 3])
 def test_compiled_rows_are_the_central_differences_of_the_float_rows(dim, material):
@@ -122,13 +135,7 @@ def test_compiled_rows_are_the_central_differences_of_the_float_rows(dim, materi
 @pytest.mark.parametrize("dim", [2, 3])
 def test_compiled_rows_equal_the_numpy_complex_path(dim):
     base, rate, du = _rows(dim, np.random.default_rng(10 + dim), n=30, turn=0.6)
-    cplx = {k: (v + 1j * H * rate[k] if k in rate else v.astype(complex)) for k, v in base.items()}
-    cplx["x"] = base["x"] + 1j * H * du[..., :dim]
-    if dim == 3:
-        w = du[..., 3:].reshape(-1, 3)
-        cplx["R"] = base["R"] + 1j * H * (skew(w) @ base["R"].reshape(-1, 3, 3)).reshape(base["R"].shape)
-    else:
-        cplx["th"] = base["th"] + 1j * H * du[..., 2]
+    cplx = _complex_rows(dim, base, rate, du)
     for material in (False, True):
         got, ref = _compiled(dim, base, rate, du, material=material), _reference(dim, cplx, material)
         valid = ~np.isnan(ref[2].real).any(axis=1)
@@ -170,14 +177,7 @@ def test_compiled_mass_rows_are_the_derivatives_of_the_element_mass(dim):
     h = 1e-6
     fd = (_float_mass(dim, _moved(dim, base, rate, du, h)) - _float_mass(dim, _moved(dim, base, rate, du, -h))) / (2 * h)
     assert _rel(M.imag / H, fd) < 1e-6
-    cplx = {k: (v + 1j * H * rate[k] if k in rate else v) for k, v in base.items()}
-    cplx["x"] = base["x"] + 1j * H * du[..., :dim]
-    if dim == 3:
-        w = du[..., 3:].reshape(-1, 3)
-        cplx["R"] = base["R"] + 1j * H * (skew(w) @ base["R"].reshape(-1, 3, 3)).reshape(base["R"].shape)
-    else:
-        cplx["th"] = base["th"] + 1j * H * du[..., 2]
-    ref = _float_mass(dim, cplx)  # the numpy complex path
+    ref = _float_mass(dim, _complex_rows(dim, base, rate, du))  # the numpy complex path
     assert _rel(M.real, ref.real) < 1e-13 and _rel(M.imag, ref.imag) < 1e-12
 
 

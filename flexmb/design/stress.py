@@ -13,11 +13,14 @@ derivative is exact (complex step through the element kernels and the stress fie
 
 from __future__ import annotations
 
+import functools
+import types
+
 import attrs
 import numpy as np
 
 from ..errors import ModelError, ParameterError
-from ..fe.stress import PERIMETER_POINTS, TORSION_TERMS, stress_points
+from ..fe.stress import PERIMETER_POINTS, TORSION_TERMS
 from .base import Response
 from .partials import H, _element_hits, _elements
 
@@ -31,22 +34,31 @@ WEIGHT_FLOOR = 1e-20
 #: of a 10-element leaf: 16 % of s; ~2 % above the peak when the peak region spans ~50 points).
 DEFAULT_RHO = 50.0
 
+#: The section numbers `section_units` reads (with the shape's name).
+_SHAPE_NUMBERS = ("ymax", "zmax", "A", "It", "Iy", "Iz")
+
 
 def stress_units(model, points: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """Per element the unit stress fields at ``points`` perimeter points (E, points, 8): ``z/Iy``,
-    ``y/Iz`` (normal stress per unit My, Mz) and the shear vectors per unit T, Vy, Vz; and ``1/A`` (E,)."""
+    ``y/Iz`` (normal stress per unit My, Mz) and the shear vectors per unit T, Vy, Vz; and ``1/A`` (E,).
+    Each distinct section's fields are `section_units` (the sampled points alone), kept per its numbers."""
     sections = model.elements.sections
-    stride = PERIMETER_POINTS // points
-    table, out, inv_A = {}, [], []
+    out, inv_A = [], []
     for s in sections:
-        if id(s) not in table:
-            if s.shape is None:
-                raise ModelError("the stress response needs every section's shape (flexmb.rectangle or flexmb.circle)")
-            yz, tT, tVy, tVz = (a[::stride] for a in stress_points(s))
-            table[id(s)] = np.column_stack([yz[:, 1] / s.Iy, yz[:, 0] / s.Iz, tT, tVy, tVz])
-        out.append(table[id(s)])
+        if s.shape is None:
+            raise ModelError("the stress response needs every section's shape (flexmb.rectangle or flexmb.circle)")
+        out.append(_kept_units(s.shape, *(float(getattr(s, a)) for a in _SHAPE_NUMBERS), points))
         inv_A.append(1.0 / s.A)
     return np.array(out).reshape(len(sections), -1, 8), np.array(inv_A)
+
+
+@functools.lru_cache(maxsize=256)
+def _kept_units(shape: str, ymax: float, zmax: float, A: float, It: float, Iy: float, Iz: float, points: int):
+    """`section_units` of a float section given by its numbers (read-only, kept: a design's
+    configurations and its re-evaluations share them)."""
+    out = section_units(types.SimpleNamespace(shape=shape, ymax=ymax, zmax=zmax, A=A, It=It, Iy=Iy, Iz=Iz), points)
+    out.flags.writeable = False
+    return out
 
 
 def section_units(section, points: int = 64) -> np.ndarray:
@@ -286,11 +298,25 @@ class _Stress(Response):
             da = np.zeros((len(sens.names),) + base_a.shape)
             for k in range(len(sens.names)):
                 b, table = sens.rates.build(k), {}
+                if _real_shapes(b):  # the fields are real: their rates are nil
+                    continue
                 du[k] = b.combine(lambda _, nums, table=table: _units(nums["sections"], self.points, table)[0])
                 da[k] = b.combine(lambda _, nums, table=table: _units(nums["sections"], self.points, table)[1])
             cache[key] = (du, da)
         du, da = cache[key]
         return du[:, rows], da[:, rows]
+
+
+def _real_shapes(build) -> bool:
+    """Whether a parameter's complex-step build leaves every section's shape numbers real (`section_units`
+    of them real: the stress fields' rates are nil); False for a build by central differences."""
+    from .builds import COMPLEX_STEP
+
+    if build.method != COMPLEX_STEP:
+        return False
+    ((_, _, nums),) = build.points
+    return not any(np.iscomplexobj(getattr(s, a)) for s in {id(s): s for s in nums["sections"]}.values()
+                   for a in _SHAPE_NUMBERS)
 
 
 def stress(scale: float | None = None, rho: float = DEFAULT_RHO, joint: str | None = None, points: int = 64):

@@ -28,16 +28,16 @@ _LAYOUT = (np.array([1, 3, 9, 0]), np.array([2, 3, 4, 5]), np.array([-1.0, 1.0, 
 
 
 @njit
-def _lever_3d(K, d, F, tangent, material, n):
+def _lever_3d(K, d, F, tangent, material, n, work):
     """In place: the point wrenches ``F`` (2 n) and tangent ``K`` (2 n, 2 n) of a row moved to the
     master nodes through the current offsets ``d`` (2, 3): ``T^T K T`` with the levers ``T`` (blocks
     ``-skew(d)`` from the rotations to the translations), moments ``m + d x f``, and (unless
     ``material``) the offsets' geometric blocks ``d f^T - (d.f) I`` on the rotations."""
-    A = np.zeros((2, 3, 3), dtype=K.dtype)  # A_i = -skew(d_i)
+    A, G, mom = work  # A_i = -skew(d_i)
     for i in range(2):
+        A[i, 0, 0], A[i, 1, 1], A[i, 2, 2] = 0.0, 0.0, 0.0
         A[i, 0, 1], A[i, 0, 2], A[i, 1, 2] = d[i, 2], -d[i, 1], d[i, 0]
         A[i, 1, 0], A[i, 2, 0], A[i, 2, 1] = -d[i, 2], d[i, 1], -d[i, 0]
-    G = np.zeros((2, 3, 3), dtype=K.dtype)
     for i in range(2):
         f = F[i * n:i * n + 3]
         df = d[i, 0] * f[0] + d[i, 1] * f[1] + d[i, 2] * f[2]
@@ -65,10 +65,9 @@ def _lever_3d(K, d, F, tangent, material, n):
                     for b in range(3):
                         K[i * n + 3 + a, i * n + 3 + b] += G[i, a, b]
     for i in range(2):
-        m = np.zeros(3, dtype=F.dtype)
-        _cross(d[i], F[i * n:i * n + 3], m, 0)
+        _cross(d[i], F[i * n:i * n + 3], mom, 0)
         for a in range(3):
-            F[i * n + 3 + a] += m[a]
+            F[i * n + 3 + a] += mom[a]
 
 
 @njit
@@ -170,12 +169,20 @@ def _rows_3d(x, R, du, s, ds, ny0, dny0, nz0, dnz0, L0, dL0, S, dS, h, tangent, 
     Rc = np.zeros((2, 3, 3), dtype=np.complex128)
     xe = np.zeros((2, 3), dtype=np.complex128)
     d = np.zeros((2, 3), dtype=np.complex128)
+    ny, nz, Sc = np.zeros(3, dtype=np.complex128), np.zeros(3, dtype=np.complex128), np.zeros((6, 6), dtype=np.complex128)
+    lev = (np.zeros((2, 3, 3), dtype=np.complex128), np.zeros((2, 3, 3), dtype=np.complex128),
+           np.zeros(3, dtype=np.complex128))
     for b in range(L0.shape[0]):
         _moved_ends_3d(x[b], R[b], du[b], s[b], ds[b], ih, Rc, d, xe)
+        for a in range(3):
+            ny[a], nz[a] = ny0[b, a] + ih * dny0[b, a], nz0[b, a] + ih * dnz0[b, a]
+        for a in range(6):
+            for c in range(6):
+                Sc[a, c] = S[b, a, c] + ih * dS[b, a, c]
         Kb = K[b] if tangent else K[0]
-        _element_3d(xe[0], xe[1], Rc[0], Rc[1], ny0[b] + ih * dny0[b], nz0[b] + ih * dnz0[b], L0[b] + ih * dL0[b],
-                    S[b] + ih * dS[b], tangent, material, F[b], Kb, e[b], sig[b], w)
-        _lever_3d(Kb, d, F[b], tangent, material, 6)
+        _element_3d(xe[0], xe[1], Rc[0], Rc[1], ny, nz, L0[b] + ih * dL0[b], Sc, tangent, material, F[b], Kb, e[b],
+                    sig[b], w)
+        _lever_3d(Kb, d, F[b], tangent, material, 6, lev)
 
 
 @njit

@@ -124,12 +124,32 @@ def _rim(fp, fq, a, b, long, corner):
     on = long & ~corner
     d = np.abs(fq[on]) * b  # |q| (fractions real: the modulus continued as sign(Re q) q)
     x, X = k * d, k * b
-    ch = np.exp(x - X) / (1.0 + np.exp(-2.0 * X)) * (1.0 + np.exp(-2.0 * x))
+    exp, tanh, cos = _first_order(a, b) or (np.exp, np.tanh, np.cos)
+    ch = exp(x - X) / (1.0 + exp(-2.0 * X)) * (1.0 + exp(-2.0 * x))
     tau_q[on] = np.sign(fp[on]) * (2.0 * a - c * np.sum(ch / n**2, axis=0))
     on = ~long & ~corner
-    g = c * np.sum(sgn / n**2 * np.tanh(k * b) * np.cos(k * np.abs(fp[on]) * a), axis=0)
+    g = c * np.sum(sgn / n**2 * tanh(k * b) * cos(k * np.abs(fp[on]) * a), axis=0)
     tau_p[on] = -np.sign(fq[on]) * g
     return tau_p, tau_q
+
+
+#: Imaginary parts below this (absolute) make ``exp``, ``tanh``, ``cos`` of ``u + i v`` their first
+#: order in ``v`` exactly in double precision (``cos v = 1 - v^2/2``, ``sin v = v - v^3/6``): a complex
+#: step's ``v`` is ~1e-30 of the numbers.
+FIRST_ORDER = 1e-9
+
+
+def _first_order(a, b):
+    """``(exp, tanh, cos)`` of complex arrays to first order in their imaginary parts (one real
+    function each instead of the complex one), for a complex step's section numbers ``a``, ``b``
+    (their imaginary parts below `FIRST_ORDER` relative to the real ones); None otherwise."""
+    if not (np.iscomplexobj(a) or np.iscomplexobj(b)):
+        return None
+    if max(abs(np.imag(a)) / abs(np.real(a)), abs(np.imag(b)) / abs(np.real(b))) >= FIRST_ORDER:
+        return None
+    return (lambda z: np.exp(z.real) * (1.0 + 1j * z.imag),
+            lambda z: np.tanh(z.real) + 1j * z.imag / np.cosh(z.real) ** 2,
+            lambda z: np.cos(z.real) - 1j * z.imag * np.sin(z.real))
 
 
 def _resultants(e, sig, L0, dim) -> np.ndarray:

@@ -75,6 +75,9 @@ class Sensitivity:
         self.names = rates.names
         self.free, self.prescribed = self.problem.free, self.problem.prescribed
         self._blocks = {}  # the tangents' and the mass's element blocks of dA/dp (tangent_forms, mass_forms)
+        #: the residual rates' element rows (`flexmb.design.partials.residual_rates`' ``keep``): their
+        #: directions, elements and complex deformations, stresses and lengths, read by the stress response
+        self.element_rows = {}
 
     @functools.cached_property
     def K(self):
@@ -120,7 +123,7 @@ class Sensitivity:
     @functools.cached_property
     def residual_rates(self) -> np.ndarray:
         """``dr/dN N'`` (n_dofs, K) at the converged state held fixed."""
-        return residual_rates(self.problem, self.state, self.rates, lam=self.lam)
+        return residual_rates(self.problem, self.state, self.rates, lam=self.lam, keep=self.element_rows)
 
     @functools.cached_property
     def prescribed_rates(self) -> np.ndarray:

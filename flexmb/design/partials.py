@@ -86,15 +86,16 @@ def _lever(d: np.ndarray, ndof: int) -> np.ndarray:
 
 
 def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool = False, du_end=None,
-              stresses: bool = False):
+              stresses: bool = False, keep: dict | None = None):
     """Complex element forces (and tangents) in master DOFs of elements ``rows`` under directions
     ``cols`` (one pair per batch row) of the model numbers' ``rates`` (None: the numbers held) and
     of the state ``du`` (n_dofs, K), or ``du_end`` ((B, ndof) per end) given per row. ``stresses``:
-    the complex deformations and generalised stresses ``(e, sigma)`` instead."""
+    the complex deformations, generalised stresses and lengths ``(e, sigma, L0)`` instead; ``keep``: a
+    dict that receives them beside the forces (``"e"``, ``"sigma"``, ``"L0"``)."""
     el, dim, nd = model.elements, model.dim, model.ndof
     masters = model.point_master[el.ends[rows]]  # (B, 2)
     if du_end is None and jit.enabled():
-        return _compiled_rows(model, state, rates, cols, rows, du, tangent, material, stresses)
+        return _compiled_rows(model, state, rates, cols, rows, du, tangent, material, stresses, keep)
     if du_end is None:
         du_end = [None, None]
         if du is not None:
@@ -124,6 +125,8 @@ def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool
         F, K, e, sig = beam3d.numpy_internal_force_and_tangent(ends[0][0], ends[1][0], ends[0][1], ends[1][1],
                                                                data["ny0"], data["nz0"], data["L0"], data["S"],
                                                                tangent=tangent, geometric_stress=geometric)
+    if keep is not None:
+        keep.update(e=e, sigma=sig, L0=data["L0"])
     if stresses:
         return e, sig, data["L0"]
     d = np.stack([ends[0][2], ends[1][2]], axis=1).reshape(-1, dim)
@@ -151,7 +154,8 @@ def _rate_rows(rates, field: str, cols, index, shape) -> np.ndarray:
     return r[(cols,) + index] if isinstance(index, tuple) else r[cols, index]
 
 
-def _compiled_rows(model, state, rates, cols, rows, du, tangent: bool, material: bool, stresses: bool):
+def _compiled_rows(model, state, rates, cols, rows, du, tangent: bool, material: bool, stresses: bool,
+                   keep: dict | None = None):
     """`_elements` by the compiled rows of `flexmb.fe.beam_step_jit` (one pass per row: the complex
     state, offsets, element, levers): the same numbers as the numpy path."""
     from ..fe import beam_step_jit
@@ -182,6 +186,8 @@ def _compiled_rows(model, state, rates, cols, rows, du, tangent: bool, material:
             frames += [v, _rate_rows(rates, field, cols, rows, v.shape)]
         F, K, e, sig = beam_step_jit.rows_3d(x, state.rotations[masters], du_end, s, ds, *frames, *data, H, tangent,
                                              material)
+    if keep is not None:
+        keep.update(e=e, sigma=sig, L0=_complex(L0, data[1]))
     if stresses:
         return e, sig, _complex(L0, data[1])
     return F, K
@@ -215,16 +221,20 @@ def _loads(problem, state, rates, cols, rows, du, lam: float):
     return m.transfer(wrench, d)
 
 
-def residual_rates(problem, state, rates, du: np.ndarray | None = None, lam: float = 1.0) -> np.ndarray:
+def residual_rates(problem, state, rates, du: np.ndarray | None = None, lam: float = 1.0,
+                   keep: dict | None = None) -> np.ndarray:
     """``dr/dp_k`` (n_dofs, K) of the residual ``f_int - lam f_ext`` on all DOFs at ``state`` held
     fixed, through the model numbers' ``rates`` (and, with ``du`` (n_dofs, K), along the state's
-    directions too)."""
+    directions too). ``keep``: a dict that receives the element rows' directions and elements
+    (``"cols"``, ``"rows"``) and their complex deformations, stresses and lengths (`_elements`)."""
     m = problem.model
     K = rates.rate("L0").shape[0]
     out = np.zeros((m.n_dofs, K))
     cols, rows = _element_rows(m, rates, du)
+    if keep is not None:
+        keep.update(cols=cols, rows=rows)
     if len(rows):
-        Fm, _ = _elements(m, state, rates, cols, rows, du, tangent=False)
+        Fm, _ = _elements(m, state, rates, cols, rows, du, tangent=False, keep=keep)
         np.add.at(out, (m.element_dofs[rows], cols[:, None]), Fm.imag / H)
     cols, rows = _load_rows(problem, rates, du)
     if len(rows):

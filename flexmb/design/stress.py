@@ -301,7 +301,7 @@ class _Stress(Response):
         dJ_dN = np.einsum("kbpj,bpj->k", du_units, dunit) + dinv @ dinv_A
         cols, sub = np.nonzero(_element_hits(model, sens.rates, None)[:, rows])
         if len(cols):
-            e, sig, L0 = _elements(model, sens.state, sens.rates, cols, rows[sub], None, tangent=False, stresses=True)
+            e, sig, L0 = _element_stresses(sens, cols, rows[sub])
             rc = _resultants(e, sig, L0, model.dim)
             np.add.at(dJ_dN, cols, np.einsum("bj,bj->b", rc.imag / H, dr[sub]))
         return dJ_du, dJ_dN
@@ -345,6 +345,21 @@ def stress(scale: float | None = None, rho: float = DEFAULT_RHO, joint: str | No
     stress ``scale`` [Pa], default the sections' yield stress); ``report(solution)`` gives the exact
     peak beside it."""
     return _Stress(scale, rho, joint, points)
+
+
+def _element_stresses(sens, cols, rows):
+    """The complex deformations, stresses and lengths of the (direction, element) pairs ``cols``,
+    ``rows`` along the model numbers' rates: read from the residual rates' rows where the
+    sensitivity kept them (`flexmb.design.adjoint.Sensitivity.element_rows`), else evaluated."""
+    sens.residual_rates  # noqa: B018 - fills sens.element_rows
+    kept = getattr(sens, "element_rows", None) or {}
+    if "e" in kept:
+        at = np.full((len(sens.names), len(sens.model.elements.L0)), -1)
+        at[kept["cols"], kept["rows"]] = np.arange(len(kept["rows"]))
+        i = at[cols, rows]
+        if np.all(i >= 0):
+            return kept["e"][i], kept["sigma"][i], kept["L0"][i]
+    return _elements(sens.model, sens.state, sens.rates, cols, rows, None, tangent=False, stresses=True)
 
 
 def _deformation_gradient(model, state, rows) -> np.ndarray:

@@ -103,7 +103,10 @@ def _units(sections, points: int, table: dict) -> tuple[np.ndarray, np.ndarray]:
     evaluated once, kept in ``table``; complex where a section's numbers are)."""
     for s in sections:
         if id(s) not in table:
-            table[id(s)] = (s, section_units(s, points), 1.0 / s.A)  # s kept: its id stays its own
+            numbers = [getattr(s, a) for a in _SHAPE_NUMBERS]
+            real = not any(np.iscomplexobj(x) for x in numbers)  # a section the step leaves: its kept fields
+            units = _kept_units(s.shape, *map(float, numbers), points) if real else section_units(s, points)
+            table[id(s)] = (s, units, 1.0 / s.A)  # s kept: its id stays its own
     rows = [table[id(s)] for s in sections]
     units = np.array([r[1] for r in rows]).reshape(len(sections), -1, 8)
     return units, np.array([r[2] for r in rows])

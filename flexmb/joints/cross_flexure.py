@@ -117,8 +117,8 @@ class CrossFlexure(MaterialJoint):
         ]
 
     def element_count(self, dim: int) -> int:
-        """Beam elements of `mesh` (known without meshing)."""
-        return len(self.leaves(dim)) * self.elements_per_leaf
+        """Beam elements of `mesh` (known without meshing): `leaves` has 2 leaves in 2D, 3 in 3D."""
+        return (2 if dim == 2 else 3) * self.elements_per_leaf
 
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements_per_leaf

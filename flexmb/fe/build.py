@@ -225,7 +225,7 @@ def _cached_mesh(joint: Joint, dim: int) -> _Mesh:
 def _joint_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     """The joint's checked mesh; cached per joint value (joints are immutable), so a mechanism of
     identical joints and repeated solves build it once."""
-    if not v.hashable(joint) or _complex_step(joint):
+    if not v.hashable(joint) or (v.accepts_complex() and _complex_step(joint)):  # complex only in a complex step
         return _checked_mesh(key, joint, dim)
     try:
         return _cached_mesh(joint, dim)

@@ -185,8 +185,10 @@ class Conventional:
         and the first step's stretch bound (benchmarks/bench_meshes.py): four-bar at
         5/10/20/40 el./leaf 23/22/24/24 iterations (before 18/47/43/43: each step started from
         a residual of 1e5-2e7 N, the first one was cut and the secant extrapolation rejected),
-        manipulator joint case at -45/45 deg 29/34 (47/46), location case 89/89 (148/123; its
-        straight-line end-point path stays stiff: the steps stay at ~0.07-0.14); single cross
+        manipulator joint case at -45/45 deg 29/34 (47/46), location case 89/89 (148/123) on a
+        straight end-point line (joint 3 to 56 deg and back: steps of ~0.07-0.14), 45/39 along the
+        kinematic path `flexmb.models.manipulator` prescribes (`Mechanism.prescribe`'s ``path``,
+        the same equilibrium); single cross
         flexures turned by more than ~25 deg now take 2-3 steps (3 el./leaf, 5-75 deg: 120
         iterations against 96).
     """

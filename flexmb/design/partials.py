@@ -314,15 +314,32 @@ def _row_state(model, state, nodes, du_rows):
 
 
 def mass_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarray) -> np.ndarray:
-    """``V^T dM_k W`` (K, a, b) (`mass_blocks` contracted)."""
-    return contract(mass_blocks(problem, state, rates, du), du.shape[1], V, W)
+    """``V^T dM_k W`` (K, a, b) (`mass_blocks` contracted; with the compiled kernels the beams' rows
+    give their forms directly, `flexmb.fe.beam_step_jit.mass_rows_3d`, no block formed)."""
+    K = du.shape[1]
+    if not jit.enabled():
+        return contract(mass_blocks(problem, state, rates, du), K, V, W)
+    m = problem.model
+    out = contract(mass_blocks(problem, state, rates, du, elements=False), K, V, W)
+    cols, rows = _mass_rows(m, rates, du)
+    if len(rows):
+        dofs = m.element_dofs[rows]
+        nodal = du[: m.n_node_dofs].reshape(m.n_nodes, m.ndof, -1)
+        _sum_rows(out, cols, _compiled_mass_rows(m, state, rates, cols, rows, nodal, V[dofs], W[dofs]))
+    return out
 
 
-def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
+def _mass_rows(model, rates, du):
+    """The (direction, element) pairs whose mass a direction changes (local mass, `_element_hits`)."""
+    return np.nonzero(_changed(rates.rate("local_mass")) | _element_hits(model, rates, du))
+
+
+def mass_blocks(problem, state, rates, du: np.ndarray, elements: bool = True) -> list:
     """The directional derivatives ``dM_k`` of the consistent mass at the configuration
     (`flexmb.fe.mass.mass_matrix`: beams in their co-rotated frames, the links' rigid bodies) along
     the model numbers' ``rates`` (local mass, offsets, frames, rigid masses) and the state's
-    directions ``du`` (n_dofs, K), as element blocks (`tangent_blocks`)."""
+    directions ``du`` (n_dofs, K), as element blocks (`tangent_blocks`); ``elements=False``: the
+    rigid bodies' alone."""
     import attrs
 
     from ..fe.mass import RigidMasses, element_mass, rigid_mass
@@ -331,8 +348,7 @@ def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
     K, nd = du.shape[1], m.ndof
     out = []
     el = m.elements
-    hit = _changed(rates.rate("local_mass"))
-    cols, rows = np.nonzero(hit | _element_hits(m, rates, du))
+    cols, rows = _mass_rows(m, rates, du) if elements else (np.zeros(0, dtype=int), np.zeros(0, dtype=int))
     nodal = du[: m.n_node_dofs].reshape(m.n_nodes, nd, -1)
     if len(rows) and jit.enabled():
         out.append((cols, m.element_dofs[rows], _compiled_mass_rows(m, state, rates, cols, rows, nodal)))
@@ -363,9 +379,9 @@ def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
     return out
 
 
-def _compiled_mass_rows(model, state, rates, cols, rows, nodal) -> np.ndarray:
+def _compiled_mass_rows(model, state, rates, cols, rows, nodal, V=None, W=None) -> np.ndarray:
     """`mass_blocks`' element rows (B, 2 ndof, 2 ndof) by `flexmb.fe.beam_step_jit` (the complex step's
-    derivative: imaginary parts over `H`)."""
+    derivative: imaginary parts over `H`); with ``V``, ``W`` (B, 2 ndof, a / c) their forms (B, a, c)."""
     from ..fe import beam_step_jit
 
     el = model.elements
@@ -378,18 +394,22 @@ def _compiled_mass_rows(model, state, rates, cols, rows, nodal) -> np.ndarray:
     dlocal = _rate_rows(rates, "local_mass", cols, rows, local.shape)
     x = state.positions[masters]
     if model.dim == 2:
-        M = beam_step_jit.mass_rows_2d(x, state.rotations[masters], du_end, s, ds, local, dlocal, H)
+        M = beam_step_jit.mass_rows_2d(x, state.rotations[masters], du_end, s, ds, local, dlocal, H, V, W)
     else:
         ny0 = np.asarray(el.ny0, dtype=float)[rows]
         M = beam_step_jit.mass_rows_3d(x, state.rotations[masters], du_end, s, ds, ny0,
-                                       _rate_rows(rates, "ny0", cols, rows, ny0.shape), local, dlocal, H)
+                                       _rate_rows(rates, "ny0", cols, rows, ny0.shape), local, dlocal, H, V, W)
     return M.imag / H
 
 
 def _contract(out: np.ndarray, cols: np.ndarray, dofs: np.ndarray, blocks: np.ndarray, V, W) -> None:
     """``out[cols[b]] += V[dofs[b]]^T blocks[b] W[dofs[b]]`` for every row b (the rows summed per
     direction by one product with their indicator matrix)."""
-    rows = np.swapaxes(V[dofs], 1, 2) @ (blocks @ W[dofs])  # (B, a, c)
+    _sum_rows(out, cols, np.swapaxes(V[dofs], 1, 2) @ (blocks @ W[dofs]))
+
+
+def _sum_rows(out: np.ndarray, cols: np.ndarray, rows: np.ndarray) -> None:
+    """``out[cols[b]] += rows[b]`` (rows (B, a, c)) by one product with the rows' indicator matrix."""
     one = np.zeros((out.shape[0], len(cols)))
     one[cols, np.arange(len(cols))] = 1.0
     out += (one @ rows.reshape(len(cols), -1)).reshape(out.shape)

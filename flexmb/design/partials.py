@@ -43,19 +43,36 @@ def _element_rows(model, rates, du) -> tuple[np.ndarray, np.ndarray]:
 def _element_hits(model, rates, du) -> np.ndarray:
     """(K, E) whether direction k changes element e (`_element_rows`)."""
     el = model.elements
-    K, E = rates.rate("L0").shape[0], len(el.L0)
-    hit = np.zeros((K, E), dtype=bool)
-    for field in ("L0", "S", "ny0", "nz0", "alpha0"):
-        r = rates.rate(field)
-        if r.size:
-            hit |= _changed(r)
-    offset = _changed(rates.rate("point_offset"))  # (K, P)
-    hit |= offset[:, el.ends[:, 0]] | offset[:, el.ends[:, 1]]
+    K = rates.rate("L0").shape[0]
+    hit = _kept(rates, "element hits", lambda: _number_hits(model, rates)).copy()
     if du is not None:
         moving = np.any(du[: model.n_node_dofs].T.reshape(K, model.n_nodes, model.ndof) != 0.0, axis=2)
         masters = model.point_master[el.ends]
         hit |= moving[:, masters[:, 0]] | moving[:, masters[:, 1]]
     return hit
+
+
+def _number_hits(model, rates) -> np.ndarray:
+    """(K, E) whether parameter k changes element e's numbers or an end's offset."""
+    el = model.elements
+    hit = np.zeros((rates.rate("L0").shape[0], len(el.L0)), dtype=bool)
+    for field in ("L0", "S", "ny0", "nz0", "alpha0"):
+        r = rates.rate(field)
+        if r.size:
+            hit |= _changed(r)
+    offset = _changed(rates.rate("point_offset"))  # (K, P)
+    return hit | offset[:, el.ends[:, 0]] | offset[:, el.ends[:, 1]]
+
+
+def _kept(rates, key: str, compute):
+    """``compute()`` kept in the design's shared cache of ``rates`` (`ModelRates.shared`: what does not
+    depend on the configuration), or computed where the rates have none."""
+    shared = getattr(rates, "shared", None)
+    if shared is None:
+        return compute()
+    if key not in shared:
+        shared[key] = compute()
+    return shared[key]
 
 
 def _complex(value: np.ndarray, rate: np.ndarray | None) -> np.ndarray:
@@ -331,7 +348,8 @@ def mass_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarr
 
 def _mass_rows(model, rates, du):
     """The (direction, element) pairs whose mass a direction changes (local mass, `_element_hits`)."""
-    return np.nonzero(_changed(rates.rate("local_mass")) | _element_hits(model, rates, du))
+    return np.nonzero(_kept(rates, "local mass hits", lambda: _changed(rates.rate("local_mass")))
+                      | _element_hits(model, rates, du))
 
 
 def mass_blocks(problem, state, rates, du: np.ndarray, elements: bool = True) -> list:

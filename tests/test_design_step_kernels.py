@@ -179,6 +179,12 @@ def test_compiled_mass_rows_are_the_derivatives_of_the_element_mass(dim):
     assert _rel(M.imag / H, fd) < 1e-6
     ref = _float_mass(dim, _complex_rows(dim, base, rate, du))  # the numpy complex path
     assert _rel(M.real, ref.real) < 1e-13 and _rel(M.imag, ref.imag) < 1e-12
+    # the rows' forms V^T M W without the blocks
+    V, W = rng.normal(size=(n, M.shape[1], 2)), rng.normal(size=(n, M.shape[1], 3))
+    args = args[:5] + ((base["ny0"], rate["ny0"]) if dim == 3 else ()) + (base["local"], rate["local"], H, V, W)
+    forms = (beam_step_jit.mass_rows_3d if dim == 3 else beam_step_jit.mass_rows_2d)(*args)
+    expected = np.einsum("bia,bij,bjc->bac", V, M, W)
+    assert _rel(forms.real, expected.real) < 1e-13 and _rel(forms.imag, expected.imag) < 1e-12
 
 
 def _mm_leaf(p: dict) -> flexmb.Mechanism:
@@ -217,6 +223,8 @@ def test_design_rows_equal_under_both_kernels(case):
             results[kernels].append(partials._elements(model, state, rates, cols, rows, None, tangent=False,
                                                        stresses=True))
             results[kernels].append([b for part in partials.mass_blocks(problem, state, rates, du) for b in part])
+            V, W = np.random.default_rng(1).normal(size=(2, model.n_dofs, 2))
+            results[kernels].append([partials.mass_forms(problem, state, rates, du, V, W)])
         finally:
             jit.use("numba" if previous else "numpy")
     for a, b in zip(results["numba"], results["numpy"]):

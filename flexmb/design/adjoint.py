@@ -19,10 +19,11 @@ import functools
 
 import numpy as np
 
+from .. import jit
 from ..errors import ConvergenceError, ModelError, UnsupportedStrategyError
 from ..linearisation import full_tangent
 from ..rotations import expm_so3, skew
-from .partials import contract, mass_blocks, residual_rates, tangent_blocks
+from .partials import contract, mass_blocks, mass_forms, residual_rates, tangent_blocks
 
 __all__ = ["Sensitivity", "left_jacobian", "full_model", "DENSE_BELOW", "STRATEGIES"]
 
@@ -186,7 +187,11 @@ class Sensitivity:
         return contract(self._blocks[key], len(self.names), V, V if W is None else W)
 
     def mass_forms(self, V: np.ndarray, W: np.ndarray | None = None) -> np.ndarray:
-        """``V^T (dM/dp_k) W`` (K, a, b): the consistent mass's total change with each parameter."""
+        """``V^T (dM/dp_k) W`` (K, a, b): the consistent mass's total change with each parameter (the
+        compiled kernels contract each row as they go, `flexmb.design.partials.mass_forms`; the numpy
+        path keeps the blocks)."""
+        if jit.enabled():
+            return mass_forms(self.problem, self.state, self.rates, self.state_rates, V, V if W is None else W)
         if "mass" not in self._blocks:
             self._blocks["mass"] = mass_blocks(self.problem, self.state, self.rates, self.state_rates)
         return contract(self._blocks["mass"], len(self.names), V, V if W is None else W)

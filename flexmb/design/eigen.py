@@ -29,7 +29,7 @@ from ..errors import ModelError, ParameterError
 from ..linearised import buckling as _buckling
 from ..linearised import compliance as _compliance
 from ..modal import held_dofs, modes
-from ..rotations import skew
+from ..rotations import cross, skew
 from .base import component_index
 
 __all__ = ["frequency", "buckling", "compliance", "CLUSTER"]
@@ -292,7 +292,7 @@ class _Compliance:
         R = model.rotation_matrices(sens.state)[node]
         d = R @ s
         w = sens.state_rates[dofs[dim:]].T  # (K, nrot): the node's spin (2D: angle) per parameter
-        dd = (np.cross(w, d) if dim == 3 else w * np.array([-d[1], d[0]])) + ds @ R.T
+        dd = (cross(w, d) if dim == 3 else w * np.array([-d[1], d[0]])) + ds @ R.T
         T, dT = model._lever(d[None])[0], model._lever(dd) - np.eye(nd)  # the lever is affine in the offset
         C = T @ C_node @ T.T
         dC = dT @ C_node @ T.T + T @ dC_node @ T.T + T @ C_node @ np.swapaxes(dT, 1, 2)

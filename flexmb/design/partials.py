@@ -43,19 +43,36 @@ def _element_rows(model, rates, du) -> tuple[np.ndarray, np.ndarray]:
 def _element_hits(model, rates, du) -> np.ndarray:
     """(K, E) whether direction k changes element e (`_element_rows`)."""
     el = model.elements
-    K, E = rates.rate("L0").shape[0], len(el.L0)
-    hit = np.zeros((K, E), dtype=bool)
-    for field in ("L0", "S", "ny0", "nz0", "alpha0"):
-        r = rates.rate(field)
-        if r.size:
-            hit |= _changed(r)
-    offset = _changed(rates.rate("point_offset"))  # (K, P)
-    hit |= offset[:, el.ends[:, 0]] | offset[:, el.ends[:, 1]]
+    K = rates.rate("L0").shape[0]
+    hit = _kept(rates, "element hits", lambda: _number_hits(model, rates)).copy()
     if du is not None:
         moving = np.any(du[: model.n_node_dofs].T.reshape(K, model.n_nodes, model.ndof) != 0.0, axis=2)
         masters = model.point_master[el.ends]
         hit |= moving[:, masters[:, 0]] | moving[:, masters[:, 1]]
     return hit
+
+
+def _number_hits(model, rates) -> np.ndarray:
+    """(K, E) whether parameter k changes element e's numbers or an end's offset."""
+    el = model.elements
+    hit = np.zeros((rates.rate("L0").shape[0], len(el.L0)), dtype=bool)
+    for field in ("L0", "S", "ny0", "nz0", "alpha0"):
+        r = rates.rate(field)
+        if r.size:
+            hit |= _changed(r)
+    offset = _changed(rates.rate("point_offset"))  # (K, P)
+    return hit | offset[:, el.ends[:, 0]] | offset[:, el.ends[:, 1]]
+
+
+def _kept(rates, key: str, compute):
+    """``compute()`` kept in the design's shared cache of ``rates`` (`ModelRates.shared`: what does not
+    depend on the configuration), or computed where the rates have none."""
+    shared = getattr(rates, "shared", None)
+    if shared is None:
+        return compute()
+    if key not in shared:
+        shared[key] = compute()
+    return shared[key]
 
 
 def _complex(value: np.ndarray, rate: np.ndarray | None) -> np.ndarray:
@@ -314,15 +331,33 @@ def _row_state(model, state, nodes, du_rows):
 
 
 def mass_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarray) -> np.ndarray:
-    """``V^T dM_k W`` (K, a, b) (`mass_blocks` contracted)."""
-    return contract(mass_blocks(problem, state, rates, du), du.shape[1], V, W)
+    """``V^T dM_k W`` (K, a, b) (`mass_blocks` contracted; with the compiled kernels the beams' rows
+    give their forms directly, `flexmb.fe.beam_step_jit.mass_rows_3d`, no block formed)."""
+    K = du.shape[1]
+    if not jit.enabled():
+        return contract(mass_blocks(problem, state, rates, du), K, V, W)
+    m = problem.model
+    out = contract(mass_blocks(problem, state, rates, du, elements=False), K, V, W)
+    cols, rows = _mass_rows(m, rates, du)
+    if len(rows):
+        dofs = m.element_dofs[rows]
+        nodal = du[: m.n_node_dofs].reshape(m.n_nodes, m.ndof, -1)
+        _sum_rows(out, cols, _compiled_mass_rows(m, state, rates, cols, rows, nodal, V[dofs], W[dofs]))
+    return out
 
 
-def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
+def _mass_rows(model, rates, du):
+    """The (direction, element) pairs whose mass a direction changes (local mass, `_element_hits`)."""
+    return np.nonzero(_kept(rates, "local mass hits", lambda: _changed(rates.rate("local_mass")))
+                      | _element_hits(model, rates, du))
+
+
+def mass_blocks(problem, state, rates, du: np.ndarray, elements: bool = True) -> list:
     """The directional derivatives ``dM_k`` of the consistent mass at the configuration
     (`flexmb.fe.mass.mass_matrix`: beams in their co-rotated frames, the links' rigid bodies) along
     the model numbers' ``rates`` (local mass, offsets, frames, rigid masses) and the state's
-    directions ``du`` (n_dofs, K), as element blocks (`tangent_blocks`)."""
+    directions ``du`` (n_dofs, K), as element blocks (`tangent_blocks`); ``elements=False``: the
+    rigid bodies' alone."""
     import attrs
 
     from ..fe.mass import RigidMasses, element_mass, rigid_mass
@@ -331,8 +366,7 @@ def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
     K, nd = du.shape[1], m.ndof
     out = []
     el = m.elements
-    hit = _changed(rates.rate("local_mass"))
-    cols, rows = np.nonzero(hit | _element_hits(m, rates, du))
+    cols, rows = _mass_rows(m, rates, du) if elements else (np.zeros(0, dtype=int), np.zeros(0, dtype=int))
     nodal = du[: m.n_node_dofs].reshape(m.n_nodes, nd, -1)
     if len(rows) and jit.enabled():
         out.append((cols, m.element_dofs[rows], _compiled_mass_rows(m, state, rates, cols, rows, nodal)))
@@ -363,9 +397,9 @@ def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
     return out
 
 
-def _compiled_mass_rows(model, state, rates, cols, rows, nodal) -> np.ndarray:
+def _compiled_mass_rows(model, state, rates, cols, rows, nodal, V=None, W=None) -> np.ndarray:
     """`mass_blocks`' element rows (B, 2 ndof, 2 ndof) by `flexmb.fe.beam_step_jit` (the complex step's
-    derivative: imaginary parts over `H`)."""
+    derivative: imaginary parts over `H`); with ``V``, ``W`` (B, 2 ndof, a / c) their forms (B, a, c)."""
     from ..fe import beam_step_jit
 
     el = model.elements
@@ -378,18 +412,22 @@ def _compiled_mass_rows(model, state, rates, cols, rows, nodal) -> np.ndarray:
     dlocal = _rate_rows(rates, "local_mass", cols, rows, local.shape)
     x = state.positions[masters]
     if model.dim == 2:
-        M = beam_step_jit.mass_rows_2d(x, state.rotations[masters], du_end, s, ds, local, dlocal, H)
+        M = beam_step_jit.mass_rows_2d(x, state.rotations[masters], du_end, s, ds, local, dlocal, H, V, W)
     else:
         ny0 = np.asarray(el.ny0, dtype=float)[rows]
         M = beam_step_jit.mass_rows_3d(x, state.rotations[masters], du_end, s, ds, ny0,
-                                       _rate_rows(rates, "ny0", cols, rows, ny0.shape), local, dlocal, H)
+                                       _rate_rows(rates, "ny0", cols, rows, ny0.shape), local, dlocal, H, V, W)
     return M.imag / H
 
 
 def _contract(out: np.ndarray, cols: np.ndarray, dofs: np.ndarray, blocks: np.ndarray, V, W) -> None:
     """``out[cols[b]] += V[dofs[b]]^T blocks[b] W[dofs[b]]`` for every row b (the rows summed per
     direction by one product with their indicator matrix)."""
-    rows = np.swapaxes(V[dofs], 1, 2) @ (blocks @ W[dofs])  # (B, a, c)
+    _sum_rows(out, cols, np.swapaxes(V[dofs], 1, 2) @ (blocks @ W[dofs]))
+
+
+def _sum_rows(out: np.ndarray, cols: np.ndarray, rows: np.ndarray) -> None:
+    """``out[cols[b]] += rows[b]`` (rows (B, a, c)) by one product with the rows' indicator matrix."""
     one = np.zeros((out.shape[0], len(cols)))
     one[cols, np.arange(len(cols))] = 1.0
     out += (one @ rows.reshape(len(cols), -1)).reshape(out.shape)

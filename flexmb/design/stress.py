@@ -300,8 +300,9 @@ class _Stress(Response):
         dJ_du = np.zeros(model.n_dofs)
         np.add.at(dJ_du, model.element_dofs[rows], np.einsum("bm,bmj->bj", g, DT))
         # the model numbers: the stress fields' rates, and the elements' data and offsets per parameter
-        du_units, dinv = self._field_rates(sens, rows)
-        dJ_dN = np.einsum("kbpj,bpj->k", du_units, dunit) + dinv @ dinv_A
+        moved, du_units, dinv = self._field_rates(sens, rows)
+        dJ_dN = np.zeros(len(sens.names))
+        dJ_dN[moved] = np.einsum("kbpj,bpj->k", du_units, dunit) + dinv @ dinv_A
         cols, sub = np.nonzero(_element_hits(model, sens.rates, None)[:, rows])
         if len(cols):
             e, sig, L0 = _element_stresses(sens, cols, rows[sub])
@@ -310,9 +311,10 @@ class _Stress(Response):
         return dJ_du, dJ_dN
 
     def _field_rates(self, sens, rows):
-        """Rates (K, B, P, 8) and (K, B) of the stress fields of elements ``rows``: `section_units`
-        of the sections of each parameter's builds (`flexmb.design.builds.ParameterBuild.combine`:
-        the imaginary parts of its complex-step build, or central differences)."""
+        """The parameters that move the stress fields (indices, k) and their rates (k, B, P, 8) and
+        (k, B) at elements ``rows``: `section_units` of the sections of each parameter's builds
+        (`flexmb.design.builds.ParameterBuild.combine`: the imaginary parts of its complex-step
+        build, or central differences); the other parameters' are nil."""
         key = ("stress_units", self.points)
         cache = sens.rates.shared
         if key not in cache:
@@ -325,9 +327,10 @@ class _Stress(Response):
                     continue
                 du[k] = b.combine(lambda _, nums, table=table: _units(nums["sections"], self.points, table)[0])
                 da[k] = b.combine(lambda _, nums, table=table: _units(nums["sections"], self.points, table)[1])
-            cache[key] = (du, da)
-        du, da = cache[key]
-        return du[:, rows], da[:, rows]
+            moved = np.flatnonzero(np.any(du != 0.0, axis=(1, 2, 3)) | np.any(da != 0.0, axis=1))
+            cache[key] = (moved, du[moved], da[moved])
+        moved, du, da = cache[key]
+        return moved, du[:, rows], da[:, rows]
 
 
 def _real_shapes(build) -> bool:

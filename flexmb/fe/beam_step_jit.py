@@ -256,6 +256,33 @@ def _rows_2d(x, th, du, s, ds, alpha0, dalpha0, L0, dL0, S, dS, h, tangent, mate
 
 
 @njit
+def _mass_out(L, T, n, out, V, W, contracted):
+    """``out = T^T L T`` (`_congruence`), or with ``contracted`` the form ``(T V)^T L (T W)`` (a, c)."""
+    if not contracted:
+        _congruence(L, T, n, out)
+        return
+    na, nc = V.shape[1], W.shape[1]
+    TV = np.zeros((2 * n, na), dtype=np.complex128)
+    TW = np.zeros((2 * n, nc), dtype=np.complex128)
+    for I in range(2):
+        for r in range(n):
+            for m in range(n):
+                t = T[I, r, m]
+                if t != 0.0:
+                    for c in range(na):
+                        TV[I * n + r, c] += t * V[I * n + m, c]
+                    for c in range(nc):
+                        TW[I * n + r, c] += t * W[I * n + m, c]
+    for c in range(nc):
+        for r in range(2 * n):
+            v = 0.0j
+            for m in range(2 * n):
+                v += L[r, m] * TW[m, c]
+            for a in range(na):
+                out[a, c] += TV[r, a] * v
+
+
+@njit
 def _congruence(L, T, n, out):
     """``out = T^T L T`` (2 n, 2 n) for the block-diagonal ``T`` of the two ends' blocks ``T[0]``,
     ``T[1]`` (n, n)."""
@@ -277,14 +304,14 @@ def _congruence(L, T, n, out):
 
 
 @njit
-def _mass_rows_3d(x, R, du, s, ds, ny0, dny0, local, dlocal, h, M):
+def _mass_rows_3d(x, R, du, s, ds, ny0, dny0, local, dlocal, h, M, V, W, contracted):
     ih = 1j * h
     Rc = np.zeros((2, 3, 3), dtype=np.complex128)
     xe = np.zeros((2, 3), dtype=np.complex128)
     d = np.zeros((2, 3), dtype=np.complex128)
     lam = np.zeros((3, 3), dtype=np.complex128)
     T = np.zeros((2, 6, 6), dtype=np.complex128)
-    for b in range(M.shape[0]):
+    for b in range(local.shape[0]):
         _moved_ends_3d(x[b], R[b], du[b], s[b], ds[b], ih, Rc, d, xe)
         _frame_3d(xe, Rc, ny0[b] + ih * dny0[b], lam)
         for i in range(2):  # T_i = blk(lam) (I, -skew(d_i); 0, I)
@@ -295,7 +322,8 @@ def _mass_rows_3d(x, R, du, s, ds, ny0, dny0, local, dlocal, h, M):
                 T[i, a, 3] = lam[a, 2] * d[i, 1] - lam[a, 1] * d[i, 2]  # lam (-skew(d)): columns e_k x d
                 T[i, a, 4] = lam[a, 0] * d[i, 2] - lam[a, 2] * d[i, 0]
                 T[i, a, 5] = lam[a, 1] * d[i, 0] - lam[a, 0] * d[i, 1]
-        _congruence(local[b] + ih * dlocal[b], T, 6, M[b])
+        _mass_out(local[b] + ih * dlocal[b], T, 6, M[b], V[b if contracted else 0], W[b if contracted else 0],
+                  contracted)
 
 
 @njit
@@ -333,12 +361,12 @@ def _frame_3d(xe, Rc, ny0, lam):
 
 
 @njit
-def _mass_rows_2d(x, th, du, s, ds, local, dlocal, h, M):
+def _mass_rows_2d(x, th, du, s, ds, local, dlocal, h, M, V, W, contracted):
     ih = 1j * h
     d = np.zeros((2, 2), dtype=np.complex128)
     xe = np.zeros((2, 2), dtype=np.complex128)
     T = np.zeros((2, 3, 3), dtype=np.complex128)
-    for b in range(M.shape[0]):
+    for b in range(local.shape[0]):
         for i in range(2):
             t = th[b, i] + ih * du[b, i, 2]
             c, sn = np.cos(t), np.sin(t)
@@ -354,22 +382,32 @@ def _mass_rows_2d(x, th, du, s, ds, local, dlocal, h, M):
             T[i, 0, 2] = -cb * d[i, 1] + sb * d[i, 0]
             T[i, 1, 2] = sb * d[i, 1] + cb * d[i, 0]
             T[i, 2, 0], T[i, 2, 1], T[i, 2, 2] = 0.0, 0.0, 1.0
-        _congruence(local[b] + ih * dlocal[b], T, 3, M[b])
+        _mass_out(local[b] + ih * dlocal[b], T, 3, M[b], V[b if contracted else 0], W[b if contracted else 0],
+                  contracted)
 
 
-def mass_rows_3d(x, R, du, s, ds, ny0, dny0, local, dlocal, h: float) -> np.ndarray:
+def mass_rows_3d(x, R, du, s, ds, ny0, dny0, local, dlocal, h: float, V=None, W=None) -> np.ndarray:
     """Complex element mass matrices (B, 12, 12) in global axes and master DOFs of B 3D rows
     (`flexmb.fe.mass.element_mass` of each element moved along its direction: `rows_3d`'s arguments,
-    ``local`` (B, 12, 12) the local mass with its rate ``dlocal``)."""
-    M = np.zeros((len(local), 12, 12), dtype=np.complex128)
-    _mass_rows_3d(_f(x), _f(R), _f(du), _f(s), _f(ds), _f(ny0), _f(dny0), _f(local), _f(dlocal), float(h), M)
-    return M
+    ``local`` (B, 12, 12) the local mass with its rate ``dlocal``); with ``V`` (B, 12, a) and ``W``
+    (B, 12, c), each row's form ``V_b^T M_b W_b`` (B, a, c) instead (no matrix formed)."""
+    return _mass_call(_mass_rows_3d, 12, (x, R, du, s, ds, ny0, dny0, local, dlocal), h, V, W)
 
 
-def mass_rows_2d(x, th, du, s, ds, local, dlocal, h: float) -> np.ndarray:
+def mass_rows_2d(x, th, du, s, ds, local, dlocal, h: float, V=None, W=None) -> np.ndarray:
     """`mass_rows_3d` in the plane (B, 6, 6): master angles ``th`` (B, 2), ``du`` (B, 2, 3)."""
-    M = np.zeros((len(local), 6, 6), dtype=np.complex128)
-    _mass_rows_2d(_f(x), _f(th), _f(du), _f(s), _f(ds), _f(local), _f(dlocal), float(h), M)
+    return _mass_call(_mass_rows_2d, 6, (x, th, du, s, ds, local, dlocal), h, V, W)
+
+
+def _mass_call(kernel, n: int, arrays, h, V, W) -> np.ndarray:
+    """Run a mass kernel: the blocks (B, n, n), or the forms (B, a, c) with ``V``, ``W``."""
+    B, contracted = len(arrays[-2]), V is not None
+    if contracted:
+        V, W = _f(V), _f(W)
+        M = np.zeros((B, V.shape[2], W.shape[2]), dtype=np.complex128)
+    else:
+        M, V, W = np.zeros((B, n, n), dtype=np.complex128), np.zeros((1, n, 1)), np.zeros((1, n, 1))
+    kernel(*(_f(a) for a in arrays), float(h), M, V, W, contracted)
     return M
 
 

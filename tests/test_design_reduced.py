@@ -99,7 +99,8 @@ def _checked(build, p, response, **options):
 
 
 @pytest.mark.parametrize("response", [R.reaction("fore", "x"), R.rotation("fore", "rz"), R.displacement("fore", "z"),
-                                      support_stiffness("fore", "rx"), R.compliance("upper", "z", "rx")])
+                                      R.position("upper", "y"), support_stiffness("fore", "rx"),
+                                      R.compliance("upper", "z", "rx")])
 def test_ksd_reduced_placements_of_a_two_joint_arm(response):
     # both joints turned 0.35 rad; the placements move step 1's kinematics (the joints' angles and
     # near positions), step 2's tabulated condensation and step 3's frames

@@ -151,6 +151,7 @@ class ReducedSensitivity(Sensitivity):
     # -- the rates through steps 1-3 -----------------------------------------------------------
     @functools.cached_property
     def _inputs(self) -> dict:
+        """`flexmb.ksd.reduced_model.STEP3_INPUTS` at the solution (float)."""
         return step3_inputs(self.solution)
 
     @functools.cached_property

@@ -285,12 +285,13 @@ class Mechanism:
         method follow as ``exp(lam w_1) ... exp(lam w_k)``. ``path``: the way the displacements
         get there, an array (m, dim) of the link's displacement at the load factors
         `flexmb.problem.path_load_factors` (m) (all of x, y (z) prescribed, the last row, at 1,
-        equal to them), which the load steps of the
-        conventional method follow (`flexmb.problem.motion_path`) instead of the straight line: the
-        same equilibrium, reached along a curve the mechanism follows easily (the manipulator's
-        location case: its kinematic path); a later x, y or z without a path drops it.
-        Unprescribed components are free. Repeated calls update the given components. A point inside a joint (`add_joint_point`)
-        takes ``x``, ``y`` (``z``) and ``rotation`` (a vector in 3D) the same way.
+        equal to them), which the load steps of the conventional method's continuation follow
+        (`flexmb.problem.motion_path`; Fig. 18's control, ``step_control="paper"``, keeps the
+        straight line, as published): the same equilibrium, reached along a curve the mechanism
+        follows easily (the manipulator's location case: its kinematic path); a later x, y or z
+        without a path drops it. Unprescribed components are free. Repeated calls update the
+        given components. A point inside a joint (`add_joint_point`) takes ``x``, ``y`` (``z``) and
+        ``rotation`` (a vector in 3D) the same way.
         """
         if self._is_joint_point(name):
             return self._inside_motion(name, motion)

@@ -298,6 +298,15 @@ class StaticProblem(BoundaryConditions):
                 du[slots] += curve(lam + dlam) - curve(lam)
         return du
 
+    def straight(self) -> StaticProblem:
+        """This problem with its prescribed motion on straight lines (`motion_paths` dropped: the
+        same equilibrium at load factor 1; Fig. 18's control steps along them, as published)."""
+        if not self._curves:
+            return self
+        out = copy.copy(self)
+        out.motion_paths, out._curves = (), ()
+        return out
+
     def curve_rate(self, lam: float) -> np.ndarray:
         """The derivative in the load factor of the prescribed values' offset from the straight line
         ``lam * values`` (`motion_paths`; zero without them), (n_p,)."""

@@ -104,3 +104,11 @@ def test_a_new_displacement_drops_the_old_path():
     x = m.prescribed("link3")["x"]
     m.prescribe("link3", x=x + 0.01)
     assert "path" not in m.prescribed("link3") and not m.compile().problem.motion_paths
+
+
+def test_the_papers_control_keeps_the_straight_line():
+    # Fig. 18 as published (step_control="paper") moves the end point on the straight line: the same
+    # steps and numbers with and without the path (30 deg: 676 iterations, the papers' baseline)
+    build = lambda: flexmb.models.manipulator("location", np.radians(30))  # noqa: E731
+    a, b = flexmb.solve(build(), step_control="paper"), flexmb.solve(_straight(build), step_control="paper")
+    assert a.iterations == b.iterations and np.array_equal(a.node_positions(), b.node_positions())

@@ -242,7 +242,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
     """Drive ``problem`` from ``state`` at load factor ``lam0`` to 1; returns Solution fields.
 
     Load steps in a loop: the step control (`PaperControl` for ``control="paper"``, Fig. 18:
-    linear predictor from the converged tangent, halving, doubling after easy steps;
+    linear predictor from the converged tangent, halving, doubling after easy steps, the prescribed
+    motion on straight lines, `StaticProblem.straight`;
     `AdaptiveControl` for ``"adaptive"``: each step after the first starts from the polynomial
     extrapolation of the last converged states and the path's tangent at the last,
     `FEModel.extrapolated_increment`, a first step whose linear predictor stretches the elements
@@ -255,6 +256,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
     `CORRECTION_FLOOR` (the round-off floor: Newton cannot improve the state further).
     ``first_geometric_stress``: the geometric-stiffness stresses of the first tangent only
     (`StaticProblem.evaluate`), where ``state``'s own are known to be off (KSD step 5)."""
+    if control != "adaptive":  # Fig. 18 as published: the prescribed motion on straight lines
+        problem = problem.straight() if hasattr(problem, "straight") else problem
     steps = (AdaptiveControl if control == "adaptive" else PaperControl)(problem, state, lam0)
     report = Report(problem, tol, rtol)
     corrector = Corrector(problem, tol=tol, rtol=rtol, max_iter=max_iter, divergence=divergence,

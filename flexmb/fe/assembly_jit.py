@@ -37,9 +37,15 @@ def element_slots(master, ndof, g_ptr, g_idx, slot_f, slot_p, row_f, row_p, fran
     (``row_f`` of the row's DOF + ``within_f`` of the node pair + ``frank`` of the column's DOF),
     in K_fp's (-2 minus the same with ``row_p``, ``within_p``, ``prank``) or -1 (a prescribed row);
     the node pair's position in the node graph ``(g_ptr, g_idx)`` (sorted rows) by a scan of the
-    row. The same numbers as numpy's chunked pass."""
+    row. The same numbers as numpy's chunked pass; each element's DOFs once (no division per entry)."""
     n2 = 2 * ndof
     pair = np.empty((2, 2), dtype=np.int64)
+    side = np.empty(n2, dtype=np.int64)  # the end node of each of the block's rows and columns
+    comp = np.empty(n2, dtype=np.int64)
+    for i in range(n2):
+        side[i] = i // ndof
+        comp[i] = i - side[i] * ndof
+    dof = np.empty(n2, dtype=np.int64)
     at = 0
     for e in range(master.shape[0]):
         for s in range(2):
@@ -51,16 +57,22 @@ def element_slots(master, ndof, g_ptr, g_idx, slot_f, slot_p, row_f, row_p, fran
                     k += 1
                 pair[s, t] = k
         for i in range(n2):
-            r = master[e, i // ndof] * ndof + i % ndof
+            dof[i] = master[e, side[i]] * ndof + comp[i]
+        for i in range(n2):
+            r = dof[i]
+            if slot_f[r] < 0:  # a prescribed row: dropped
+                for j in range(n2):
+                    out[at + j] = -1
+                at += n2
+                continue
+            rf, rp, si = row_f[r], row_p[r], side[i]
             for j in range(n2):
-                c = master[e, j // ndof] * ndof + j % ndof
-                k = pair[i // ndof, j // ndof]
-                if slot_f[r] < 0:
-                    out[at] = -1
-                elif slot_f[c] >= 0:
-                    out[at] = row_f[r] + within_f[k] + frank[c]
+                c = dof[j]
+                k = pair[si, side[j]]
+                if slot_f[c] >= 0:
+                    out[at] = rf + within_f[k] + frank[c]
                 elif slot_p[c] >= 0:
-                    out[at] = -2 - (row_p[r] + within_p[k] + prank[c])
+                    out[at] = -2 - (rp + within_p[k] + prank[c])
                 else:
                     out[at] = -1
                 at += 1

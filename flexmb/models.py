@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import threading
+
 import attrs
 import numpy as np
 
@@ -180,6 +182,7 @@ def _manipulator_geometry(geometry: dict | None) -> dict:
 #: `JOINT_CASE_KEPT` entries, the oldest dropped first.
 _JOINT_CASE: dict = {}
 JOINT_CASE_KEPT = 64
+_JOINT_CASE_LOCK = threading.Lock()  # a study's threads build designs side by side
 
 
 def _joint_case_end_point(rotation, joint, g, R, origins, end) -> np.ndarray:
@@ -219,10 +222,12 @@ def _joint_case_kinematics(rotation, joint):
     frames = _frames(float(joint.interface_b(3)[2]), MANIPULATOR)
     nodes = [compiled.link_node[name] for name in ("ground", "link1", "link2", "link3")]
     point = poses.x[nodes[3]].copy()
-    while len(_JOINT_CASE) >= JOINT_CASE_KEPT:
-        del _JOINT_CASE[next(iter(_JOINT_CASE))]
-    _JOINT_CASE[key] = point, _relative_motions(poses.x[nodes], poses.R[nodes], frames), red
-    return point, _JOINT_CASE[key][1]
+    motions = _relative_motions(poses.x[nodes], poses.R[nodes], frames)
+    with _JOINT_CASE_LOCK:
+        while len(_JOINT_CASE) >= JOINT_CASE_KEPT:
+            del _JOINT_CASE[next(iter(_JOINT_CASE))]
+        _JOINT_CASE[key] = point, motions, red
+    return point, motions
 
 
 def _frames(D0: float, g: dict) -> tuple[list, list]:

@@ -17,6 +17,7 @@ from .ksd.kinematics import solve_kinematics
 from .compiled import compiled_for
 from .ksd.reduced import reduced_mechanism
 from .mechanism import Mechanism
+from .problem import path_load_factors
 from .registry import joint_from_params
 from .rotations import expm_so3
 
@@ -161,8 +162,25 @@ def _manipulator(case: str, rotation: float, joint: ThreeXInfinity, g: dict) -> 
         m.prescribe("link3", rotation=[z, 2 * y])
     else:
         point = _joint_case_end_point(rotation, joint, g, R, (a2, a3), end)
-        m.prescribe("link3", **dict(zip("xyz", point - end)))
+        m.prescribe("link3", **dict(zip("xyz", point - end)), path=_kinematic_path(rotation, (a2, a3), end, point))
     return m
+
+
+#: waypoints of the location case's end-point path (`_kinematic_path`)
+PATH_POINTS = 8
+
+
+def _kinematic_path(rotation, origins, end, point) -> np.ndarray:
+    """The location case's end-point displacements [m] at the load factors
+    `flexmb.problem.path_load_factors` (`PATH_POINTS` of them): where the rigid links put it with
+    the joints turned by ``lam * rotation``, plus ``lam`` times the difference of ``point`` (the
+    trained kinematics) from the rigid end: the path the mechanism follows by turning its joints
+    (a straight line takes joint 3 to 56 deg and back at 45 deg)."""
+    rigid = lambda lam: _end_point(manipulator_rotations(lam * rotation), origins, end)  # noqa: E731
+    miss = point - rigid(1.0)
+    out = np.array([rigid(lam) - end + lam * miss for lam in path_load_factors(PATH_POINTS)])
+    out[-1] = point - end
+    return out
 
 
 def _manipulator_geometry(geometry: dict | None) -> dict:

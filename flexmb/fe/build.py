@@ -15,7 +15,7 @@ import attrs
 import numpy as np
 
 from .. import _validate as v
-from ..boundary import actuation_row, boundary
+from ..boundary import actuation_row, boundary, motion_paths
 from ..compiled import Compiled
 from ..errors import ModelError, TopologyError, UnsupportedStrategyError
 from ..joints._base import INTERNAL, SIDE_A, SIDE_B, Joint
@@ -77,7 +77,8 @@ def build(mechanism) -> Compiled:
         ideal = _hinges(mechanism, a["hinges"], node_x0[:len(names)], elements, pres, names)
     model = FEModel(dim, node_x0, a["pt_master"], a["pt_x0"], elements, rigid_masses=rigid, hinges=ideal)
 
-    return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, mechanism.points,
+    return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths,
+                                  motion_paths=motion_paths(mechanism, link_node, links)), link_node, mechanism.points,
                     a["joint_elements"], actuation_row(mechanism, loads), a["joint_nodes"],
                     tuple((k, d["joint"], d["placement"], *d["sides"])
                           for _, _, k, d in mechanism.graph.edges(keys=True, data=True)),

@@ -70,6 +70,8 @@ def _cluster_derivatives(forms_A, forms_B, Phi, Psi, normal, lam) -> np.ndarray:
     """(K, c) derivatives of a cluster's eigenvalues per parameter, sorted ascending: eigenvalues of
     ``N^-1 Psi^T (dA - lam dB) Phi`` with ``N = Psi^T normal Phi`` (forms: (K, c, c))."""
     Nm = Psi.T @ normal
+    if Nm.shape == (1, 1):  # a simple eigenvalue: the quotients at once
+        return ((forms_A - lam * forms_B)[:, 0, 0] / Nm[0, 0]).real.reshape(len(forms_A), 1)
     out = []
     for dA, dB in zip(forms_A, forms_B):
         G = np.linalg.solve(Nm, dA - lam * dB)

@@ -123,6 +123,12 @@ class _Configured(ModelRates):
 
     def _combined(self, build, k: int, base: dict) -> dict:
         """``{field: rate}`` of the boundary fields of parameter ``k``'s ``build`` after ``configure``."""
+        from .builds import COMPLEX_STEP
+
+        if build.method == COMPLEX_STEP:  # one mechanism: its imaginary parts over the step
+            ((_, mech, _),) = build.points
+            out = self._configured(mech, k, base)
+            return {f: (np.imag(v) / build.h if np.iscomplexobj(v) else np.zeros(np.shape(v))) for f, v in out.items()}
         seen = {}
 
         def read(mech, f):

@@ -1,12 +1,14 @@
 """Partial derivatives of the finite-element residual, tangent and mass with respect to the model's
-numbers and the state, by complex step through the numpy element kernels.
+numbers and the state, by complex step through the element kernels.
 
 ``f(x + i h dx) = f(x) + i h f'(x) dx + O(h^2)``: with ``h = 1e-30`` the imaginary part divided by
 ``h`` is the directional derivative to round-off, without the cancellation of a difference (Squire
-& Trapp 1998; Martins, Sturdza & Alonso 2003). The numpy twins of the beam kernels
-(`flexmb.fe.beam2d`, `flexmb.fe.beam3d`) carry complex numbers (no modulus, no comparison on the
-perturbed values); the numba kernels stay float64. A direction is evaluated only on the
-elements and load rows it changes, and all directions in one batched kernel call.
+& Trapp 1998; Martins, Sturdza & Alonso 2003). With the numba kernels on (`flexmb.jit`) the beams'
+rows run compiled (`flexmb.fe.beam_step_jit`: the moved ends, the element, the levers in one pass per
+row; the float kernels stay float64); otherwise the numpy twins of the beam kernels
+(`flexmb.fe.beam2d`, `flexmb.fe.beam3d`, `flexmb.fe.mass`) carry the complex numbers (no modulus,
+no comparison on the perturbed values). Both give the same numbers. A direction is evaluated only
+on the elements and load rows it changes, and all directions in one batched kernel call.
 
 Directions: ``rates`` holds ``d(field)/dp_k`` of `flexmb.design.parameters.MODEL_FIELDS` (K, ...);
 state directions ``du`` (n_dofs, K) are increments in the model's DOFs (translations, 2D angles,

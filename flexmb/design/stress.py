@@ -150,9 +150,15 @@ def _first_order(a, b):
         return None
     if max(abs(np.imag(a)) / abs(np.real(a)), abs(np.imag(b)) / abs(np.real(b))) >= FIRST_ORDER:
         return None
-    return (lambda z: np.exp(z.real) * (1.0 + 1j * z.imag),
-            lambda z: np.tanh(z.real) + 1j * z.imag / np.cosh(z.real) ** 2,
+    return (lambda z: np.exp(z.real) * (1.0 + 1j * z.imag), _tanh_first_order,
             lambda z: np.cos(z.real) - 1j * z.imag * np.sin(z.real))
+
+
+def _tanh_first_order(z):
+    """``tanh(u + i v) = tanh u + i v sech^2 u`` to first order in ``v``, ``sech^2 u = 4 e^-2|u| /
+    (1 + e^-2|u|)^2`` (no overflow for large ``|u|``)."""
+    e = np.exp(-2.0 * np.abs(z.real))
+    return np.tanh(z.real) + 1j * z.imag * (4.0 * e / (1.0 + e) ** 2)
 
 
 def _resultants(e, sig, L0, dim) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import types
 
 import attrs
 import numpy as np
@@ -89,7 +90,10 @@ def fourbar(elements_per_leaf: int = 3, displacement: float = 0.0, moment: float
 #: Link geometry of `manipulator` [m, rad]: a post of ``post`` above joint 1's node B up to joint
 #: 2, then link 2 of length ``arm2`` at ``angle2`` above the horizontal to joint 3, and link 3 of
 #: length ``arm3`` at ``angle3`` to the end point (flexmb's choice in the spirit of Fig. 13).
-MANIPULATOR = {"post": 0.15, "arm2": 0.30, "angle2": np.radians(30.0), "arm3": 0.25, "angle3": np.radians(-30.0)}
+#: Read-only: the location case keeps end points solved on it (`_joint_case_end_point`); another
+#: geometry goes through ``manipulator(geometry=...)``.
+MANIPULATOR = types.MappingProxyType(
+    {"post": 0.15, "arm2": 0.30, "angle2": np.radians(30.0), "arm3": 0.25, "angle3": np.radians(-30.0)})
 MANIPULATOR_CASES = ("joint", "location")
 
 

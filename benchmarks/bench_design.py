@@ -13,7 +13,8 @@
    from its own joint-case kinematics, part of its build), and the four-bar's leaf thickness
    (0.8...1.2 mm) with the conventional method. Per design: build + compile + solve + check; the
    same loop with the structure reuse switched off (`flexmb.compiled.STRUCTURES_KEPT` = 0) shows
-   what the reuse saves.
+   what the reuse saves. The location case's end point (the joint case's KSD kinematics) is solved once per
+   rotation and joint and chained through each design's geometry (`flexmb.models.manipulator`).
 
 Writes the "design" section of BENCHMARKS.md. Run: python benchmarks/bench_design.py [--quick]
 """
@@ -123,7 +124,9 @@ def main(quick: bool = False) -> str:
     rounds = 3 if quick else 7
     n = 20 if quick else 100
     lines = ["## Design loops: freshly built mechanisms and structure reuse (issue 31)", "",
-             f"{machine()}. Every solve a whole `flexmb.solve` (compile and plausibility check included); "
+             f"{machine()}. Every solve a whole `flexmb.solve` (compile, plausibility check and the default accuracy "
+             "estimates included: conventional and KSD-full solve a companion mesh, KSD-reduced makes one Newton "
+             "correction on the full model and compiles the companion mesh of a new model); "
              "*fresh*: of a mechanism built for it by `flexmb.models` (its build timed too), as a design loop "
              "builds them; *kept*: of one mechanism object solved again. Medians of "
              f"{rounds} interleaved rounds (KSD-reduced 5, KSD-full 2 solves per round), wall clock and process CPU "

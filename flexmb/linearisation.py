@@ -82,7 +82,7 @@ def solvable_problem(solution, owner: str = "modes"):
         raise ParameterError(f"linearisation needs a Solution (flexmb.solve, sweep or trace), got "
                              f"{type(solution).__name__}: solve the mechanism first")
     if not getattr(solution, "full_equilibrium", True):
-        raise UnsupportedStrategyError(f"{owner} need the full FE equilibrium: solve with method='ksd-full' or "
+        raise UnsupportedStrategyError(f"{owner}: the full FE equilibrium is needed: solve with method='ksd-full' or "
                                        f"'conventional' ({solution.full_equilibrium_note})")
     problem = solution.compiled.problem
     if not hasattr(problem.model, "elements"):

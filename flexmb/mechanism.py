@@ -46,9 +46,13 @@ def _motion_path(where: str, path, dim: int) -> np.ndarray:
         out = v.frozen(path)
     except (TypeError, ValueError):
         out = None
-    if out is None or out.ndim != 2 or out.shape[1] != dim or len(out) == 0 or not np.all(np.isfinite(out)):
+    if out is None or out.ndim != 2 or out.shape[1] != dim or len(out) == 0:
         raise ParameterError(f"{where}: path must be finite displacements of shape (m, {dim}) at the load "
                              f"factors (1 - cos(k pi / m)) / 2, k = 1..m, m >= 1; got {np.shape(path) if out is None else out.shape}")
+    bad = np.argwhere(~np.isfinite(out))
+    if len(bad):
+        raise ParameterError(f"{where}: path must be finite; waypoint {bad[0][0]} component {bad[0][1]} is "
+                             f"{out[tuple(bad[0])]}")
     return out
 
 
@@ -288,7 +292,8 @@ class Mechanism:
         equal to them), which the load steps of the conventional method's continuation follow
         (`flexmb.problem.motion_path`; Fig. 18's control, ``step_control="paper"``, keeps the
         straight line, as published): the same equilibrium, reached along a curve the mechanism
-        follows easily (the manipulator's location case: its kinematic path); a later x, y or z
+        follows easily (the manipulator's location case: its kinematic path); `flexmb.trace`
+        keeps the straight line (its load factor scales the motion, also beyond 1); a later x, y or z
         without a path drops it. Unprescribed components are free. Repeated calls update the
         given components. A point inside a joint (`add_joint_point`) takes ``x``, ``y`` (``z``) and
         ``rotation`` (a vector in 3D) the same way.

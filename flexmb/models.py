@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import threading
+import types
+
 import attrs
 import numpy as np
 
@@ -87,7 +90,10 @@ def fourbar(elements_per_leaf: int = 3, displacement: float = 0.0, moment: float
 #: Link geometry of `manipulator` [m, rad]: a post of ``post`` above joint 1's node B up to joint
 #: 2, then link 2 of length ``arm2`` at ``angle2`` above the horizontal to joint 3, and link 3 of
 #: length ``arm3`` at ``angle3`` to the end point (flexmb's choice in the spirit of Fig. 13).
-MANIPULATOR = {"post": 0.15, "arm2": 0.30, "angle2": np.radians(30.0), "arm3": 0.25, "angle3": np.radians(-30.0)}
+#: Read-only: the location case keeps end points solved on it (`_joint_case_end_point`); another
+#: geometry goes through ``manipulator(geometry=...)``.
+MANIPULATOR = types.MappingProxyType(
+    {"post": 0.15, "arm2": 0.30, "angle2": np.radians(30.0), "arm3": 0.25, "angle3": np.radians(-30.0)})
 MANIPULATOR_CASES = ("joint", "location")
 
 
@@ -174,11 +180,26 @@ def _kinematic_path(rotation, origins, end, point) -> np.ndarray:
     the joints turned by ``lam * rotation``, plus ``lam`` times the difference of ``point`` (the
     trained kinematics) from the rigid end: the path the mechanism follows by turning its joints
     (a straight line takes joint 3 to 56 deg and back at 45 deg)."""
-    rigid = lambda lam: _end_point(manipulator_rotations(lam * rotation), origins, end)  # noqa: E731
-    miss = point - rigid(1.0)
-    out = np.array([rigid(lam) - end + lam * miss for lam in path_load_factors(PATH_POINTS)])
+    lams = path_load_factors(PATH_POINTS)
+    rigid = _rigid_end_points(np.append(lams, 1.0) * rotation, origins, end)  # the last: lam = 1
+    miss = point - rigid[-1]
+    out = rigid[:-1] - end + lams[:, None] * miss
     out[-1] = point - end
     return out
+
+
+def _rigid_end_points(rotations: np.ndarray, origins, end) -> np.ndarray:
+    """`_end_point` of `manipulator_rotations` for each of ``rotations`` (n,) [rad], in one batch: (n, 3) [m]."""
+    w = np.zeros((len(rotations), 2, 3))
+    w[:, 0, 2] = w[:, 1, 1] = rotations
+    R = expm_so3(w)
+    Rz, Ry = R[:, 0], R[:, 1]
+    R1, R2 = Rz, Rz @ Ry
+    R3 = R2 @ Ry
+    a2, a3 = origins
+    A2 = R1 @ a2
+    A3 = A2 + R2 @ (a3 - a2)
+    return A3 + R3 @ (end - a3)
 
 
 def _manipulator_geometry(geometry: dict | None) -> dict:
@@ -198,6 +219,7 @@ def _manipulator_geometry(geometry: dict | None) -> dict:
 #: `JOINT_CASE_KEPT` entries, the oldest dropped first.
 _JOINT_CASE: dict = {}
 JOINT_CASE_KEPT = 64
+_JOINT_CASE_LOCK = threading.Lock()  # a study's threads build designs side by side
 
 
 def _joint_case_end_point(rotation, joint, g, R, origins, end) -> np.ndarray:
@@ -237,10 +259,12 @@ def _joint_case_kinematics(rotation, joint):
     frames = _frames(float(joint.interface_b(3)[2]), MANIPULATOR)
     nodes = [compiled.link_node[name] for name in ("ground", "link1", "link2", "link3")]
     point = poses.x[nodes[3]].copy()
-    while len(_JOINT_CASE) >= JOINT_CASE_KEPT:
-        del _JOINT_CASE[next(iter(_JOINT_CASE))]
-    _JOINT_CASE[key] = point, _relative_motions(poses.x[nodes], poses.R[nodes], frames), red
-    return point, _JOINT_CASE[key][1]
+    motions = _relative_motions(poses.x[nodes], poses.R[nodes], frames)
+    with _JOINT_CASE_LOCK:
+        while len(_JOINT_CASE) >= JOINT_CASE_KEPT:
+            del _JOINT_CASE[next(iter(_JOINT_CASE))]
+        _JOINT_CASE[key] = point, motions, red
+    return point, motions
 
 
 def _frames(D0: float, g: dict) -> tuple[list, list]:

@@ -302,6 +302,8 @@ def _compiled(owner: str, mechanism, strategy, start):
     if not hasattr(mechanism, "compile"):
         raise ModelError(f"{owner}() needs a flexmb.Mechanism, got {type(mechanism).__name__}")
     compiled = mechanism.compile(strategy.capability)
+    if getattr(compiled.problem, "motion_paths", ()):  # a path scales the motion by the load factor: the line
+        compiled = attrs.evolve(compiled, problem=compiled.problem.straight())  # (a prescribe path= leads solves only)
     problem = compiled.problem
     hinges = getattr(problem.model, "hinges", None)
     motors = np.nan_to_num(hinges.angle) if hinges is not None else np.zeros(0)

@@ -215,3 +215,21 @@ def test_a_user_stage_in_mm_reuses_its_structure_only_when_it_is_the_same(other)
     shared = vars(c2.problem).get("_pattern") is vars(c1.problem).get("_pattern")
     assert shared == ("leaves" not in other)
     _same(flexmb.solve(_stage(**other)), _no_reuse(lambda: flexmb.solve(_stage(**other))))
+
+
+def test_the_paper_geometry_cannot_be_changed_in_place():
+    """The location case keeps end points solved on `flexmb.models.MANIPULATOR`; a user who changed
+    that dict in place (``g = models.MANIPULATOR; g["post"] = 0.16``) got the kept point of the
+    old geometry (displacement z -0.28518 instead of -0.27518 m) and its reactions without a word. The dict is
+    read-only; the same geometry through ``geometry=`` gets its own end point."""
+    import math
+
+    r = math.radians(30.0)
+    models.manipulator("location", r)
+    with pytest.raises(TypeError):
+        models.MANIPULATOR["post"] = 0.16
+    changed = models.manipulator("location", r, geometry={"post": 0.16})
+    paper = models.manipulator("location", r)
+    # a taller post lifts the arm along joint 1's axis: the same end-point displacement (the stale
+    # point of the old geometry read 0.01 m less)
+    assert changed.prescribed("link3")["z"] == pytest.approx(paper.prescribed("link3")["z"], abs=1e-12)

@@ -205,4 +205,4 @@ def test_a_ksd_reduced_sweep_with_properties_keeps_its_rows():
     for k, sol in enumerate(res):
         assert t["f1"][k] == flexmb.modes(sol, n_modes=2, held=[("B", "rz")]).frequencies[0]
     assert np.isnan(t["buckling1"]).all() and np.isnan(t["buckling2"]).all()
-    assert all(e.startswith("buckling: buckling need the full FE equilibrium") for e in t["property_errors"])
+    assert all(e.startswith("buckling: buckling: the full FE equilibrium is needed") for e in t["property_errors"])

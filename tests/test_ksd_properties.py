@@ -94,7 +94,7 @@ def test_unconverged_and_unsupported():
     assert not sol.converged
     with pytest.raises(flexmb.ConvergenceError, match="compliance of an unconverged"):
         flexmb.compliance(sol, "top")
-    with pytest.raises(flexmb.UnsupportedStrategyError, match="buckling need the full FE equilibrium"):
+    with pytest.raises(flexmb.UnsupportedStrategyError, match="buckling: the full FE equilibrium is needed"):
         flexmb.buckling(flexmb.solve(fourbar(5, displacement=0.1), method="ksd-reduced"))
 
 

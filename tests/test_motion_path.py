@@ -112,3 +112,17 @@ def test_the_papers_control_keeps_the_straight_line():
     build = lambda: flexmb.models.manipulator("location", np.radians(30))  # noqa: E731
     a, b = flexmb.solve(build(), step_control="paper"), flexmb.solve(_straight(build), step_control="paper")
     assert a.iterations == b.iterations and np.array_equal(a.node_positions(), b.node_positions())
+
+
+def test_trace_scales_the_motion_on_the_line_not_along_the_path():
+    """`flexmb.trace`'s load factor scales the prescribed motion (its docstring), beyond 1 too: a
+    path only leads the solves. Followed past 1, the waypoints' polynomial is extrapolated
+    (a four-bar's top moved back to (0.178, -0.084) at 1.3 instead of 1.3 times its end)."""
+    lam = path_load_factors(6)
+    end = np.array([0.2, -0.05])
+    m = flexmb.models.fourbar(3, displacement=0.2, dim=2)
+    m.prescribe("top", x=end[0], y=end[1], path=np.c_[0.2 * np.sin(lam * np.pi / 2), end[1] * lam ** 2])
+    tr = flexmb.trace(m, steps=200, max_load_factor=1.3)
+    assert tr[-1].load_factor == pytest.approx(1.3, abs=1e-9)
+    for sol in (tr[len(tr) // 2], tr[-1]):
+        np.testing.assert_allclose(sol.displacement("top")[:2], sol.load_factor * end, rtol=1e-9)

@@ -96,7 +96,7 @@ class ReducedLinearisation(LinearisationBase):
     def material_tangent(self, base=None):
         """None to give: `UnsupportedStrategyError` (see the message)."""
         raise UnsupportedStrategyError(
-            f"{self.owner} need the full FE equilibrium: solve with method='ksd-full' (the conventional equilibrium, "
+            f"{self.owner}: the full FE equilibrium is needed: solve with method='ksd-full' (the conventional equilibrium, "
             f"from the KSD start) or 'conventional'. {_NO_GEOMETRIC}")
 
     def expand(self, v: np.ndarray) -> np.ndarray:

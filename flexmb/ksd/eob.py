@@ -39,7 +39,7 @@ from ..fe import beam2d, beam3d
 from ..rotations import logm_so3, rot2, skew
 from .geometry import expm, rz
 
-__all__ = ["EOBTemplate", "EOB", "lever", "block_diagonal"]
+__all__ = ["EOBTemplate", "EOB", "NearPoses", "lever", "block_diagonal"]
 
 _EYE = np.eye(3)
 
@@ -62,6 +62,16 @@ def block_diagonal(blocks: np.ndarray) -> np.ndarray:
     out = np.zeros(blocks.shape[:-3] + (2 * nd, 2 * nd))
     out[..., :nd, :nd], out[..., nd:, nd:] = blocks[..., 0, :, :], blocks[..., 1, :, :]
     return out
+
+
+@attrs.frozen(eq=False)
+class NearPoses:
+    """The near poses of J EOBs without their stiffness (`EOBTemplate.near_poses`): ``rotation``
+    (J, E, nd, nd), ``q_hat`` (J, E, 2nd) and ``lever`` (J, E, 2, nd, nd), as `EOB`'s."""
+
+    rotation: np.ndarray
+    q_hat: np.ndarray
+    lever: np.ndarray
 
 
 @attrs.frozen(eq=False)
@@ -249,8 +259,49 @@ class EOBTemplate:
         ``held_a=True`` condenses with node A held (its displacement zero, as in KSD step 3,
         Eq. 2.4): ``K_T`` (J, nd, nd) and ``F_hat_T`` (J, nd) are then node B's blocks only, and
         the Craig-Bampton solve has nd + 1 right-hand sides instead of 2 nd + 1."""
-        dim, nd, N, E = self.dim, self.nd, self.n_nodes, self.n_elements
+        nd, N, E = self.nd, self.n_nodes, self.n_elements
         theta = np.asarray(theta, dtype=float)
+        J = len(theta)
+        Tb, q_hat, lv, arm, x, node_angle, Rn, markers = self._near_poses(theta, b_position)
+        # with T = diag(Tb, Tb): K_all = T K0 T^T, F_hat_all = -K_all q_hat (Eq. 3.8); the nodes see
+        # L^T K_all L = M K0 M^T and L^T F_hat_all = -M K0 T^T q_hat, M = L^T T (Eq. 3.11)
+        M = block_diagonal(np.swapaxes(lv, -1, -2) @ Tb[:, :, None])
+        Ke = M @ self.K0 @ np.swapaxes(M, 2, 3)
+        local_q = np.swapaxes(Tb, 2, 3)[:, :, None] @ q_hat.reshape(J, E, 2, nd, 1)
+        Fe = -(M @ (self.K0 @ local_q.reshape(J, E, 2 * nd, 1)))[..., 0]
+
+        n = N * nd
+        flat, fidx = self._scatter(J)
+        K_nodes = np.bincount(flat, weights=Ke.ravel(), minlength=J * n * n).reshape(J, n, n)
+        F_nodes = np.bincount(fidx, weights=Fe.ravel(), minlength=J * n).reshape(J, n)
+
+        b = 2 * nd
+        cols = slice(nd, b) if held_a else slice(0, b)  # the boundary DOFs condensed on
+        if n > b:  # Craig-Bampton boundary modes, Eq. (2.5); node B's columns and F last
+            rhs = np.concatenate([K_nodes[:, b:, cols], F_nodes[:, b:, None]], axis=2)
+            X = np.empty_like(rhs)
+            K_flat = K_nodes.reshape(J, n * n)
+            for idx, at in zip(self._blocks, self._block_at):
+                X[:, idx] = np.linalg.solve(K_flat[:, at], rhs[:, idx])
+            K_Tb = K_nodes[:, cols, b:]
+            K_T = K_nodes[:, cols, cols] - K_Tb @ X[:, :, :-1]
+            F_T = F_nodes[:, cols] - (K_Tb @ X[:, :, -1:])[..., 0]
+            recover = X[:, :, -(nd + 1):]
+        else:
+            K_T, F_T = K_nodes[:, cols, cols].copy(), F_nodes[:, cols].copy()
+            recover = np.zeros((J, 0, nd + 1))
+        return EOB(Tb, self.K0, q_hat, lv, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn, markers)
+
+    def near_poses(self, theta: np.ndarray, b_position: np.ndarray) -> NearPoses:
+        """The EOBs' near poses at intended rotations ``theta`` (J,) [rad] with node B at
+        ``b_position`` (J, dim) [m] (`evaluate`'s geometry, without the condensation's stiffness):
+        what `axial_force` reads."""
+        Tb, q_hat, lv = self._near_poses(np.asarray(theta, dtype=float), b_position)[:3]
+        return NearPoses(Tb, q_hat, lv)
+
+    def _near_poses(self, theta: np.ndarray, b_position: np.ndarray):
+        """``(Tb, q_hat, lever, arm, x, node_angle, Rn, markers)`` of `evaluate` (Eqs. 3.1-3.8)."""
+        dim, nd, N, E = self.dim, self.nd, self.n_nodes, self.n_elements
         J = len(theta)
         beta, Re, node_angle, Rn = self.orientations(theta)
         Rd = (Re @ self.d[..., None])[..., 0]
@@ -280,34 +331,7 @@ class EOBTemplate:
         else:
             Tb[..., 3:, 3:] = Re
         lv = lever(arm, dim)  # (J, E, 2, nd, nd)
-        # with T = diag(Tb, Tb): K_all = T K0 T^T, F_hat_all = -K_all q_hat (Eq. 3.8); the nodes see
-        # L^T K_all L = M K0 M^T and L^T F_hat_all = -M K0 T^T q_hat, M = L^T T (Eq. 3.11)
-        M = block_diagonal(np.swapaxes(lv, -1, -2) @ Tb[:, :, None])
-        Ke = M @ self.K0 @ np.swapaxes(M, 2, 3)
-        local_q = np.swapaxes(Tb, 2, 3)[:, :, None] @ q_hat.reshape(J, E, 2, nd, 1)
-        Fe = -(M @ (self.K0 @ local_q.reshape(J, E, 2 * nd, 1)))[..., 0]
-
-        n = N * nd
-        flat, fidx = self._scatter(J)
-        K_nodes = np.bincount(flat, weights=Ke.ravel(), minlength=J * n * n).reshape(J, n, n)
-        F_nodes = np.bincount(fidx, weights=Fe.ravel(), minlength=J * n).reshape(J, n)
-
-        b = 2 * nd
-        cols = slice(nd, b) if held_a else slice(0, b)  # the boundary DOFs condensed on
-        if n > b:  # Craig-Bampton boundary modes, Eq. (2.5); node B's columns and F last
-            rhs = np.concatenate([K_nodes[:, b:, cols], F_nodes[:, b:, None]], axis=2)
-            X = np.empty_like(rhs)
-            K_flat = K_nodes.reshape(J, n * n)
-            for idx, at in zip(self._blocks, self._block_at):
-                X[:, idx] = np.linalg.solve(K_flat[:, at], rhs[:, idx])
-            K_Tb = K_nodes[:, cols, b:]
-            K_T = K_nodes[:, cols, cols] - K_Tb @ X[:, :, :-1]
-            F_T = F_nodes[:, cols] - (K_Tb @ X[:, :, -1:])[..., 0]
-            recover = X[:, :, -(nd + 1):]
-        else:
-            K_T, F_T = K_nodes[:, cols, cols].copy(), F_nodes[:, cols].copy()
-            recover = np.zeros((J, 0, nd + 1))
-        return EOB(Tb, self.K0, q_hat, lv, K_nodes, F_nodes, K_T, F_T, recover, x, node_angle, Rn, markers)
+        return Tb, q_hat, lv, arm, x, node_angle, Rn, markers
 
     def orientations(self, theta: np.ndarray, elements: bool = True):
         """Near orientations at intended rotations ``theta`` (J,) from the database (Eq. 3.1):

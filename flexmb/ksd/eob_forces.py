@@ -27,14 +27,14 @@ def _coefficients(tpl, eob) -> np.ndarray:
     """(J, E, 2 nd): each element's axial force per unit displacement of its two nodes' DOFs."""
     E, nd = tpl.n_elements, tpl.nd
     row = tpl._axial_row.reshape(E, 2, nd)
-    return np.einsum("esa,jeba,jesbc->jesc", row, eob.rotation, eob.lever).reshape(len(eob.K_T), E, 2 * nd)
+    return np.einsum("esa,jeba,jesbc->jesc", row, eob.rotation, eob.lever).reshape(len(eob.lever), E, 2 * nd)
 
 
 def _sample(tpl, theta: np.ndarray) -> dict:
     S, dim, n = len(theta), tpl.dim, tpl.n_nodes * tpl.nd
-    zero = tpl.evaluate(theta, np.zeros((S, dim)), held_a=True)
+    zero = tpl.near_poses(theta, np.zeros((S, dim)))  # the axial forces read the near poses only
     c0 = tpl.axial_force(zero, np.zeros((S, n)))
-    grad = np.stack([tpl.axial_force(tpl.evaluate(theta, np.tile(np.eye(dim)[k], (S, 1)), held_a=True),
+    grad = np.stack([tpl.axial_force(tpl.near_poses(theta, np.tile(np.eye(dim)[k], (S, 1))),
                                      np.zeros((S, n))) - c0 for k in range(dim)], axis=-1)
     return {"A": _coefficients(tpl, zero), "c0": c0, "G": grad}
 

@@ -1,7 +1,7 @@
 """Discretisation error of the shipped joints' properties against elements per leaf (issue 22,
 item 8): each case's quantities on meshes n = 1, 2, 4, ... times a base count, the converged-mesh
 reference by Richardson from the three finest (`flexmb.discretisation.richardson`), the error of
-every mesh and the time per solve, and the cost of the new default meshes. Writes the
+every mesh and the time per solve, and the cost of the second default meshes (the defaults before `Accuracy by default` chose 24 elements per leaf). Writes the
 "discretisation" section of BENCHMARKS.md. Run: python benchmarks/bench_discretisation.py [--quick]
 """
 
@@ -124,14 +124,15 @@ CASES = {
 }
 
 
-#: The cost of the defaults: (case, former default, new default) timed interleaved.
+#: The cost of the defaults: (case, first default, second default) timed interleaved; the defaults are
+#: now 24 elements per leaf (16 on the curved beam), BENCHMARKS.md `Accuracy by default`.
 DEFAULTS = (("parallel_guide", 4, 12), ("cross_flexure", 3, 10), ("three_x_infinity", 3, 12), ("curved_beam", 16, 16))
 
 
 def cost(repeats: int) -> list[str]:
     """Median wall time of one solve (and of solve + modes + compliance + buckling + stress) on the
-    former and the new default mesh of every case, the two interleaved."""
-    lines = ["| case | mesh (former -> new) | solve [ms] | solve + properties [ms] | Newton iterations (steps) |",
+    first and the second default mesh of every case, the two interleaved."""
+    lines = ["| case | mesh (first -> second default) | solve [ms] | solve + properties [ms] | Newton iterations (steps) |",
              "|---|---|---:|---:|---:|"]
     for case, old, new in DEFAULTS:
         build, quantities, _, _ = CASES[case]
@@ -173,7 +174,7 @@ def convergence(case: str, repeats: int, quick: bool) -> list[str]:
     assert meshes[-1] == 2 * meshes[-2] == 4 * meshes[-3], "the reference needs meshes refined by 2"
     ref, order = richardson(q[-3:])
     lines = [f"### {case}: {DESCRIPTION[case]}", "",
-             f"Former default {default}, new default {new}; reference: Richardson of n = {meshes[-3]}, {meshes[-2]}, "
+             f"First default {default}, second default {new} (now 24 per leaf, 16 on the curved beam: `Accuracy by default`); reference: Richardson of n = {meshes[-3]}, {meshes[-2]}, "
              f"{meshes[-1]} with the observed order.", "",
              "| n | solve [ms] | " + " | ".join(names) + " |", "|---:|---:|" + "---:|" * len(names),
              "| reference | | " + " | ".join(f"{r:.6g}" for r in ref) + " |",
@@ -181,7 +182,7 @@ def convergence(case: str, repeats: int, quick: bool) -> list[str]:
     for n, t, row in zip(meshes, times, q):
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = (row - ref) / np.abs(ref)
-        mark = " (former)" if n == default else " (new)" if n == new else ""
+        mark = " (first default)" if n == default else " (second default)" if n == new else ""
         lines.append(f"| {n}{mark} | {1e3 * t:.1f} | " + " | ".join(f"{100 * e:+.3f} %" for e in rel) + " |")
     return lines + [""]
 
@@ -206,7 +207,7 @@ def main(quick: bool = False) -> str:
              " solves (one above 16 el.).", ""]
     for case in CASES:
         lines += convergence(case, 1 if quick else 3, quick)
-    lines += ["### Cost of the new defaults", "", "Medians of " + ("3" if quick else "15") +
+    lines += ["### Cost of the second defaults", "", "Medians of " + ("3" if quick else "15") +
               " interleaved runs; properties: the quantities of the tables above.", ""]
     lines += cost(3 if quick else 15)
     return "\n".join(lines)

@@ -186,11 +186,10 @@ def _train(args) -> int:
                 raise _UsageError(str(exc)) from None
             data = database.train(j, dim, range_deg=range_deg, step_deg=args.step, eob_table=args.eob_table)
             path = database.write(data, out)  # named by the design (store.design_file_name), never another's
-            name = database.file_name(j.kind, dim, data.key)  # the shipped data's (key-only) name
             res = ", ".join(f"{k} {f.max_residual:.1e}" for k, f in data.functions.items())
             print(f"{path}: {len(data.samples)} runs; max fit residuals: {res}, elements "
                   f"{data.elements.max_residual:.1e} rad, nodes {data.nodes.max_residual:.1e} rad")
-            if (shipped / name).exists():
+            if any((shipped / n).exists() for n in database.store.candidate_names(j, dim)):  # as `locate` looks
                 print(f"  (for KSD this file takes precedence over the shipped data of the same joint when found "
                       f"first; search order: {', '.join(map(str, database.search_path(out)))}; delete it to go back)")
     return 0

@@ -365,3 +365,21 @@ def test_save_is_atomic_and_reports_an_unwritable_folder(tmp_path):
         db.save(data, tmp_path / "no-such-folder" / "x.json")
     path = db.save(data, tmp_path / "x.json")
     assert db.load(path).key == data.key and [p.name for p in tmp_path.iterdir()] == ["x.json"]
+
+
+def test_train_s_precedence_hint_only_where_the_shipped_data_has_the_joint(monkeypatch, tmp_path, capsys):
+    """The hint says the new file comes before the shipped data of the same joint: printed when
+    `locate` would find a shipped file for the design (its own or the key-only name: a thinner
+    cross flexure shares the shipped 1 el./leaf kinematics), not for a mesh the shipped data lack."""
+    from flexmb import cli
+
+    monkeypatch.setenv("FLEXMB_DATABASE", str(tmp_path / "user"))
+    assert cli.main(["train", "--dim", "2", "--elements", "1", "--range", "20", "--step", "10",
+                     "--param", "thickness=0.0002"]) == 0
+    assert "takes precedence over the shipped" in capsys.readouterr().out
+    j = flexmb.CrossFlexure(elements_per_leaf=7)
+    assert not any((db.data_path() / n).exists() for n in db.store.candidate_names(j, 2))
+    assert cli.main(["train", "--dim", "2", "--elements", "7", "--range", "20", "--step", "10"]) == 0
+    out = capsys.readouterr().out
+    assert str(tmp_path / "user" / db.store.joint_file_name(j, 2)) in out
+    assert "takes precedence over the shipped" not in out

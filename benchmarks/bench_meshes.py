@@ -1,8 +1,9 @@
 """Mesh-independent iterations (issue 31 item 3): the continuation's Newton iterations on refined meshes.
 
 The four-bar (d = 0.3 m) at 5, 10, 20 and 40 elements per leaf and the manipulator's joint and
-location cases at -45 and 45 deg, solved by the default conventional method (the continuation) as it
-is (*after*: the tangent predictor, `StaticProblem.path_rate`, and the first step sized by its
+location cases at -45 and 45 deg (the location case along its kinematic path, `models.manipulator`,
+and on the straight end-point line it followed before), solved by the default conventional method
+(the continuation) as it is (*after*: the tangent predictor, `StaticProblem.path_rate`, and the first step sized by its
 linear predictor's stretch, `AdaptiveControl.predictor_cut`) and with those two switched off
 (*before*: the extrapolation of the converged states alone and the whole first step, as released
 until issue 31), interleaved in one run; iterations, steps (rejected), median wall and CPU time of a
@@ -56,6 +57,10 @@ def cases(quick: bool):
     for case in ("joint", "location"):
         for deg in (-45, 45):
             yield f"manipulator, {case} case, {deg} deg", flexmb.models.manipulator(case, np.radians(deg))
+    for deg in (-45, 45):  # the location case as before its kinematic path: the end point on a straight line
+        m = flexmb.models.manipulator("location", np.radians(deg))
+        m.prescribe("link3", path=None)
+        yield f"manipulator, location on a straight end-point line, {deg} deg", m
 
 
 def main(quick: bool = False) -> str:
@@ -102,6 +107,11 @@ def main(quick: bool = False) -> str:
         lines.append(f"- Manipulator {case} case at -45 / 45 deg after: "
                      + " / ".join(str(r[1][False].iterations) for r in sel) + " iterations (before: "
                      + " / ".join(str(r[1][True].iterations) for r in sel) + ").")
+    sel = [r for r in rows if "straight" in r[0]]
+    if sel:
+        lines.append("- The location case with its end point on a straight line (as until its kinematic path, "
+                     "`Mechanism.prescribe`'s `path`): " + " / ".join(str(r[1][False].iterations) for r in sel)
+                     + " iterations after, " + " / ".join(str(r[1][True].iterations) for r in sel) + " before.")
     return "\n".join(lines)
 
 

@@ -43,6 +43,10 @@ from flexmb.studies.manipulator import joint_moments  # noqa: E402
 TOL = 5e-7  # the paper's absolute tolerance [N, N m]: Exudyn's criterion
 # the 64-pivot chain's round-off floor is above it (flexmb's default test stops at its floor,
 # 1.8e-6; Exudyn does not reach 5e-7): there Exudyn gets 1e-5
+# the four-bar at 20 el./leaf: Exudyn's residual stops at 1.2-1.4e-6 (Rxyz nodes; 2.9e-6 EP), so
+# 5e-7 failed in all 84 settings tried (EP and Rxyz nodes, 1-128 load steps, 12-50 iterations per
+# step, full and modified Newton); to 2e-6 it converges (flexmb's residual: below 5e-7)
+TOL_FOURBAR_20 = 2e-6
 
 
 def chain(n: int, turn: float = np.radians(30.0), elements_per_leaf: int = 5) -> flexmb.Mechanism:
@@ -78,7 +82,8 @@ CASES = {
                                          lambda e, x: np.array([e.reactions["top"][0]]), "actuation force F [N]", TOL),
     "four-bar, d = 0.3 m, 20 el./leaf": (lambda: fourbar(20, displacement=0.3),
                                          lambda s: np.array([s.reaction("top")[0]]),
-                                         lambda e, x: np.array([e.reactions["top"][0]]), "actuation force F [N]", TOL),
+                                         lambda e, x: np.array([e.reactions["top"][0]]), "actuation force F [N]",
+                                         TOL_FOURBAR_20),
     "manipulator, joint case, 45 deg": (lambda: manipulator("joint", np.radians(45.0)), joint_moments,
                                         _manipulator_moments, "joint moments [N m]", TOL),
     "chain of 16 cross flexures, end turned 30 deg": (lambda: chain(16), lambda s: s.reaction("L16")[[0, 1, 5]],

@@ -2,7 +2,7 @@
 
 Maximise the end link's minimum rotational support stiffness over the end point's path of the
 joints turned -30 .. 30 deg, the reach and height at rest bounded, over 10 placement parameters
-(KSD-full in the loop).
+(KSD-reduced in the loop: its placements' gradients through KSD steps 1-3).
 Run: python examples/optimize_manipulator.py [--out figures] [--quick]   (--quick: 0 and +-30 deg only, COBYLA limited)
 """
 

@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import ModelError
 from .problem import PointLoads
 from .rotations import chain_rotation, logm_so3
 
-__all__ = ["boundary", "actuation_row"]
+__all__ = ["boundary", "actuation_row", "motion_paths"]
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
 
@@ -30,6 +31,8 @@ def boundary(mechanism, link_node: dict, links: dict | None = None):
             vals.extend([0.0] * ndof)
             continue
         for key, val in mechanism.prescribed(n).items():
+            if key == "path":  # the way there (`motion_paths`), not a DOF
+                continue
             if key == "rotation":
                 pres.extend(range(base + dim, base + ndof))
                 if np.ndim(val) == 2:  # a chain of rotations: its product, and the path to it
@@ -54,6 +57,29 @@ def boundary(mechanism, link_node: dict, links: dict | None = None):
     )
     dt = complex if any(np.iscomplexobj(x) for x in vals) else float  # complex: the complex step (flexmb.design)
     return pres[order], np.array(vals, dtype=dt)[order], loads, paths
+
+
+def motion_paths(mechanism, link_node: dict, links: dict | None = None) -> tuple:
+    """The curved prescribed motions of ``mechanism`` (`Mechanism.prescribe`'s ``path``) as
+    `flexmb.problem.StaticProblem` ``motion_paths``: (the link's translation DOFs, its waypoints)."""
+    links = mechanism.links if links is None else links
+    ndof = 3 if mechanism.dim == 2 else 6
+    out = []
+    for n in links:
+        motion = {} if links[n].fixed else mechanism.prescribed(n)
+        path = motion.get("path")
+        if path is None:
+            continue
+        end = [motion.get(k) for k in "xyz"[:mechanism.dim]]
+        if any(e is None for e in end):
+            raise ModelError(f"link {n!r}: a prescribed path needs all of {', '.join('xyz'[:mechanism.dim])} "
+                             f"prescribed (its end); given: {', '.join(k for k in motion if k in 'xyz') or 'none'}")
+        end = np.array(end)
+        if np.abs(path[-1] - end).max() > 1e-9 * max(np.abs(path).max(), 1e-300):
+            raise ModelError(f"link {n!r}: the prescribed path ends at {np.real(path[-1]).tolist()}, not at the "
+                             f"prescribed displacement {np.real(end).tolist()}")
+        out.append((link_node[n] * ndof + np.arange(mechanism.dim), np.array(path)))
+    return tuple(out)
 
 
 def actuation_row(mechanism, loads: PointLoads) -> tuple | None:

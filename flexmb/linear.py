@@ -208,7 +208,8 @@ class TangentSolver:
         the L D U's analysis (`_ldu_analyse`) waits for its first use. O(nnz), no global sort
         (`_maps`; `_maps_compiled` for large patterns); the pattern must be symmetric in structure
         and sorted (the assembled blocks are), else the sparse paths of this pattern go to SuperLU."""
-        self._pattern = (K.indptr.copy(), K.indices.copy())
+        # a read-only structure (a `flexmb.fe.assembly.PartitionedPattern`'s) cannot change: kept, not copied
+        self._pattern = tuple(a if not a.flags.writeable else a.copy() for a in (K.indptr, K.indices))
         self._seen = (K.indptr, K.indices)
         self._upper = self._ldl = self._ldu = None
         if not K.has_sorted_indices:  # flexmb's patterns are sorted; another matrix: SuperLU

@@ -40,6 +40,18 @@ def _frozen_unless_scalar(a):
     return a if np.ndim(a) == 0 else v.frozen(a)
 
 
+def _motion_path(where: str, path, dim: int) -> np.ndarray:
+    """``Mechanism.prescribe``'s ``path``, checked: finite numbers, shape (m, dim), m >= 1 (read-only copy)."""
+    try:
+        out = v.frozen(path)
+    except (TypeError, ValueError):
+        out = None
+    if out is None or out.ndim != 2 or out.shape[1] != dim or len(out) == 0 or not np.all(np.isfinite(out)):
+        raise ParameterError(f"{where}: path must be finite displacements of shape (m, {dim}) at the load "
+                             f"factors (1 - cos(k pi / m)) / 2, k = 1..m, m >= 1; got {np.shape(path) if out is None else out.shape}")
+    return out
+
+
 @attrs.frozen(eq=False)
 class Link:
     """A rigid link: a graph node. ``position`` [length] is its reference point in the undeformed state.
@@ -270,18 +282,27 @@ class Mechanism:
         in 3D a sequence (k, 3) of rotation vectors ``w_i`` whose product ``exp(w_1) ... exp(w_k)``
         is the link's orientation: a serial chain of joint rotations about axes fixed in the
         undeformed configuration (a manipulator link), which the load steps of the conventional
-        method follow as ``exp(lam w_1) ... exp(lam w_k)``. Unprescribed components are free.
-        Repeated calls update the given components. A point inside a joint (`add_joint_point`)
-        takes ``x``, ``y`` (``z``) and ``rotation`` (a vector in 3D) the same way.
+        method follow as ``exp(lam w_1) ... exp(lam w_k)``. ``path``: the way the displacements
+        get there, an array (m, dim) of the link's displacement at the load factors
+        `flexmb.problem.path_load_factors` (m) (all of x, y (z) prescribed, the last row, at 1,
+        equal to them), which the load steps of the conventional method's continuation follow
+        (`flexmb.problem.motion_path`; Fig. 18's control, ``step_control="paper"``, keeps the
+        straight line, as published): the same equilibrium, reached along a curve the mechanism
+        follows easily (the manipulator's location case: its kinematic path); a later x, y or z
+        without a path drops it. Unprescribed components are free. Repeated calls update the
+        given components. A point inside a joint (`add_joint_point`) takes ``x``, ``y`` (``z``) and
+        ``rotation`` (a vector in 3D) the same way.
         """
         if self._is_joint_point(name):
             return self._inside_motion(name, motion)
         lk = self.link(name)
         if lk.fixed:
             raise ModelError(f"link {name!r} is fixed; a prescribed motion on a fixed link is contradictory")
-        allowed = ("x", "y", "rotation") if self.dim == 2 else ("x", "y", "z", "rotation")
+        allowed = ("x", "y", "rotation", "path") if self.dim == 2 else ("x", "y", "z", "rotation", "path")
         where = f"link {name!r}"
         current = dict(self._prescribed.get(name, {}))
+        if "path" not in motion and any(k in motion for k in "xyz"):
+            current.pop("path", None)  # the way to the old displacement: the new one goes straight
         for key, val in motion.items():
             if key not in allowed:
                 raise ModelError(f"{where}: cannot prescribe {key!r}; valid components: {', '.join(allowed)}")
@@ -296,6 +317,8 @@ class Mechanism:
                         raise ParameterError(f"{where}: rotation is an empty sequence of rotation vectors")
                 else:
                     current[key] = v.frozen(v.vector(where, "rotation", val, 3))
+            elif key == "path":
+                current[key] = _motion_path(where, val, self.dim)
             else:
                 current[key] = v.finite(where, key, val)
         self._prescribed[name] = current

@@ -15,6 +15,7 @@ from .ksd.kinematics import solve_kinematics
 from .compiled import compiled_for
 from .ksd.reduced import reduced_mechanism
 from .mechanism import Mechanism
+from .problem import path_load_factors
 from .registry import joint_from_params
 from .rotations import expm_so3
 
@@ -133,14 +134,14 @@ def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None
         joint_params["elements_per_leaf"] = elements
     joint_params.setdefault("elements_per_leaf", 3)  # the mesh of the shipped database (not the joint's default)
     joint = joint_from_params(ThreeXInfinity, **joint_params)
+    return _manipulator(case, rotation, joint, _manipulator_geometry(geometry))
+
+
+def _manipulator(case: str, rotation: float, joint: ThreeXInfinity, g: dict) -> Mechanism:
+    """`manipulator` of checked arguments: ``joint`` at its three places, the geometry ``g``."""
     D0 = float(joint.interface_b(3)[2])
-    g = _manipulator_geometry(geometry)
-    ex, ey, ez = np.eye(3)
-    a2 = (D0 + g["post"]) * ez
-    b2 = a2 + D0 * ey
-    a3 = b2 + g["arm2"] * (np.cos(g["angle2"]) * ex + np.sin(g["angle2"]) * ez)
-    b3 = a3 + D0 * ey
-    end = b3 + g["arm3"] * (np.cos(g["angle3"]) * ex + np.sin(g["angle3"]) * ez)
+    (_, _, b2, end), (_, a2, a3) = _frames(D0, g)
+    ez = np.array([0.0, 0.0, 1.0])
     m = Mechanism(dim=3)
     m.add_link("ground", fixed=True)
     m.add_link("link1", position=D0 * ez)
@@ -158,9 +159,26 @@ def manipulator(case: str = "joint", rotation: float = 0.0, elements: int | None
         m.prescribe("link2", rotation=[z, y])
         m.prescribe("link3", rotation=[z, 2 * y])
     else:
-        point = _joint_case_end_point(rotation, joint_params, geometry, R, (a2, a3), end)
-        m.prescribe("link3", **dict(zip("xyz", point - end)))
+        point = _joint_case_end_point(rotation, joint, g, R, (a2, a3), end)
+        m.prescribe("link3", **dict(zip("xyz", point - end)), path=_kinematic_path(rotation, (a2, a3), end, point))
     return m
+
+
+#: waypoints of the location case's end-point path (`_kinematic_path`)
+PATH_POINTS = 8
+
+
+def _kinematic_path(rotation, origins, end, point) -> np.ndarray:
+    """The location case's end-point displacements [m] at the load factors
+    `flexmb.problem.path_load_factors` (`PATH_POINTS` of them): where the rigid links put it with
+    the joints turned by ``lam * rotation``, plus ``lam`` times the difference of ``point`` (the
+    trained kinematics) from the rigid end: the path the mechanism follows by turning its joints
+    (a straight line takes joint 3 to 56 deg and back at 45 deg)."""
+    rigid = lambda lam: _end_point(manipulator_rotations(lam * rotation), origins, end)  # noqa: E731
+    miss = point - rigid(1.0)
+    out = np.array([rigid(lam) - end + lam * miss for lam in path_load_factors(PATH_POINTS)])
+    out[-1] = point - end
+    return out
 
 
 def _manipulator_geometry(geometry: dict | None) -> dict:
@@ -176,17 +194,89 @@ def _manipulator_geometry(geometry: dict | None) -> dict:
     return g
 
 
-def _joint_case_end_point(rotation, joint_params, geometry, R, origins, end) -> np.ndarray:
+#: The joint case's kinematics per (rotation, joint) (`_joint_case_kinematics`), at most
+#: `JOINT_CASE_KEPT` entries, the oldest dropped first.
+_JOINT_CASE: dict = {}
+JOINT_CASE_KEPT = 64
+
+
+def _joint_case_end_point(rotation, joint, g, R, origins, end) -> np.ndarray:
     """Where the joint case puts the end point [m]: its KSD kinematics (joints turned by
     ``rotation`` with their trained offsets, Sec. 2.1), which the joint case's equilibrium keeps
-    (no unintended load); rigid-link kinematics about the joint axes if the joint is untrained."""
-    m = manipulator("joint", rotation, geometry=geometry, **joint_params)
+    (no unintended load); rigid-link kinematics about the joint axes if the joint is untrained.
+
+    The kinematics is solved once per ``rotation`` and joint, on `MANIPULATOR`'s geometry (its end
+    point returned as solved there). Each joint's relative motion (`_relative_motions`) does not
+    depend on where the joints are placed (the links are rigid, the joints' frames keep their
+    orientations and the links' rotations are prescribed), so other placements chain the same
+    motions through their own geometry (`_chained_end_point`)."""
+    kept = _joint_case_kinematics(rotation, joint)
+    if kept is None:
+        return _end_point(R, origins, end)
+    point, motions = kept
+    if all(g[k] == MANIPULATOR[k] for k in MANIPULATOR):
+        return point.copy()
+    return _chained_end_point(motions, _frames(float(joint.interface_b(3)[2]), g))
+
+
+def _joint_case_kinematics(rotation, joint):
+    """``(end point, relative motions)`` of the joint case at ``rotation`` on `MANIPULATOR`'s
+    geometry (KSD kinematics), None for an untrained joint; kept per (rotation, joint) while the
+    joint databases read stay the same (`flexmb.ksd.reduced.ReducedMechanism.current`)."""
+    key = (float(rotation), joint)
+    kept = _JOINT_CASE.get(key)
+    if kept is not None and kept[2].current():
+        return kept[:2]
+    m = _manipulator("joint", rotation, joint, MANIPULATOR)
     try:  # the joint case's compiled structure and KSD set-up kept from the last call (flexmb.compiled)
         compiled = compiled_for(m)
-        poses = solve_kinematics(reduced_mechanism(compiled))[0]
+        red = reduced_mechanism(compiled)
+        poses = solve_kinematics(red)[0]
     except DatabaseError:
-        return _end_point(R, origins, end)
-    return poses.x[compiled.link_node["link3"]]
+        return None
+    frames = _frames(float(joint.interface_b(3)[2]), MANIPULATOR)
+    nodes = [compiled.link_node[name] for name in ("ground", "link1", "link2", "link3")]
+    point = poses.x[nodes[3]].copy()
+    while len(_JOINT_CASE) >= JOINT_CASE_KEPT:
+        del _JOINT_CASE[next(iter(_JOINT_CASE))]
+    _JOINT_CASE[key] = point, _relative_motions(poses.x[nodes], poses.R[nodes], frames), red
+    return point, _JOINT_CASE[key][1]
+
+
+def _frames(D0: float, g: dict) -> tuple[list, list]:
+    """Reference points of links ground, 1, 2, 3 and origins (node A) of joints 1-3 [m] for the
+    geometry ``g`` (`MANIPULATOR`'s entries) and the joint's height ``D0``."""
+    ex, ey, ez = np.eye(3)
+    a2 = (D0 + g["post"]) * ez
+    b2 = a2 + D0 * ey
+    a3 = b2 + g["arm2"] * (np.cos(g["angle2"]) * ex + np.sin(g["angle2"]) * ez)
+    b3 = a3 + D0 * ey
+    end = b3 + g["arm3"] * (np.cos(g["angle3"]) * ex + np.sin(g["angle3"]) * ez)
+    return [np.zeros(3), D0 * ez, b2, end], [np.zeros(3), a2, a3]
+
+
+def _relative_motions(x, R, frames) -> list:
+    """Per joint j (1-3), ``(S, d)``: link j's motion relative to link j - 1 in link j - 1's
+    undeformed frame, ``P -> o + S (P - o) + d`` about the joint's origin ``o``, from the links'
+    poses ``x`` (4, 3), ``R`` (4, 3, 3) (ground first)."""
+    X, origins = frames
+    out = []
+    for k, o in enumerate(origins, start=1):
+        S = R[k - 1].T @ R[k]
+        d = X[k - 1] + R[k - 1].T @ (x[k] + R[k] @ (o - X[k]) - x[k - 1]) - o
+        out.append((S, d))
+    return out
+
+
+def _chained_end_point(motions, frames) -> np.ndarray:
+    """Link 3's reference point [m] moved by the joints' relative ``motions`` chained from the
+    ground through the geometry ``frames`` (`_frames`)."""
+    X, origins = frames
+    x, R = X[0], np.eye(3)
+    for k, (o, (S, d)) in enumerate(zip(origins, motions), start=1):
+        x = x + R @ (o + d + S @ (X[k] - o) - X[k - 1])
+        R = R @ S
+    return x
 
 
 def _end_point(R, origins, end) -> np.ndarray:

@@ -40,6 +40,37 @@ class PointLoads:
     moment: np.ndarray
 
 
+def path_load_factors(m: int) -> np.ndarray:
+    """The load factors ``(1 - cos(k pi / m)) / 2``, k = 1..m, of a curved prescribed motion's
+    waypoints (`motion_path`): Chebyshev-Lobatto points, where the interpolating polynomial of
+    any degree stays close to a smooth curve."""
+    return 0.5 * (1.0 - np.cos(np.pi * np.arange(1, m + 1) / m))
+
+
+class _Curve:
+    """The offset of a curved prescribed motion from its straight line (`motion_path`)."""
+
+    def __init__(self, coef: np.ndarray):
+        self.coef, self.rate = coef, np.polynomial.chebyshev.chebder(coef) * 2.0  # d/dlam = 2 d/ds
+
+    def __call__(self, lam: float, nu: int = 0) -> np.ndarray:
+        return np.polynomial.chebyshev.chebval(2.0 * lam - 1.0, self.rate if nu else self.coef)
+
+
+def motion_path(points, end: np.ndarray) -> _Curve:
+    """The offset ``p(lam) - lam * end`` of a curved prescribed motion from its straight line, as a
+    function ``offset(lam, nu=0)`` (``nu=1``: its derivative in the load factor): ``p`` the
+    polynomial through zero at 0 and ``points`` (m, k) at `path_load_factors` (the last at 1); with
+    ``end`` (k,) the last point, the offset is zero at 0 and 1. Analytic in ``lam``: the
+    continuation's extrapolation follows it (a cubic spline's jumps in the third derivative cost the
+    manipulator's location case twice the iterations)."""
+    points = np.asarray(points)
+    m = len(points)
+    lam = np.concatenate([[0.0], path_load_factors(m)])
+    pts = np.concatenate([np.zeros((1, points.shape[1]), dtype=points.dtype), points]) - lam[:, None] * end
+    return _Curve(np.polynomial.chebyshev.chebfit(2.0 * lam - 1.0, pts, m))
+
+
 class BoundaryConditions:
     """Prescribed DOFs (sorted indices), their values at load factor 1 and the free DOFs."""
 
@@ -71,14 +102,22 @@ class StaticProblem(BoundaryConditions):
         DOFs prescribed or none, so ``R = exp(lam * value)`` exactly).
     loads
         The applied point loads at load factor 1.
+    rotation_paths
+        (rotation DOFs (3,), rotation vectors (k, 3)) of nodes whose prescribed orientation is a
+        chain ``exp(w_1) ... exp(w_k)``, followed as ``exp(lam w_1) ... exp(lam w_k)``.
+    motion_paths
+        (translation DOFs (k,), waypoints (m, k)) of prescribed displacements that follow a curve
+        instead of the straight line ``lam * values``: the displacements at the load factors
+        `path_load_factors` (the last, 1, equal to their ``values``), joined to zero at 0 by the
+        polynomial through them (`motion_path`); the equilibrium at load factor 1 is the same, the
+        steps between differ.
     """
 
     def __init__(self, model: FEModel, prescribed: np.ndarray, values: np.ndarray, loads: PointLoads,
-                 rotation_paths=()):
+                 rotation_paths=(), motion_paths=()):
         self.model = model
-        #: (rotation DOFs (3,), rotation vectors (k, 3)) of nodes whose prescribed orientation is a
-        #: chain ``exp(w_1) ... exp(w_k)``, followed as ``exp(lam w_1) ... exp(lam w_k)``
         self.rotation_paths = tuple(rotation_paths)
+        self.motion_paths = tuple(motion_paths)
         super().__init__(model.n_dofs, prescribed, values)
         n = model.n_dofs
         nf, npres = len(self.free), len(self.prescribed)
@@ -95,6 +134,9 @@ class StaticProblem(BoundaryConditions):
         self._offset = None
         #: (prescribed slots (3,), w_0, w_1) of 3D orientations followed as exp(w_0 + lam (w_1 - w_0))
         self._rotation_lines = ()
+        #: (prescribed slots (k,), the curve's offset from the straight line (a function of lam))
+        self._curves = tuple((np.searchsorted(self.prescribed, dofs), motion_path(points, self.values[
+            np.searchsorted(self.prescribed, dofs)])) for dofs, points in self.motion_paths)
 
     @functools.cached_property
     def _pattern(self) -> PartitionedPattern:
@@ -159,6 +201,7 @@ class StaticProblem(BoundaryConditions):
         out.values = np.asarray(values, dtype=float)
         out._offset = None
         out._rotation_lines = ()
+        out.motion_paths, out._curves = (), ()  # another motion: the straight line
         if start is None:
             return out
         m = self.model
@@ -250,7 +293,28 @@ class StaticProblem(BoundaryConditions):
                 du[np.searchsorted(self.prescribed, dofs)] = logm_so3(step)
         for slots, w0, w1 in self._rotation_lines:
             du[slots] = logm_so3(expm_so3(w0 + (lam + dlam) * (w1 - w0)) @ expm_so3(w0 + lam * (w1 - w0)).T)
+        if self._motion_scale:
+            for slots, curve in self._curves:
+                du[slots] += curve(lam + dlam) - curve(lam)
         return du
+
+    def straight(self) -> StaticProblem:
+        """This problem with its prescribed motion on straight lines (`motion_paths` dropped: the
+        same equilibrium at load factor 1; Fig. 18's control steps along them, as published)."""
+        if not self._curves:
+            return self
+        out = copy.copy(self)
+        out.motion_paths, out._curves = (), ()
+        return out
+
+    def curve_rate(self, lam: float) -> np.ndarray:
+        """The derivative in the load factor of the prescribed values' offset from the straight line
+        ``lam * values`` (`motion_paths`; zero without them), (n_p,)."""
+        out = np.zeros(len(self.prescribed), dtype=np.result_type(self.values, float))
+        if self._motion_scale:
+            for slots, curve in self._curves:
+                out[slots] += curve(lam, 1)
+        return out
 
     def path_rate(self, state: State, lam: float, r: np.ndarray, K_ff, K_fp, h: float) -> np.ndarray:
         """The equilibrium path's derivative in the load factor at ``state`` (n_dofs,; the

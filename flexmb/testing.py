@@ -311,7 +311,8 @@ def _scales(joint, dim: int) -> tuple[float, float]:
     its softest axis: a tolerance on the residual's norm must resolve both) and its roundoff floor."""
     C0, floor = _rest_compliance(joint, dim)
     d = np.abs(np.diag(C0))
-    return float(min(joint_size(joint, dim) / d[:dim].max(), 1.0 / d[dim:].max())), float(floor)
+    with np.errstate(divide="ignore"):  # an ideal joint's rigid directions (compliance 0): infinite scale, not the min
+        return float(min(joint_size(joint, dim) / d[:dim].max(), 1.0 / d[dim:].max())), float(floor)
 
 
 def check_rest(joint, dim: int) -> None:

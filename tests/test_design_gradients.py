@@ -189,15 +189,14 @@ def test_unknown_non_finite_and_ignored_parameters_are_refused():
         evaluate(_pivot(2), {**PIVOT, "unused": 1.0}, R.mass())
 
 
-def test_ksd_reduced_refuses_all_but_loads_naming_each_parameter_s_kind():
-    # KSD-reduced's gradients follow the loads only (tests/test_design_reduced.py)
+def test_ksd_reduced_refuses_joints_and_masses_naming_each_parameter_s_kind():
+    # KSD-reduced's gradients follow placements, loads and prescribed motion (tests/test_design_reduced.py)
     with pytest.raises(UnsupportedStrategyError, match="ksd-reduced") as info:
         evaluate(_pivot(2), PIVOT, R.reaction("B", "rotation"), bounds=PIVOT_BOUNDS, method="ksd-reduced")
     text = str(info.value)
-    for name, kind in (("t", "joint dimension or material"), ("E", "joint dimension or material"),
-                       ("x", "placement"), ("m", "mass")):
+    for name, kind in (("t", "joint dimension or material"), ("E", "joint dimension or material"), ("m", "mass")):
         assert f"'{name}' ({kind})" in text, text
-    assert "'F'" not in text
+    assert "'F'" not in text and "'x'" not in text
 
 
 def test_the_closed_form_strategy_is_refused_naming_it():
@@ -234,7 +233,9 @@ def test_a_configuration_shares_the_design_rates_and_gives_the_same_gradient():
         ref = evaluate(turned, PIVOT, resp, bounds=PIVOT_BOUNDS, **TIGHT)
         np.testing.assert_allclose(ev.values, ref.values, rtol=1e-12)
         np.testing.assert_allclose(ev.jacobian, ref.jacobian, rtol=1e-8, atol=1e-12 * np.abs(ref.jacobian).max())
-    assert builds == 2  # the second configuration: its solve and its fresh compile, not 2 per parameter again
+    # the second configuration: its solve's build only (its configured compile copies the design's kept
+    # build, DesignPoint._configured), not 2 per parameter again
+    assert builds == 1
 
 
 def test_ideal_hinges_are_refused_by_name():

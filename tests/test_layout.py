@@ -24,7 +24,7 @@ LAYERS = [
     ("foundation", ["flexmb._version", "flexmb._warnings", "flexmb.jit", "flexmb.errors", "flexmb.rotations", "flexmb._validate",
                     "flexmb.units", "flexmb.materials", "flexmb.sections", "flexmb.protocols", "flexmb._timing"]),
     ("elements and joints", ["flexmb.fe", "flexmb.fe.beam2d", "flexmb.fe.beam3d", "flexmb.fe.beam2d_jit",
-                             "flexmb.fe.beam3d_jit", "flexmb.fe.assembly_jit", "flexmb.fe.assembly", "flexmb.fe.model_jit", "flexmb.fe.model", "flexmb.fe.stress_jit", "flexmb.fe.stress",
+                             "flexmb.fe.beam3d_jit", "flexmb.fe.beam_step_jit", "flexmb.fe.assembly_jit", "flexmb.fe.assembly", "flexmb.fe.model_jit", "flexmb.fe.model", "flexmb.fe.stress_jit", "flexmb.fe.stress",
                              "flexmb.fe.mass", "flexmb.fe.ideal", "flexmb.fe.section_geometry", "flexmb.closed_form.flexures", "flexmb.closed_form.linkage_jit",
                              "flexmb.joints",
                              "flexmb.joints.*", "flexmb.registry", "flexmb.reference"]),

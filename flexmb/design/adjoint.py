@@ -19,10 +19,11 @@ import functools
 
 import numpy as np
 
+from .. import jit
 from ..errors import ConvergenceError, ModelError, UnsupportedStrategyError
 from ..linearisation import full_tangent
 from ..rotations import expm_so3, skew
-from .partials import contract, mass_blocks, residual_rates, tangent_blocks
+from .partials import contract, mass_blocks, mass_forms, residual_rates, tangent_blocks
 
 __all__ = ["Sensitivity", "left_jacobian", "full_model", "DENSE_BELOW", "STRATEGIES"]
 
@@ -75,6 +76,9 @@ class Sensitivity:
         self.names = rates.names
         self.free, self.prescribed = self.problem.free, self.problem.prescribed
         self._blocks = {}  # the tangents' and the mass's element blocks of dA/dp (tangent_forms, mass_forms)
+        #: the residual rates' element rows (`flexmb.design.partials.residual_rates`' ``keep``): their
+        #: directions, elements and complex deformations, stresses and lengths, read by the stress response
+        self.element_rows = {}
 
     @functools.cached_property
     def K(self):
@@ -120,7 +124,7 @@ class Sensitivity:
     @functools.cached_property
     def residual_rates(self) -> np.ndarray:
         """``dr/dN N'`` (n_dofs, K) at the converged state held fixed."""
-        return residual_rates(self.problem, self.state, self.rates, lam=self.lam)
+        return residual_rates(self.problem, self.state, self.rates, lam=self.lam, keep=self.element_rows)
 
     @functools.cached_property
     def prescribed_rates(self) -> np.ndarray:
@@ -183,7 +187,11 @@ class Sensitivity:
         return contract(self._blocks[key], len(self.names), V, V if W is None else W)
 
     def mass_forms(self, V: np.ndarray, W: np.ndarray | None = None) -> np.ndarray:
-        """``V^T (dM/dp_k) W`` (K, a, b): the consistent mass's total change with each parameter."""
+        """``V^T (dM/dp_k) W`` (K, a, b): the consistent mass's total change with each parameter (the
+        compiled kernels contract each row as they go, `flexmb.design.partials.mass_forms`; the numpy
+        path keeps the blocks)."""
+        if jit.enabled():
+            return mass_forms(self.problem, self.state, self.rates, self.state_rates, V, V if W is None else W)
         if "mass" not in self._blocks:
             self._blocks["mass"] = mass_blocks(self.problem, self.state, self.rates, self.state_rates)
         return contract(self._blocks["mass"], len(self.names), V, V if W is None else W)

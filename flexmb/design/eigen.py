@@ -29,7 +29,7 @@ from ..errors import ModelError, ParameterError
 from ..linearised import buckling as _buckling
 from ..linearised import compliance as _compliance
 from ..modal import held_dofs, modes
-from ..rotations import skew
+from ..rotations import cross, skew
 from .base import component_index
 
 __all__ = ["frequency", "buckling", "compliance", "CLUSTER"]
@@ -70,6 +70,8 @@ def _cluster_derivatives(forms_A, forms_B, Phi, Psi, normal, lam) -> np.ndarray:
     """(K, c) derivatives of a cluster's eigenvalues per parameter, sorted ascending: eigenvalues of
     ``N^-1 Psi^T (dA - lam dB) Phi`` with ``N = Psi^T normal Phi`` (forms: (K, c, c))."""
     Nm = Psi.T @ normal
+    if Nm.shape == (1, 1):  # a simple eigenvalue: the quotients at once
+        return ((forms_A - lam * forms_B)[:, 0, 0] / Nm[0, 0]).real.reshape(len(forms_A), 1)
     out = []
     for dA, dB in zip(forms_A, forms_B):
         G = np.linalg.solve(Nm, dA - lam * dB)
@@ -79,6 +81,23 @@ def _cluster_derivatives(forms_A, forms_B, Phi, Psi, normal, lam) -> np.ndarray:
         mu = np.linalg.eigvals(G)
         out.append(np.sort(mu.real))
     return np.array(out).reshape(len(forms_A), -1)
+
+
+def _mass_times(sens, X: np.ndarray) -> np.ndarray:
+    """``M X`` (n_dofs, c) with the consistent mass at the configuration (`flexmb.fe.mass.mass_matrix`)
+    from its element and rigid-body blocks (the local mass kept with the model numbers: nothing of
+    the model's size assembled)."""
+    from ..fe.mass import element_mass, rigid_mass
+
+    model = sens.model
+    out = np.zeros_like(X)
+    parts = [(model.element_dofs, element_mass(model, sens.state, sens.rates.compiled_numbers("local_mass")))]
+    rigid = model.rigid_masses
+    if rigid is not None and len(rigid.node):
+        parts.append((model.node_dofs[rigid.node], rigid_mass(model, sens.state, rigid)))
+    for dofs, blocks in parts:
+        np.add.at(out, dofs, np.einsum("eij,ejc->eic", blocks, X[dofs]))
+    return out
 
 
 @attrs.frozen
@@ -123,16 +142,14 @@ class _Frequency:
             n = min(2 * n, nf)
 
     def gradient(self, sens, method: str = "auto") -> np.ndarray:
-        from ..fe.mass import mass_matrix
-
         m, idx = self._modes(sens.solution)
         lam = float(np.mean(m.eigenvalues[idx]))
         model = sens.model
         Phi = np.zeros((model.n_dofs, len(idx)))
         Phi[: model.n_node_dofs] = m.shapes[idx].reshape(len(idx), -1).T
         Psi = self._left(sens, m, Phi, lam)
-        M = mass_matrix(model, sens.state, model.rigid_masses)
-        d = _cluster_derivatives(sens.tangent_forms(Psi, Phi), sens.mass_forms(Psi, Phi), Phi, Psi, M @ Phi, lam)
+        d = _cluster_derivatives(sens.tangent_forms(Psi, Phi), sens.mass_forms(Psi, Phi), Phi, Psi,
+                                 _mass_times(sens, Phi), lam)
         dlam = d.mean(axis=1) if self.cluster == "mean" else d[:, self.k - 1 - idx[0]]
         return dlam / (4 * np.pi * np.sqrt(abs(lam)))
 
@@ -277,7 +294,7 @@ class _Compliance:
         R = model.rotation_matrices(sens.state)[node]
         d = R @ s
         w = sens.state_rates[dofs[dim:]].T  # (K, nrot): the node's spin (2D: angle) per parameter
-        dd = (np.cross(w, d) if dim == 3 else w * np.array([-d[1], d[0]])) + ds @ R.T
+        dd = (cross(w, d) if dim == 3 else w * np.array([-d[1], d[0]])) + ds @ R.T
         T, dT = model._lever(d[None])[0], model._lever(dd) - np.eye(nd)  # the lever is affine in the offset
         C = T @ C_node @ T.T
         dC = dT @ C_node @ T.T + T @ dC_node @ T.T + T @ C_node @ np.swapaxes(dT, 1, 2)

@@ -123,6 +123,12 @@ class _Configured(ModelRates):
 
     def _combined(self, build, k: int, base: dict) -> dict:
         """``{field: rate}`` of the boundary fields of parameter ``k``'s ``build`` after ``configure``."""
+        from .builds import COMPLEX_STEP
+
+        if build.method == COMPLEX_STEP:  # one mechanism: its imaginary parts over the step
+            ((_, mech, _),) = build.points
+            out = self._configured(mech, k, base)
+            return {f: (np.imag(v) / build.h if np.iscomplexobj(v) else np.zeros(np.shape(v))) for f, v in out.items()}
         seen = {}
 
         def read(mech, f):
@@ -197,6 +203,7 @@ class DesignPoint:
         self.design = as_design(build, p, bounds)
         self.names = self.design.names
         self._rates = None
+        self._built = None  # one build of the design, copied for each configuration (`_configured`)
         self.rates_time = 0.0
 
     def rates(self, compiled) -> ModelRates:
@@ -213,6 +220,15 @@ class DesignPoint:
         mech = self.design.mechanism()
         if configure is not None:
             configure(mech)
+        return mech
+
+    def _configured(self, configure):
+        """The design's mechanism changed by ``configure``: a copy (`_copy_mechanism`) of one build of
+        the design kept for this (the build is a function of ``p``: a copy is another build)."""
+        if self._built is None:
+            self._built = self.design.mechanism()
+        mech = _copy_mechanism(self._built)
+        configure(mech)
         return mech
 
     def evaluate(self, responses, *, configure=None, solution=None, method: str = "conventional",
@@ -250,7 +266,7 @@ class DesignPoint:
         # solution's problem holds increments of its prescribed values)
         rates = self.rates(None)
         if configure is not None:
-            rates = _Configured(rates, configure, self.mechanism(configure).compile("fe_model"))
+            rates = _Configured(rates, configure, self._configured(configure).compile("fe_model"))
         t3 = time.perf_counter()
         _same_model(rates.compiled, solution, self.design.values)
         sens = _sensitivity(solution, rates, items)

@@ -1,12 +1,14 @@
 """Partial derivatives of the finite-element residual, tangent and mass with respect to the model's
-numbers and the state, by complex step through the numpy element kernels.
+numbers and the state, by complex step through the element kernels.
 
 ``f(x + i h dx) = f(x) + i h f'(x) dx + O(h^2)``: with ``h = 1e-30`` the imaginary part divided by
 ``h`` is the directional derivative to round-off, without the cancellation of a difference (Squire
-& Trapp 1998; Martins, Sturdza & Alonso 2003). The numpy twins of the beam kernels
-(`flexmb.fe.beam2d`, `flexmb.fe.beam3d`) carry complex numbers (no modulus, no comparison on the
-perturbed values); the numba kernels stay float64. A direction is evaluated only on the
-elements and load rows it changes, and all directions in one batched kernel call.
+& Trapp 1998; Martins, Sturdza & Alonso 2003). With the numba kernels on (`flexmb.jit`) the beams'
+rows run compiled (`flexmb.fe.beam_step_jit`: the moved ends, the element, the levers in one pass per
+row; the float kernels stay float64); otherwise the numpy twins of the beam kernels
+(`flexmb.fe.beam2d`, `flexmb.fe.beam3d`, `flexmb.fe.mass`) carry the complex numbers (no modulus,
+no comparison on the perturbed values). Both give the same numbers. A direction is evaluated only
+on the elements and load rows it changes, and all directions in one batched kernel call.
 
 Directions: ``rates`` holds ``d(field)/dp_k`` of `flexmb.design.parameters.MODEL_FIELDS` (K, ...);
 state directions ``du`` (n_dofs, K) are increments in the model's DOFs (translations, 2D angles,
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import jit
 from ..fe import beam2d, beam3d
 from ..rotations import rot2, skew
 
@@ -42,19 +45,36 @@ def _element_rows(model, rates, du) -> tuple[np.ndarray, np.ndarray]:
 def _element_hits(model, rates, du) -> np.ndarray:
     """(K, E) whether direction k changes element e (`_element_rows`)."""
     el = model.elements
-    K, E = rates.rate("L0").shape[0], len(el.L0)
-    hit = np.zeros((K, E), dtype=bool)
-    for field in ("L0", "S", "ny0", "nz0", "alpha0"):
-        r = rates.rate(field)
-        if r.size:
-            hit |= _changed(r)
-    offset = _changed(rates.rate("point_offset"))  # (K, P)
-    hit |= offset[:, el.ends[:, 0]] | offset[:, el.ends[:, 1]]
+    K = rates.rate("L0").shape[0]
+    hit = _kept(rates, "element hits", lambda: _number_hits(model, rates)).copy()
     if du is not None:
         moving = np.any(du[: model.n_node_dofs].T.reshape(K, model.n_nodes, model.ndof) != 0.0, axis=2)
         masters = model.point_master[el.ends]
         hit |= moving[:, masters[:, 0]] | moving[:, masters[:, 1]]
     return hit
+
+
+def _number_hits(model, rates) -> np.ndarray:
+    """(K, E) whether parameter k changes element e's numbers or an end's offset."""
+    el = model.elements
+    hit = np.zeros((rates.rate("L0").shape[0], len(el.L0)), dtype=bool)
+    for field in ("L0", "S", "ny0", "nz0", "alpha0"):
+        r = rates.rate(field)
+        if r.size:
+            hit |= _changed(r)
+    offset = _changed(rates.rate("point_offset"))  # (K, P)
+    return hit | offset[:, el.ends[:, 0]] | offset[:, el.ends[:, 1]]
+
+
+def _kept(rates, key: str, compute):
+    """``compute()`` kept in the design's shared cache of ``rates`` (`ModelRates.shared`: what does not
+    depend on the configuration), or computed where the rates have none."""
+    shared = getattr(rates, "shared", None)
+    if shared is None:
+        return compute()
+    if key not in shared:
+        shared[key] = compute()
+    return shared[key]
 
 
 def _complex(value: np.ndarray, rate: np.ndarray | None) -> np.ndarray:
@@ -85,13 +105,16 @@ def _lever(d: np.ndarray, ndof: int) -> np.ndarray:
 
 
 def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool = False, du_end=None,
-              stresses: bool = False):
+              stresses: bool = False, keep: dict | None = None):
     """Complex element forces (and tangents) in master DOFs of elements ``rows`` under directions
     ``cols`` (one pair per batch row) of the model numbers' ``rates`` (None: the numbers held) and
     of the state ``du`` (n_dofs, K), or ``du_end`` ((B, ndof) per end) given per row. ``stresses``:
-    the complex deformations and generalised stresses ``(e, sigma)`` instead."""
+    the complex deformations, generalised stresses and lengths ``(e, sigma, L0)`` instead; ``keep``: a
+    dict that receives them beside the forces (``"e"``, ``"sigma"``, ``"L0"``)."""
     el, dim, nd = model.elements, model.dim, model.ndof
     masters = model.point_master[el.ends[rows]]  # (B, 2)
+    if du_end is None and jit.enabled():
+        return _compiled_rows(model, state, rates, cols, rows, du, tangent, material, stresses, keep)
     if du_end is None:
         du_end = [None, None]
         if du is not None:
@@ -121,6 +144,8 @@ def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool
         F, K, e, sig = beam3d.numpy_internal_force_and_tangent(ends[0][0], ends[1][0], ends[0][1], ends[1][1],
                                                                data["ny0"], data["nz0"], data["L0"], data["S"],
                                                                tangent=tangent, geometric_stress=geometric)
+    if keep is not None:
+        keep.update(e=e, sigma=sig, L0=data["L0"])
     if stresses:
         return e, sig, data["L0"]
     d = np.stack([ends[0][2], ends[1][2]], axis=1).reshape(-1, dim)
@@ -138,6 +163,53 @@ def _elements(model, state, rates, cols, rows, du, tangent: bool, material: bool
     K[:, dim:nd, dim:nd] += G[:, 0]
     K[:, nd + dim:, nd + dim:] += G[:, 1]
     return Fm, K
+
+
+def _rate_rows(rates, field: str, cols, index, shape) -> np.ndarray:
+    """The rates of ``field`` at ``index`` per batch row (zeros where the field does not move)."""
+    r = None if rates is None else rates.rate(field)
+    if r is None or not r.size:
+        return np.zeros(shape)
+    return r[(cols,) + index] if isinstance(index, tuple) else r[cols, index]
+
+
+def _compiled_rows(model, state, rates, cols, rows, du, tangent: bool, material: bool, stresses: bool,
+                   keep: dict | None = None):
+    """`_elements` by the compiled rows of `flexmb.fe.beam_step_jit` (one pass per row: the complex
+    state, offsets, element, levers): the same numbers as the numpy path."""
+    from ..fe import beam_step_jit
+
+    el, dim, nd = model.elements, model.dim, model.ndof
+    ends = el.ends[rows]
+    masters = model.point_master[ends]  # (B, 2)
+    B = len(rows)
+    if du is None:
+        du_end = np.zeros((B, 2, nd))
+    else:
+        nodal = du[: model.n_node_dofs].reshape(model.n_nodes, nd, -1)
+        du_end = np.stack([nodal[masters[:, i], :, cols] for i in range(2)], axis=1)
+    s = model.point_offset[ends]
+    ds = _rate_rows(rates, "point_offset", cols[:, None], ends, s.shape)
+    L0, S = el.L0[rows], el.S[rows]
+    data = [L0, _rate_rows(rates, "L0", cols, rows, L0.shape), S, _rate_rows(rates, "S", cols, rows, S.shape)]
+    x = state.positions[masters]
+    if dim == 2:
+        a0 = np.asarray(el.alpha0, dtype=float)[rows]
+        F, K, e, sig = beam_step_jit.rows_2d(x, state.rotations[masters], du_end, s, ds, a0,
+                                             _rate_rows(rates, "alpha0", cols, rows, a0.shape), *data, H, tangent,
+                                             material)
+    else:
+        frames = []
+        for field in ("ny0", "nz0"):
+            v = np.asarray(getattr(el, field), dtype=float)[rows]
+            frames += [v, _rate_rows(rates, field, cols, rows, v.shape)]
+        F, K, e, sig = beam_step_jit.rows_3d(x, state.rotations[masters], du_end, s, ds, *frames, *data, H, tangent,
+                                             material)
+    if keep is not None:
+        keep.update(e=e, sigma=sig, L0=_complex(L0, data[1]))
+    if stresses:
+        return e, sig, _complex(L0, data[1])
+    return F, K
 
 
 def _load_rows(problem, rates, du):
@@ -168,16 +240,20 @@ def _loads(problem, state, rates, cols, rows, du, lam: float):
     return m.transfer(wrench, d)
 
 
-def residual_rates(problem, state, rates, du: np.ndarray | None = None, lam: float = 1.0) -> np.ndarray:
+def residual_rates(problem, state, rates, du: np.ndarray | None = None, lam: float = 1.0,
+                   keep: dict | None = None) -> np.ndarray:
     """``dr/dp_k`` (n_dofs, K) of the residual ``f_int - lam f_ext`` on all DOFs at ``state`` held
     fixed, through the model numbers' ``rates`` (and, with ``du`` (n_dofs, K), along the state's
-    directions too)."""
+    directions too). ``keep``: a dict that receives the element rows' directions and elements
+    (``"cols"``, ``"rows"``) and their complex deformations, stresses and lengths (`_elements`)."""
     m = problem.model
     K = rates.rate("L0").shape[0]
     out = np.zeros((m.n_dofs, K))
     cols, rows = _element_rows(m, rates, du)
+    if keep is not None:
+        keep.update(cols=cols, rows=rows)
     if len(rows):
-        Fm, _ = _elements(m, state, rates, cols, rows, du, tangent=False)
+        Fm, _ = _elements(m, state, rates, cols, rows, du, tangent=False, keep=keep)
         np.add.at(out, (m.element_dofs[rows], cols[:, None]), Fm.imag / H)
     cols, rows = _load_rows(problem, rates, du)
     if len(rows):
@@ -257,15 +333,33 @@ def _row_state(model, state, nodes, du_rows):
 
 
 def mass_forms(problem, state, rates, du: np.ndarray, V: np.ndarray, W: np.ndarray) -> np.ndarray:
-    """``V^T dM_k W`` (K, a, b) (`mass_blocks` contracted)."""
-    return contract(mass_blocks(problem, state, rates, du), du.shape[1], V, W)
+    """``V^T dM_k W`` (K, a, b) (`mass_blocks` contracted; with the compiled kernels the beams' rows
+    give their forms directly, `flexmb.fe.beam_step_jit.mass_rows_3d`, no block formed)."""
+    K = du.shape[1]
+    if not jit.enabled():
+        return contract(mass_blocks(problem, state, rates, du), K, V, W)
+    m = problem.model
+    out = contract(mass_blocks(problem, state, rates, du, elements=False), K, V, W)
+    cols, rows = _mass_rows(m, rates, du)
+    if len(rows):
+        dofs = m.element_dofs[rows]
+        nodal = du[: m.n_node_dofs].reshape(m.n_nodes, m.ndof, -1)
+        _sum_rows(out, cols, _compiled_mass_rows(m, state, rates, cols, rows, nodal, V[dofs], W[dofs]))
+    return out
 
 
-def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
+def _mass_rows(model, rates, du):
+    """The (direction, element) pairs whose mass a direction changes (local mass, `_element_hits`)."""
+    return np.nonzero(_kept(rates, "local mass hits", lambda: _changed(rates.rate("local_mass")))
+                      | _element_hits(model, rates, du))
+
+
+def mass_blocks(problem, state, rates, du: np.ndarray, elements: bool = True) -> list:
     """The directional derivatives ``dM_k`` of the consistent mass at the configuration
     (`flexmb.fe.mass.mass_matrix`: beams in their co-rotated frames, the links' rigid bodies) along
     the model numbers' ``rates`` (local mass, offsets, frames, rigid masses) and the state's
-    directions ``du`` (n_dofs, K), as element blocks (`tangent_blocks`)."""
+    directions ``du`` (n_dofs, K), as element blocks (`tangent_blocks`); ``elements=False``: the
+    rigid bodies' alone."""
     import attrs
 
     from ..fe.mass import RigidMasses, element_mass, rigid_mass
@@ -274,10 +368,11 @@ def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
     K, nd = du.shape[1], m.ndof
     out = []
     el = m.elements
-    hit = _changed(rates.rate("local_mass"))
-    cols, rows = np.nonzero(hit | _element_hits(m, rates, du))
+    cols, rows = _mass_rows(m, rates, du) if elements else (np.zeros(0, dtype=int), np.zeros(0, dtype=int))
     nodal = du[: m.n_node_dofs].reshape(m.n_nodes, nd, -1)
-    if len(rows):
+    if len(rows) and jit.enabled():
+        out.append((cols, m.element_dofs[rows], _compiled_mass_rows(m, state, rates, cols, rows, nodal)))
+    elif len(rows):
         ends = el.ends[rows]  # (B, 2) points
         masters = m.point_master[ends]
         off = _complex(m.point_offset[ends], rates.rate("point_offset")[cols[:, None], ends])
@@ -304,6 +399,37 @@ def mass_blocks(problem, state, rates, du: np.ndarray) -> list:
     return out
 
 
+def _compiled_mass_rows(model, state, rates, cols, rows, nodal, V=None, W=None) -> np.ndarray:
+    """`mass_blocks`' element rows (B, 2 ndof, 2 ndof) by `flexmb.fe.beam_step_jit` (the complex step's
+    derivative: imaginary parts over `H`); with ``V``, ``W`` (B, 2 ndof, a / c) their forms (B, a, c)."""
+    from ..fe import beam_step_jit
+
+    el = model.elements
+    ends = el.ends[rows]
+    masters = model.point_master[ends]
+    du_end = np.stack([nodal[masters[:, i], :, cols] for i in range(2)], axis=1)
+    s = model.point_offset[ends]
+    ds = _rate_rows(rates, "point_offset", cols[:, None], ends, s.shape)
+    local = rates.compiled_numbers("local_mass")[rows]
+    dlocal = _rate_rows(rates, "local_mass", cols, rows, local.shape)
+    x = state.positions[masters]
+    if model.dim == 2:
+        M = beam_step_jit.mass_rows_2d(x, state.rotations[masters], du_end, s, ds, local, dlocal, H, V, W)
+    else:
+        ny0 = np.asarray(el.ny0, dtype=float)[rows]
+        M = beam_step_jit.mass_rows_3d(x, state.rotations[masters], du_end, s, ds, ny0,
+                                       _rate_rows(rates, "ny0", cols, rows, ny0.shape), local, dlocal, H, V, W)
+    return M.imag / H
+
+
 def _contract(out: np.ndarray, cols: np.ndarray, dofs: np.ndarray, blocks: np.ndarray, V, W) -> None:
-    """``out[cols[b]] += V[dofs[b]]^T blocks[b] W[dofs[b]]`` for every row b."""
-    np.add.at(out, cols, np.einsum("bia,bij,bjc->bac", V[dofs], blocks, W[dofs], optimize=True))
+    """``out[cols[b]] += V[dofs[b]]^T blocks[b] W[dofs[b]]`` for every row b (the rows summed per
+    direction by one product with their indicator matrix)."""
+    _sum_rows(out, cols, np.swapaxes(V[dofs], 1, 2) @ (blocks @ W[dofs]))
+
+
+def _sum_rows(out: np.ndarray, cols: np.ndarray, rows: np.ndarray) -> None:
+    """``out[cols[b]] += rows[b]`` (rows (B, a, c)) by one product with the rows' indicator matrix."""
+    one = np.zeros((out.shape[0], len(cols)))
+    one[cols, np.arange(len(cols))] = 1.0
+    out += (one @ rows.reshape(len(cols), -1)).reshape(out.shape)

@@ -16,6 +16,7 @@ import attrs
 import numpy as np
 
 from ..errors import ModelError, ParameterError
+from ..rotations import cross
 from .adjoint import left_jacobian
 from .base import Response, component_index
 from .eigen import buckling, compliance, frequency
@@ -120,7 +121,7 @@ class _Position(Response):
         if model.dim == 2:
             dJ_du[dofs[2]] = -d[1] if c == 0 else d[0]
         else:
-            dJ_du[dofs[3:]] = -np.cross(np.eye(3)[c], d)  # e_c . (dphi x d) = dphi . (d x e_c)
+            dJ_du[dofs[3:]] = -cross(np.eye(3)[c], d)  # e_c . (dphi x d) = dphi . (d x e_c)
         K = len(sens.names)
         dJ_dN = np.zeros(K)
         if row is not None:

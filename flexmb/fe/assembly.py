@@ -43,6 +43,14 @@ class SparsePattern:
         return sp.csr_array((data, self.indices, self.indptr), shape=self.shape)
 
 
+def _read_only_structure(M):
+    """``M`` with its index arrays read-only: the matrices of a pattern share them (`matrices`),
+    and `flexmb.linear.TangentSolver` keeps them as the pattern its analysis belongs to, uncopied."""
+    M.indices.flags.writeable = False
+    M.indptr.flags.writeable = False
+    return M
+
+
 class PartitionedPattern:
     """The CSR structures of the free-free and free-prescribed blocks ``K_ff``, ``K_fp`` of a
     matrix assembled from a fixed list of COO ``(row, col)`` entries on all DOFs, and each entry's
@@ -51,7 +59,8 @@ class PartitionedPattern:
 
     Built once per problem; `split` sums values into the two data arrays (``np.bincount``; the
     numba assembly, `flexmb.fe.model_jit`, scatters at the same slots), `matrices` wraps them
-    as CSR without re-checking the structure (a per-iteration constructor cost otherwise). The matrices it returns share their index arrays, which nobody may modify.
+    as CSR without re-checking the structure (a per-iteration constructor cost otherwise). The
+    matrices it returns share their index arrays, read-only.
     """
 
     def __init__(self, rows: np.ndarray, cols: np.ndarray, slot_f: np.ndarray, slot_p: np.ndarray):
@@ -70,14 +79,14 @@ class PartitionedPattern:
             M = sp.csr_array((np.zeros(len(uniq)), j.astype(np.int64), indptr), shape=(nf, n))
             M.has_sorted_indices = True
             self.nnz.append(len(uniq))
-            self._templates.append(M)
+            self._templates.append(_read_only_structure(M))
             del keep, inv, uniq, i, j
 
     @classmethod
     def _of(cls, slots: np.ndarray, templates: list) -> PartitionedPattern:
         """A pattern from its parts (`node_pattern`)."""
         out = object.__new__(cls)
-        out.slots, out._templates = slots, templates
+        out.slots, out._templates = slots, [_read_only_structure(M) for M in templates]
         out.nnz = [M.nnz for M in templates]
         return out
 

@@ -15,7 +15,7 @@ import attrs
 import numpy as np
 
 from .. import _validate as v
-from ..boundary import actuation_row, boundary
+from ..boundary import actuation_row, boundary, motion_paths
 from ..compiled import Compiled
 from ..errors import ModelError, TopologyError, UnsupportedStrategyError
 from ..joints._base import INTERNAL, SIDE_A, SIDE_B, Joint
@@ -77,7 +77,8 @@ def build(mechanism) -> Compiled:
         ideal = _hinges(mechanism, a["hinges"], node_x0[:len(names)], elements, pres, names)
     model = FEModel(dim, node_x0, a["pt_master"], a["pt_x0"], elements, rigid_masses=rigid, hinges=ideal)
 
-    return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths), link_node, mechanism.points,
+    return Compiled(StaticProblem(model, pres, vals, loads, rotation_paths=paths,
+                                  motion_paths=motion_paths(mechanism, link_node, links)), link_node, mechanism.points,
                     a["joint_elements"], actuation_row(mechanism, loads), a["joint_nodes"],
                     tuple((k, d["joint"], d["placement"], *d["sides"])
                           for _, _, k, d in mechanism.graph.edges(keys=True, data=True)),
@@ -127,7 +128,7 @@ def _assemble(mechanism, links: dict, link_node: dict) -> dict:
     n_elements = 0
     counts = [_element_count(d["joint"], dim) for _, _, d in mechanism.graph.edges(data=True)]
     check_size(sum(counts), "the mechanism's finite-element model")  # before meshing anything
-    hinges = []
+    hinges, meshes = [], []
     for j, (a, b, key, data) in enumerate(mechanism.graph.edges(keys=True, data=True)):
         jt: Joint = data["joint"]
         side_a, side_b = data["sides"]
@@ -139,6 +140,7 @@ def _assemble(mechanism, links: dict, link_node: dict) -> dict:
             raise UnsupportedStrategyError(
                 f"joint {key!r} ({jt.kind}) does not offer {CAPABILITY!r}; it offers {sorted(jt.capabilities)}")
         mesh = _joint_mesh(key, jt, dim)
+        meshes.append(mesh)
         pl = data["placement"]  # a flexmb.mechanism.Placement
         gx = pl.to_global(mesh.points)
         master = np.where(mesh.on_a, link_node[side_a], link_node[side_b])
@@ -164,7 +166,8 @@ def _assemble(mechanism, links: dict, link_node: dict) -> dict:
         n_elements += n_el
         check_size(n_elements, "the mechanism's finite-element model")  # joints that cannot count ahead
     # the sections stresses are recovered at (JointMesh.stress_sections), None where they are the elements' own
-    recovery = tuple(recovery) if any(r is not s for r, s in zip(recovery, sections)) else None
+    own = all(m.stress_sections is m.sections for m in meshes)  # every element's own section (no per-element scan)
+    recovery = tuple(recovery) if not own and any(r is not s for r, s in zip(recovery, sections)) else None
     if n_elements == 0 and not hinges:
         raise TopologyError("the mechanism has no joints with beam elements")
     if n_elements == 0:  # links and hinges only
@@ -225,7 +228,7 @@ def _cached_mesh(joint: Joint, dim: int) -> _Mesh:
 def _joint_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
     """The joint's checked mesh; cached per joint value (joints are immutable), so a mechanism of
     identical joints and repeated solves build it once."""
-    if not v.hashable(joint) or _complex_step(joint):
+    if not v.hashable(joint) or (v.accepts_complex() and _complex_step(joint)):  # complex only in a complex step
         return _checked_mesh(key, joint, dim)
     try:
         return _cached_mesh(joint, dim)
@@ -272,7 +275,8 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
         raise ModelError(f"{where}: mesh elements must be (E, 2) indices into its {len(pts)} points")
     if len(mesh.sections) != len(el):
         raise ModelError(f"{where}: {len(mesh.sections)} sections for {len(el)} elements")
-    recovery = tuple(mesh.sections) if getattr(mesh, "stress_sections", None) is None else tuple(mesh.stress_sections)
+    sections = tuple(mesh.sections)
+    recovery = sections if getattr(mesh, "stress_sections", None) is None else tuple(mesh.stress_sections)
     if len(recovery) != len(el):
         raise ModelError(f"{where}: {len(recovery)} stress_sections for {len(el)} elements")
     if dim == 3 and (mesh.ny0 is None or np.shape(mesh.ny0) != (len(el), 3)):
@@ -304,7 +308,7 @@ def _checked_mesh(key: str, joint: Joint, dim: int) -> _Mesh:
         ny = ny / norm[:, None]
         nz = cross(ex, ny)
     S = (local_stiffness_3d if dim == 3 else local_stiffness_2d)(mesh.sections, L0)
-    return _Mesh(pts, el.astype(np.int64), tuple(mesh.sections), recovery, ny, nz, L0, S, side == SIDE_A, side == INTERNAL,
+    return _Mesh(pts, el.astype(np.int64), sections, recovery, ny, nz, L0, S, side == SIDE_A, side == INTERNAL,
                  first, node_of)
 
 

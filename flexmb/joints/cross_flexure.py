@@ -117,29 +117,29 @@ class CrossFlexure(MaterialJoint):
         ]
 
     def element_count(self, dim: int) -> int:
-        """Beam elements of `mesh` (known without meshing)."""
-        return len(self.leaves(dim)) * self.elements_per_leaf
+        """Beam elements of `mesh` (known without meshing): `leaves` has 2 leaves in 2D, 3 in 3D."""
+        return (2 if dim == 2 else 3) * self.elements_per_leaf
 
     def mesh(self, dim: int) -> JointMesh:
         n = self.elements_per_leaf
-        pts, side, elems, secs, ny = [], [], [], [], []
+        k = np.arange(n + 1)[:, None]
+        leaf_side = np.full(n + 1, INTERNAL)
+        leaf_side[0], leaf_side[n] = SIDE_A, SIDE_B
+        pts, secs, ny = [], [], []
         for start, end, width in self.leaves(dim):
-            base = len(pts)
-            for k in range(n + 1):
-                pts.append(start + (end - start) * k / n)
-                side.append(SIDE_A if k == 0 else SIDE_B if k == n else INTERNAL)
-            elems += [(base + k, base + k + 1) for k in range(n)]
+            pts.append(start + (end - start) * k / n)  # the points start + (end - start) k / n, k = 0 ... n
             sec = rectangle(width, self.thickness, self.E, self.G, self.density, yield_stress=self.yield_stress)
             secs += [sec] * n
             if dim == 3:
                 ex = (end - start) / self.length  # every leaf has length L by construction
-                ny += [np.cross([0.0, 0.0, 1.0], ex)] * n  # width along z, thickness in-plane
+                ny.append(np.repeat(np.cross([0.0, 0.0, 1.0], ex)[None], n, axis=0))  # width along z, thickness in-plane
+        first = (n + 1) * np.arange(len(pts))[:, None] + np.arange(n)  # each leaf's elements (k, k + 1)
         return JointMesh(
-            points=np.array(pts),
-            side=np.array(side),
-            elements=np.array(elems),
+            points=np.concatenate(pts),
+            side=np.tile(leaf_side, len(pts)),
+            elements=np.stack([first.ravel(), first.ravel() + 1], axis=1),
             sections=tuple(secs),
-            ny0=np.array(ny) if dim == 3 else None,
+            ny0=np.concatenate(ny) if dim == 3 else None,
         )
 
     def database_key(self) -> dict:

@@ -156,21 +156,22 @@ class ThreeXInfinity(MaterialJoint):
                 return SIDE_B, -1
             return INTERNAL, b
 
+        i = np.arange(n + 1)[:, None]
+        pts = [np.array(pts).reshape(-1, 3)]
         for k in range(K):
             z = k * self.pitch
             for x0, dz, width in ((-c, 0.0, self.width_inner), (c, zo, self.width_outer), (c, -zo, self.width_outer)):
                 a, b = np.array([x0, -s, z + dz]), np.array([-x0, s, z + dz])
-                base = len(pts)
-                for i in range(n + 1):
-                    pts.append(a + (b - a) * i / n)
-                    sd, bd = block(k, upper=False) if i == 0 else block(k, upper=True) if i == n else (INTERNAL, -1)
-                    side.append(sd)
-                    body.append(bd)
-                elems += [(base + i, base + i + 1) for i in range(n)]
+                elems.append(sum(map(len, pts)) + np.arange(n))
+                pts.append(a + (b - a) * i / n)  # the points a + (b - a) i / n, i = 0 ... n
+                (side_a, body_a), (side_b, body_b) = block(k, upper=False), block(k, upper=True)
+                side += [side_a] + [INTERNAL] * (n - 1) + [side_b]
+                body += [body_a] + [-1] * (n - 1) + [body_b]
                 secs += [rectangle(width, self.thickness, self.E, self.G, self.density, yield_stress=self.yield_stress)] * n
-                ny += [np.cross([0.0, 0.0, 1.0], (b - a) / self.length)] * n
-        return JointMesh(points=np.array(pts), side=np.array(side), elements=np.array(elems), sections=tuple(secs),
-                         ny0=np.array(ny), body=np.array(body))
+                ny.append(np.repeat(np.cross([0.0, 0.0, 1.0], (b - a) / self.length)[None], n, axis=0))
+        first = np.concatenate(elems)
+        return JointMesh(points=np.concatenate(pts), side=np.array(side), elements=np.stack([first, first + 1], axis=1),
+                         sections=tuple(secs), ny0=np.concatenate(ny), body=np.array(body))
 
     def database_key(self) -> dict:
         """Kinematic data depend on the in-plane leaf geometry over the axis distance (scaled out

@@ -30,7 +30,7 @@ is the estimate (`relative_errors`, the same measure the benchmark applies to th
   judged against itself, not diluted by the 3000 N on block A.
 
 A link's norm counts at least 1e-3 of the largest link's (a link that hardly moves or carries next
-to nothing is not judged against itself), a motion's at least 1e-9 (of L, or rad), a reaction's at
+to nothing is not judged against itself), a motion's at least 1e-7 (of L, or rad), a reaction's at
 least 1e-6 of the model's force scale (the largest element end force or load) and the force that
 moves its stiffest free translation by 1e-12 L: round-off of a mechanism at rest, or of reactions
 that vanish, is no error.
@@ -62,9 +62,10 @@ DEFAULT_TOLERANCE = 0.01
 #: Smallest reaction norm a relative reaction error is taken against, over the model's force scale.
 REACTION_FLOOR = 1e-6
 #: Smallest link motion a relative motion error is taken against (translations over the model's
-#: length, rotations [rad]): below, the motion is round-off (a mechanism at rest: 1e-34 m changes
-#: read 100 % of nothing).
-MOTION_FLOOR = 1e-9
+#: length, rotations [rad]; 1 nm over 10 mm): below, the motion is the trained kinematics' fit error
+#: or round-off, not the design's (a mechanism at rest: 1e-34 m changes read 100 % of nothing; the
+#: optimisation's manipulator at rest, 2.5e-11 rad from the shipped fit, read 2.5 % of 1e-9).
+MOTION_FLOOR = 1e-7
 #: Smallest reaction a relative reaction error is taken against, as a motion of the stiffest free
 #: translation: ``ROUNDOFF_MOTION L max diag(K_ff)`` [N] (a mechanism at rest without load: a
 #: change of 1.4e-13 N read 1.5e4 % of 1e-15 N).

@@ -19,10 +19,11 @@ from scipy.linalg import lapack
 
 from .. import jit
 from ..errors import ConvergenceError, TopologyError, UnsupportedStrategyError
-from .geometry import LinkPoses
+from .geometry import LinkPoses, intended_angle
 from .reduced import ReducedMechanism, kernels
 
-__all__ = ["solve_kinematics", "kinematics_in_range", "kinematic_start", "turn_rate", "STEP_ROTATION"]
+__all__ = ["solve_kinematics", "kinematics_in_range", "kinematic_start", "turn_rate", "STEP_ROTATION",
+           "kinematics_rates"]
 
 _gesv = lapack.get_lapack_funcs("gesv", (np.zeros(1),))
 _COMPONENTS = ("x", "y", "z", "rotation about x", "rotation about y", "rotation about z")
@@ -390,3 +391,29 @@ def _info(red: ReducedMechanism, c: np.ndarray, iterations: int, res: float, lam
             "equations": len(c), "removed": len(removed),
             "removed_residual": worst,
             "removed_equations": list(names), "history": history}
+
+
+def kinematics_rates(red: ReducedMechanism, poses: LinkPoses, relative_rates: np.ndarray,
+                     prescribed_rates: np.ndarray):
+    """Step 1's rates with the design: the intended rotations' ``dtheta`` (J, K) [rad] and node B's
+    near positions' ``dp_hat`` (J, 3, K) at step 1's ``poses``, from the joints' relative poses'
+    rates at fixed link poses ``relative_rates`` (J, 6, K: ``(dp, omega)``, a placement's) and the
+    prescribed link coordinates' ``prescribed_rates`` (n_p, K, on `ReducedMechanism.prescribed`;
+    translations [m], spins [rad]). The kept constraint equations ``c(z, p) = 0`` (square on the
+    free coordinates, `kinematic_start`) give ``C_f dz_f = -(dc/dp + C_p dz_p)`` (the implicit
+    function theorem; the constraints' gradients of `flexmb.ksd.constraints`, exact), then
+    ``(dp, omega) = J_rel dz + relative_rates`` and ``dtheta = dtheta/domega . omega``."""
+    _, jac, _, _ = red.constraint_equations(poses, jacobian=True, values=False)
+    rows = kinematic_start(red)[2]
+    p, Rrel, geo = red.frames.relative(poses)
+    theta, dth = intended_angle(Rrel)
+    K = relative_rates.shape[-1]
+    dc = np.concatenate([(grads() @ relative_rates[idx]).reshape(-1, K) for idx, (_, grads) in
+                         zip(red._take, (cs.evaluate(p[i], Rrel[i], theta[i], dth[i], deferred=True)
+                                         for i, cs in zip(red._take, red._sets)))])
+    dz = np.zeros((6 * red.n_links, K))
+    dz[red.prescribed] = prescribed_rates
+    A = jac[rows]
+    dz[red.free] = np.linalg.solve(A[:, red.free], -(dc[rows] + A[:, red.prescribed] @ prescribed_rates))
+    total = red.frames.relative_jacobian(geo) @ dz[red._cols] + relative_rates  # (J, 6, K)
+    return np.einsum("jc,jck->jk", dth, total[:, 3:]), total[:, :3]

@@ -391,7 +391,26 @@ class ReducedMechanism:
                                  [pl.origin for _, _, pl, _, _ in compiled.joints])
         out._set_values(np.asarray(new.values, dtype=float))
         out._set_loads(new.loads)
+        out._keep_derived(self)
         return out
+
+    def _keep_derived(self, old: ReducedMechanism) -> None:
+        """What `rebind` keeps of ``old``'s derived values, each the value this set-up would derive:
+        the data files' provenance (the same joints, templates and folder), step 1's compiled arrays
+        with this set-up's frames, and step 1's start at rest (turn rate redone) when the links'
+        reference positions and the joint frames are the same numbers (another configuration of
+        one design)."""
+        kept = vars(old)
+        if "_provenance" in kept:
+            self._provenance = kept["_provenance"]
+        arrays = kept.get("_kinematics_jit")
+        if arrays is not None:
+            order, fr, c = arrays["order"], self.frames, np.ascontiguousarray
+            self._kinematics_jit = dict(arrays, s_a=c(fr.s_a[order]), s_b=c(fr.s_b[order]), P=c(fr.P[order]))
+        start = kept.get("_kinematic_start")
+        if start is not None and np.array_equal(self.X0, old.X0) and all(
+                np.array_equal(getattr(self.frames, k), getattr(old.frames, k)) for k in ("s_a", "s_b", "P")):
+            self._kinematic_start = start[:-1] + (None,)
 
     def current(self) -> bool:
         """Whether the joint databases this set-up was built from are still the ones `template`

@@ -25,7 +25,7 @@ from ..fe.mass import RigidMasses, rigid_mass
 from .eob import lever
 from .eob_forces import axial_forces, force_table
 from .joint_mass import condensed_subspace
-from ..rotations import unskew
+from ..rotations import skew, unskew
 from .geometry import ACTIVE, LinkPoses, rz
 from .kinematics import solve_kinematics
 from . import reduced_model_jit
@@ -353,3 +353,93 @@ def _recovery(red, st, parts, G, pos, F, at, n: int, model, compiled: bool):
         return out
 
     return to_full
+
+
+# -- step 3 in complex arithmetic (the design gradients' complex step) ---------------------------
+#: ``Q.reshape(9) @ _DUNSKEW`` = ``0.5 (trace(Q) I - Q)`` flattened, d unskew(Q) / d omega (dQ = skew(omega) Q)
+_DUNSKEW = 0.5 * (np.outer(np.eye(3).ravel(), np.eye(3).ravel()) - np.eye(9))
+
+#: The numbers step 3's residual reads besides the fixed layout of a `ReducedMechanism`: the links'
+#: positions ``x`` (n_links, 3) [m] and rotations ``R`` (n_links, 3, 3), the joints' frames ``s_a``,
+#: ``s_b`` (J, 3) [m] and ``P`` (J, 3, 3), their near configuration ``K`` (J, 6, 6), ``Fh`` (J, 6),
+#: ``p_hat`` (J, 3), ``R_hat`` (J, 3, 3), and the dead loads ``force``, ``moment``, ``offset`` (L, 3).
+STEP3_INPUTS = ("x", "R", "s_a", "s_b", "P", "K", "Fh", "p_hat", "R_hat", "force", "moment", "offset")
+
+
+def _unskew(S: np.ndarray) -> np.ndarray:
+    """Axial vector of the skew part of ``S`` (..., 3, 3), complex-safe (`flexmb.rotations.unskew` is float)."""
+    return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]],
+                          axis=-1)
+
+
+def relative_pose(red: ReducedMechanism, x, R, s_a, s_b, P):
+    """The joints' relative poses ``p`` (..., J, 3), ``R_rel`` (..., J, 3, 3) and the frame axes and
+    arms (``F``, ``Ft``, ``rb``, ``ra``) of `flexmb.ksd.geometry.JointFrames.relative`, from explicit
+    frame numbers, stacked along leading axes and in complex arithmetic (a complex step through the
+    placements): ``x`` (..., n_links, 3), ``R`` (..., n_links, 3, 3), ``s_a``, ``s_b`` (..., J, 3),
+    ``P`` (..., J, 3, 3)."""
+    a, b = red.frames.a, red.frames.b
+    Ra, Rb = R[..., a, :, :], R[..., b, :, :]
+    o_a = x[..., a, :] + (Ra @ s_a[..., None])[..., 0]
+    rb = (Rb @ s_b[..., None])[..., 0]
+    o_b = x[..., b, :] + rb
+    F = Ra @ P
+    Ft = np.swapaxes(F, -1, -2)
+    p = (Ft @ (o_b - o_a)[..., None])[..., 0]
+    return p, Ft @ Rb @ P, {"F": F, "Ft": Ft, "rb": rb, "ra": o_b - x[..., a, :]}
+
+
+def step3(red: ReducedMechanism, inputs: dict, tangent: bool = True):
+    """KSD step 3's residuals (B, 6 n_links) and tangents (B, 6 n_links, 6 n_links) of
+    `ReducedMechanism.equilibrium` (the same terms, its numpy path) for B sets of the numbers
+    `STEP3_INPUTS` stacked along a leading axis, in complex arithmetic: the complex step of the
+    design gradients through the joints' frames, their near configuration and the loads, all
+    parameters in one pass (`flexmb.design.reduced`). ``tangent`` False: None for it."""
+    g = inputs
+    B, J = len(g["K"]), len(red.joint_names)
+    p, Rrel, geo = relative_pose(red, g["x"], g["R"], g["s_a"], g["s_b"], g["P"])
+    Q = Rrel @ np.swapaxes(g["R_hat"], -1, -2)
+    xi = np.concatenate([p - g["p_hat"], _unskew(Q)], axis=-1)
+    w = (g["K"] @ xi[..., None])[..., 0] + g["Fh"]
+    fm = (geo["F"][:, :, None] @ w.reshape(B, J, 2, 3, 1))[..., 0]  # force and moment on B, global axes
+    S = skew(np.concatenate([fm, geo["rb"][:, :, None], geo["ra"][:, :, None]], axis=2))  # of f, mB, rb, ra
+    f = fm[:, :, 0]
+    m = fm[:, :, 1:] + (S[:, :, 2:] @ fm[:, :, :1, :, None])[..., 0]  # moments about b and a
+    d = (g["R"][:, red.load_node] @ g["offset"][..., None])[..., 0]
+    loads = np.concatenate([g["force"], g["moment"] + (skew(d) @ g["force"][..., None])[..., 0]], axis=-1)
+    n = 6 * red.n_links
+    r = _summed(red._r_at, np.concatenate([np.concatenate([f, m[:, :, 0], -f, -m[:, :, 1]], axis=-1).reshape(B, -1),
+                                           -loads.reshape(B, -1)], axis=1), n)
+    if not tangent:
+        return r, None
+    flat = {k: geo[k].reshape(B * J, *geo[k].shape[2:]) for k in ("Ft", "ra", "rb")}
+    Jrel = red.frames.relative_jacobian(flat).reshape(B, J, 6, 12).astype(complex)
+    Jrel[:, :, 3:] = (Q.reshape(B, J, 1, 9) @ _DUNSKEW).reshape(B, J, 3, 3) @ Jrel[:, :, 3:]
+    D = geo["F"][:, :, None] @ (g["K"] @ Jrel).reshape(B, J, 2, 3, 12)  # d(f, mB)
+    D[..., 3:6] -= S[:, :, :2]  # F turns with link a
+    dm = D[:, :, 1:] + S[:, :, 2:] @ D[:, :, :1]
+    dm[..., 9:12] += (S[:, :, 0] @ S[:, :, 2])[:, :, None]
+    dm[:, :, 1, :, 0:3] += S[:, :, 0]
+    dm[:, :, 1, :, 6:9] -= S[:, :, 0]
+    blocks = np.concatenate([-D[:, :, 0], -dm[:, :, 1], D[:, :, 0], dm[:, :, 0]], axis=2)  # (B, J, 12, 12)
+    entries = np.concatenate([blocks.reshape(B, -1), -(skew(g["force"]) @ skew(d)).reshape(B, -1)], axis=1)
+    return r, _summed(red._K_at, entries, n * n).reshape(B, n, n)  # d(d x f)/dphi of loads at offsets last
+
+
+def _summed(at: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """``out[b, at[i]] += values[b, i]`` (B, n), complex: `np.bincount` of the real and imaginary parts
+    over the B rows at once (`np.add.at` is many times slower)."""
+    B = len(values)
+    flat = (np.arange(B)[:, None] * n + at[:values.shape[1]]).ravel()
+    v = values.ravel()
+    return (np.bincount(flat, v.real, minlength=B * n) + 1j * np.bincount(flat, v.imag, minlength=B * n)).reshape(B, n)
+
+
+def step3_inputs(solution, database=None) -> dict:
+    """`STEP3_INPUTS` of a KSD-reduced solution: its links' poses, the joints' frames, its near
+    configuration (`near`) and the loads (3D form, float; `step3` takes them with a leading axis)."""
+    red, (_, K, Fh, p_hat, R_hat, _) = near(solution, database)
+    poses = link_poses(red, solution.state)
+    fr = red.frames
+    return {"x": poses.x, "R": poses.R, "s_a": fr.s_a, "s_b": fr.s_b, "P": fr.P, "K": K, "Fh": Fh, "p_hat": p_hat,
+            "R_hat": R_hat, "force": red.load_force, "moment": red.load_moment, "offset": red.load_offset}

@@ -146,6 +146,8 @@ def _prescribed_rate(problem, lam: float) -> np.ndarray:
     from ..rotations import expm_so3
 
     vp = problem._motion_scale * problem.values
+    if getattr(problem, "motion_paths", ()):  # curved prescribed motions (`StaticProblem.motion_paths`)
+        vp = vp + problem.curve_rate(lam)
     if problem._motion_scale and problem.rotation_paths:
         vp = vp.copy()
         for dofs, w in problem.rotation_paths:

@@ -185,8 +185,10 @@ class Conventional:
         and the first step's stretch bound (benchmarks/bench_meshes.py): four-bar at
         5/10/20/40 el./leaf 23/22/24/24 iterations (before 18/47/43/43: each step started from
         a residual of 1e5-2e7 N, the first one was cut and the secant extrapolation rejected),
-        manipulator joint case at -45/45 deg 29/34 (47/46), location case 89/89 (148/123; its
-        straight-line end-point path stays stiff: the steps stay at ~0.07-0.14); single cross
+        manipulator joint case at -45/45 deg 29/34 (47/46), location case 89/89 (148/123) on a
+        straight end-point line (joint 3 to 56 deg and back: steps of ~0.07-0.14), 45/39 along the
+        kinematic path `flexmb.models.manipulator` prescribes (`Mechanism.prescribe`'s ``path``,
+        the same equilibrium); single cross
         flexures turned by more than ~25 deg now take 2-3 steps (3 el./leaf, 5-75 deg: 120
         iterations against 96).
     """
@@ -240,7 +242,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
     """Drive ``problem`` from ``state`` at load factor ``lam0`` to 1; returns Solution fields.
 
     Load steps in a loop: the step control (`PaperControl` for ``control="paper"``, Fig. 18:
-    linear predictor from the converged tangent, halving, doubling after easy steps;
+    linear predictor from the converged tangent, halving, doubling after easy steps, the prescribed
+    motion on straight lines, `StaticProblem.straight`;
     `AdaptiveControl` for ``"adaptive"``: each step after the first starts from the polynomial
     extrapolation of the last converged states and the path's tangent at the last,
     `FEModel.extrapolated_increment`, a first step whose linear predictor stretches the elements
@@ -253,6 +256,8 @@ def newton_steps(problem: StaticProblem, state: State, *, tol: float | None, max
     `CORRECTION_FLOOR` (the round-off floor: Newton cannot improve the state further).
     ``first_geometric_stress``: the geometric-stiffness stresses of the first tangent only
     (`StaticProblem.evaluate`), where ``state``'s own are known to be off (KSD step 5)."""
+    if control != "adaptive":  # Fig. 18 as published: the prescribed motion on straight lines
+        problem = problem.straight() if hasattr(problem, "straight") else problem
     steps = (AdaptiveControl if control == "adaptive" else PaperControl)(problem, state, lam0)
     report = Report(problem, tol, rtol)
     corrector = Corrector(problem, tol=tol, rtol=rtol, max_iter=max_iter, divergence=divergence,

@@ -15,8 +15,8 @@ benchmarks/bench_optimize.py, docs/design.md).
    (the post, the links' lengths and elevations, each joint's roll about its own axis and the
    shifts of joints 2 and 3 along theirs; 10 parameters) that maximise the minimum rotational
    support stiffness of the end link (the rotations a 3-DOF positioner must resist) over the
-   stroke, with the end point's reach and height at rest bounded; solved by KSD-full (the KSD
-   kinematic start, step 5's full equilibrium).
+   stroke, with the end point's reach and height at rest bounded; solved by KSD-reduced (its
+   placements' gradients through KSD steps 1-3, `flexmb.design.reduced`).
 """
 
 from __future__ import annotations
@@ -163,6 +163,16 @@ def manipulator_build(p: dict) -> Mechanism:
     return m
 
 
+@functools.lru_cache(maxsize=64)
+def _rotations(value: float) -> tuple:
+    """`flexmb.models.manipulator_rotations` kept per stroke value (every design's configure step
+    asks for the same few), read-only."""
+    out = manipulator_rotations(value)
+    for R in out:
+        R.flags.writeable = False
+    return out
+
+
 def manipulator_configure(mechanism: Mechanism, value: float) -> None:
     """Prescribe the end point where rigid links put it with all three joints turned by ``value``
     [rad] about their axes (joint 1 about global z through the origin, joints 2, 3 about global y
@@ -170,11 +180,11 @@ def manipulator_configure(mechanism: Mechanism, value: float) -> None:
     pts, links = mechanism.points, mechanism.links
     a2, a3 = (links[pts[k][0]].position + pts[k][1] for k in ("axis2", "axis3"))
     end = links["link3"].position
-    R1, R2, R3 = manipulator_rotations(value)
+    R1, R2, R3 = _rotations(float(np.real(value)))
     A2 = R1 @ a2
     A3 = A2 + R2 @ (a3 - a2)
     d = A3 + R3 @ (end - a3) - end
-    mechanism.prescribe("link3", x=float(d[0]), y=float(d[1]), z=float(d[2]))
+    mechanism.prescribe("link3", x=d[0], y=d[1], z=d[2])  # no float(): the placements' complex step passes
 
 
 def manipulator(quick: bool = False) -> Problem:
@@ -191,7 +201,7 @@ def manipulator(quick: bool = False) -> Problem:
     constraints = (Constraint(at(R.position("link3", "x"), 0), lower=0.45, name="reach >= 0.45 m"),
                    Constraint(at(R.position("link3", "z"), 0), lower=0.15, upper=0.35, name="height 0.15-0.35 m"))
     return Problem("manipulator", manipulator_build, p0, bounds, objective, constraints,
-                   Stroke(np.radians(degrees), configure=manipulator_configure), method="ksd-full",
+                   Stroke(np.radians(degrees), configure=manipulator_configure), method="ksd-reduced",
                    units="m, rad; stiffness [N m/rad]")
 
 

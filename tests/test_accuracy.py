@@ -106,6 +106,7 @@ def test_the_snap_load_carries_its_estimate():
     assert not again.discretisation.available and "not known" in again.discretisation.note
 
 
+@pytest.mark.slow  # 1.8-2.2 s CPU, most of it splining the joint's condensed mass (0.5 deg grid)
 def test_a_ksd_reduced_solution_is_estimated_on_the_full_model():
     """A KSD-reduced solution's estimate (on request: it costs a KSD-full solve and the
     companion's, which `solve` does not spend) is the full model's on its mesh, converged from its

@@ -63,6 +63,7 @@ def test_suite_rejects_a_tangent_with_one_wrong_sign(monkeypatch):
         testing.check_tangent(leaf, 2, (0.1, 0.2), 0.3, motion=0.3)
 
 
+@pytest.mark.slow  # 2.0 s CPU: two 3D cross flexures, each checked sound and mutated
 def test_suite_rejects_a_frame_dependent_wrench(monkeypatch):
     """A mutant element that adds a force along the global x axis proportional to its elongation
     (a term written in global instead of co-rotated axes): not frame invariant.
@@ -255,7 +256,7 @@ def test_a_plugin_author_can_set_placements_and_solver_options():
     assert all(o["max_iter"] == 30 and o["tol"] > 0 for _, o in seen)
 
 
-@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("dim", [2, pytest.param(3, marks=pytest.mark.slow)])  # 3D: 2.2 s CPU
 def test_every_check_passes_on_a_4_um_leaf_in_si_placed_far_away(dim):
     """The extreme of both: a 4 um leaf in metres (forces ~1e-7 N, moments ~1e-13 N m) and a 4 mm
     leaf placed 0.7 m (175 sizes) from the origin, each through the eight checks directly."""
